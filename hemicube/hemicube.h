@@ -1,0 +1,90 @@
+/* hemicube.h - form factors by the hemi-cube (Cohen & Greenberg 1985).
+ *
+ * For patch i a cube is centred at the patch's centre and aligned with its
+ * normal: one full face R×R looking along the normal and four half faces
+ * R×R/2.  Every other patch is rasterised into it as an item buffer of patch
+ * ids with a depth test; F_ij is the sum of the precomputed delta form
+ * factors of the pixels that show patch j.
+ *
+ * Invariants of every row produced: j != i, F_ij > 0, patches behind i's
+ * plane never appear, Σ_j F_ij <= 1 (the delta form factors are normalised to
+ * sum to exactly 1 over the whole cube).
+ *
+ * This is the only module that sees OSMesa/GL.  Rows are computed by worker
+ * processes, each with its own OSMesa context, so a caller never holds a GL
+ * context and can fork freely.
+ */
+#ifndef HC_HEMICUBE_H
+#define HC_HEMICUBE_H
+
+#include "../radiosity/rad.h"
+
+/* {0} means defaults. */
+typedef struct hc_options {
+    uint32_t resolution; /* R: the top face is R×R pixels, side faces R×R/2; 0 = 128; even, 8..4096 */
+    uint32_t processes;  /* worker processes; 0 = number of online CPUs */
+    /* Called from the caller's process as rows complete (may be NULL). */
+    void (*progress)(void *user, uint32_t done, uint32_t total);
+    void *progress_user;
+} hc_options;
+
+typedef struct hc_engine hc_engine;
+
+/* Prepares an engine for `mesh` (the mesh must outlive the engine).  Starts
+ * the worker processes, which each upload the geometry once.  Caller owns
+ * *out and frees it with hc_destroy. */
+int hc_create(const rad_mesh *mesh, const hc_options *opt, hc_engine **out, rad_error *err);
+
+/* Computes rows rows[0..count) into F (replacing any present copy), spread over
+ * the workers. */
+int hc_compute_rows(hc_engine *e, const uint32_t *rows, uint32_t count, rad_matrix *F,
+                    rad_error *err);
+
+/* Stops the workers and frees everything.  NULL does nothing. */
+void hc_destroy(hc_engine *e);
+
+/* The delta form factor of every pixel of a resolution-R hemi-cube, in the
+ * layout the item buffer uses (top face R×R, then the four side faces R×R/2
+ * each).  Normalised to sum to 1.  Writes 3·R² values to out (caller's
+ * buffer); returns the sum before normalisation (a check against π-rules:
+ * it tends to 1 as R grows). */
+double hc_delta_form_factors(uint32_t resolution, double *out);
+
+/* ---------------------------------------------------------------------------
+ * Analytic form factors (hemicube/analytic.c): closed forms from the catalog
+ * (Howell, "A Catalog of Radiation Heat Transfer Configuration Factors";
+ * Siegel & Howell), for validation and for the exact point-to-polygon
+ * factor used near emitters.  No occlusion is considered.
+ * ------------------------------------------------------------------------- */
+
+/* Two directly opposed parallel rectangles a×b, a distance c apart (Howell C-11). */
+double hc_ff_parallel_rectangles(double a, double b, double c);
+
+/* From rectangle 1 (edge × w1) to rectangle 2 (edge × w2), perpendicular,
+ * sharing the edge of length `edge` (Howell C-14). */
+double hc_ff_perpendicular_rectangles(double edge, double w1, double w2);
+
+/* From disk of radius r1 to a coaxial parallel disk of radius r2 a distance h
+ * away (Howell C-41). */
+double hc_ff_coaxial_disks(double r1, double r2, double h);
+
+/* From a differential element to a parallel rectangle a×b at distance c, the
+ * element facing the rectangle and lying on the normal through one of its
+ * corners (Howell B-3). */
+double hc_ff_element_parallel_rectangle(double a, double b, double c);
+
+/* From a differential element at p with unit normal n to a planar polygon
+ * (any orientation; the part behind the element's plane is clipped away),
+ * by Lambert's contour integral.  Counts only the side of the polygon that
+ * faces p (its points counter-clockwise seen from p are taken as is; the
+ * result is the same for either winding). */
+double hc_ff_point_polygon(rad_vec3 p, rad_vec3 n, const rad_vec3 *poly, uint32_t count);
+
+/* From planar polygon a to planar polygon b, unoccluded: the area average of
+ * the point-to-polygon factor over a, by a fan of triangles each integrated
+ * with `subdiv`² sub-triangles and a 7-point rule.  Converges as subdiv grows;
+ * exact to ~1e-7 for subdiv 16 on separated polygons. */
+double hc_ff_polygon_polygon(const rad_vec3 *a, uint32_t na, const rad_vec3 *b, uint32_t nb,
+                             uint32_t subdiv);
+
+#endif /* HC_HEMICUBE_H */

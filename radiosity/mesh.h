@@ -1,0 +1,49 @@
+/* mesh.h - meshing: scene polygons -> conforming patch mesh (rad_mesh in rad.h).
+ *
+ * Quads become an n×m grid of bilinear patches; triangles a regular
+ * subdivision into k² triangles; convex polygons with more corners a fan of
+ * triangles about the centroid, each subdivided and sharing the fan's edge
+ * vertices.  Vertices are shared by neighbouring patches of one polygon.
+ * Density comes from the polygon's own subdivision parameter, else from the
+ * target patch size.
+ */
+#ifndef RAD_MESH_H
+#define RAD_MESH_H
+
+#include "rad.h"
+#include "scene.h"
+
+/* {0} means defaults. */
+typedef struct rad_mesh_options {
+    /* Target patch edge length in scene units.  0 = the polygons' own
+     * subdivision parameters, and for polygons without one, the default
+     * (scene bounding-box diagonal / 24). A positive value overrides the
+     * polygons' parameters. */
+    double patch_size;
+    /* Refuse to build more patches than this; 0 = 2,000,000. */
+    uint32_t max_patches;
+} rad_mesh_options;
+
+/* Builds the patch mesh.  Counts the patches first and refuses with
+ * RAD_ERR_LIMIT (message gives the count and the memory estimate) before
+ * allocating when the count exceeds max_patches.  Caller owns *out. */
+int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh **out,
+                   rad_error *err);
+
+/* Number of patches rad_mesh_build would make, without allocating them;
+ * UINT64_MAX if it overflows. */
+uint64_t rad_mesh_count(const rad_scene *scene, const rad_mesh_options *opt);
+
+/* The patch edge length used when neither the option nor a polygon sets one. */
+double rad_mesh_default_patch_size(const rad_scene *scene);
+
+/* An empty mesh for the solution reader to fill; NULL on OOM. Caller owns. */
+rad_mesh *rad_mesh_alloc(uint32_t vertex_count, uint32_t patch_count);
+void rad_mesh_destroy(rad_mesh *m); /* NULL does nothing */
+
+/* Checks the mesh invariants (indices in range, area > 0, unit normals, no
+ * NaN). RAD_OK or RAD_ERR_CORRUPT. */
+int rad_mesh_check(const rad_mesh *m, uint32_t polygon_count, uint32_t object_count,
+                   uint32_t material_count, rad_error *err);
+
+#endif /* RAD_MESH_H */

@@ -1,0 +1,48 @@
+/* pipeline.h - the stages in order: load -> mesh -> form factors -> solve ->
+ * store, and rendering a stored solution.  What the command-line program
+ * calls, and what a C program calls to do the same without files.
+ */
+#ifndef RAD_PIPELINE_H
+#define RAD_PIPELINE_H
+
+#include "../hemicube/hemicube.h"
+#include "../render/render.h"
+#include "../solver/solver.h"
+#include "mesh.h"
+#include "scene.h"
+#include "solution.h"
+
+/* {0} means defaults. */
+typedef struct rad_solve_options {
+    rad_load_options load;
+    rad_mesh_options mesh;
+    hc_options hemicube;
+    sv_options solver;
+    uint64_t max_memory; /* bytes the form-factor matrix may use; 0 = 80 % of available memory */
+} rad_solve_options;
+
+/* The whole computation for a scene file: load, mesh, form factors, solve.
+ * Caller owns *out (write it with rad_solution_write). */
+int rad_solve_scene_file(const char *path, const rad_solve_options *opt, rad_solution **out,
+                         rad_error *err);
+
+/* Mesh, form factors and solve for a scene already in memory (takes
+ * ownership of scene, even on failure). */
+int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution **out,
+                    rad_error *err);
+
+/* Computes the missing form-factor rows that the solve needs (all rows of
+ * patches with ρ > 0 in some band), then solves.  What a relight calls after
+ * changing ρ or E: no row present is computed again. */
+int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err);
+
+/* Renders a solution from cam into *out (radiance). */
+int rad_render_solution(const rad_solution *s, const rn_camera *cam, rn_image **out,
+                        rad_error *err);
+
+/* A camera from the scene by name (NULL/"" = the first, else a default view
+ * of the scene's bounds), sized width×height. */
+int rad_camera_from_scene(const rad_scene *scene, const char *name, uint32_t width,
+                          uint32_t height, rn_camera *cam, rad_error *err);
+
+#endif /* RAD_PIPELINE_H */

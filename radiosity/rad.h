@@ -1,0 +1,185 @@
+/* rad.h - the vocabulary every module shares.
+ *
+ * Result codes and error values, 3-vectors, the patch mesh and the sparse
+ * form-factor matrix.  Every other header includes this one and nothing here
+ * depends on GL, files or any third-party library, so the solver, the
+ * hemi-cube and the renderer can all speak about patches without seeing each
+ * other.
+ *
+ * Symbols follow Cohen & Greenberg (1985): B radiosity, E emission, ρ (rho)
+ * reflectance, F_ij form factor from patch i to patch j, A_i patch area.
+ * Units: E and B are radiant exitance per band (power per unit area, in the
+ * scene's own unit of power); images hold radiance L = B/π.
+ */
+#ifndef RAD_H
+#define RAD_H
+
+#include <math.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#define RAD_VERSION_STRING "0.1.0"
+
+/* Bands are declared once per scene; three for RGB, one for grey. */
+#define RAD_MAX_BANDS 16
+
+/* "No index": a triangle patch's fourth vertex, an absent camera, ... */
+#define RAD_NONE UINT32_MAX
+
+/* ------------------------------------------------------------------ errors */
+
+/* Errors are values.  A function that can fail returns one of these codes and,
+ * when given a non-NULL rad_error, fills its message as "FILE: WHERE: WHAT"
+ * (the caller prints it; only main prints or exits). */
+typedef enum rad_result {
+    RAD_OK = 0,
+    RAD_ERR_IO,       /* a file could not be opened, read, written or renamed */
+    RAD_ERR_PARSE,    /* malformed input: syntax, truncation, wrong types */
+    RAD_ERR_INVALID,  /* well-formed input that breaks a rule (ρ >= 1, zero area, no emitter) */
+    RAD_ERR_LIMIT,    /* the work would exceed a memory or size limit */
+    RAD_ERR_NOMEM,    /* an allocation failed */
+    RAD_ERR_GL,       /* OSMesa or GL failed */
+    RAD_ERR_CORRUPT,  /* a solution file failed its checksum or structure checks */
+    RAD_ERR_USAGE,    /* a caller passed bad arguments (API misuse or command line) */
+    RAD_ERR_NOTFOUND  /* a named object, material or camera does not exist */
+} rad_result;
+
+typedef struct rad_error {
+    int code;          /* a rad_result */
+    char message[1024];
+} rad_error;
+
+/* Fills err (if not NULL) with code and a printf-formatted message; returns
+ * code, so that `return rad_fail(err, RAD_ERR_IO, "%s: cannot open", p);` reads
+ * naturally. */
+int rad_fail(rad_error *err, int code, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
+/* Short English name of a result code ("I/O error", ...). */
+const char *rad_result_name(int code);
+
+/* RAD_ASSERT is for bugs, never for input: input errors are rad_result values.
+ * Active in debug builds (no NDEBUG); the test build keeps it on. */
+#ifndef NDEBUG
+void rad_assert_fail(const char *expr, const char *file, int line);
+#define RAD_ASSERT(e) ((e) ? (void)0 : rad_assert_fail(#e, __FILE__, __LINE__))
+#define RAD_DEBUG 1
+#else
+#define RAD_ASSERT(e) ((void)0)
+#define RAD_DEBUG 0
+#endif
+
+/* ----------------------------------------------------------------- vectors */
+
+typedef struct rad_vec3 {
+    double x, y, z;
+} rad_vec3;
+
+static inline rad_vec3 rad_v3(double x, double y, double z) { rad_vec3 r = {x, y, z}; return r; }
+static inline rad_vec3 rad_add(rad_vec3 a, rad_vec3 b) { return rad_v3(a.x + b.x, a.y + b.y, a.z + b.z); }
+static inline rad_vec3 rad_sub(rad_vec3 a, rad_vec3 b) { return rad_v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+static inline rad_vec3 rad_scale(rad_vec3 a, double s) { return rad_v3(a.x * s, a.y * s, a.z * s); }
+static inline double rad_dot(rad_vec3 a, rad_vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline rad_vec3 rad_cross(rad_vec3 a, rad_vec3 b)
+{
+    return rad_v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+static inline double rad_length(rad_vec3 a) { return sqrt(rad_dot(a, a)); }
+/* Unit vector; the zero vector stays zero (callers reject degenerate input first). */
+static inline rad_vec3 rad_normalize(rad_vec3 a)
+{
+    double l = rad_length(a);
+    return l > 0.0 ? rad_scale(a, 1.0 / l) : a;
+}
+static inline rad_vec3 rad_lerp(rad_vec3 a, rad_vec3 b, double t)
+{
+    return rad_v3(a.x + (b.x - a.x) * t, a.y + (b.y - a.y) * t, a.z + (b.z - a.z) * t);
+}
+static inline int rad_finite3(rad_vec3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
+
+/* -------------------------------------------------------------------- mesh */
+
+/* A patch: the unit of the radiosity solution.  It is a planar convex quad
+ * (bilinear cell of a polygon's n×m grid) or a triangle (cell of a regular
+ * triangle subdivision), with vertices counter-clockwise seen from the side
+ * its normal points to.  Invariants: area > 0, |normal| = 1, centre inside. */
+typedef struct rad_patch {
+    uint32_t v[4];     /* vertex indices; v[3] == RAD_NONE for a triangle */
+    uint32_t polygon;  /* owning scene polygon */
+    uint32_t object;   /* owning scene object */
+    uint32_t material; /* scene material (ρ, E per band) */
+    rad_vec3 center;   /* area centroid: where the hemi-cube sits */
+    rad_vec3 normal;   /* unit normal of the polygon's plane */
+    double area;       /* A_i */
+} rad_patch;
+
+/* The conforming patch mesh.  Vertices are shared by the patches of one
+ * polygon and never across polygons, because a vertex's radiosity is an
+ * average within its polygon.  vertex_boundary[k] is 1 when vertex k lies on
+ * its polygon's outline (its radiosity is extrapolated, not averaged). */
+typedef struct rad_mesh {
+    rad_vec3 *vertices;
+    uint8_t *vertex_boundary;
+    uint32_t vertex_count;
+    rad_patch *patches;
+    uint32_t patch_count;
+} rad_mesh;
+
+/* Number of corners of a patch: 3 or 4. */
+static inline int rad_patch_corners(const rad_patch *p) { return p->v[3] == RAD_NONE ? 3 : 4; }
+
+/* ------------------------------------------------------- form-factor matrix */
+
+/* The form-factor matrix F, stored by rows with the null entries compressed
+ * (the paper's suggestion).  Rows can be filled in any order and some may be
+ * missing: the progressive solver computes rows on demand and a relight
+ * reuses whichever rows exist.  Row i holds (j, F_ij) pairs with strictly
+ * increasing j, j != i, F_ij > 0.
+ *
+ * Invariants (checked by rad_matrix_check in debug builds):
+ *   0 < F_ij, Σ_j F_ij <= 1 + 1e-3 for every row, no NaN, j < n, j != i. */
+typedef struct rad_matrix {
+    uint32_t n;          /* patches: rows = columns */
+    uint32_t rows_done;  /* rows present */
+    uint8_t *row_done;   /* row_done[i] = 1 when row i is present */
+    uint64_t *row_start; /* first entry of row i in col/val */
+    uint32_t *row_count; /* entries of row i */
+    uint32_t *col;       /* column index j */
+    float *val;          /* F_ij; float carries 7 digits, more than the hemi-cube's own accuracy */
+    uint64_t nnz;        /* entries used */
+    uint64_t capacity;   /* entries allocated */
+} rad_matrix;
+
+/* Creates an empty n×n matrix (no rows present).  Caller owns the result and
+ * frees it with rad_matrix_destroy.  Returns NULL when memory runs out. */
+rad_matrix *rad_matrix_create(uint32_t n);
+void rad_matrix_destroy(rad_matrix *m); /* NULL does nothing */
+
+/* Stores row i (replacing any earlier copy).  col must be strictly increasing.
+ * Copies the data; returns RAD_OK or RAD_ERR_NOMEM / RAD_ERR_USAGE. */
+int rad_matrix_set_row(rad_matrix *m, uint32_t i, uint32_t count, const uint32_t *col,
+                       const float *val, rad_error *err);
+
+/* Σ_j F_ij of a present row (0 for a missing one). */
+double rad_matrix_row_sum(const rad_matrix *m, uint32_t i);
+
+/* Bytes a matrix of n patches needs when a fraction `fill` of entries is
+ * non-zero: what the memory checks use before allocating. */
+uint64_t rad_matrix_estimate_bytes(uint32_t n, double fill);
+
+/* Checks the invariants above; RAD_OK or RAD_ERR_CORRUPT with the first
+ * offending row in the message. */
+int rad_matrix_check(const rad_matrix *m, rad_error *err);
+
+/* ------------------------------------------------------------------ memory */
+
+/* Physical memory the system reports as available, in bytes (0 if unknown). */
+uint64_t rad_available_memory(void);
+
+/* Wall-clock seconds from a monotonic clock, for stage timings. */
+double rad_seconds(void);
+
+#endif /* RAD_H */

@@ -1,0 +1,124 @@
+/* scene.h - the scene: named materials, objects, planar convex polygons and
+ * cameras, as loaded from a glTF 2.0 file or a plain-text polygon file.
+ *
+ * A scene is plain data (like cgltf_data): the structs are public so the
+ * mesher, the solution store and tests can read them, but they are built only
+ * through the functions here, which enforce the invariants:
+ *   - every polygon has >= 3 points, finite coordinates, area > 0, is planar
+ *     and convex, and its points run counter-clockwise about `normal`;
+ *   - 0 <= ρ < 1 and E >= 0 in every band;
+ *   - names are unique within materials, within objects and within cameras.
+ * Ownership: the scene owns every string and array it points to.
+ */
+#ifndef RAD_SCENE_H
+#define RAD_SCENE_H
+
+#include "rad.h"
+
+typedef struct rad_material {
+    char *name;
+    double rho[RAD_MAX_BANDS];      /* ρ: diffuse reflectance per band, [0, 1) */
+    double emission[RAD_MAX_BANDS]; /* E: emitted exitance per band, >= 0 */
+    double transmit[RAD_MAX_BANDS]; /* diffuse transmittance per band (0 = opaque) */
+} rad_material;
+
+typedef struct rad_object {
+    char *name; /* glTF: node name, else mesh name, else "node<index>"; polygon file: polygon or group name */
+} rad_object;
+
+typedef struct rad_polygon {
+    char *name;            /* for messages; the polygon file's polygon name, glTF "mesh/primitive/triangle" */
+    uint32_t first_point;  /* into scene->points */
+    uint32_t point_count;  /* >= 3 */
+    uint32_t material;
+    uint32_t object;
+    uint32_t subdiv_u;     /* patches along the first edge; 0 = from the patch size */
+    uint32_t subdiv_v;     /* patches along the second edge (quads); 0 = from the patch size */
+    rad_vec3 normal;       /* unit */
+    double area;
+} rad_polygon;
+
+typedef struct rad_camera {
+    char *name;
+    rad_vec3 eye, target, up;
+    double yfov_deg; /* vertical field of view in degrees */
+    double aspect;   /* width / height, 0 = from the image size */
+} rad_camera;
+
+typedef struct rad_scene {
+    char *source;          /* the file it came from, for messages ("<memory>" if built in code) */
+    uint32_t band_count;   /* 1..RAD_MAX_BANDS */
+    char *band_names[RAD_MAX_BANDS]; /* optional ("R","G","B" for glTF); NULL = unnamed */
+    rad_material *materials;
+    uint32_t material_count;
+    rad_object *objects;
+    uint32_t object_count;
+    rad_polygon *polygons;
+    uint32_t polygon_count;
+    rad_vec3 *points;
+    uint32_t point_count;
+    rad_camera *cameras;
+    uint32_t camera_count;
+    /* capacities (private to scene.c) */
+    uint32_t material_cap_, object_cap_, polygon_cap_, point_cap_, camera_cap_;
+} rad_scene;
+
+/* Options for loading; {0} means defaults. */
+typedef struct rad_load_options {
+    /* Largest number of polygons accepted before anything big is allocated;
+     * 0 = 10 million. */
+    uint64_t max_polygons;
+} rad_load_options;
+
+/* Loads a scene, choosing the format by extension (.gltf, .glb, else the
+ * polygon file).  On success *out is a new scene the caller owns (free with
+ * rad_scene_destroy).  On failure *out is NULL and err says "FILE: WHERE: WHAT". */
+int rad_scene_load(const char *path, const rad_load_options *opt, rad_scene **out, rad_error *err);
+
+/* Parses a polygon file held in memory; `name` is used in messages. */
+int rad_scene_parse_polyfile(const char *text, size_t size, const char *name,
+                             const rad_load_options *opt, rad_scene **out, rad_error *err);
+
+/* Parses glTF (JSON .gltf or binary .glb) held in memory; `name` is used in
+ * messages and its directory resolves external buffers (NULL: none allowed). */
+int rad_scene_parse_gltf(const void *data, size_t size, const char *name,
+                         const rad_load_options *opt, rad_scene **out, rad_error *err);
+
+/* ---- building a scene in code (loaders and tests use these) ---- */
+
+/* New empty scene with band_count bands; NULL on bad band count or OOM.
+ * source may be NULL ("<memory>"). Caller owns it. */
+rad_scene *rad_scene_create(uint32_t band_count, const char *source);
+void rad_scene_destroy(rad_scene *s); /* NULL does nothing */
+
+/* Each add function returns RAD_OK and writes the new index to *index (may be
+ * NULL), or fails with "SOURCE: WHERE: WHAT" where WHERE is the caller's
+ * `where` (e.g. "line 12", "material 'red'"). Values are copied. */
+int rad_scene_add_material(rad_scene *s, const char *name, const double *rho,
+                           const double *emission, const double *transmit /* NULL = 0 */,
+                           const char *where, uint32_t *index, rad_error *err);
+int rad_scene_add_object(rad_scene *s, const char *name, const char *where, uint32_t *index,
+                         rad_error *err);
+/* Checks the polygon (count, finite, area, planarity, convexity) and stores
+ * it with its normal and area.  Points must run counter-clockwise about the
+ * front normal. */
+int rad_scene_add_polygon(rad_scene *s, const char *name, uint32_t object, uint32_t material,
+                          const rad_vec3 *points, uint32_t count, uint32_t subdiv_u,
+                          uint32_t subdiv_v, const char *where, uint32_t *index, rad_error *err);
+int rad_scene_add_camera(rad_scene *s, const char *name, rad_vec3 eye, rad_vec3 target,
+                         rad_vec3 up, double yfov_deg, double aspect, const char *where,
+                         uint32_t *index, rad_error *err);
+
+/* Whole-scene checks after loading: at least one polygon, at least one
+ * emitter (E > 0 in some band).  RAD_OK or RAD_ERR_INVALID. */
+int rad_scene_validate(const rad_scene *s, rad_error *err);
+
+/* Index of the material/object/camera with this name, or RAD_NONE. */
+uint32_t rad_scene_find_material(const rad_scene *s, const char *name);
+uint32_t rad_scene_find_object(const rad_scene *s, const char *name);
+uint32_t rad_scene_find_camera(const rad_scene *s, const char *name);
+
+/* Axis-aligned bounds of all points; returns 0 for an empty scene. */
+int rad_scene_bounds(const rad_scene *s, rad_vec3 *lo, rad_vec3 *hi);
+
+#endif /* RAD_SCENE_H */

@@ -1,0 +1,54 @@
+/* render.h - drawing any view of a stored solution.
+ *
+ * Patch radiosities move to vertices as in the paper (interior vertices
+ * average their polygon's surrounding patches; outline vertices are
+ * extrapolated and clamped at zero).  A camera's item buffer tells which patch
+ * each pixel sees; the eye ray meets that patch's plane at a point whose
+ * (u,v) in the patch gives a bilinear (quads) or barycentric (triangles)
+ * interpolation of the vertex radiosities.  Pixels hold radiance L = B/π.
+ *
+ * The renderer never sees form factors, GL or the solver: it reads the mesh
+ * and radiosities only.  OpenEXR and PNG output live in their own files here.
+ */
+#ifndef RN_RENDER_H
+#define RN_RENDER_H
+
+#include "../radiosity/rad.h"
+
+typedef struct rn_camera {
+    rad_vec3 eye, target, up;
+    double yfov_deg;   /* vertical field of view, degrees, (0, 180) */
+    uint32_t width;    /* pixels */
+    uint32_t height;
+} rn_camera;
+
+/* A float image, channels interleaved, row 0 at the top. */
+typedef struct rn_image {
+    uint32_t width, height, channels;
+    float *pixels;       /* width × height × channels */
+    uint32_t *patch;     /* width × height: patch seen, RAD_NONE for background */
+} rn_image;
+
+/* Vertex radiosities from patch radiosities.  B is n_patches × bands;
+ * vertex_B (caller's buffer) gets vertex_count × bands values, all >= 0. */
+void rn_vertex_radiosity(const rad_mesh *mesh, uint32_t bands, const double *B, double *vertex_B);
+
+/* Renders radiance L = B/π seen from cam, with `bands` channels.  Caller owns
+ * *out (free with rn_image_destroy). */
+int rn_render(const rad_mesh *mesh, uint32_t bands, const double *vertex_B, const rn_camera *cam,
+              rn_image **out, rad_error *err);
+
+void rn_image_destroy(rn_image *img); /* NULL does nothing */
+
+/* Writes linear radiance as OpenEXR (float channels R,G,B for 3 bands, Y for
+ * 1, B0..Bk otherwise), through a temporary file renamed into place. */
+int rn_write_exr(const rn_image *img, const char *path, rad_error *err);
+
+/* Reads an EXR written by rn_write_exr (tests, comparisons). Caller owns *out. */
+int rn_read_exr(const char *path, rn_image **out, rad_error *err);
+
+/* Writes an 8-bit sRGB PNG preview: value = sRGB(L · 2^exposure), through a
+ * temporary file renamed into place.  One band is grey; >= 3 use the first three. */
+int rn_write_png(const rn_image *img, const char *path, double exposure, rad_error *err);
+
+#endif /* RN_RENDER_H */

@@ -1,0 +1,79 @@
+/* solver.h - solving the radiosity system B_i = E_i + ρ_i Σ_j F_ij B_j.
+ *
+ * Three methods on the same stored matrix:
+ *   gauss-seidel  gathering, in place, all bands in one sweep over F;
+ *   jacobi        the Neumann series B = Σ_k (ρF)^k E (Heckbert 1992, §4.1);
+ *   progressive   shooting from the patch with most unshot power (Cohen,
+ *                 Chen, Wallace & Greenberg 1988), asking for rows on demand.
+ *
+ * The solver never sees GL or files: rows it lacks are requested through a
+ * callback.  Invariants of every result: B >= 0, finite, B_i >= E_i.
+ */
+#ifndef SV_SOLVER_H
+#define SV_SOLVER_H
+
+#include "../radiosity/rad.h"
+
+/* The system to solve.  Arrays are indexed [patch * bands + band]. */
+typedef struct sv_system {
+    uint32_t n;               /* patches */
+    uint32_t bands;           /* 1..RAD_MAX_BANDS */
+    rad_matrix *F;            /* form factors; the progressive solver may fill missing rows */
+    const double *area;       /* A_i, n values */
+    const double *rho;        /* ρ_i per band, n × bands, each in [0,1) */
+    const double *emission;   /* E_i per band, n × bands, >= 0 */
+} sv_system;
+
+typedef enum sv_method {
+    SV_GAUSS_SEIDEL = 0,
+    SV_JACOBI,
+    SV_PROGRESSIVE
+} sv_method;
+
+/* {0} means defaults. */
+typedef struct sv_options {
+    sv_method method;
+    /* Stop when the estimated remaining relative error is below this.
+     * Gauss-Seidel/Jacobi: max_i |B_i - B_i*| / max(B_i) estimated from the
+     * last change and the observed contraction rate q: change · q / (1 - q).
+     * Progressive: unshot power / emitted power.  0 = 1e-4. */
+    double tolerance;
+    uint32_t max_iterations; /* sweeps (or shots for progressive); 0 = 10000 (progressive: 100·n) */
+
+    /* Progressive only: fills row i of F when it is missing.  Required if any
+     * row is missing; returns RAD_OK or an error code (which stops the solve). */
+    int (*need_row)(void *user, uint32_t i, rad_error *err);
+    /* Progressive only, may be NULL: called every `preview_every` shots with
+     * the current estimate including the ambient term (n × bands).  Returning
+     * non-zero stops the solve with RAD_OK. */
+    int (*on_preview)(void *user, uint32_t shots, const double *B_display);
+    uint32_t preview_every;
+    void *user;
+} sv_options;
+
+typedef struct sv_stats {
+    uint32_t iterations;    /* sweeps (gauss-seidel, jacobi) or shots (progressive) */
+    double residual;        /* max_i |E_i + ρ_i Σ F_ij B_j - B_i| / max_i B_i, all bands */
+    double estimated_error; /* the stopping rule's estimate of the remaining relative error */
+    double contraction;     /* observed ratio of successive changes (spectral-radius estimate) */
+    uint32_t rows_requested;/* rows the progressive solver asked for */
+    int converged;          /* 1 if the tolerance was met, 0 if max_iterations stopped it */
+} sv_stats;
+
+/* Solves the system.  B (n × bands, caller's buffer) receives the radiosities;
+ * its input is ignored (the initial guess is E).  stats may be NULL.
+ * Errors: RAD_ERR_USAGE for a malformed system, RAD_ERR_INVALID for ρ outside
+ * [0,1), or whatever need_row returns. */
+int sv_solve(const sv_system *sys, const sv_options *opt, double *B, sv_stats *stats,
+             rad_error *err);
+
+/* Residual as defined in sv_stats for a given B (rows missing from F count
+ * as zero rows). */
+double sv_residual(const sv_system *sys, const double *B);
+
+/* Name of a method ("gauss-seidel", "jacobi", "progressive"). */
+const char *sv_method_name(sv_method m);
+/* Parses a method name; returns 0 and sets *m, or -1. */
+int sv_method_parse(const char *name, sv_method *m);
+
+#endif /* SV_SOLVER_H */
