@@ -23,9 +23,10 @@ CXXFLAGS := -std=c++17 -Wall -Wextra -Werror -Wno-unused-parameter $(CFLAGS_$(MO
 LDFLAGS  := $(CFLAGS_$(MODE))
 LDLIBS   := -lOSMesa -lOpenEXRCore-3_1 -lpng -lstdc++ -lm -lpthread
 
-LIB_C    := $(filter-out radiosity/main.c,$(wildcard radiosity/*.c hemicube/*.c solver/*.c render/*.c))
+CLI_C    := radiosity/main.c $(wildcard radiosity/cli_*.c)
+LIB_C    := $(filter-out $(CLI_C),$(wildcard radiosity/*.c hemicube/*.c solver/*.c render/*.c))
 LIB_CXX  := $(wildcard radiosity/*.cpp)
-LIB_OBJ  := $(LIB_C:%.c=$(B)/%.o) $(LIB_CXX:%.cpp=$(B)/%.o)
+LIB_OBJ  := $(LIB_C:%.c=$(B)/obj/%.o) $(LIB_CXX:%.cpp=$(B)/obj/%.o)
 LIB      := $(B)/libradiosity.a
 PROG     := $(B)/radiosity
 
@@ -43,11 +44,11 @@ prog: $(PROG)
 tests: $(TEST_BIN)
 benches: $(BENCH_BIN)
 
-$(B)/%.o: %.c
+$(B)/obj/%.o: %.c
 	@mkdir -p $(dir $@)
 	$(CC) $(CPPFLAGS) $(CFLAGS) -c $< -o $@
 
-$(B)/%.o: %.cpp
+$(B)/obj/%.o: %.cpp
 	@mkdir -p $(dir $@)
 	$(CXX) $(CPPFLAGS) $(CXXFLAGS) -c $< -o $@
 
@@ -56,13 +57,15 @@ $(LIB): $(LIB_OBJ)
 	rm -f $@
 	ar rcs $@ $^
 
-$(PROG): $(B)/radiosity/main.o $(LIB)
+$(PROG): $(CLI_C:%.c=$(B)/obj/%.o) $(LIB)
 	$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
-$(B)/test/%: $(B)/test/%.o $(LIB)
+$(B)/test/%: $(B)/obj/test/%.o $(LIB)
+	@mkdir -p $(dir $@)
 	$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
-$(B)/bench/%: $(B)/bench/%.o $(LIB)
+$(B)/bench/%: $(B)/obj/bench/%.o $(LIB)
+	@mkdir -p $(dir $@)
 	$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
 # ------------------------------------------------------------------ commands

@@ -26,6 +26,16 @@ typedef struct hc_options {
     /* Called from the caller's process as rows complete (may be NULL). */
     void (*progress)(void *user, uint32_t done, uint32_t total);
     void *progress_user;
+    /* Per patch (mesh->patch_count bytes, may be NULL): 1 marks the patches j
+     * whose F_ij is computed exactly rather than by counting pixels: the
+     * point-to-polygon contour integral from i's centre to patch j
+     * (hc_ff_point_polygon), times the fraction of j the hemi-cube sees
+     * unoccluded.  The pipeline marks emitters: this removes the aliasing of
+     * small bright sources the hemi-cube paper warns about. */
+    const uint8_t *exact;
+    /* 1 = also treat exactly every patch j nearer to i's centre than j's own
+     * size (the proximity case, where point sampling of i is the weak part). */
+    int exact_near;
 } hc_options;
 
 typedef struct hc_engine hc_engine;
@@ -42,6 +52,35 @@ int hc_compute_rows(hc_engine *e, const uint32_t *rows, uint32_t count, rad_matr
 
 /* Stops the workers and frees everything.  NULL does nothing. */
 void hc_destroy(hc_engine *e);
+
+/* Punctual lights (glTF KHR_lights_punctual), for shooting their direct
+ * light before the solve. */
+typedef enum hc_light_kind {
+    HC_LIGHT_POINT = 0,
+    HC_LIGHT_SPOT,
+    HC_LIGHT_DIRECTIONAL
+} hc_light_kind;
+
+typedef struct hc_light {
+    hc_light_kind kind;
+    rad_vec3 position;   /* point, spot: where the light is */
+    rad_vec3 direction;  /* spot, directional: unit vector along which light travels */
+    double inner_cone;   /* spot: radians, full intensity inside */
+    double outer_cone;   /* spot: radians, zero outside; glTF's smooth falloff between */
+} hc_light;
+
+/* Power each patch receives from a light of unit strength, front sides only
+ * and with occlusion, into power[mesh->patch_count] (caller's buffer):
+ *   point, spot: unit intensity (1 per steradian); an item-buffer cube (six
+ *     R×R faces; the spot's cone faces only) rendered at the light,
+ *     Φ_j = Σ over pixels showing j of the pixel's solid angle × the spot
+ *     falloff;
+ *   directional: unit irradiance on a surface facing the light; an
+ *     orthographic item buffer R×R covering the scene's bounds,
+ *     Φ_j = Σ over pixels showing j of the pixel's area.
+ * Patch irradiance is then H_j = Φ_j / A_j (I cos θ / r² for a small patch). */
+int hc_light_power(hc_engine *e, const hc_light *light, uint32_t resolution, double *power,
+                   rad_error *err);
 
 /* The delta form factor of every pixel of a resolution-R hemi-cube, in the
  * layout the item buffer uses (top face R×R, then the four side faces R×R/2

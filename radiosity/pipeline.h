@@ -19,6 +19,16 @@ typedef struct rad_solve_options {
     hc_options hemicube;
     sv_options solver;
     uint64_t max_memory; /* bytes the form-factor matrix may use; 0 = 80 % of available memory */
+    int all_rows;        /* compute every row, not only those the solve needs (ff, validation) */
+    int pixel_emitters;  /* 1 = form factors to emitters by counting pixels like any patch;
+                          * 0 (default) = exactly, by the point-to-polygon integral times
+                          * the visible fraction (no aliasing of small bright sources) */
+    /* Progressive solver only, may be NULL: called every solver.preview_every
+     * shots with the current estimate including the ambient term (patch_count ×
+     * bands).  Non-zero stops the solve. (solver.need_row/on_preview/user are
+     * the pipeline's own and are ignored.) */
+    int (*on_preview)(void *user, const rad_solution *s, uint32_t shots, const double *B_display);
+    void *preview_user;
 } rad_solve_options;
 
 /* The whole computation for a scene file: load, mesh, form factors, solve.
@@ -35,6 +45,11 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
  * patches with ρ > 0 in some band), then solves.  What a relight calls after
  * changing ρ or E: no row present is computed again. */
 int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err);
+
+/* 1 when the solution has several bands but equal ρ and E in all of them:
+ * rad_resolve then solves one band and copies it (the same answer at a
+ * fraction of the work). */
+int rad_solution_is_grey(const rad_solution *s);
 
 /* Renders a solution from cam into *out (radiance). */
 int rad_render_solution(const rad_solution *s, const rn_camera *cam, rn_image **out,

@@ -132,8 +132,8 @@ int rad_matrix_set_row(rad_matrix *m, uint32_t i, uint32_t count, const uint32_t
 
 double rad_matrix_row_sum(const rad_matrix *m, uint32_t i)
 {
-    if (!m || i >= m->n || !m->row_done[i])
-        return 0.0;
+    if (!m || i >= m->n || !m->row_done[i] || m->row_count[i] == 0)
+        return 0.0; /* an empty row may have no pool behind it */
     const float *v = m->val + m->row_start[i];
     double s = 0.0;
     for (uint32_t k = 0; k < m->row_count[i]; k++)
@@ -156,8 +156,8 @@ uint64_t rad_matrix_estimate_bytes(uint32_t n, double fill)
 int rad_matrix_check(const rad_matrix *m, rad_error *err)
 {
     for (uint32_t i = 0; i < m->n; i++) {
-        if (!m->row_done[i])
-            continue;
+        if (!m->row_done[i] || m->row_count[i] == 0)
+            continue; /* an empty row may have no pool behind it */
         if (m->row_start[i] + m->row_count[i] > m->nnz)
             return rad_fail(err, RAD_ERR_CORRUPT, "form-factor row %u: entries out of range", i);
         const uint32_t *c = m->col + m->row_start[i];

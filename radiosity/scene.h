@@ -61,6 +61,9 @@ typedef struct rad_scene {
     uint32_t camera_count;
     /* capacities (private to scene.c) */
     uint32_t material_cap_, object_cap_, polygon_cap_, point_cap_, camera_cap_;
+    /* name index for the uniqueness checks and find functions (private to
+     * scene.c; NULL is valid and means "scan the arrays") */
+    void *names_;
 } rad_scene;
 
 /* Options for loading; {0} means defaults. */
@@ -68,6 +71,8 @@ typedef struct rad_load_options {
     /* Largest number of polygons accepted before anything big is allocated;
      * 0 = 10 million. */
     uint64_t max_polygons;
+    /* 1 = accept a scene without emitters (form-factor work needs none). */
+    int allow_no_emitter;
 } rad_load_options;
 
 /* Loads a scene, choosing the format by extension (.gltf, .glb, else the
@@ -112,6 +117,9 @@ int rad_scene_add_camera(rad_scene *s, const char *name, rad_vec3 eye, rad_vec3 
 /* Whole-scene checks after loading: at least one polygon, at least one
  * emitter (E > 0 in some band).  RAD_OK or RAD_ERR_INVALID. */
 int rad_scene_validate(const rad_scene *s, rad_error *err);
+/* The same checks; need_emitter = 0 leaves out the emitter requirement
+ * (form-factor work needs none). */
+int rad_scene_check(const rad_scene *s, int need_emitter, rad_error *err);
 
 /* Index of the material/object/camera with this name, or RAD_NONE. */
 uint32_t rad_scene_find_material(const rad_scene *s, const char *name);

@@ -74,4 +74,73 @@ int rad_solution_read(const char *path, rad_solution **out, rad_error *err);
 int rad_solution_parse(const void *data, size_t size, const char *name, int check_sum,
                        rad_solution **out, rad_error *err);
 
+/* ------------------------------------------------ reading a solution (analysis.c) */
+
+typedef struct rad_object_stats {
+    double area;                     /* Σ A_i over the object's patches */
+    double B[RAD_MAX_BANDS];         /* area-weighted mean radiosity */
+    double emitted[RAD_MAX_BANDS];   /* Σ A_i E_i: emitted power */
+    double absorbed[RAD_MAX_BANDS];  /* Σ A_i (1 − ρ_i − τ_i) H_i: absorbed power */
+    uint32_t patch_count;
+    uint32_t material;               /* the material of its patches, RAD_NONE if several */
+} rad_object_stats;
+
+/* Irradiance H_i (incident power per area) of every patch, n × bands into
+ * the caller's buffer: H_i = Σ_j F_ij B_j from row i when present, else by
+ * reciprocity (1/A_i) Σ_j A_j F_ji B_j from the rows present. */
+int rad_solution_irradiance(const rad_solution *s, double *H, rad_error *err);
+
+/* Per-object statistics into out[scene->object_count] (caller's buffer). */
+int rad_solution_object_stats(const rad_solution *s, rad_object_stats *out, rad_error *err);
+
+/* Object-to-object form factors F_AB = (1/A_A) Σ_{i∈A} Σ_{j∈B} A_i F_ij into
+ * M[A * object_count + B] (caller's buffer, object_count² doubles).  Rows of
+ * patches missing from F are taken by reciprocity from the rows present. */
+int rad_object_form_factors(const rad_solution *s, double *M, rad_error *err);
+
+/* ------------------------------------------------- changing a solution (relight.c) */
+
+typedef enum rad_edit_kind {
+    RAD_EDIT_LIGHT = 0,   /* NAME=off|on|SCALE: emission off, nominal, or nominal × SCALE */
+    RAD_EDIT_EMISSION,    /* NAME=v[,v...]: emission per band (one value = all bands) */
+    RAD_EDIT_REFLECTANCE  /* NAME=v[,v...]: reflectance per band (one value = all bands) */
+} rad_edit_kind;
+
+typedef struct rad_edit {
+    rad_edit_kind kind;
+    char name[256];
+    double scale;                     /* light: 0 = off, 1 = on, else the factor */
+    double values[RAD_MAX_BANDS];     /* emission / reflectance */
+    uint32_t value_count;             /* 1 or band count */
+} rad_edit;
+
+/* Parses a command-line edit "NAME=..." of the given kind (no name lookup). */
+int rad_edit_parse(rad_edit_kind kind, const char *arg, rad_edit *out, rad_error *err);
+
+/* Checks every edit against the solution (names resolve to exactly one
+ * object or material — objects first — value counts match the bands,
+ * 0 <= ρ < 1, E >= 0, a light edit names something that emits) and only
+ * then applies them all to s->rho / s->emission.  Nothing changes on error. */
+int rad_solution_apply_edits(rad_solution *s, const rad_edit *edits, uint32_t count,
+                             rad_error *err);
+
+/* A variations file: named variants, each a list of edits.
+ *   variant NAME
+ *     light NAME=off|on|SCALE
+ *     emission NAME=v[,v...]
+ *     reflectance NAME=v[,v...]
+ *   end
+ * '#' starts a comment. */
+typedef struct rad_variant {
+    char name[128];
+    rad_edit *edits;
+    uint32_t edit_count;
+} rad_variant;
+
+/* Parses a variations file held in memory; `name` appears in messages.
+ * Caller owns *out (free with rad_variants_free). */
+int rad_variants_parse(const char *text, size_t size, const char *name, rad_variant **out,
+                       uint32_t *count, rad_error *err);
+void rad_variants_free(rad_variant *v, uint32_t count); /* NULL does nothing */
+
 #endif /* RAD_SOLUTION_H */

@@ -49,6 +49,12 @@ typedef struct sv_options {
     int (*on_preview)(void *user, uint32_t shots, const double *B_display);
     uint32_t preview_every;
     void *user;
+    /* Appended: 1 = plain iteration.  By default Gauss-Seidel and Jacobi
+     * extrapolate the dominant error mode (Aitken) once the observed
+     * contraction q is stable, B += ΔB·q/(1-q), and keep sweeping until the
+     * stopping rule confirms the result.  Closed rooms at ρ = 0.999: ~4500
+     * Gauss-Seidel sweeps become 13 (well mixed) to ~800 (slowly mixing). */
+    int no_acceleration;
 } sv_options;
 
 typedef struct sv_stats {
@@ -58,6 +64,7 @@ typedef struct sv_stats {
     double contraction;     /* observed ratio of successive changes (spectral-radius estimate) */
     uint32_t rows_requested;/* rows the progressive solver asked for */
     int converged;          /* 1 if the tolerance was met, 0 if max_iterations stopped it */
+    uint32_t extrapolations;/* appended: Aitken steps taken (gauss-seidel, jacobi) */
 } sv_stats;
 
 /* Solves the system.  B (n × bands, caller's buffer) receives the radiosities;

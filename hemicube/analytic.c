@@ -1,0 +1,331 @@
+/* analytic.c - form factors in closed form and by contour integral.
+ *
+ * Owns the "Analytic form factors" of hemicube.h: the catalog closed forms
+ * (Howell C-11, C-14, C-41, B-3), Lambert's contour integral from a
+ * differential element to a polygon, and its area average from polygon to
+ * polygon.  Pure math: no GL, no allocation, no state, no occlusion.
+ *
+ * Invariant: every function returns F in [0, 1], or NAN for non-positive or
+ * non-finite sizes and coordinates; polygons with fewer than 3 vertices (or
+ * no area) see nothing and give 0.  The catalog formulas are rewritten where
+ * their textbook form cancels catastrophically (surfaces far apart, or nearly
+ * touching), so they stay accurate to a few ulps over the whole range and
+ * serve as references for the hemi-cube.
+ */
+#include "hemicube.h"
+
+#include <math.h>
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+static int positive_finite(double x) { return isfinite(x) && x > 0.0; }
+
+/* Catalog ratios (size / distance) are limited to [1e-60, 1e60] so that
+ * their squares and products of squares neither overflow nor underflow.
+ * Every closed form here tends to its limit as O(ratio) or O(1/ratio), so
+ * the limiting changes F by about 1e-60 absolute: nothing a double sum of
+ * form factors can see, and no NaN for absurd but legal proportions. */
+static double limit_ratio(double r)
+{
+    if (!(r >= 1e-60)) return 1e-60;
+    if (r > 1e60) return 1e60;
+    return r;
+}
+
+/* Round-off may push a value an ulp outside [0, 1]; NaN passes through. */
+static double clamp_unit(double f)
+{
+    if (f < 0.0) return 0.0;
+    if (f > 1.0) return 1.0;
+    return f;
+}
+
+/* ------------------------------------------------------------ closed forms */
+
+/* s·atan(x/s) − atan(x) with s = sqrt(1 + y²) and d = s − 1 supplied
+ * accurately by the caller.  Written as d·atan(x/s) − [atan(x) − atan(x/s)]
+ * with the difference of arctangents folded into one arctangent, the two
+ * remaining terms only cancel in their third-order part, so the result keeps
+ * full relative accuracy when the rectangles are far apart (x, y → 0). */
+static double rect_edge_term(double x, double s, double d)
+{
+    return d * atan(x / s) - atan(d / (s / x + x));
+}
+
+/* Howell C-11, with X = a/c, Y = b/c:
+ *   F = 2/(πXY) { ln sqrt[(1+X²)(1+Y²)/(1+X²+Y²)]
+ *                 + X sqrt(1+Y²) atan(X/sqrt(1+Y²)) − X atan X
+ *                 + Y sqrt(1+X²) atan(Y/sqrt(1+X²)) − Y atan Y }.
+ * The logarithm's argument is 1 + X²Y²/(1+X²+Y²), hence log1p; each pair of
+ * arctangent terms goes through rect_edge_term.  Far apart, F ≈ ab/(πc²)
+ * comes entirely from the logarithm and the arctangent pairs are of higher
+ * order, which the textbook form would lose to cancellation. */
+double hc_ff_parallel_rectangles(double a, double b, double c)
+{
+    if (!positive_finite(a) || !positive_finite(b) || !positive_finite(c)) return NAN;
+    double X = limit_ratio(a / c), Y = limit_ratio(b / c);
+    double sx = hypot(1.0, X), sy = hypot(1.0, Y);
+    double dx = X * (X / (sx + 1.0)), dy = Y * (Y / (sy + 1.0)); /* s − 1 = X²/(s + 1) */
+    double t = (X / hypot(sx, Y)) * Y;                           /* t² = X²Y²/(1+X²+Y²) */
+    double L = t < 1e150 ? log1p(t * t) : 2.0 * log(t);
+    double bracket = 0.5 * L / X / Y + rect_edge_term(X, sy, dy) / Y + rect_edge_term(Y, sx, dx) / X;
+    return clamp_unit(2.0 / M_PI * bracket);
+}
+
+/* ln[w²(1+w²+h²) / ((1+w²)(w²+h²))], one of the two powered factors of C-14.
+ * The argument equals 1 − h²/((1+w²)(w²+h²)): log1p when that is near 1,
+ * otherwise the product form, which stays finite as w → 0. */
+static double perp_log_factor(double w, double h)
+{
+    double w2 = w * w, h2 = h * h, r2 = w2 + h2;
+    double u = h2 / ((1.0 + w2) * r2);
+    if (u < 0.5) return log1p(-u);
+    return 2.0 * log(w / hypot(w, h)) + log1p(h2 / (1.0 + w2));
+}
+
+/* Howell C-14, from rectangle 1 (l × w1) to rectangle 2 (l × w2) meeting it at
+ * 90° along the common edge l, with W = w1/l, H = w2/l:
+ *   F = 1/(πW) { W atan(1/W) + H atan(1/H) − sqrt(H²+W²) atan(1/sqrt(H²+W²))
+ *               + ¼ ln( A · B^{W²} · C^{H²} ) }
+ *   A = (1+W²)(1+H²)/(1+W²+H²), B = W²(1+W²+H²)/((1+W²)(W²+H²)), C likewise
+ *   with W and H exchanged.
+ * The braces are evaluated symmetrically in (W, H) so that reciprocity
+ * A_1 F_12 = A_2 F_21 holds to rounding. */
+double hc_ff_perpendicular_rectangles(double edge, double w1, double w2)
+{
+    if (!positive_finite(edge) || !positive_finite(w1) || !positive_finite(w2)) return NAN;
+    double W = limit_ratio(w1 / edge), H = limit_ratio(w2 / edge);
+    double W2 = W * W, H2 = H * H, R = hypot(W, H);
+    /* x atan(1/x) for the smaller of W, H, minus the difference between the
+     * larger one (M) and R: R atan(1/R) − M atan(1/M) = δ atan(1/R) −
+     * M atan(δ/(MR + 1)) with δ = R − M = m²/(R + M).  Taken directly, that
+     * difference is O(m²) out of O(1) terms and would swamp F as m → 0 (a
+     * thin strip along the common edge); by min/max the expression stays
+     * symmetric in (W, H). */
+    double m = fmin(W, H), M = fmax(W, H);
+    double delta = m * (m / (R + M));
+    double angles = m * atan(1.0 / m) - (delta * atan(1.0 / R) - M * atan(delta / (M * R + 1.0)));
+    double lnA = log1p(W2 * H2 / (1.0 + (W2 + H2)));
+    double logs = lnA + (W2 * perp_log_factor(W, H) + H2 * perp_log_factor(H, W));
+    double braces = angles + 0.25 * logs;
+    return clamp_unit(braces / (M_PI * W));
+}
+
+/* Howell C-41, with R1 = r1/h, R2 = r2/h, X = 1 + (1+R2²)/R1²:
+ *   F = ½ { X − sqrt(X² − 4(R2/R1)²) }.
+ * Rationalised and multiplied through by r1² this is
+ *   F = 2 r2² / ( h²+r1²+r2² + sqrt[(h²+(r1−r2)²)(h²+(r1+r2)²)] ),
+ * a sum of positive terms (no cancellation, no division by r1 or h), which
+ * is also symmetric enough that r1² F_12 = r2² F_21 to rounding.  Lengths are
+ * scaled by the largest so the squares cannot overflow. */
+double hc_ff_coaxial_disks(double r1, double r2, double h)
+{
+    if (!positive_finite(r1) || !positive_finite(r2) || !positive_finite(h)) return NAN;
+    double m = fmax(fmax(r1, r2), h);
+    double a = r1 / m, b = r2 / m, c = h / m;
+    double c2 = c * c, dm = a - b, dp = a + b;
+    double root = sqrt((c2 + dm * dm) * (c2 + dp * dp));
+    return clamp_unit(2.0 * b * b / ((c2 + (a * a + b * b)) + root));
+}
+
+/* Howell B-3, element on the normal through a corner of an a × b rectangle at
+ * distance c, with X = a/c, Y = b/c:
+ *   F = 1/(2π) { X/sqrt(1+X²) atan(Y/sqrt(1+X²)) + Y/sqrt(1+Y²) atan(X/sqrt(1+Y²)) }.
+ * Both terms are positive: no cancellation anywhere. */
+double hc_ff_element_parallel_rectangle(double a, double b, double c)
+{
+    if (!positive_finite(a) || !positive_finite(b) || !positive_finite(c)) return NAN;
+    double X = limit_ratio(a / c), Y = limit_ratio(b / c);
+    double sx = hypot(1.0, X), sy = hypot(1.0, Y);
+    return clamp_unit((X / sx * atan(Y / sx) + Y / sy * atan(X / sy)) / (2.0 * M_PI));
+}
+
+/* ------------------------------------------------- Lambert's contour integral */
+
+/* Running sum of Lambert's contour integral over the clipped polygon, fed one
+ * vertex at a time so that the clipped polygon is never stored (no
+ * allocation, any vertex count).  Vertices are relative to the element: r = P − p. */
+typedef struct contour {
+    rad_vec3 n;            /* element normal, unit */
+    rad_vec3 first, prev;  /* first and latest emitted vertex */
+    uint32_t emitted;
+    double sum;            /* Σ β_k n·unit(r_k × r_{k+1}) */
+} contour;
+
+/* One edge's term β n·unit(r0 × r1).  β comes from atan2(|r0 × r1|, r0·r1),
+ * which keeps full relative accuracy for the tiny angles of small or distant
+ * polygons where acos of a normalised dot product would not.  An edge
+ * collinear with p subtends no solid angle (or p lies on it, where F is
+ * undefined anyway): it contributes nothing. */
+static void contour_edge(contour *k, rad_vec3 r0, rad_vec3 r1)
+{
+    rad_vec3 c = rad_cross(r0, r1);
+    double s = rad_length(c);
+    if (!(s > 0.0)) return;
+    double beta = atan2(s, rad_dot(r0, r1));
+    k->sum += beta * (rad_dot(k->n, c) / s);
+}
+
+static void contour_emit(contour *k, rad_vec3 r)
+{
+    if (k->emitted == 0)
+        k->first = r;
+    else
+        contour_edge(k, k->prev, r);
+    k->prev = r;
+    k->emitted++;
+}
+
+/* F from the element (p, n) to a planar polygon, by Lambert's formula
+ *   F = 1/(2π) Σ_k β_k n·unit(r_k × r_{k+1}),   r_k = P_k − p,
+ * over the polygon clipped to the element's front half-space (r·n > 0) by
+ * one Sutherland–Hodgman pass, streamed straight into the sum.
+ *
+ * Why |Σ| is right for either winding: by Stokes the contour sum equals, up
+ * to a sign fixed by the winding, the area integral over the clipped polygon
+ * of cosθ_i cosθ_j/(r²) dA.  There cosθ_i = n·r̂ > 0 (we clipped), and
+ * cosθ_j = m·r̂ for the polygon's normal m has ONE sign over the whole polygon
+ * because all of a plane lies on one side of a point off it.  So the integral
+ * is single-signed and the winding only flips the sign of the total.  (The
+ * individual edge terms need not share a sign: an edge seen from the far
+ * side of the polygon's interior counts negatively; only the total is
+ * single-signed.)  When p lies in the polygon's plane the polygon is seen
+ * edge-on, the terms cancel and F = 0 up to rounding. */
+double hc_ff_point_polygon(rad_vec3 p, rad_vec3 n, const rad_vec3 *poly, uint32_t count)
+{
+    if (poly == NULL || count < 3) return 0.0;
+    if (!rad_finite3(p) || !rad_finite3(n)) return NAN;
+    double nl = rad_length(n);
+    if (!(nl > 0.0) || !isfinite(nl)) return NAN;
+    for (uint32_t k = 0; k < count; k++)
+        if (!rad_finite3(poly[k])) return NAN;
+
+    contour acc = {.n = rad_scale(n, 1.0 / nl), .emitted = 0, .sum = 0.0};
+    rad_vec3 s = rad_sub(poly[count - 1], p);
+    double ds = rad_dot(acc.n, s);
+    for (uint32_t k = 0; k < count; k++) {
+        rad_vec3 e = rad_sub(poly[k], p);
+        double de = rad_dot(acc.n, e);
+        int s_in = ds > 0.0, e_in = de > 0.0;
+        if (s_in != e_in) {
+            /* The edge crosses the tangent plane; ds − de cannot be 0 here
+             * because one is > 0 and the other <= 0. */
+            double t = ds / (ds - de);
+            contour_emit(&acc, rad_add(s, rad_scale(rad_sub(e, s), t)));
+        }
+        if (e_in) contour_emit(&acc, e);
+        s = e;
+        ds = de;
+    }
+    if (acc.emitted < 3) return 0.0; /* nothing (or a sliver of no area) in front */
+    contour_edge(&acc, acc.prev, acc.first);
+    return clamp_unit(fabs(acc.sum) / (2.0 * M_PI));
+}
+
+/* ------------------------------------------------- polygon to polygon */
+
+/* Symmetric 7-point rule of degree 5 on a triangle (Radon): the centroid and
+ * two orbits of three points (α, α, 1−2α).  With q = sqrt(15):
+ *   α₁ = (6 − q)/21, w₁ = (155 − q)/1200;  α₂ = (6 + q)/21, w₂ = (155 + q)/1200;
+ *   centroid weight 9/40.  Weights sum to 1 (they multiply the area). */
+typedef struct tri_rule {
+    double a1, b1, w1, a2, b2, w2, w0;
+} tri_rule;
+
+static tri_rule make_tri_rule(void)
+{
+    double q = sqrt(15.0);
+    tri_rule r;
+    r.a1 = (6.0 - q) / 21.0;
+    r.b1 = 1.0 - 2.0 * r.a1;
+    r.w1 = (155.0 - q) / 1200.0;
+    r.a2 = (6.0 + q) / 21.0;
+    r.b2 = 1.0 - 2.0 * r.a2;
+    r.w2 = (155.0 + q) / 1200.0;
+    r.w0 = 9.0 / 40.0;
+    return r;
+}
+
+typedef struct pp_ctx {
+    rad_vec3 origin, e1, e2; /* the fan triangle: origin + u e1 + v e2 */
+    rad_vec3 n;              /* unit normal of polygon a */
+    const rad_vec3 *b;
+    uint32_t nb;
+} pp_ctx;
+
+/* F_{dA→b} at parameter (u, v) of the current fan triangle. */
+static double pp_point(const pp_ctx *c, double u, double v)
+{
+    rad_vec3 x = rad_add(c->origin, rad_add(rad_scale(c->e1, u), rad_scale(c->e2, v)));
+    return hc_ff_point_polygon(x, c->n, c->b, c->nb);
+}
+
+/* Mean of F_{dA→b} over the sub-triangle with parameter corners
+ * (u0,v0), (u1,v1), (u2,v2), by the 7-point rule. */
+static double pp_subtriangle(const pp_ctx *c, const tri_rule *r, double u0, double v0, double u1,
+                             double v1, double u2, double v2)
+{
+#define PP_AT(l0, l1, l2) pp_point(c, (l0) * u0 + (l1) * u1 + (l2) * u2, (l0) * v0 + (l1) * v1 + (l2) * v2)
+    double third = 1.0 / 3.0;
+    double f = r->w0 * PP_AT(third, third, third);
+    f += r->w1 * (PP_AT(r->b1, r->a1, r->a1) + PP_AT(r->a1, r->b1, r->a1) + PP_AT(r->a1, r->a1, r->b1));
+    f += r->w2 * (PP_AT(r->b2, r->a2, r->a2) + PP_AT(r->a2, r->b2, r->a2) + PP_AT(r->a2, r->a2, r->b2));
+#undef PP_AT
+    return f;
+}
+
+/* Largest subdivision honoured: 1024² sub-triangles × 7 points per fan
+ * triangle is already far past the accuracy doubles can show. */
+#define PP_MAX_SUBDIV 1024u
+
+/* F_ab = (1/A_a) ∫_a F_{dA→b} dA.  Polygon a is cut into a fan of triangles
+ * from its first vertex; each fan triangle's integral is weighted by its
+ * area signed against a's Newell normal, so a non-convex (but simple, planar)
+ * a is integrated correctly: the parts of the fan outside a cancel.  Each fan
+ * triangle is split into subdiv² congruent sub-triangles (a barycentric grid
+ * of "up" and "down" cells), each integrated with the 7-point rule.  The
+ * element normal is a's Newell normal, so b behind a (as a's winding says)
+ * is clipped away.  subdiv 0 is taken as 1, values above 1024 as 1024. */
+double hc_ff_polygon_polygon(const rad_vec3 *a, uint32_t na, const rad_vec3 *b, uint32_t nb,
+                             uint32_t subdiv)
+{
+    if (a == NULL || b == NULL || na < 3 || nb < 3) return 0.0;
+    for (uint32_t k = 0; k < na; k++)
+        if (!rad_finite3(a[k])) return NAN;
+    for (uint32_t k = 0; k < nb; k++)
+        if (!rad_finite3(b[k])) return NAN;
+    uint32_t s = subdiv < 1 ? 1 : (subdiv > PP_MAX_SUBDIV ? PP_MAX_SUBDIV : subdiv);
+
+    /* Newell normal, from vertices taken relative to a[0] so that polygons
+     * far from the origin keep their digits; its length is 2 A_a. */
+    rad_vec3 N = rad_v3(0.0, 0.0, 0.0);
+    for (uint32_t k = 1; k + 1 < na; k++)
+        N = rad_add(N, rad_cross(rad_sub(a[k], a[0]), rad_sub(a[k + 1], a[0])));
+    double len = rad_length(N);
+    if (!(len > 0.0) || !isfinite(len)) return 0.0; /* no area: nothing leaves a */
+    double area2 = len; /* 2 A_a */
+
+    tri_rule rule = make_tri_rule();
+    pp_ctx c = {.origin = a[0], .n = rad_scale(N, 1.0 / len), .b = b, .nb = nb};
+    double inv_s = 1.0 / (double)s;
+    double total = 0.0; /* Σ 2A_T · mean over T of F_{dA→b} */
+    for (uint32_t k = 1; k + 1 < na; k++) {
+        c.e1 = rad_sub(a[k], a[0]);
+        c.e2 = rad_sub(a[k + 1], a[0]);
+        double tri2 = rad_dot(rad_cross(c.e1, c.e2), c.n); /* signed 2 A_T */
+        if (tri2 == 0.0) continue;
+        double sum = 0.0; /* Σ over the s² sub-triangles of their means */
+        for (uint32_t i = 0; i < s; i++) {
+            for (uint32_t j = 0; i + j < s; j++) {
+                double u0 = i * inv_s, v0 = j * inv_s;
+                double u1 = (i + 1) * inv_s, v1 = (j + 1) * inv_s;
+                sum += pp_subtriangle(&c, &rule, u0, v0, u1, v0, u0, v1);
+                if (i + j + 1 < s) sum += pp_subtriangle(&c, &rule, u1, v0, u1, v1, u0, v1);
+            }
+        }
+        total += tri2 * (sum * inv_s * inv_s);
+    }
+    return clamp_unit(total / area2);
+}

@@ -1,0 +1,1069 @@
+/* hemicube.c - form factors F_ij by the hemi-cube, rendered with OSMesa.
+ *
+ * Owns the worker processes and everything GL.  The caller's process never
+ * creates a GL context: hc_create forks `processes` workers, each of which
+ * makes its own OSMesa (llvmpipe) context, uploads every patch once and then
+ * answers requests "compute rows r0, r1, ..." over a socketpair.  Protocol
+ * (native-endian uint32 words, floats for F_ij):
+ *   caller -> worker: count, i[count]            (count <= HC_MAX_CHUNK)
+ *   worker -> caller: HC_MSG_BATCH, count, then per row i, m, j[m], F_ij[m]
+ *   on failure:       HC_MSG_ERROR, length, text (then the worker exits)
+ *   at start:         0, 0 (ready) or HC_MSG_ERROR, length, text
+ * The caller hands out small chunks, at most about two per worker at a time,
+ * so faster workers take more; a worker stops when its socket closes.
+ *
+ * Invariants of every row sent: j strictly increasing, j != i, F_ij > 0,
+ * no j lying wholly on or behind i's plane, and Σ_j F_ij <= 1 because the
+ * delta form factors ΔF_q are normalised to sum to exactly 1 over the cube.
+ * A row depends only on the mesh, R and i (fixed basis, fixed draw order,
+ * fixed accumulation order), so it is bit-identical whichever worker
+ * computes it and however the rows are split.
+ *
+ * Item-buffer atlas, R wide and 3R tall, GL's bottom-up rows, pixel q at
+ * index y·R + x: rows [0, R) are the top face (looking along n_i); then the
+ * four half faces (+u, -u, +v, -v), R/2 rows each, their bottom row at the
+ * horizon and their top row towards n_i.  hc_delta_form_factors uses the
+ * same order.
+ */
+#define GL_GLEXT_PROTOTYPES 1
+#include "hemicube.h"
+
+#include <GL/osmesa.h>
+#include <GL/gl.h>
+#include <GL/glext.h>
+
+#include <errno.h>
+#include <malloc.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/syscall.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#define HC_NO_PATCH 0xFFFFFFFFu   /* item-buffer clear value */
+#define HC_MSG_ERROR 0xFFFFFFFFu  /* row field of a worker's error message */
+#define HC_MSG_BATCH 0xFFFFFFFEu  /* header of the answer to one request */
+#define HC_FLUSH (1u << 20)       /* a worker sends when this much is buffered */
+#define HC_MAX_PROCESSES 1024u
+#define HC_MAX_CHUNK 32u
+#define HC_MAX_MSG 900u
+/* Consecutive patches culled together against i's plane by a bounding
+ * sphere: half the scene is usually behind the plane. */
+#define HC_BLOCK 16u
+/* Six vertices per quad must fit GLint `first`. */
+#define HC_MAX_PATCHES (UINT32_C(1) << 28)
+
+typedef struct hc_worker {
+    pid_t pid;
+    int fd;
+    uint32_t in_flight; /* rows sent and not yet answered */
+} hc_worker;
+
+struct hc_engine {
+    const rad_mesh *mesh;
+    uint32_t n;       /* patches */
+    uint32_t R;       /* resolution */
+    uint32_t nproc;
+    uint32_t lp_threads; /* llvmpipe threads per worker (0: none) */
+    hc_options opt;
+    double *dff;      /* normalised ΔF_q, 3R² (atlas order) */
+    /* Geometry relative to the bounding-box centre, in double, prepared before
+     * the fork so every worker shares it copy-on-write. */
+    rad_vec3 origin;
+    double tol;        /* "strictly in front" margin, scene-relative */
+    double *corner;    /* n × 4 × 3: patch corners - origin */
+    rad_vec3 *center;  /* n: patch centre - origin */
+    uint8_t *ncorner;  /* n: 3 or 4 */
+    double *bsphere;   /* per HC_BLOCK consecutive patches: centre - origin, radius */
+    hc_worker *w;
+    int broken;        /* a worker is gone: every later call fails */
+    char broken_msg[HC_MAX_MSG + 64];
+    uint32_t *rx_col;  /* receive buffers in the caller */
+    float *rx_val;
+};
+
+/* ------------------------------------------------------------ socket I/O */
+
+/* 0 on success, -1 on error or EOF.  MSG_NOSIGNAL: a dead peer must not
+ * SIGPIPE us. */
+static int send_all(int fd, const void *p, size_t len)
+{
+    const char *c = p;
+    while (len) {
+        ssize_t k = send(fd, c, len, MSG_NOSIGNAL);
+        if (k < 0) {
+            if (errno == EINTR)
+                continue;
+            return -1;
+        }
+        c += k;
+        len -= (size_t)k;
+    }
+    return 0;
+}
+
+static int recv_all(int fd, void *p, size_t len)
+{
+    char *c = p;
+    while (len) {
+        ssize_t k = recv(fd, c, len, 0);
+        if (k < 0) {
+            if (errno == EINTR)
+                continue;
+            return -1;
+        }
+        if (k == 0)
+            return -1;
+        c += k;
+        len -= (size_t)k;
+    }
+    return 0;
+}
+
+/* -------------------------------------------------------- delta form factors */
+
+static int resolution_ok(uint32_t R) { return R >= 8 && R <= 4096 && R % 2 == 0; }
+
+double hc_delta_form_factors(uint32_t resolution, double *out)
+{
+    uint32_t R = resolution;
+    if (!out || !resolution_ok(R))
+        return 0.0;
+    /* Cube of half-width 1: pixels are 2/R wide, ΔA = (2/R)², sampled at the
+     * pixel centre (paper, Fig. 7). */
+    double d = 2.0 / R, dA = d * d, sum = 0.0;
+    size_t k = 0;
+    for (uint32_t y = 0; y < R; y++)
+        for (uint32_t x = 0; x < R; x++) {
+            double px = -1.0 + (x + 0.5) * d, py = -1.0 + (y + 0.5) * d;
+            double r2 = px * px + py * py + 1.0;
+            out[k] = dA / (M_PI * r2 * r2);
+            sum += out[k++];
+        }
+    for (int f = 0; f < 4; f++)
+        for (uint32_t z = 0; z < R / 2; z++)
+            for (uint32_t x = 0; x < R; x++) {
+                double py = -1.0 + (x + 0.5) * d, pz = (z + 0.5) * d;
+                double r2 = py * py + pz * pz + 1.0;
+                out[k] = pz * dA / (M_PI * r2 * r2);
+                sum += out[k++];
+            }
+    /* The pixel-centre rule misses the exact 1 by O(1/R²); normalising makes
+     * a fully covered cube give Σ_j F_ij = 1 exactly, which the solver's
+     * energy balance relies on. */
+    for (size_t q = 0; q < k; q++)
+        out[q] /= sum;
+    return sum;
+}
+
+/* ------------------------------------------------------------ worker: GL */
+
+typedef struct hc_gl {
+    OSMesaContext ctx;
+    unsigned char dummy[16];
+    GLuint fbo, rb[2], prog, vao, vbo;
+    GLint loc_m, loc_eye;
+    GLint *vfirst;     /* n: first vertex of patch j in the VBO */
+    GLsizei *vcount;   /* n: 3 or 6 */
+    uint32_t *pixels;  /* 3R² */
+    double *acc;       /* n: F_ij accumulators, zero between rows */
+    uint32_t *front;   /* patches in front of the current plane, ascending */
+    GLint *first[5];   /* per face: merged vertex ranges */
+    GLsizei *count[5];
+    uint32_t *col;     /* one row's entries */
+    float *val;
+    unsigned char *out; /* replies not yet sent */
+    size_t out_len, out_cap;
+} hc_gl;
+
+static const char *vs_src =
+    "#version 450 core\n"
+    "layout(location = 0) in vec3 pos;\n"
+    "layout(location = 1) in uint id;\n"
+    "uniform mat4 m;\n"
+    "uniform vec3 eye;\n"
+    "flat out uint vid;\n"
+    "void main() { vid = id; gl_Position = m * vec4(pos - eye, 1.0); }\n";
+
+/* A patch seen from behind still hides what lies beyond it, but its back
+ * side is no patch: it neither sends nor receives (one-sided patches), so its
+ * pixels keep "no patch" and reciprocity A_i F_ij = A_j F_ji holds. */
+static const char *fs_src =
+    "#version 450 core\n"
+    "flat in uint vid;\n"
+    "layout(location = 0) out uint item;\n"
+    "void main() { item = gl_FrontFacing ? vid : 0xFFFFFFFFu; }\n";
+
+static int gl_check(const char *where, char *msg)
+{
+    GLenum e = glGetError();
+    if (e == GL_NO_ERROR)
+        return 0;
+    snprintf(msg, HC_MAX_MSG, "hemi-cube: %s: GL error 0x%04x", where, (unsigned)e);
+    return -1;
+}
+
+static GLuint compile(GLenum type, const char *src, char *msg)
+{
+    GLuint s = glCreateShader(type);
+    glShaderSource(s, 1, &src, NULL);
+    glCompileShader(s);
+    GLint ok = 0;
+    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+        char log[512] = "";
+        glGetShaderInfoLog(s, sizeof log, NULL, log);
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: shader compile failed: %s", log);
+        glDeleteShader(s);
+        return 0;
+    }
+    return s;
+}
+
+/* Context, atlas FBO, shader and the one VBO holding every patch (patch j's
+ * triangles contiguous, positions relative to the bounding-box centre). */
+static int gl_setup(const hc_engine *e, hc_gl *g, char *msg)
+{
+    const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 0,
+                           OSMESA_STENCIL_BITS, 0, OSMESA_ACCUM_BITS, 0,
+                           OSMESA_PROFILE, OSMESA_CORE_PROFILE,
+                           OSMESA_CONTEXT_MAJOR_VERSION, 4, OSMESA_CONTEXT_MINOR_VERSION, 5, 0};
+    g->ctx = OSMesaCreateContextAttribs(attribs, NULL);
+    if (!g->ctx) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: OSMesa could not create a GL 4.5 core context");
+        return -1;
+    }
+    if (!OSMesaMakeCurrent(g->ctx, g->dummy, GL_UNSIGNED_BYTE, 1, 1)) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: OSMesaMakeCurrent failed");
+        return -1;
+    }
+    GLsizei R = (GLsizei)e->R;
+    GLint max_rb = 0;
+    glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
+    if (max_rb < 3 * R) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: resolution %d needs a %d-pixel render buffer, GL allows %d",
+                 (int)R, (int)(3 * R), (int)max_rb);
+        return -1;
+    }
+    glGenFramebuffers(1, &g->fbo);
+    glBindFramebuffer(GL_FRAMEBUFFER, g->fbo);
+    glGenRenderbuffers(2, g->rb);
+    glBindRenderbuffer(GL_RENDERBUFFER, g->rb[0]);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_R32UI, R, 3 * R);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, g->rb[0]);
+    glBindRenderbuffer(GL_RENDERBUFFER, g->rb[1]);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, R, 3 * R);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, g->rb[1]);
+    GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    if (status != GL_FRAMEBUFFER_COMPLETE) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: item-buffer framebuffer incomplete (0x%04x)",
+                 (unsigned)status);
+        return -1;
+    }
+    const GLenum draw = GL_COLOR_ATTACHMENT0;
+    glDrawBuffers(1, &draw);
+    glReadBuffer(GL_COLOR_ATTACHMENT0);
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+
+    /* Reversed Z with an infinite far plane: depth = near/distance in a
+     * float buffer keeps ~24 bits of relative precision at every distance,
+     * so surfaces a hundredth of a patch apart still resolve.  (libOSMesa
+     * exports every GL entry point but glClipControl.) */
+    PFNGLCLIPCONTROLPROC clip_control = (PFNGLCLIPCONTROLPROC)OSMesaGetProcAddress("glClipControl");
+    if (!clip_control) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: glClipControl is not available");
+        return -1;
+    }
+    clip_control(GL_LOWER_LEFT, GL_ZERO_TO_ONE);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_GREATER);
+    glEnable(GL_SCISSOR_TEST);
+    glDisable(GL_CULL_FACE);
+    glDisable(GL_DITHER);
+    glDisable(GL_BLEND);
+    if (gl_check("framebuffer set-up", msg))
+        return -1;
+
+    GLuint vs = compile(GL_VERTEX_SHADER, vs_src, msg);
+    if (!vs)
+        return -1;
+    GLuint fs = compile(GL_FRAGMENT_SHADER, fs_src, msg);
+    if (!fs)
+        return -1;
+    g->prog = glCreateProgram();
+    glAttachShader(g->prog, vs);
+    glAttachShader(g->prog, fs);
+    glLinkProgram(g->prog);
+    GLint ok = 0;
+    glGetProgramiv(g->prog, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        char log[512] = "";
+        glGetProgramInfoLog(g->prog, sizeof log, NULL, log);
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: shader link failed: %s", log);
+        return -1;
+    }
+    glDeleteShader(vs);
+    glDeleteShader(fs);
+    glUseProgram(g->prog);
+    g->loc_m = glGetUniformLocation(g->prog, "m");
+    g->loc_eye = glGetUniformLocation(g->prog, "eye");
+
+    /* Vertex: float x, y, z relative to the origin, then uint32 patch id. */
+    uint32_t n = e->n;
+    size_t nv = 0;
+    for (uint32_t j = 0; j < n; j++) {
+        g->vfirst[j] = (GLint)nv;
+        g->vcount[j] = e->ncorner[j] == 4 ? 6 : 3;
+        nv += (size_t)g->vcount[j];
+    }
+    glGenVertexArrays(1, &g->vao);
+    glBindVertexArray(g->vao);
+    glGenBuffers(1, &g->vbo);
+    glBindBuffer(GL_ARRAY_BUFFER, g->vbo);
+    if (nv) {
+        struct vtx { float p[3]; uint32_t id; } *buf = malloc(nv * sizeof *buf);
+        if (!buf) {
+            snprintf(msg, HC_MAX_MSG, "hemi-cube: out of memory for %zu vertices", nv);
+            return -1;
+        }
+        static const int tri[2][3] = {{0, 1, 2}, {0, 2, 3}};
+        size_t k = 0;
+        for (uint32_t j = 0; j < n; j++) {
+            const double *c = e->corner + (size_t)j * 12;
+            for (int t = 0; t < (e->ncorner[j] == 4 ? 2 : 1); t++)
+                for (int s = 0; s < 3; s++) {
+                    const double *p = c + 3 * tri[t][s];
+                    buf[k].p[0] = (float)p[0];
+                    buf[k].p[1] = (float)p[1];
+                    buf[k].p[2] = (float)p[2];
+                    buf[k].id = j;
+                    k++;
+                }
+        }
+        glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(nv * sizeof *buf), buf, GL_STATIC_DRAW);
+        free(buf);
+    }
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 16, (const void *)0);
+    glVertexAttribIPointer(1, 1, GL_UNSIGNED_INT, 16, (const void *)12);
+    glEnableVertexAttribArray(0);
+    glEnableVertexAttribArray(1);
+    return gl_check("geometry upload", msg);
+}
+
+/* Deterministic orthonormal basis (u, v, n) with u × v = n. */
+static void basis(rad_vec3 n, rad_vec3 *u, rad_vec3 *v)
+{
+    double ax = fabs(n.x), ay = fabs(n.y), az = fabs(n.z);
+    rad_vec3 a = ax <= ay && ax <= az ? rad_v3(1, 0, 0) : ay <= az ? rad_v3(0, 1, 0) : rad_v3(0, 0, 1);
+    *u = rad_normalize(rad_cross(n, a));
+    *v = rad_cross(n, *u);
+}
+
+/* Frustum planes through the eye, as bits of a mask; a patch is skipped for
+ * a face when every corner lies outside one of the face's four planes.  With
+ * a = p·u, b = p·v, h = p·n (p relative to the eye):  */
+enum {
+    PL_H_MA = 1 << 0,  /* h - a */
+    PL_H_PA = 1 << 1,  /* h + a */
+    PL_H_MB = 1 << 2,  /* h - b */
+    PL_H_PB = 1 << 3,  /* h + b */
+    PL_A_MB = 1 << 4,  /* a - b */
+    PL_A_PB = 1 << 5,  /* a + b */
+    PL_NA_MB = 1 << 6, /* -a - b */
+    PL_B_MA = 1 << 7,  /* b - a */
+    PL_H = 1 << 8,     /* h: above the horizon */
+    PL_A_MH = 1 << 9,  /* a - h */
+    PL_NA_MH = 1 << 10,/* -a - h */
+    PL_B_MH = 1 << 11, /* b - h */
+    PL_NB_MH = 1 << 12 /* -b - h */
+};
+static const unsigned face_planes[5] = {
+    PL_H_MA | PL_H_PA | PL_H_MB | PL_H_PB, /* top: |a| <= h, |b| <= h */
+    PL_A_MB | PL_A_PB | PL_H | PL_A_MH,    /* +u: |b| <= a, 0 <= h <= a */
+    PL_NA_MB | PL_B_MA | PL_H | PL_NA_MH,  /* -u: |b| <= -a, 0 <= h <= -a */
+    PL_B_MA | PL_A_PB | PL_H | PL_B_MH,    /* +v: |a| <= b, 0 <= h <= b */
+    PL_NA_MB | PL_A_MB | PL_H | PL_NB_MH,  /* -v: |a| <= -b, 0 <= h <= -b */
+};
+
+static void set_mat(double m[16], rad_vec3 right, rad_vec3 up, rad_vec3 d, int side, double near)
+{
+    /* Row-major P·V for a camera looking along d (eye space: x right, y up,
+     * -z forward).  Top face: x, y in [-1, 1] at distance 1; side faces:
+     * x in [-1, 1], "up" in [0, 1].  Reversed-Z infinite projection:
+     * clip z = near, clip w = distance along d. */
+    double ys = side ? 2.0 : 1.0;
+    double r0[4] = {right.x, right.y, right.z, 0};
+    double r1[4] = {ys * up.x - (side ? d.x : 0), ys * up.y - (side ? d.y : 0),
+                    ys * up.z - (side ? d.z : 0), 0};
+    double r2[4] = {0, 0, 0, near};
+    double r3[4] = {d.x, d.y, d.z, 0};
+    memcpy(m, r0, sizeof r0);
+    memcpy(m + 4, r1, sizeof r1);
+    memcpy(m + 8, r2, sizeof r2);
+    memcpy(m + 12, r3, sizeof r3);
+}
+
+/* Computes row i into g->col/g->val; returns the entry count, or -1 with msg
+ * set on a GL error. */
+static long compute_row(const hc_engine *e, hc_gl *g, uint32_t i, char *msg)
+{
+    const uint32_t n = e->n, R = e->R;
+    const rad_patch *pi = &e->mesh->patches[i];
+    rad_vec3 nn = pi->normal, u, v;
+    basis(nn, &u, &v);
+    const rad_vec3 c = e->center[i];
+    const double tol = e->tol;
+    uint32_t nfront = 0;
+    GLsizei nr[5] = {0, 0, 0, 0, 0};
+    uint32_t last[5] = {0, 0, 0, 0, 0};
+
+    for (uint32_t j = 0; j < n; j++) {
+        if (j % HC_BLOCK == 0) {
+            const double *sp = e->bsphere + 4 * (size_t)(j / HC_BLOCK);
+            double hb = (sp[0] - c.x) * nn.x + (sp[1] - c.y) * nn.y + (sp[2] - c.z) * nn.z;
+            if (hb + sp[3] <= tol) {
+                j += HC_BLOCK - 1;
+                continue;
+            }
+        }
+        if (j == i)
+            continue;
+        /* Ranges of a = p·u, b = p·v, h = p·n over the corners (triangles
+         * repeat corner 0).  max(h - a) <= max h - min a etc. bound each
+         * plane from above: cheap, and conservative (a patch is only ever
+         * drawn needlessly, never skipped wrongly). */
+        const double *p = e->corner + (size_t)j * 12;
+        double amin = INFINITY, amax = -INFINITY, bmin = INFINITY, bmax = -INFINITY;
+        double hmax = -INFINITY, hmin = INFINITY;
+        for (int k = 0; k < 4; k++, p += 3) {
+            double x = p[0] - c.x, y = p[1] - c.y, z = p[2] - c.z;
+            double a = x * u.x + y * u.y + z * u.z;
+            double b = x * v.x + y * v.y + z * v.z;
+            double h = x * nn.x + y * nn.y + z * nn.z;
+            amin = a < amin ? a : amin;
+            amax = a > amax ? a : amax;
+            bmin = b < bmin ? b : bmin;
+            bmax = b > bmax ? b : bmax;
+            hmin = h < hmin ? h : hmin;
+            hmax = h > hmax ? h : hmax;
+        }
+        /* Only patches with a corner strictly in front of i's plane can be
+         * seen; this also drops every patch coplanar with i. */
+        if (!(hmax > tol))
+            continue;
+        const double t = -tol;
+        unsigned inside = (hmax - amin >= t) * PL_H_MA | (hmax + amax >= t) * PL_H_PA |
+                          (hmax - bmin >= t) * PL_H_MB | (hmax + bmax >= t) * PL_H_PB |
+                          (amax - bmin >= t) * PL_A_MB | (amax + bmax >= t) * PL_A_PB |
+                          (-amin - bmin >= t) * PL_NA_MB | (bmax - amin >= t) * PL_B_MA |
+                          PL_H | (amax - hmin >= t) * PL_A_MH | (-amin - hmin >= t) * PL_NA_MH |
+                          (bmax - hmin >= t) * PL_B_MH | (-bmin - hmin >= t) * PL_NB_MH;
+        g->front[nfront++] = j;
+        for (int f = 0; f < 5; f++) {
+            if ((inside & face_planes[f]) != face_planes[f])
+                continue;
+            if (nr[f] > 0 && last[f] + 1 == j) {
+                g->count[f][nr[f] - 1] += g->vcount[j];
+            } else {
+                g->first[f][nr[f]] = g->vfirst[j];
+                g->count[f][nr[f]] = g->vcount[j];
+                nr[f]++;
+            }
+            last[f] = j;
+        }
+    }
+
+    const GLuint clear_id[4] = {HC_NO_PATCH, 0, 0, 0};
+    const GLfloat clear_depth = 0.0f;
+    glScissor(0, 0, (GLsizei)R, (GLsizei)(3 * R));
+    glClearBufferuiv(GL_COLOR, 0, clear_id);
+    glClearBufferfv(GL_DEPTH, 0, &clear_depth);
+    glUniform3f(g->loc_eye, (float)c.x, (float)c.y, (float)c.z);
+
+    const double near = 1e-4 * sqrt(pi->area);
+    const rad_vec3 mu = rad_scale(u, -1), mv = rad_scale(v, -1);
+    /* (right, up, forward) per face; right = forward × up keeps every face
+     * unmirrored. */
+    const rad_vec3 fr[5][3] = {{mu, v, nn}, {mv, nn, u}, {v, nn, mu}, {u, nn, v}, {mu, nn, mv}};
+    for (int f = 0; f < 5; f++) {
+        GLint y0 = f == 0 ? 0 : (GLint)(R + (uint32_t)(f - 1) * (R / 2));
+        GLsizei h = f == 0 ? (GLsizei)R : (GLsizei)(R / 2);
+        if (!nr[f])
+            continue;
+        double m[16];
+        float mf[16];
+        set_mat(m, fr[f][0], fr[f][1], fr[f][2], f != 0, near);
+        for (int k = 0; k < 16; k++)
+            mf[k] = (float)m[k];
+        glViewport(0, y0, (GLsizei)R, h);
+        glScissor(0, y0, (GLsizei)R, h);
+        glUniformMatrix4fv(g->loc_m, 1, GL_TRUE, mf);
+        glMultiDrawArrays(GL_TRIANGLES, g->first[f], g->count[f], nr[f]);
+    }
+    glReadPixels(0, 0, (GLsizei)R, (GLsizei)(3 * R), GL_RED_INTEGER, GL_UNSIGNED_INT, g->pixels);
+    if (gl_check("rendering a hemi-cube", msg))
+        return -1;
+
+    /* F_ij = Σ ΔF_q over the pixels q showing j (paper, eq. 7), summed in
+     * pixel order so the result never depends on scheduling. */
+    const size_t npix = (size_t)3 * R * R;
+    const uint32_t *px = g->pixels;
+    const double *dff = e->dff;
+    double *acc = g->acc;
+    for (size_t q = 0; q < npix; q++) {
+        uint32_t id = px[q];
+        if (id < n)
+            acc[id] += dff[q];
+    }
+    long cnt = 0;
+    for (uint32_t k = 0; k < nfront; k++) {
+        uint32_t j = g->front[k];
+        if (acc[j] > 0.0) {
+            float f = (float)acc[j];
+            if (f > 0.0f) {
+                g->col[cnt] = j;
+                g->val[cnt] = f;
+                cnt++;
+            }
+            acc[j] = 0.0;
+        }
+    }
+    return cnt;
+}
+
+static void send_msg(int fd, uint32_t tag, const char *text)
+{
+    size_t len = strlen(text);
+    if (len > HC_MAX_MSG)
+        len = HC_MAX_MSG;
+    uint32_t hdr[2] = {tag, (uint32_t)len};
+    if (send_all(fd, hdr, sizeof hdr) == 0)
+        send_all(fd, text, len);
+}
+
+static void *worker_alloc(size_t count, size_t size, char *msg)
+{
+    void *p = calloc(count ? count : 1, size);
+    if (!p)
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: worker out of memory (%zu × %zu bytes)", count, size);
+    return p;
+}
+
+/* Never returns into the caller's code: every path ends in _exit, which
+ * also keeps atexit handlers, stdio buffers and leak checkers of the
+ * caller's image from running twice. */
+static void worker_main(const hc_engine *e, int fd) __attribute__((noreturn));
+static void worker_main(const hc_engine *e, int fd)
+{
+    signal(SIGPIPE, SIG_IGN);
+    /* Ctrl-C goes to the whole process group; the caller decides when its
+     * workers stop (by closing the socket). */
+    signal(SIGINT, SIG_IGN);
+    signal(SIGQUIT, SIG_IGN);
+    /* llvmpipe allocates and frees large scene bins every frame; keeping them
+     * on the heap spares an mmap/munmap pair each time (reported to save up
+     * to 17 % with llvmpipe threads; within noise when this thread
+     * rasterises, as it does by default below). */
+    mallopt(M_MMAP_THRESHOLD, 32 << 20);
+    mallopt(M_TRIM_THRESHOLD, 64 << 20);
+    /* With a worker per core, llvmpipe's own rasteriser threads only add
+     * synchronisation (measured: 2.2 s of CPU with LP_NUM_THREADS=0 against
+     * 3.0 s with 1 or 2 threads for the same rows), so rasterise in this
+     * thread; with fewer workers than cores, lend the spare cores to
+     * llvmpipe.  A user's own LP_NUM_THREADS wins. */
+    char threads[16];
+    snprintf(threads, sizeof threads, "%u", e->lp_threads);
+    setenv("LP_NUM_THREADS", threads, 0);
+
+    char msg[HC_MAX_MSG + 1] = "";
+    hc_gl g;
+    memset(&g, 0, sizeof g);
+    uint32_t n = e->n, R = e->R;
+    int ok = (g.vfirst = worker_alloc(n, sizeof *g.vfirst, msg)) &&
+             (g.vcount = worker_alloc(n, sizeof *g.vcount, msg)) &&
+             (g.pixels = worker_alloc((size_t)3 * R * R, sizeof *g.pixels, msg)) &&
+             (g.acc = worker_alloc(n, sizeof *g.acc, msg)) &&
+             (g.front = worker_alloc(n, sizeof *g.front, msg)) &&
+             (g.col = worker_alloc(n, sizeof *g.col, msg)) &&
+             (g.val = worker_alloc(n, sizeof *g.val, msg));
+    for (int f = 0; ok && f < 5; f++)
+        ok = (g.first[f] = worker_alloc(n, sizeof *g.first[f], msg)) &&
+             (g.count[f] = worker_alloc(n, sizeof *g.count[f], msg));
+    if (!ok || gl_setup(e, &g, msg) != 0) {
+        send_msg(fd, HC_MSG_ERROR, msg);
+        _exit(1);
+    }
+    send_msg(fd, 0, "");
+
+    /* The answer to a request goes out in one piece (or in pieces of about
+     * HC_FLUSH bytes), so the caller wakes once per request, not per row. */
+    g.out_cap = HC_FLUSH + 16 + (size_t)8 * n;
+    g.out = malloc(g.out_cap);
+    if (!g.out) {
+        send_msg(fd, HC_MSG_ERROR, "hemi-cube: worker out of memory for its reply buffer");
+        _exit(1);
+    }
+    uint32_t rows[HC_MAX_CHUNK];
+    for (;;) {
+        uint32_t count;
+        if (recv_all(fd, &count, sizeof count) != 0)
+            _exit(0); /* the caller closed the socket: hc_destroy */
+        if (count == 0 || count > HC_MAX_CHUNK || recv_all(fd, rows, count * sizeof *rows) != 0)
+            _exit(1);
+        uint32_t batch[2] = {HC_MSG_BATCH, count};
+        memcpy(g.out, batch, sizeof batch);
+        g.out_len = sizeof batch;
+        for (uint32_t k = 0; k < count; k++) {
+            if (rows[k] >= n)
+                _exit(1);
+            long cnt = compute_row(e, &g, rows[k], msg);
+            if (cnt < 0) {
+                if (send_all(fd, g.out, g.out_len) == 0)
+                    send_msg(fd, HC_MSG_ERROR, msg);
+                _exit(1);
+            }
+            size_t bytes = sizeof(uint32_t) * (2 + 2 * (size_t)cnt);
+            if (g.out_len + bytes > g.out_cap) {
+                if (send_all(fd, g.out, g.out_len) != 0)
+                    _exit(1);
+                g.out_len = 0;
+            }
+            uint32_t hdr[2] = {rows[k], (uint32_t)cnt};
+            unsigned char *o = g.out + g.out_len;
+            memcpy(o, hdr, sizeof hdr);
+            memcpy(o + sizeof hdr, g.col, (size_t)cnt * sizeof *g.col);
+            memcpy(o + sizeof hdr + (size_t)cnt * sizeof *g.col, g.val, (size_t)cnt * sizeof *g.val);
+            g.out_len += bytes;
+            if (g.out_len >= HC_FLUSH) {
+                if (send_all(fd, g.out, g.out_len) != 0)
+                    _exit(1);
+                g.out_len = 0;
+            }
+        }
+        if (g.out_len && send_all(fd, g.out, g.out_len) != 0)
+            _exit(1);
+    }
+}
+
+/* ---------------------------------------------------------------- caller */
+
+static void stop_workers(hc_engine *e)
+{
+    if (!e->w)
+        return;
+    for (uint32_t k = 0; k < e->nproc; k++)
+        if (e->w[k].fd >= 0) {
+            close(e->w[k].fd);
+            e->w[k].fd = -1;
+        }
+    /* A worker blocked in recv sees EOF at once and _exits; one that does not
+     * within ~2 s (e.g. another process still holds its socket) is killed. */
+    for (uint32_t k = 0; k < e->nproc; k++) {
+        pid_t pid = e->w[k].pid;
+        if (pid <= 0)
+            continue;
+        int st;
+        for (int t = 0;; t++) {
+            pid_t r = waitpid(pid, &st, WNOHANG);
+            if (r == pid || (r < 0 && errno != EINTR))
+                break;
+            if (t == 2000) {
+                kill(pid, SIGKILL);
+                while (waitpid(pid, &st, 0) < 0 && errno == EINTR)
+                    ;
+                break;
+            }
+            struct timespec ts = {0, 1000000};
+            nanosleep(&ts, NULL);
+        }
+        e->w[k].pid = -1;
+    }
+}
+
+void hc_destroy(hc_engine *e)
+{
+    if (!e)
+        return;
+    stop_workers(e);
+    free(e->w);
+    free(e->dff);
+    free(e->corner);
+    free(e->center);
+    free(e->ncorner);
+    free(e->bsphere);
+    free(e->rx_col);
+    free(e->rx_val);
+    free(e);
+}
+
+/* Closes every descriptor but `keep` (and stdio) in a fresh worker, so that
+ * no worker holds another worker's or another engine's socket: otherwise a
+ * closed socket would never reach EOF and hc_destroy would wait. */
+static void close_other_fds(int keep)
+{
+    long max = sysconf(_SC_OPEN_MAX);
+    if (max < 0 || max > 65536)
+        max = 65536;
+#ifdef SYS_close_range
+    if (keep > 3)
+        syscall(SYS_close_range, 3u, (unsigned)keep - 1, 0u);
+    if (syscall(SYS_close_range, (unsigned)keep + 1, ~0u, 0u) == 0)
+        return;
+#endif
+    for (int fd = 3; fd < max; fd++)
+        if (fd != keep)
+            close(fd);
+}
+
+static int read_status(hc_engine *e, uint32_t k, rad_error *err)
+{
+    uint32_t hdr[2];
+    if (recv_all(e->w[k].fd, hdr, sizeof hdr) != 0)
+        return rad_fail(err, RAD_ERR_GL, "hemi-cube: worker %u stopped while starting", k);
+    if (hdr[0] == 0 && hdr[1] == 0)
+        return RAD_OK;
+    char text[HC_MAX_MSG + 1] = "";
+    uint32_t len = hdr[1] > HC_MAX_MSG ? HC_MAX_MSG : hdr[1];
+    if (recv_all(e->w[k].fd, text, len) != 0)
+        return rad_fail(err, RAD_ERR_GL, "hemi-cube: worker %u stopped while starting", k);
+    text[len] = '\0';
+    return rad_fail(err, RAD_ERR_GL, "%s (worker %u)", text, k);
+}
+
+int hc_create(const rad_mesh *mesh, const hc_options *opt, hc_engine **out, rad_error *err)
+{
+    if (out)
+        *out = NULL;
+    if (!mesh || !out)
+        return rad_fail(err, RAD_ERR_USAGE, "hc_create: mesh and out must not be NULL");
+    hc_options o = {0};
+    if (opt)
+        o = *opt;
+    if (o.resolution == 0)
+        o.resolution = 128;
+    if (!resolution_ok(o.resolution))
+        return rad_fail(err, RAD_ERR_USAGE,
+                        "hc_create: hemi-cube resolution %u: must be even and within 8..4096",
+                        o.resolution);
+    if (o.processes > HC_MAX_PROCESSES)
+        return rad_fail(err, RAD_ERR_USAGE, "hc_create: %u worker processes: at most %u",
+                        o.processes, HC_MAX_PROCESSES);
+    long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    cpus = cpus < 1 ? 1 : cpus > 64 ? 64 : cpus;
+    if (o.processes == 0)
+        o.processes = (uint32_t)cpus;
+    uint32_t n = mesh->patch_count;
+    if (n > HC_MAX_PATCHES)
+        return rad_fail(err, RAD_ERR_LIMIT, "hc_create: %u patches: the hemi-cube handles at most %u",
+                        n, HC_MAX_PATCHES);
+    if (n && (!mesh->patches || !mesh->vertices))
+        return rad_fail(err, RAD_ERR_USAGE, "hc_create: mesh has %u patches but no arrays", n);
+
+    /* Check every index before any of it is used; find the bounding box. */
+    rad_vec3 lo = rad_v3(INFINITY, INFINITY, INFINITY), hi = rad_scale(lo, -1);
+    for (uint32_t j = 0; j < n; j++) {
+        const rad_patch *p = &mesh->patches[j];
+        int nc = rad_patch_corners(p);
+        for (int k = 0; k < nc; k++) {
+            if (p->v[k] >= mesh->vertex_count)
+                return rad_fail(err, RAD_ERR_USAGE, "hc_create: patch %u: vertex index %u out of range",
+                                j, p->v[k]);
+            rad_vec3 q = mesh->vertices[p->v[k]];
+            if (!rad_finite3(q))
+                return rad_fail(err, RAD_ERR_USAGE, "hc_create: patch %u: vertex %u is not finite",
+                                j, p->v[k]);
+            lo = rad_v3(fmin(lo.x, q.x), fmin(lo.y, q.y), fmin(lo.z, q.z));
+            hi = rad_v3(fmax(hi.x, q.x), fmax(hi.y, q.y), fmax(hi.z, q.z));
+        }
+        double nl = rad_length(p->normal);
+        if (!rad_finite3(p->center) || !(fabs(nl - 1.0) < 1e-6) || !(p->area > 0.0) ||
+            !isfinite(p->area))
+            return rad_fail(err, RAD_ERR_USAGE,
+                            "hc_create: patch %u: needs a finite centre, a unit normal and area > 0", j);
+    }
+
+    hc_engine *e = calloc(1, sizeof *e);
+    if (!e)
+        return rad_fail(err, RAD_ERR_NOMEM, "hc_create: out of memory");
+    e->mesh = mesh;
+    e->n = n;
+    e->R = o.resolution;
+    e->nproc = o.processes;
+    e->lp_threads = (uint32_t)cpus / o.processes >= 2 ? (uint32_t)cpus / o.processes : 0;
+    e->opt = o;
+    size_t npix = (size_t)3 * e->R * e->R;
+    e->dff = malloc(npix * sizeof *e->dff);
+    e->corner = malloc((n ? n : 1) * 12 * sizeof *e->corner);
+    e->center = malloc((n ? n : 1) * sizeof *e->center);
+    e->ncorner = malloc(n ? n : 1);
+    e->bsphere = malloc(((size_t)n / HC_BLOCK + 1) * 4 * sizeof *e->bsphere);
+    e->rx_col = malloc((n ? n : 1) * sizeof *e->rx_col);
+    e->rx_val = malloc((n ? n : 1) * sizeof *e->rx_val);
+    e->w = calloc(e->nproc, sizeof *e->w);
+    if (!e->dff || !e->corner || !e->center || !e->ncorner || !e->bsphere || !e->rx_col || !e->rx_val || !e->w) {
+        hc_destroy(e);
+        return rad_fail(err, RAD_ERR_NOMEM, "hc_create: out of memory for %u patches at resolution %u",
+                        n, o.resolution);
+    }
+    for (uint32_t k = 0; k < e->nproc; k++) {
+        e->w[k].fd = -1;
+        e->w[k].pid = -1;
+    }
+    hc_delta_form_factors(e->R, e->dff);
+
+    if (n) {
+        e->origin = rad_scale(rad_add(lo, hi), 0.5);
+        double diag = rad_length(rad_sub(hi, lo));
+        double far = fmax(fmax(fabs(lo.x), fabs(hi.x)), fmax(fmax(fabs(lo.y), fabs(hi.y)),
+                                                              fmax(fabs(lo.z), fabs(hi.z))));
+        /* Above the rounding noise of coordinates this far from 0, far below
+         * any real gap between surfaces. */
+        e->tol = 1e-9 * diag + 1e-12 * far;
+    }
+    for (uint32_t j = 0; j < n; j++) {
+        const rad_patch *p = &mesh->patches[j];
+        int nc = rad_patch_corners(p);
+        e->ncorner[j] = (uint8_t)nc;
+        for (int k = 0; k < 4; k++) {
+            rad_vec3 q = rad_sub(mesh->vertices[p->v[k < nc ? k : 0]], e->origin);
+            e->corner[(size_t)j * 12 + 3 * k + 0] = q.x;
+            e->corner[(size_t)j * 12 + 3 * k + 1] = q.y;
+            e->corner[(size_t)j * 12 + 3 * k + 2] = q.z;
+        }
+        e->center[j] = rad_sub(p->center, e->origin);
+    }
+    for (uint32_t b0 = 0; b0 < n; b0 += HC_BLOCK) {
+        uint32_t b1 = n - b0 < HC_BLOCK ? n : b0 + HC_BLOCK;
+        double lo3[3] = {INFINITY, INFINITY, INFINITY}, hi3[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (uint32_t j = b0; j < b1; j++)
+            for (int k = 0; k < 12; k++) {
+                double q = e->corner[(size_t)j * 12 + k];
+                lo3[k % 3] = fmin(lo3[k % 3], q);
+                hi3[k % 3] = fmax(hi3[k % 3], q);
+            }
+        double *sp = e->bsphere + 4 * (size_t)(b0 / HC_BLOCK), r2 = 0.0;
+        for (int a = 0; a < 3; a++)
+            sp[a] = 0.5 * (lo3[a] + hi3[a]);
+        for (uint32_t j = b0; j < b1; j++)
+            for (int k = 0; k < 4; k++) {
+                const double *q = e->corner + (size_t)j * 12 + 3 * k;
+                double d2 = (q[0] - sp[0]) * (q[0] - sp[0]) + (q[1] - sp[1]) * (q[1] - sp[1]) +
+                            (q[2] - sp[2]) * (q[2] - sp[2]);
+                r2 = fmax(r2, d2);
+            }
+        /* A hair larger than exact so rounding can never cull a corner. */
+        sp[3] = sqrt(r2) * (1.0 + 1e-12) + e->tol;
+    }
+
+    /* Stdio buffers are copied into each child; empty them so nothing the
+     * caller printed can appear twice. */
+    fflush(NULL);
+    for (uint32_t k = 0; k < e->nproc; k++) {
+        int sv[2];
+        if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sv) != 0) {
+            int rc = rad_fail(err, RAD_ERR_GL, "hc_create: socketpair: %s", strerror(errno));
+            hc_destroy(e);
+            return rc;
+        }
+        pid_t pid = fork();
+        if (pid < 0) {
+            int rc = rad_fail(err, RAD_ERR_GL, "hc_create: fork: %s", strerror(errno));
+            close(sv[0]);
+            close(sv[1]);
+            hc_destroy(e);
+            return rc;
+        }
+        if (pid == 0) {
+            close_other_fds(sv[1]);
+            worker_main(e, sv[1]);
+        }
+        close(sv[1]);
+        e->w[k].pid = pid;
+        e->w[k].fd = sv[0];
+    }
+    /* The workers set up in parallel; collect their reports. */
+    for (uint32_t k = 0; k < e->nproc; k++) {
+        int rc = read_status(e, k, err);
+        if (rc) {
+            hc_destroy(e);
+            return rc;
+        }
+    }
+    *out = e;
+    return RAD_OK;
+}
+
+static int send_chunk(hc_engine *e, uint32_t k, const uint32_t *rows, uint32_t count)
+{
+    uint32_t buf[1 + HC_MAX_CHUNK];
+    buf[0] = count;
+    memcpy(buf + 1, rows, count * sizeof *rows);
+    if (send_all(e->w[k].fd, buf, (1 + count) * sizeof *buf) != 0)
+        return -1;
+    e->w[k].in_flight += count;
+    return 0;
+}
+
+static int worker_gone(hc_engine *e, uint32_t k, rad_error *err)
+{
+    e->broken = 1;
+    snprintf(e->broken_msg, sizeof e->broken_msg, "hemi-cube worker %u stopped", k);
+    e->w[k].in_flight = 0;
+    return rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
+}
+
+/* Reads the text of a worker's error message; the engine is broken after it
+ * (the worker has exited). */
+static int worker_error(hc_engine *e, uint32_t k, uint32_t len, rad_error *err)
+{
+    char text[HC_MAX_MSG + 1] = "";
+    if (len > HC_MAX_MSG || recv_all(e->w[k].fd, text, len) != 0)
+        return worker_gone(e, k, err);
+    text[len] = '\0';
+    e->broken = 1;
+    snprintf(e->broken_msg, sizeof e->broken_msg, "%s (worker %u)", text, k);
+    e->w[k].in_flight = 0;
+    return rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
+}
+
+static void keep_first(int *rc, int code)
+{
+    if (*rc == RAD_OK)
+        *rc = code;
+}
+
+/* Reads one answer of worker k (a batch of rows) and stores its rows in F
+ * while *rc is RAD_OK; the first failure lands in *rc and err.  After a
+ * failure to store, the rest is still read so the stream stays in step. */
+static void receive_batch(hc_engine *e, uint32_t k, rad_matrix *F, int *rc, uint32_t *done,
+                          uint32_t total, rad_error *err)
+{
+    int fd = e->w[k].fd;
+    rad_error *first = *rc == RAD_OK ? err : NULL;
+    uint32_t hdr[2];
+    if (recv_all(fd, hdr, sizeof hdr) != 0) {
+        keep_first(rc, worker_gone(e, k, first));
+        return;
+    }
+    if (hdr[0] == HC_MSG_ERROR) {
+        keep_first(rc, worker_error(e, k, hdr[1], first));
+        return;
+    }
+    if (hdr[0] != HC_MSG_BATCH || hdr[1] == 0 || hdr[1] > e->w[k].in_flight) {
+        keep_first(rc, worker_gone(e, k, first));
+        return;
+    }
+    for (uint32_t r = 0; r < hdr[1]; r++) {
+        first = *rc == RAD_OK ? err : NULL;
+        uint32_t rh[2];
+        if (recv_all(fd, rh, sizeof rh) != 0) {
+            keep_first(rc, worker_gone(e, k, first));
+            return;
+        }
+        if (rh[0] == HC_MSG_ERROR) {
+            keep_first(rc, worker_error(e, k, rh[1], first));
+            return;
+        }
+        uint32_t i = rh[0], cnt = rh[1];
+        if (i >= e->n || cnt > e->n ||
+            recv_all(fd, e->rx_col, (size_t)cnt * sizeof *e->rx_col) != 0 ||
+            recv_all(fd, e->rx_val, (size_t)cnt * sizeof *e->rx_val) != 0) {
+            keep_first(rc, worker_gone(e, k, first));
+            return;
+        }
+        e->w[k].in_flight--;
+        if (*rc != RAD_OK)
+            continue;
+        for (uint32_t q = 0; q < cnt; q++)
+            if (e->rx_col[q] >= e->n || e->rx_col[q] == i ||
+                (q && e->rx_col[q] <= e->rx_col[q - 1]) || !(e->rx_val[q] > 0.0f) ||
+                !isfinite(e->rx_val[q])) {
+                keep_first(rc, worker_gone(e, k, err));
+                return;
+            }
+        int s = rad_matrix_set_row(F, i, cnt, e->rx_col, e->rx_val, err);
+        if (s != RAD_OK) {
+            keep_first(rc, s);
+            continue;
+        }
+        (*done)++;
+        if (e->opt.progress)
+            e->opt.progress(e->opt.progress_user, *done, total);
+    }
+}
+
+int hc_compute_rows(hc_engine *e, const uint32_t *rows, uint32_t count, rad_matrix *F,
+                    rad_error *err)
+{
+    if (!e || !F || (count && !rows))
+        return rad_fail(err, RAD_ERR_USAGE, "hc_compute_rows: engine, matrix and rows must be given");
+    if (F->n != e->n)
+        return rad_fail(err, RAD_ERR_USAGE, "hc_compute_rows: matrix has %u rows, the mesh %u patches",
+                        F->n, e->n);
+    for (uint32_t k = 0; k < count; k++)
+        if (rows[k] >= e->n)
+            return rad_fail(err, RAD_ERR_USAGE, "hc_compute_rows: row %u: no such patch (%u patches)",
+                            rows[k], e->n);
+    if (e->broken)
+        return rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
+    if (count == 0)
+        return RAD_OK;
+
+    /* Modest chunks, at most two in flight per worker: a fast worker comes
+     * back for more, and the tail stays short. */
+    uint32_t chunk = count / (e->nproc * 8);
+    chunk = chunk < 1 ? 1 : chunk > HC_MAX_CHUNK ? HC_MAX_CHUNK : chunk;
+    uint32_t next = 0, done = 0;
+    int rc = RAD_OK;
+    struct pollfd *pf = malloc(e->nproc * sizeof *pf);
+    uint32_t *who = malloc(e->nproc * sizeof *who);
+    if (!pf || !who) {
+        free(pf);
+        free(who);
+        return rad_fail(err, RAD_ERR_NOMEM, "hc_compute_rows: out of memory");
+    }
+    for (;;) {
+        for (uint32_t k = 0; rc == RAD_OK && k < e->nproc; k++)
+            while (rc == RAD_OK && next < count && e->w[k].in_flight <= chunk) {
+                uint32_t c = count - next < chunk ? count - next : chunk;
+                if (send_chunk(e, k, rows + next, c) != 0)
+                    rc = worker_gone(e, k, err);
+                else
+                    next += c;
+            }
+        nfds_t np = 0;
+        for (uint32_t k = 0; k < e->nproc; k++)
+            if (e->w[k].in_flight) {
+                pf[np].fd = e->w[k].fd;
+                pf[np].events = POLLIN;
+                pf[np].revents = 0;
+                who[np++] = k;
+            }
+        if (np == 0)
+            break;
+        if (poll(pf, np, -1) < 0) {
+            if (errno == EINTR)
+                continue;
+            if (rc == RAD_OK)
+                rc = rad_fail(err, RAD_ERR_GL, "hc_compute_rows: poll: %s", strerror(errno));
+            /* Replies cannot be drained: the protocol is out of step. */
+            e->broken = 1;
+            snprintf(e->broken_msg, sizeof e->broken_msg, "hemi-cube: workers out of step");
+            break;
+        }
+        /* After a failure the remaining answers are read and dropped, so the
+         * workers stay in step for the next call. */
+        for (nfds_t q = 0; q < np; q++)
+            if (pf[q].revents)
+                receive_batch(e, who[q], F, &rc, &done, count, err);
+    }
+    free(pf);
+    free(who);
+    return rc;
+}

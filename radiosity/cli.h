@@ -1,0 +1,53 @@
+/* cli.h - private to the command-line program (main.c and cli_*.c): the
+ * commands and the argument helpers they share.  Not part of the library.
+ * Every cli_* command returns the process exit status: 0, 1 or 2.
+ */
+#ifndef RAD_CLI_H
+#define RAD_CLI_H
+
+#include "pipeline.h"
+
+int cli_solve(int argc, char **argv);
+int cli_render(int argc, char **argv);
+int cli_report(int argc, char **argv);
+int cli_relight(int argc, char **argv);
+int cli_ff(int argc, char **argv);
+int cli_validate(int argc, char **argv);
+
+/* Prints "radiosity: error: MESSAGE" and returns the exit status for it. */
+int cli_error(const rad_error *err);
+/* Prints a usage error and returns 2. */
+int cli_usage_error(const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 1, 2)))
+#endif
+    ;
+/* Value parsers: 0 on success, else the exit status (message printed). */
+int cli_parse_double(const char *opt, const char *s, double lo, double hi, double *out);
+int cli_parse_u32(const char *opt, const char *s, uint32_t lo, uint32_t hi, uint32_t *out);
+int cli_parse_bytes(const char *opt, const char *s, uint64_t *out);
+int cli_parse_vec3(const char *opt, const char *s, rad_vec3 *out);
+int cli_check_output_dir(const char *path);
+/* Meshing, hemi-cube and solver options shared by solve, relight and ff:
+ * 1 consumed, 0 not one of them, -1 bad value (printed). */
+int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt);
+/* Turns on the progress bar when stderr is a terminal. */
+void cli_enable_progress(rad_solve_options *opt);
+
+/* Camera options shared by render and relight --render. */
+typedef struct cli_view {
+    const char *camera;
+    int have_eye, have_target, have_up, have_fov;
+    rad_vec3 eye, target, up;
+    double fov;
+    uint32_t width, height;
+    const char *png;
+    double exposure;
+} cli_view;
+/* 1 consumed, 0 not a view option, -1 bad value (printed). */
+int cli_view_option(int argc, char **argv, int *i, cli_view *v);
+/* Renders s with the view and writes exr_path (and v->png if set). */
+int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *exr_path,
+                        const char *png_path);
+
+#endif /* RAD_CLI_H */

@@ -1,0 +1,691 @@
+/* gltf.c - rad_scene_parse_gltf: a glTF 2.0 document -> a rad_scene.
+ *
+ * gltf_bridge.cpp reads and checks the document (tinygltf); this file applies
+ * the radiosity rules to what it returns.  Invariant: the scene holds exactly
+ * the surfaces of the displayed glTF scene, in world space, obeying scene.h,
+ * or the call fails with "FILE: WHERE: WHAT" and leaves nothing behind.
+ *
+ * The rules:
+ *   - Three bands named R, G, B.
+ *   - ρ = baseColorFactor RGB, which must lie in [0, 1): a surface that
+ *     reflects all it receives has no place in an energy balance, and glTF's
+ *     default material (white 1.0) is therefore refused, as is a primitive
+ *     without a material.
+ *   - E = π · emissiveFactor · emissiveStrength (KHR_materials_emissive_
+ *     strength, default 1).  glTF's emissive value is a radiance L_e; a
+ *     Lambertian emitter's exitance is π L_e, so an emitter seen directly
+ *     renders with pixel value emissiveFactor × strength.
+ *   - Only TRIANGLES primitives; extensionsRequired may only name
+ *     KHR_materials_emissive_strength.  Other extensions in extensionsUsed
+ *     (Blender writes KHR_materials_specular, KHR_materials_ior) are ignored.
+ *   - One object per node of the scene that has a mesh and at least one
+ *     surviving polygon, named after the node, else its mesh, else
+ *     "node<index>"; a name used twice gets "#2", "#3", ... in node order so
+ *     that object names stay unique as scene.h requires.
+ *   - Triangles go to world space in double precision.  glTF says a node
+ *     whose world matrix has a negative determinant mirrors the geometry and
+ *     thereby flips the front face; the winding is reversed there so that the
+ *     front keeps facing where the author meant.
+ *   - A triangle whose area is below 1e-14 × (scene bounding-box diagonal)²,
+ *     or below 2e-12 × (its own bounding-box diagonal)² (a needle scene.c
+ *     would refuse as zero-area), is dropped: it carries no energy, and
+ *     exporters leave such slivers behind.  Drops are counted; a document
+ *     whose every triangle drops is refused with the count.
+ *   - Two triangles of one primitive that share an edge and together form a
+ *     planar parallelogram become one quad polygon (counter-clockwise about
+ *     their common normal), so that a box face exported as two triangles is
+ *     meshed into bilinear patches like a quad of the polygon file.  Matching
+ *     is greedy in triangle order, first across edges that are the longest
+ *     of both triangles (the diagonal a quad was cut along), then across any
+ *     edge, longest first, partner with the lowest index first: the result
+ *     is deterministic.
+ *   - A doubleSided material gives each polygon a second, reversed copy in
+ *     the same object, right after it, so that both faces take part in the
+ *     exchange; a single-sided polygon has only its front face.
+ *   - Perspective cameras become scene cameras (eye at the node's world
+ *     origin, looking along its -Z, up its +Y, yfov in degrees, aspectRatio
+ *     or 0); orthographic ones are skipped (a hemi-cube renderer has no use
+ *     for them).  Name: camera name, else node name, else "camera<index>".
+ *   - Polygons are named "mesh/primitive/triangle" for messages.
+ */
+#include "gltf_bridge.h"
+#include "scene.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define DEFAULT_MAX_POLYGONS 10000000ull
+
+/* Relative tolerances of the quad merge: float32 positions carry ~6e-8 of
+ * relative rounding, so 1e-6 accepts a true parallelogram after export and
+ * transform while refusing any visible shear. */
+#define QUAD_TOL 1e-6
+
+typedef struct gltf_ctx {
+    const char *src;
+    rad_scene *s;
+    rad_error *err;
+    uint64_t max_polygons;
+    double min_area;          /* 1e-14 × scene diagonal² */
+    uint64_t triangles_dropped;
+} gltf_ctx;
+
+static char *dup_str(const char *s)
+{
+    size_t n = strlen(s) + 1;
+    char *d = malloc(n);
+    if (d)
+        memcpy(d, s, n);
+    return d;
+}
+
+/* "LINES", or the number of a mode glTF does not define. */
+static const char *mode_name(int mode, char *buf, size_t size)
+{
+    static const char *const names[7] = {"POINTS",    "LINES",          "LINE_LOOP",
+                                         "LINE_STRIP", "TRIANGLES",     "TRIANGLE_STRIP",
+                                         "TRIANGLE_FAN"};
+    if (mode >= 0 && mode < 7)
+        return names[mode];
+    snprintf(buf, size, "%d", mode);
+    return buf;
+}
+
+static rad_vec3 xform_point(const double *m, const double *p)
+{
+    return rad_v3(m[0] * p[0] + m[4] * p[1] + m[8] * p[2] + m[12],
+                  m[1] * p[0] + m[5] * p[1] + m[9] * p[2] + m[13],
+                  m[2] * p[0] + m[6] * p[1] + m[10] * p[2] + m[14]);
+}
+
+static double det3(const double *m)
+{
+    return m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) +
+           m[8] * (m[1] * m[6] - m[5] * m[2]);
+}
+
+/* ----------------------------------------------------------------- naming */
+
+typedef struct name_rank {
+    const char *name;
+    uint32_t node;
+} name_rank;
+
+static int cmp_name_rank(const void *a, const void *b)
+{
+    const name_rank *x = a, *y = b;
+    int c = strcmp(x->name, y->name);
+    if (c)
+        return c;
+    return (x->node > y->node) - (x->node < y->node);
+}
+
+/* base, or base#k when k > 1, in a new string (NULL when memory runs out). */
+static char *suffixed(const char *base, uint32_t k)
+{
+    size_t n = strlen(base) + 16;
+    char *s = malloc(n);
+    if (!s)
+        return NULL;
+    if (k <= 1)
+        snprintf(s, n, "%s", base);
+    else
+        snprintf(s, n, "%s#%u", base, k);
+    return s;
+}
+
+/* The first of base, base#k, base#k+1, ... that `taken` does not know, in a
+ * new string; NULL when memory runs out. */
+static char *unique_name(const rad_scene *s, uint32_t (*taken)(const rad_scene *, const char *),
+                         const char *base, uint32_t k)
+{
+    for (;; k++) {
+        char *n = suffixed(base, k);
+        if (!n || taken(s, n) == RAD_NONE)
+            return n;
+        free(n);
+    }
+}
+
+/* ------------------------------------------------------------- primitives */
+
+typedef struct weld_key {
+    rad_vec3 p;
+    uint32_t v;
+} weld_key;
+
+static int cmp_weld(const void *a, const void *b)
+{
+    const weld_key *x = a, *y = b;
+    if (x->p.x != y->p.x)
+        return x->p.x < y->p.x ? -1 : 1;
+    if (x->p.y != y->p.y)
+        return x->p.y < y->p.y ? -1 : 1;
+    if (x->p.z != y->p.z)
+        return x->p.z < y->p.z ? -1 : 1;
+    return (x->v > y->v) - (x->v < y->v);
+}
+
+/* The corner slots of triangle T ordered by the length of the edge that
+ * starts there, longest first (ties keep slot order: deterministic). */
+static void edge_order(const rad_vec3 *W, const uint32_t *T, uint32_t order[3])
+{
+    double len[3];
+    for (uint32_t s = 0; s < 3; s++) {
+        rad_vec3 d = rad_sub(W[T[(s + 1) % 3]], W[T[s]]);
+        len[s] = rad_dot(d, d);
+        order[s] = s;
+    }
+    for (int a = 0; a < 2; a++)
+        for (int b = 0; b < 2 - a; b++)
+            if (len[order[b + 1]] > len[order[b]]) {
+                uint32_t x = order[b];
+                order[b] = order[b + 1];
+                order[b + 1] = x;
+            }
+}
+
+typedef struct dir_edge {
+    uint32_t from, to; /* welded vertex ids */
+    uint32_t tri;      /* index into the surviving-triangle list */
+    uint32_t slot;     /* the edge runs from corner slot to corner slot+1 */
+} dir_edge;
+
+static int cmp_edge(const void *a, const void *b)
+{
+    const dir_edge *x = a, *y = b;
+    if (x->from != y->from)
+        return x->from < y->from ? -1 : 1;
+    if (x->to != y->to)
+        return x->to < y->to ? -1 : 1;
+    return (x->tri > y->tri) - (x->tri < y->tri);
+}
+
+/* First edge (from, to) in the sorted array, or n. */
+static size_t find_edge(const dir_edge *e, size_t n, uint32_t from, uint32_t to)
+{
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (e[mid].from < from || (e[mid].from == from && e[mid].to < to))
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return (lo < n && e[lo].from == from && e[lo].to == to) ? lo : n;
+}
+
+static rad_vec3 tri_normal(rad_vec3 a, rad_vec3 b, rad_vec3 c)
+{
+    return rad_normalize(rad_cross(rad_sub(b, a), rad_sub(c, a)));
+}
+
+/* q0 q1 r q2 is a planar parallelogram: its diagonals bisect each other
+ * (q0 + r = q1 + q2) and both triangles face the same way. */
+static int is_parallelogram(rad_vec3 q0, rad_vec3 q1, rad_vec3 r, rad_vec3 q2)
+{
+    double size = fmax(fmax(rad_length(rad_sub(q1, q0)), rad_length(rad_sub(q2, q0))),
+                       fmax(rad_length(rad_sub(r, q1)), rad_length(rad_sub(r, q2))));
+    rad_vec3 gap = rad_sub(rad_add(q0, r), rad_add(q1, q2));
+    if (!(rad_length(gap) <= QUAD_TOL * size))
+        return 0;
+    rad_vec3 n1 = tri_normal(q0, q1, q2), n2 = tri_normal(r, q2, q1);
+    return rad_length(rad_sub(n1, n2)) <= QUAD_TOL;
+}
+
+/* Adds one polygon (and its reversed twin for double-sided materials). */
+static int emit(gltf_ctx *c, const char *pname, uint32_t object, uint32_t material,
+                int double_sided, const rad_vec3 *pts, uint32_t n, const char *where)
+{
+    for (int side = 0; side < (double_sided ? 2 : 1); side++) {
+        if ((uint64_t)c->s->polygon_count >= c->max_polygons)
+            return rad_fail(c->err, RAD_ERR_LIMIT, "%s: %s: more than %llu polygons (the limit)",
+                            c->src, where, (unsigned long long)c->max_polygons);
+        rad_vec3 rev[4];
+        const rad_vec3 *p = pts;
+        char back[300];
+        const char *name = pname;
+        if (side) {
+            for (uint32_t k = 0; k < n; k++)
+                rev[k] = pts[n - 1 - k];
+            p = rev;
+            snprintf(back, sizeof back, "%s/back", pname);
+            name = back;
+        }
+        int rc = rad_scene_add_polygon(c->s, name, object, material, p, n, 0, 0, where, NULL,
+                                       c->err);
+        if (rc)
+            return rc;
+    }
+    return RAD_OK;
+}
+
+/* Converts one primitive of one node: transform, drop slivers, merge
+ * parallelogram pairs, add.  *object is created on the first polygon. */
+static int convert_primitive(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_t pi,
+                             const double *world, const char *object_name, uint32_t *object,
+                             uint32_t material, int double_sided)
+{
+    const rad_gltf_raw_primitive *pr = &mesh->primitives[pi];
+    uint32_t nv = pr->vertex_count, nt = pr->index_count / 3;
+    if (nt == 0)
+        return RAD_OK;
+    int rc = RAD_OK;
+    rad_vec3 *W = malloc((size_t)(nv ? nv : 1) * sizeof *W);
+    uint32_t *canon = malloc((size_t)(nv ? nv : 1) * sizeof *canon);
+    weld_key *keys = malloc((size_t)(nv ? nv : 1) * sizeof *keys);
+    uint32_t *tri = malloc((size_t)nt * 4 * sizeof *tri); /* 3 corners + original index */
+    dir_edge *edges = malloc((size_t)nt * 3 * sizeof *edges);
+    uint32_t *partner = malloc((size_t)nt * sizeof *partner);
+    uint32_t *pslot = malloc((size_t)nt * sizeof *pslot);
+    if (!W || !canon || !keys || !tri || !edges || !partner || !pslot) {
+        rc = rad_fail(c->err, RAD_ERR_NOMEM, "%s: mesh '%s' primitive %u: out of memory", c->src,
+                      mesh->name, pi);
+        goto done;
+    }
+
+    for (uint32_t v = 0; v < nv; v++) {
+        W[v] = xform_point(world, pr->positions + 3 * (size_t)v);
+        if (!rad_finite3(W[v])) { /* a huge scale overflowed; the sort below needs order */
+            rc = rad_fail(c->err, RAD_ERR_INVALID,
+                          "%s: mesh '%s' primitive %u: vertex %u is too large in world space",
+                          c->src, mesh->name, pi, v);
+            goto done;
+        }
+        keys[v].p = W[v];
+        keys[v].v = v;
+    }
+    /* Weld equal positions, so that triangles exported with split vertices
+     * (per-face normals or UVs) or without indices still find their
+     * neighbours. */
+    qsort(keys, nv, sizeof *keys, cmp_weld);
+    for (uint32_t k = 0, id = 0; k < nv; k++) {
+        rad_vec3 a = keys[k].p, b = k ? keys[k - 1].p : a;
+        if (a.x != b.x || a.y != b.y || a.z != b.z)
+            id++;
+        canon[keys[k].v] = id;
+    }
+
+    int flip = det3(world) < 0.0;
+    uint32_t kept = 0;
+    for (uint32_t t = 0; t < nt; t++) {
+        uint32_t a = pr->indices[3 * (size_t)t], b = pr->indices[3 * (size_t)t + 1],
+                 d = pr->indices[3 * (size_t)t + 2];
+        if (flip) {
+            uint32_t x = b;
+            b = d;
+            d = x;
+        }
+        rad_vec3 lo = W[a], hi = W[a];
+        rad_vec3 corner[2] = {W[b], W[d]};
+        for (int k = 0; k < 2; k++) {
+            lo = rad_v3(fmin(lo.x, corner[k].x), fmin(lo.y, corner[k].y), fmin(lo.z, corner[k].z));
+            hi = rad_v3(fmax(hi.x, corner[k].x), fmax(hi.y, corner[k].y), fmax(hi.z, corner[k].z));
+        }
+        double size = rad_length(rad_sub(hi, lo));
+        double area = 0.5 * rad_length(rad_cross(rad_sub(W[b], W[a]), rad_sub(W[d], W[a])));
+        if (!(area >= c->min_area) || !(area >= 2e-12 * size * size) ||
+            canon[a] == canon[b] || canon[b] == canon[d] || canon[a] == canon[d]) {
+            c->triangles_dropped++;
+            continue;
+        }
+        tri[4 * (size_t)kept] = a;
+        tri[4 * (size_t)kept + 1] = b;
+        tri[4 * (size_t)kept + 2] = d;
+        tri[4 * (size_t)kept + 3] = t;
+        for (uint32_t s = 0; s < 3; s++) {
+            dir_edge *e = &edges[3 * (size_t)kept + s];
+            e->from = canon[tri[4 * (size_t)kept + s]];
+            e->to = canon[tri[4 * (size_t)kept + (s + 1) % 3]];
+            e->tri = kept;
+            e->slot = s;
+        }
+        partner[kept] = RAD_NONE;
+        kept++;
+    }
+    size_t ne = 3 * (size_t)kept;
+    qsort(edges, ne, sizeof *edges, cmp_edge);
+
+    /* Greedy pairing: triangle t, corner slot s: edge q1 -> q2 with q0
+     * opposite; a neighbour u holding q2 -> q1 with r opposite makes the
+     * quad q0 q1 r q2, counter-clockwise like t.  The first pass pairs only
+     * across an edge that is the longest of both triangles -- the diagonal
+     * an exporter cut a quad along -- so that a grid of squares is not
+     * paired into slanted parallelograms across its cells; the second pass
+     * pairs what is left across any edge, longest first. */
+    for (int pass = 0; pass < 2; pass++) {
+        for (uint32_t t = 0; t < kept; t++) {
+            if (partner[t] != RAD_NONE)
+                continue;
+            const uint32_t *T = &tri[4 * (size_t)t];
+            uint32_t order[3];
+            edge_order(W, T, order);
+            for (uint32_t o = 0; o < (pass ? 3u : 1u) && partner[t] == RAD_NONE; o++) {
+                uint32_t s = order[o];
+                uint32_t i1 = T[s], i2 = T[(s + 1) % 3], i0 = T[(s + 2) % 3];
+                size_t k = find_edge(edges, ne, canon[i2], canon[i1]);
+                for (; k < ne && edges[k].from == canon[i2] && edges[k].to == canon[i1]; k++) {
+                    uint32_t u = edges[k].tri;
+                    if (u == t || partner[u] != RAD_NONE)
+                        continue;
+                    const uint32_t *U = &tri[4 * (size_t)u];
+                    if (pass == 0) {
+                        uint32_t uo[3];
+                        edge_order(W, U, uo);
+                        if (uo[0] != edges[k].slot)
+                            continue;
+                    }
+                    uint32_t r = U[(edges[k].slot + 2) % 3];
+                    if (canon[r] == canon[i0] || !is_parallelogram(W[i0], W[i1], W[r], W[i2]))
+                        continue;
+                    partner[t] = u;
+                    partner[u] = t;
+                    pslot[t] = s;
+                    pslot[u] = edges[k].slot;
+                    break;
+                }
+            }
+        }
+    }
+
+    char where[300], pname[300];
+    snprintf(where, sizeof where, "object '%.200s'", object_name);
+    for (uint32_t t = 0; t < kept && rc == RAD_OK; t++) {
+        uint32_t u = partner[t];
+        if (u != RAD_NONE && u < t)
+            continue; /* emitted with its partner */
+        if (*object == RAD_NONE) {
+            rc = rad_scene_add_object(c->s, object_name, where, object, c->err);
+            if (rc)
+                break;
+        }
+        const uint32_t *T = &tri[4 * (size_t)t];
+        snprintf(pname, sizeof pname, "%.200s/%u/%u", mesh->name, pi, T[3]);
+        if (u != RAD_NONE) {
+            uint32_t s = pslot[t];
+            uint32_t i1 = T[s], i2 = T[(s + 1) % 3], i0 = T[(s + 2) % 3];
+            uint32_t r = tri[4 * (size_t)u + (pslot[u] + 2) % 3];
+            rad_vec3 quad[4] = {W[i0], W[i1], W[r], W[i2]};
+            /* A pair that passes the test above but not scene.c's own
+             * planarity or convexity check stays two triangles; any other
+             * failure is the caller's. */
+            rad_error scratch;
+            memset(&scratch, 0, sizeof scratch);
+            uint32_t before = c->s->polygon_count;
+            gltf_ctx probe = *c;
+            probe.err = &scratch;
+            rc = emit(&probe, pname, *object, material, double_sided, quad, 4, where);
+            if (rc == RAD_OK)
+                continue;
+            if (rc != RAD_ERR_INVALID || c->s->polygon_count != before) {
+                if (c->err)
+                    *c->err = scratch;
+                break;
+            }
+            rc = RAD_OK;
+        }
+        rad_vec3 p3[3] = {W[T[0]], W[T[1]], W[T[2]]};
+        rc = emit(c, pname, *object, material, double_sided, p3, 3, where);
+        if (rc == RAD_OK && u != RAD_NONE) {
+            const uint32_t *U = &tri[4 * (size_t)u];
+            rad_vec3 q3[3] = {W[U[0]], W[U[1]], W[U[2]]};
+            snprintf(pname, sizeof pname, "%.200s/%u/%u", mesh->name, pi, U[3]);
+            rc = emit(c, pname, *object, material, double_sided, q3, 3, where);
+        }
+    }
+
+done:
+    free(W);
+    free(canon);
+    free(keys);
+    free(tri);
+    free(edges);
+    free(partner);
+    free(pslot);
+    return rc;
+}
+
+/* -------------------------------------------------------------- materials */
+
+static int add_material(gltf_ctx *c, const rad_gltf_raw_material *m, uint32_t *index)
+{
+    double rho[3], e[3];
+    const char *band[3] = {"R", "G", "B"};
+    double st = m->emissive_strength;
+    if (!isfinite(st) || st < 0.0)
+        return rad_fail(c->err, RAD_ERR_INVALID,
+                        "%s: material '%s': emissiveStrength %g must be finite and >= 0", c->src,
+                        m->name, st);
+    for (int b = 0; b < 3; b++) {
+        double r = m->base_color[b];
+        if (!isfinite(r) || r < 0.0)
+            return rad_fail(c->err, RAD_ERR_INVALID,
+                            "%s: material '%s': baseColorFactor %g is not a reflectance "
+                            "(band %s)",
+                            c->src, m->name, r, band[b]);
+        if (r >= 1.0)
+            return rad_fail(c->err, RAD_ERR_INVALID,
+                            "%s: material '%s': baseColorFactor %g is not a reflectance "
+                            "below 1 (band %s)",
+                            c->src, m->name, r, band[b]);
+        double f = m->emissive[b];
+        if (!isfinite(f) || f < 0.0)
+            return rad_fail(c->err, RAD_ERR_INVALID,
+                            "%s: material '%s': emissiveFactor %g must be finite and >= 0 "
+                            "(band %s)",
+                            c->src, m->name, f, band[b]);
+        rho[b] = r;
+        e[b] = M_PI * f * st;
+    }
+    /* glTF names need not be unique; ours must be. */
+    char *name = unique_name(c->s, rad_scene_find_material, m->name, 1), where[340];
+    if (!name)
+        return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
+    snprintf(where, sizeof where, "material '%.200s'", name);
+    int rc = rad_scene_add_material(c->s, name, rho, e, NULL, where, index, c->err);
+    free(name);
+    return rc;
+}
+
+/* ----------------------------------------------------------------- entry */
+
+/* Directory part of a path ("." when there is none): where external
+ * buffers are looked up. */
+static char *dir_of(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    if (!slash)
+        return dup_str(".");
+    size_t n = slash == path ? 1 : (size_t)(slash - path);
+    char *d = malloc(n + 1);
+    if (d) {
+        memcpy(d, path, n);
+        d[n] = '\0';
+    }
+    return d;
+}
+
+static int convert(gltf_ctx *c, const rad_gltf_raw *raw)
+{
+    for (uint32_t k = 0; k < raw->extensions_required_count; k++)
+        if (strcmp(raw->extensions_required[k], "KHR_materials_emissive_strength") != 0)
+            return rad_fail(c->err, RAD_ERR_INVALID,
+                            "%s: extension '%s' is required but not supported", c->src,
+                            raw->extensions_required[k]);
+
+    static const char *const bands[3] = {"R", "G", "B"};
+    for (int b = 0; b < 3; b++)
+        if (!(c->s->band_names[b] = dup_str(bands[b])))
+            return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
+
+    /* Pass 1: mode and material of every primitive the scene shows, the
+     * materials they use, and the scene's extent for the sliver threshold. */
+    uint32_t *mat_index = malloc((size_t)(raw->material_count ? raw->material_count : 1) *
+                                 sizeof *mat_index);
+    name_rank *ranks = malloc((size_t)(raw->node_count ? raw->node_count : 1) * sizeof *ranks);
+    uint32_t *rank_of = malloc((size_t)(raw->node_count ? raw->node_count : 1) * sizeof *rank_of);
+    int rc = RAD_OK;
+    if (!mat_index || !ranks || !rank_of) {
+        rc = rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
+        goto done;
+    }
+    for (uint32_t m = 0; m < raw->material_count; m++)
+        mat_index[m] = RAD_NONE;
+    int have_box = 0;
+    rad_vec3 lo = rad_v3(0, 0, 0), hi = lo;
+    for (uint32_t i = 0; i < raw->node_count; i++) {
+        const rad_gltf_raw_node *nd = &raw->nodes[i];
+        if (!nd->in_scene || nd->mesh < 0)
+            continue;
+        const rad_gltf_raw_mesh *me = &raw->meshes[nd->mesh];
+        for (uint32_t p = 0; p < me->primitive_count; p++) {
+            const rad_gltf_raw_primitive *pr = &me->primitives[p];
+            if (pr->mode != RAD_GLTF_MODE_TRIANGLES) {
+                char mb[16];
+                rc = rad_fail(c->err, RAD_ERR_INVALID,
+                              "%s: mesh '%s' primitive %u: mode %s not supported (only "
+                              "TRIANGLES)",
+                              c->src, me->name, p, mode_name(pr->mode, mb, sizeof mb));
+                goto done;
+            }
+            if (pr->material < 0) {
+                rc = rad_fail(c->err, RAD_ERR_INVALID,
+                              "%s: mesh '%s' primitive %u: no material (glTF's default "
+                              "material is white 1.0, not a physical reflectance)",
+                              c->src, me->name, p);
+                goto done;
+            }
+            if (mat_index[pr->material] == RAD_NONE &&
+                (rc = add_material(c, &raw->materials[pr->material], &mat_index[pr->material])))
+                goto done;
+            for (uint32_t k = 0; k < pr->index_count; k++) {
+                rad_vec3 w = xform_point(nd->world, pr->positions + 3 * (size_t)pr->indices[k]);
+                if (!have_box) {
+                    lo = hi = w;
+                    have_box = 1;
+                }
+                lo = rad_v3(fmin(lo.x, w.x), fmin(lo.y, w.y), fmin(lo.z, w.z));
+                hi = rad_v3(fmax(hi.x, w.x), fmax(hi.y, w.y), fmax(hi.z, w.z));
+            }
+        }
+    }
+    double diag = rad_length(rad_sub(hi, lo));
+    c->min_area = 1e-14 * diag * diag;
+    if (!isfinite(c->min_area)) {
+        rc = rad_fail(c->err, RAD_ERR_INVALID, "%s: coordinates too large to compute with",
+                      c->src);
+        goto done;
+    }
+
+    /* Object names: rank equal base names in node order, so the k-th node
+     * called "floor" becomes "floor#k" without a quadratic search. */
+    uint32_t nr = 0;
+    for (uint32_t i = 0; i < raw->node_count; i++) {
+        if (raw->nodes[i].in_scene && raw->nodes[i].mesh >= 0) {
+            ranks[nr].name = raw->nodes[i].name;
+            ranks[nr].node = i;
+            nr++;
+        }
+    }
+    qsort(ranks, nr, sizeof *ranks, cmp_name_rank);
+    for (uint32_t k = 0; k < nr; k++)
+        rank_of[ranks[k].node] =
+            (k > 0 && strcmp(ranks[k].name, ranks[k - 1].name) == 0) ? rank_of[ranks[k - 1].node] + 1
+                                                                      : 1;
+
+    /* Pass 2: the polygons, node by node. */
+    for (uint32_t i = 0; i < raw->node_count && rc == RAD_OK; i++) {
+        const rad_gltf_raw_node *nd = &raw->nodes[i];
+        if (!nd->in_scene || nd->mesh < 0)
+            continue;
+        /* A literal "floor#2" elsewhere could still collide: step on. */
+        char *oname = unique_name(c->s, rad_scene_find_object, nd->name, rank_of[i]);
+        if (!oname) {
+            rc = rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
+            break;
+        }
+        uint32_t object = RAD_NONE;
+        const rad_gltf_raw_mesh *me = &raw->meshes[nd->mesh];
+        for (uint32_t p = 0; p < me->primitive_count && rc == RAD_OK; p++) {
+            const rad_gltf_raw_primitive *pr = &me->primitives[p];
+            rc = convert_primitive(c, me, p, nd->world, oname, &object,
+                                   mat_index[pr->material],
+                                   raw->materials[pr->material].double_sided);
+        }
+        free(oname);
+    }
+    if (rc)
+        goto done;
+    if (c->s->polygon_count == 0 && c->triangles_dropped > 0) {
+        rc = rad_fail(c->err, RAD_ERR_INVALID,
+                      "%s: all %llu triangles have zero area (nothing to light)", c->src,
+                      (unsigned long long)c->triangles_dropped);
+        goto done;
+    }
+
+    for (uint32_t k = 0; k < raw->camera_count && rc == RAD_OK; k++) {
+        const rad_gltf_raw_camera *cam = &raw->cameras[k];
+        if (!cam->perspective)
+            continue;
+        const double *w = cam->world;
+        rad_vec3 eye = rad_v3(w[12], w[13], w[14]);
+        rad_vec3 dir = rad_normalize(rad_v3(-w[8], -w[9], -w[10]));
+        rad_vec3 up = rad_normalize(rad_v3(w[4], w[5], w[6]));
+        char *cname = unique_name(c->s, rad_scene_find_camera, cam->name, 1), where[340];
+        if (!cname) {
+            rc = rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
+            break;
+        }
+        snprintf(where, sizeof where, "camera '%.200s'", cname);
+        rc = rad_scene_add_camera(c->s, cname, eye, rad_add(eye, dir), up,
+                                  cam->yfov * (180.0 / M_PI), cam->aspect, where, NULL, c->err);
+        free(cname);
+    }
+
+done:
+    free(mat_index);
+    free(ranks);
+    free(rank_of);
+    return rc;
+}
+
+int rad_scene_parse_gltf(const void *data, size_t size, const char *name,
+                         const rad_load_options *opt, rad_scene **out, rad_error *err)
+{
+    if (out)
+        *out = NULL;
+    const char *src = name ? name : "<memory>";
+    if (!out || (!data && size))
+        return rad_fail(err, RAD_ERR_USAGE, "%s: rad_scene_parse_gltf: no data or no output",
+                        src);
+    gltf_ctx c;
+    memset(&c, 0, sizeof c);
+    c.src = src;
+    c.err = err;
+    c.max_polygons = opt && opt->max_polygons ? opt->max_polygons : DEFAULT_MAX_POLYGONS;
+
+    char *base = NULL;
+    if (name && !(base = dir_of(name)))
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", src);
+    char msg[900];
+    rad_gltf_raw *raw = NULL;
+    int rc = rad_gltf_bridge_load(data, size, base, c.max_polygons, &raw, msg, sizeof msg);
+    free(base);
+    if (rc)
+        return rad_fail(err, rc, "%s: %s", src, msg);
+
+    c.s = rad_scene_create(3, src);
+    if (!c.s) {
+        rad_gltf_raw_free(raw);
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", src);
+    }
+    rc = convert(&c, raw);
+    rad_gltf_raw_free(raw);
+    if (rc) {
+        rad_scene_destroy(c.s);
+        return rc;
+    }
+    *out = c.s;
+    return RAD_OK;
+}

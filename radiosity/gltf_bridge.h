@@ -1,0 +1,99 @@
+/* gltf_bridge.h - private to the glTF loader: the plain-C view of a glTF
+ * document that gltf_bridge.cpp (tinygltf, C++) hands to gltf.c (C).
+ *
+ * Invariant: everything in a rad_gltf_raw has been checked against the
+ * document's own rules before gltf.c sees it -- every index is in range,
+ * every vertex and matrix is finite, triangle index lists have a multiple of
+ * 3 entries and every entry is below the primitive's vertex count.  Only the
+ * radiosity-specific rules (ρ < 1, TRIANGLES only, supported extensions) are
+ * left to gltf.c.  No C++ type or exception crosses this header.
+ */
+#ifndef RAD_GLTF_BRIDGE_H
+#define RAD_GLTF_BRIDGE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* glTF primitive modes (the numbers of the specification). */
+#define RAD_GLTF_MODE_TRIANGLES 4
+
+typedef struct rad_gltf_raw_primitive {
+    int mode;              /* glTF mode number; data below is filled only for TRIANGLES */
+    int32_t material;      /* glTF material index, -1 = none */
+    uint32_t vertex_count;
+    double *positions;     /* 3 × vertex_count, the mesh's own (model) space */
+    uint32_t index_count;  /* multiple of 3; a non-indexed primitive gets 0,1,2,... */
+    uint32_t *indices;     /* every entry < vertex_count */
+} rad_gltf_raw_primitive;
+
+typedef struct rad_gltf_raw_mesh {
+    char *name;                        /* glTF name, else "mesh<index>" */
+    int used;                          /* instanced by a node of the scene; only then is it read */
+    uint32_t primitive_count;          /* 0 when unused */
+    rad_gltf_raw_primitive *primitives;
+} rad_gltf_raw_mesh;
+
+typedef struct rad_gltf_raw_node {
+    char *name;        /* node name, else its mesh's name, else "node<index>" */
+    int32_t mesh;      /* -1 = none */
+    int in_scene;      /* reachable from the roots of the displayed scene */
+    double world[16];  /* node-to-world matrix, column-major as glTF stores it */
+} rad_gltf_raw_node;
+
+typedef struct rad_gltf_raw_material {
+    char *name;               /* glTF name, else "material<index>" */
+    double base_color[3];     /* pbrMetallicRoughness.baseColorFactor RGB (default 1) */
+    double emissive[3];       /* emissiveFactor (default 0) */
+    double emissive_strength; /* KHR_materials_emissive_strength (default 1) */
+    int double_sided;
+} rad_gltf_raw_material;
+
+/* One camera as placed by a node of the scene (a glTF camera used by two
+ * nodes gives two entries). */
+typedef struct rad_gltf_raw_camera {
+    char *name;        /* camera name, else node name, else "camera<camera index>" */
+    uint32_t node;     /* glTF node index */
+    uint32_t camera;   /* glTF camera index */
+    int perspective;   /* 0 = orthographic */
+    double yfov;       /* radians (perspective only) */
+    double aspect;     /* aspectRatio, 0 = absent */
+    double world[16];  /* of the node, column-major */
+} rad_gltf_raw_camera;
+
+typedef struct rad_gltf_raw {
+    rad_gltf_raw_node *nodes;
+    uint32_t node_count;
+    rad_gltf_raw_mesh *meshes;
+    uint32_t mesh_count;
+    rad_gltf_raw_material *materials;
+    uint32_t material_count;
+    rad_gltf_raw_camera *cameras;
+    uint32_t camera_count;
+    char **extensions_required;
+    uint32_t extensions_required_count;
+} rad_gltf_raw;
+
+/* Reads a glTF document (.gltf JSON or .glb, told apart by the "glTF" magic)
+ * from memory.  base_dir is the directory external buffers are resolved in;
+ * only relative URIs below it are opened, and with base_dir NULL no external
+ * file is.  max_triangles bounds the triangles the scene would hold (counted
+ * over node instances) before anything big is allocated.
+ *
+ * Returns RAD_OK and sets *out (caller owns it; free with rad_gltf_raw_free),
+ * or a rad_result code with *out NULL and "WHERE: WHAT" in msg (the caller
+ * puts the file name in front).  Never throws. */
+int rad_gltf_bridge_load(const void *data, size_t size, const char *base_dir,
+                         uint64_t max_triangles, rad_gltf_raw **out, char *msg,
+                         size_t msg_size);
+
+void rad_gltf_raw_free(rad_gltf_raw *raw); /* NULL does nothing */
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* RAD_GLTF_BRIDGE_H */

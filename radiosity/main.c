@@ -1,0 +1,242 @@
+/* main.c - the `radiosity` command: argument parsing, printing and exit
+ * codes around the library.  Nothing else in the project prints or exits.
+ *
+ *   radiosity solve    SCENE -o SOLUTION [options]
+ *   radiosity render   SOLUTION -o IMAGE.exr [--png FILE] [camera options]
+ *   radiosity report   SOLUTION [--json]
+ *   radiosity relight  SOLUTION -o OUT [--light N=off|on|S] [--emission N=v,..]
+ *                      [--reflectance N=v,..] [--variations FILE [--render]]
+ *   radiosity ff       SCENE_OR_SOLUTION --from A --to B [--json] [--matrix]
+ *   radiosity validate [--json] [--quick]
+ *
+ * Errors print one line "radiosity: error: FILE: WHERE: WHAT" and exit 2 for
+ * bad input or usage, 1 for failures of the machine (memory, GL).  Outputs
+ * are written through temporary files, so an error never leaves a partial
+ * file.
+ */
+#include "cli.h"
+
+#include <errno.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* ------------------------------------------------------------ small helpers */
+
+int cli_error(const rad_error *err)
+{
+    fprintf(stderr, "radiosity: error: %s\n", err->message);
+    return (err->code == RAD_ERR_NOMEM || err->code == RAD_ERR_GL) ? 1 : 2;
+}
+
+int cli_usage_error(const char *fmt, ...)
+{
+    char msg[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    fprintf(stderr, "radiosity: error: %s (see 'radiosity --help')\n", msg);
+    return 2;
+}
+
+int cli_parse_double(const char *opt, const char *s, double lo, double hi, double *out)
+{
+    char *end;
+    errno = 0;
+    double v = s ? strtod(s, &end) : 0;
+    if (!s || end == s || *end || errno || !isfinite(v) || v < lo || v > hi)
+        return cli_usage_error("%s: '%s' is not a number in [%g, %g]", opt, s ? s : "", lo, hi);
+    *out = v;
+    return 0;
+}
+
+int cli_parse_u32(const char *opt, const char *s, uint32_t lo, uint32_t hi, uint32_t *out)
+{
+    char *end;
+    errno = 0;
+    unsigned long long v = s ? strtoull(s, &end, 10) : 0;
+    if (!s || end == s || *end || errno || s[0] == '-' || v < lo || v > hi)
+        return cli_usage_error("%s: '%s' is not a whole number in [%u, %u]", opt, s ? s : "", lo, hi);
+    *out = (uint32_t)v;
+    return 0;
+}
+
+int cli_parse_bytes(const char *opt, const char *s, uint64_t *out)
+{
+    char *end;
+    errno = 0;
+    double v = s ? strtod(s, &end) : 0;
+    if (!s || end == s || errno || !(v > 0))
+        return cli_usage_error("%s: '%s' is not a size (e.g. 512M, 4G)", opt, s ? s : "");
+    double mult = 1;
+    if (*end == 'K' || *end == 'k') mult = 1024.0, end++;
+    else if (*end == 'M' || *end == 'm') mult = 1048576.0, end++;
+    else if (*end == 'G' || *end == 'g') mult = 1073741824.0, end++;
+    if (*end)
+        return cli_usage_error("%s: '%s' is not a size (e.g. 512M, 4G)", opt, s);
+    *out = (uint64_t)(v * mult);
+    return 0;
+}
+
+int cli_parse_vec3(const char *opt, const char *s, rad_vec3 *out)
+{
+    double a, b, c;
+    char tail;
+    if (!s || sscanf(s, "%lf,%lf,%lf%c", &a, &b, &c, &tail) != 3 || !isfinite(a) || !isfinite(b) ||
+        !isfinite(c))
+        return cli_usage_error("%s: '%s' is not X,Y,Z", opt, s ? s : "");
+    *out = rad_v3(a, b, c);
+    return 0;
+}
+
+/* Progress on stderr, only when stderr is a terminal. */
+static void progress_bar(void *user, uint32_t done, uint32_t total)
+{
+    (void)user;
+    static int last = -1;
+    int pct = total ? (int)(100.0 * done / total) : 100;
+    if (pct == last && done != total)
+        return;
+    last = pct;
+    int filled = pct * 30 / 100;
+    fprintf(stderr, "\rform factors [%.*s%*s] %3d%% %u/%u rows", filled,
+            "##############################", 30 - filled, "", pct, done, total);
+    if (done == total) {
+        fputc('\n', stderr);
+        last = -1;
+    }
+    fflush(stderr);
+}
+
+void cli_enable_progress(rad_solve_options *opt)
+{
+    if (isatty(STDERR_FILENO)) {
+        opt->hemicube.progress = progress_bar;
+        opt->hemicube.progress_user = NULL;
+    }
+}
+
+/* Shared by solve, relight and ff: meshing, hemi-cube and solver options.
+ * Returns 1 if argv[*i] was one of them (consuming its value), 0 if not, -1
+ * on a bad value (message printed). */
+int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt)
+{
+    const char *a = argv[*i];
+    const char *v = *i + 1 < argc ? argv[*i + 1] : NULL;
+    int rc;
+#define TAKE(expr) do { if ((rc = (expr)) != 0) return -1; (*i)++; return 1; } while (0)
+    if (!strcmp(a, "--patch-size"))
+        TAKE(cli_parse_double(a, v, 1e-9, 1e12, &opt->mesh.patch_size));
+    if (!strcmp(a, "--max-patches"))
+        TAKE(cli_parse_u32(a, v, 1, 100000000, &opt->mesh.max_patches));
+    if (!strcmp(a, "--resolution"))
+        TAKE(cli_parse_u32(a, v, 8, 4096, &opt->hemicube.resolution));
+    if (!strcmp(a, "--processes"))
+        TAKE(cli_parse_u32(a, v, 1, 256, &opt->hemicube.processes));
+    if (!strcmp(a, "--tolerance"))
+        TAKE(cli_parse_double(a, v, 1e-15, 0.5, &opt->solver.tolerance));
+    if (!strcmp(a, "--max-iterations"))
+        TAKE(cli_parse_u32(a, v, 1, 100000000, &opt->solver.max_iterations));
+    if (!strcmp(a, "--max-memory"))
+        TAKE(cli_parse_bytes(a, v, &opt->max_memory));
+    if (!strcmp(a, "--pixel-emitters")) {
+        opt->pixel_emitters = 1;
+        return 1;
+    }
+    if (!strcmp(a, "--solver")) {
+        if (!v || sv_method_parse(v, &opt->solver.method)) {
+            cli_usage_error("--solver: '%s' is not gauss-seidel, jacobi or progressive", v ? v : "");
+            return -1;
+        }
+        (*i)++;
+        return 1;
+    }
+#undef TAKE
+    return 0;
+}
+
+/* Checks that an output's directory exists, so the error names it plainly
+ * instead of surfacing as a failed temporary file. */
+int cli_check_output_dir(const char *path)
+{
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%s", path);
+    char *slash = strrchr(dir, '/');
+    if (!slash)
+        return 0;
+    if (slash == dir)
+        return 0;
+    *slash = '\0';
+    struct stat st;
+    if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode))
+        return cli_usage_error("%s: directory '%s' does not exist", path, dir);
+    return 0;
+}
+
+/* ------------------------------------------------------------------- help */
+
+static const char usage[] =
+    "usage: radiosity COMMAND [options]\n"
+    "\n"
+    "commands:\n"
+    "  solve SCENE -o SOLUTION      load, mesh, form factors, solve, store\n"
+    "      --patch-size S           target patch edge length (scene units)\n"
+    "      --resolution R           hemi-cube resolution (default 128)\n"
+    "      --processes P            form-factor worker processes (default: CPUs)\n"
+    "      --solver NAME            gauss-seidel (default), jacobi, progressive\n"
+    "      --tolerance T            solver tolerance (default 1e-4)\n"
+    "      --max-iterations N       solver iteration limit\n"
+    "      --max-memory SIZE        limit for the form-factor matrix (e.g. 4G)\n"
+    "      --pixel-emitters         form factors to emitters by pixel counts, not exactly\n"
+    "      --preview-every K        progressive: write a preview image every K shots\n"
+    "      --preview-dir DIR        where previews go (default: the solution's directory)\n"
+    "  render SOLUTION -o IMAGE.exr draw a view (radiance, linear OpenEXR)\n"
+    "      --png FILE               also write an sRGB PNG preview\n"
+    "      --exposure EV            PNG exposure in stops (default 0)\n"
+    "      --camera NAME            a camera of the scene (default: the first)\n"
+    "      --eye X,Y,Z --target X,Y,Z --up X,Y,Z --fov DEG   an explicit camera\n"
+    "      --size WxH               image size (default 512x512)\n"
+    "  report SOLUTION [--json]     per-object power balance, solver and stage times\n"
+    "  relight SOLUTION -o OUT      re-solve with changed lights or colours, no new hemi-cubes\n"
+    "      --light NAME=off|on|S    switch or scale an emitting object or material\n"
+    "      --emission NAME=V[,V..]  set emission (one value per band, or one for all)\n"
+    "      --reflectance NAME=V[,V..] set reflectance\n"
+    "      --variations FILE        run each variant of FILE; OUT is a directory\n"
+    "      --render                 with --variations: write NAME.exr/.png, not NAME.sol\n"
+    "  ff SCENE_OR_SOLUTION --from A --to B [--json] | --matrix\n"
+    "                               object-to-object form factors\n"
+    "  validate [--json] [--quick]  form factors against analytic catalog values\n"
+    "\n"
+    "  --help, --version\n";
+
+int main(int argc, char **argv)
+{
+    if (argc < 2)
+        return cli_usage_error("no command given");
+    const char *cmd = argv[1];
+    if (!strcmp(cmd, "--help") || !strcmp(cmd, "-h") || !strcmp(cmd, "help")) {
+        fputs(usage, stdout);
+        return 0;
+    }
+    if (!strcmp(cmd, "--version")) {
+        printf("radiosity %s\n", RAD_VERSION_STRING);
+        return 0;
+    }
+    if (!strcmp(cmd, "solve"))
+        return cli_solve(argc - 2, argv + 2);
+    if (!strcmp(cmd, "render"))
+        return cli_render(argc - 2, argv + 2);
+    if (!strcmp(cmd, "report"))
+        return cli_report(argc - 2, argv + 2);
+    if (!strcmp(cmd, "relight"))
+        return cli_relight(argc - 2, argv + 2);
+    if (!strcmp(cmd, "ff"))
+        return cli_ff(argc - 2, argv + 2);
+    if (!strcmp(cmd, "validate"))
+        return cli_validate(argc - 2, argv + 2);
+    return cli_usage_error("unknown command '%s'", cmd);
+}

@@ -1,0 +1,505 @@
+/* mesh.c - scene polygons -> the conforming patch mesh (mesh.h).
+ *
+ * Quads become an n×m grid of bilinear cells, triangles a regular k² split,
+ * larger convex polygons a fan of triangles about their area centroid, each
+ * split with one k so that neighbouring fan triangles share the vertices of
+ * their common spoke.  Invariant of the output: every patch is planar and
+ * convex with positive area A_i, corners counter-clockwise about the polygon
+ * normal, centre = area centroid; vertices are shared within a polygon and
+ * never across polygons (the paper averages vertex radiosities per polygon).
+ * The patch count is computed and checked against the limit before anything
+ * is allocated.
+ */
+#include "mesh.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ----------------------------------------------------------- mesh storage */
+
+rad_mesh *rad_mesh_alloc(uint32_t vertex_count, uint32_t patch_count)
+{
+    rad_mesh *m = calloc(1, sizeof *m);
+    if (!m)
+        return NULL;
+    /* Allocate at least one element so that an empty mesh still has arrays. */
+    size_t nv = vertex_count ? vertex_count : 1, np = patch_count ? patch_count : 1;
+    m->vertices = calloc(nv, sizeof *m->vertices);
+    m->vertex_boundary = calloc(nv, sizeof *m->vertex_boundary);
+    m->patches = calloc(np, sizeof *m->patches);
+    if (!m->vertices || !m->vertex_boundary || !m->patches) {
+        rad_mesh_destroy(m);
+        return NULL;
+    }
+    m->vertex_count = vertex_count;
+    m->patch_count = patch_count;
+    return m;
+}
+
+void rad_mesh_destroy(rad_mesh *m)
+{
+    if (!m)
+        return;
+    free(m->vertices);
+    free(m->vertex_boundary);
+    free(m->patches);
+    free(m);
+}
+
+int rad_mesh_check(const rad_mesh *m, uint32_t polygon_count, uint32_t object_count,
+                   uint32_t material_count, rad_error *err)
+{
+    if (!m)
+        return rad_fail(err, RAD_ERR_USAGE, "mesh: no mesh");
+    if ((m->vertex_count && (!m->vertices || !m->vertex_boundary)) ||
+        (m->patch_count && !m->patches))
+        return rad_fail(err, RAD_ERR_CORRUPT, "mesh: missing arrays");
+    for (uint32_t k = 0; k < m->vertex_count; k++) {
+        if (!rad_finite3(m->vertices[k]))
+            return rad_fail(err, RAD_ERR_CORRUPT, "mesh: vertex %u is not finite", k);
+        if (m->vertex_boundary[k] > 1)
+            return rad_fail(err, RAD_ERR_CORRUPT, "mesh: vertex %u: boundary flag %u not 0 or 1",
+                            k, m->vertex_boundary[k]);
+    }
+    for (uint32_t i = 0; i < m->patch_count; i++) {
+        const rad_patch *p = &m->patches[i];
+        int corners = rad_patch_corners(p);
+        for (int c = 0; c < corners; c++) {
+            if (p->v[c] >= m->vertex_count)
+                return rad_fail(err, RAD_ERR_CORRUPT,
+                                "mesh: patch %u: vertex index %u out of range (%u vertices)", i,
+                                p->v[c], m->vertex_count);
+            for (int d = 0; d < c; d++)
+                if (p->v[d] == p->v[c])
+                    return rad_fail(err, RAD_ERR_CORRUPT,
+                                    "mesh: patch %u: vertex %u used twice", i, p->v[c]);
+        }
+        if (p->polygon >= polygon_count)
+            return rad_fail(err, RAD_ERR_CORRUPT,
+                            "mesh: patch %u: polygon %u out of range (%u polygons)", i,
+                            p->polygon, polygon_count);
+        if (p->object >= object_count)
+            return rad_fail(err, RAD_ERR_CORRUPT,
+                            "mesh: patch %u: object %u out of range (%u objects)", i, p->object,
+                            object_count);
+        if (p->material >= material_count)
+            return rad_fail(err, RAD_ERR_CORRUPT,
+                            "mesh: patch %u: material %u out of range (%u materials)", i,
+                            p->material, material_count);
+        if (!isfinite(p->area) || !(p->area > 0.0))
+            return rad_fail(err, RAD_ERR_CORRUPT, "mesh: patch %u: area %g is not positive", i,
+                            p->area);
+        if (!rad_finite3(p->center))
+            return rad_fail(err, RAD_ERR_CORRUPT, "mesh: patch %u: centre is not finite", i);
+        double nl = rad_length(p->normal);
+        /* 1e-6: a unit vector stored in doubles is off by ~1e-16; anything
+         * more than rounding means the normal was not normalised. */
+        if (!rad_finite3(p->normal) || !(fabs(nl - 1.0) <= 1e-6))
+            return rad_fail(err, RAD_ERR_CORRUPT, "mesh: patch %u: normal length %g is not 1", i,
+                            nl);
+    }
+    return RAD_OK;
+}
+
+/* ---------------------------------------------------------------- density */
+
+static uint64_t mul_sat(uint64_t a, uint64_t b)
+{
+    if (a && b > UINT64_MAX / a)
+        return UINT64_MAX;
+    return a * b;
+}
+
+static uint64_t add_sat(uint64_t a, uint64_t b)
+{
+    return a > UINT64_MAX - b ? UINT64_MAX : a + b;
+}
+
+/* Cells along an edge of length len for a target patch edge `size`.  The
+ * 1e-9 keeps an edge of exactly k·size from becoming k+1 cells through
+ * rounding.  UINT64_MAX when the count would not fit a uint32. */
+static uint64_t divisions(double len, double size)
+{
+    if (!(size > 0.0) || !isfinite(size))
+        return 1;
+    double q = len / size;
+    if (!(q <= 4294967295.0))
+        return UINT64_MAX;
+    double c = ceil(q - 1e-9);
+    return c < 1.0 ? 1 : (uint64_t)c;
+}
+
+double rad_mesh_default_patch_size(const rad_scene *scene)
+{
+    rad_vec3 lo, hi;
+    if (!rad_scene_bounds(scene, &lo, &hi))
+        return 0.0;
+    double d = rad_length(rad_sub(hi, lo)) / 24.0;
+    return isfinite(d) ? d : 0.0;
+}
+
+static int polygon_ok(const rad_scene *s, const rad_polygon *pg)
+{
+    return pg->point_count >= 3 && s->points &&
+           (uint64_t)pg->first_point + pg->point_count <= s->point_count;
+}
+
+/* Area centroid of a convex polygon (fan from the first point). */
+static rad_vec3 area_centroid(const rad_vec3 *p, uint32_t n, rad_vec3 normal)
+{
+    rad_vec3 c = rad_v3(0, 0, 0);
+    double total = 0.0;
+    for (uint32_t k = 1; k + 1 < n; k++) {
+        double a = rad_dot(rad_cross(rad_sub(p[k], p[0]), rad_sub(p[k + 1], p[0])), normal);
+        c = rad_add(c, rad_scale(rad_add(rad_add(p[0], p[k]), p[k + 1]), a / 3.0));
+        total += a;
+    }
+    if (!(total > 0.0)) { /* cannot happen for a validated polygon; fall back to the mean */
+        c = rad_v3(0, 0, 0);
+        for (uint32_t k = 0; k < n; k++)
+            c = rad_add(c, p[k]);
+        return rad_scale(c, 1.0 / n);
+    }
+    return rad_scale(c, 1.0 / total);
+}
+
+/* How one polygon is split: a quad into nu×nv cells, anything else into
+ * triangles each split k = nu ways (a fan for more than 3 points). */
+typedef struct split {
+    uint64_t nu, nv;
+    uint64_t patches, vertices; /* UINT64_MAX when they overflow */
+} split;
+
+static split polygon_split(const rad_scene *s, const rad_polygon *pg, double opt_size,
+                           double def_size)
+{
+    split r = {1, 1, 0, 0};
+    const rad_vec3 *p = s->points + pg->first_point;
+    uint32_t n = pg->point_count;
+    int use_param = !(opt_size > 0.0) && pg->subdiv_u > 0;
+    double size = opt_size > 0.0 ? opt_size : def_size;
+    if (n == 4) {
+        if (use_param) {
+            r.nu = pg->subdiv_u;
+            r.nv = pg->subdiv_v ? pg->subdiv_v : pg->subdiv_u;
+        } else {
+            double lu = fmax(rad_length(rad_sub(p[1], p[0])), rad_length(rad_sub(p[2], p[3])));
+            double lv = fmax(rad_length(rad_sub(p[2], p[1])), rad_length(rad_sub(p[3], p[0])));
+            r.nu = divisions(lu, size);
+            r.nv = divisions(lv, size);
+        }
+        if (r.nu == UINT64_MAX || r.nv == UINT64_MAX) {
+            r.patches = r.vertices = UINT64_MAX;
+            return r;
+        }
+        r.patches = mul_sat(r.nu, r.nv);
+        r.vertices = mul_sat(r.nu + 1, r.nv + 1);
+        return r;
+    }
+    uint64_t k;
+    if (use_param) {
+        k = pg->subdiv_u;
+    } else {
+        double longest = 0.0;
+        for (uint32_t i = 0; i < n; i++)
+            longest = fmax(longest, rad_length(rad_sub(p[(i + 1) % n], p[i])));
+        if (n > 4) { /* the fan's spokes are edges of its triangles too */
+            rad_vec3 c = area_centroid(p, n, pg->normal);
+            for (uint32_t i = 0; i < n; i++)
+                longest = fmax(longest, rad_length(rad_sub(p[i], c)));
+        }
+        k = divisions(longest, size);
+    }
+    r.nu = r.nv = k;
+    if (k == UINT64_MAX) {
+        r.patches = r.vertices = UINT64_MAX;
+        return r;
+    }
+    uint64_t k2 = mul_sat(k, k);
+    if (n == 3) {
+        r.patches = k2;
+        r.vertices = mul_sat(k + 1, k + 2) / 2; /* (k+1)(k+2) is even */
+    } else {
+        r.patches = mul_sat(n, k2);
+        /* centre + n spokes of k points + n triangles' k(k-1)/2 own points */
+        r.vertices = add_sat(add_sat(1, mul_sat(n, k)), mul_sat(n, mul_sat(k, k - 1) / 2));
+    }
+    return r;
+}
+
+static double effective_default(const rad_scene *scene, const rad_mesh_options *opt)
+{
+    double opt_size = opt ? opt->patch_size : 0.0;
+    return opt_size > 0.0 ? opt_size : rad_mesh_default_patch_size(scene);
+}
+
+static void mesh_totals(const rad_scene *scene, const rad_mesh_options *opt, uint64_t *patches,
+                        uint64_t *vertices)
+{
+    double opt_size = opt && opt->patch_size > 0.0 ? opt->patch_size : 0.0;
+    double def_size = rad_mesh_default_patch_size(scene);
+    uint64_t tp = 0, tv = 0;
+    for (uint32_t i = 0; i < scene->polygon_count; i++) {
+        const rad_polygon *pg = &scene->polygons[i];
+        if (!polygon_ok(scene, pg))
+            continue;
+        split sp = polygon_split(scene, pg, opt_size, def_size);
+        tp = add_sat(tp, sp.patches);
+        tv = add_sat(tv, sp.vertices);
+    }
+    *patches = tp;
+    *vertices = tv;
+}
+
+uint64_t rad_mesh_count(const rad_scene *scene, const rad_mesh_options *opt)
+{
+    if (!scene)
+        return 0;
+    uint64_t p, v;
+    mesh_totals(scene, opt, &p, &v);
+    return p;
+}
+
+/* ---------------------------------------------------------------- building */
+
+typedef struct builder {
+    rad_mesh *m;
+    uint32_t nv, np; /* filled so far */
+    const rad_scene *s;
+    uint32_t polygon;
+} builder;
+
+static uint32_t add_vertex(builder *b, rad_vec3 p, int boundary)
+{
+    uint32_t k = b->nv++;
+    b->m->vertices[k] = p;
+    b->m->vertex_boundary[k] = (uint8_t)(boundary != 0);
+    return k;
+}
+
+/* Appends a patch; area and centre from its corners projected on the
+ * polygon normal (so a polygon within the planarity tolerance still tiles
+ * exactly its Newell area). */
+static int add_patch(builder *b, uint32_t v0, uint32_t v1, uint32_t v2, uint32_t v3)
+{
+    const rad_polygon *pg = &b->s->polygons[b->polygon];
+    const rad_vec3 *V = b->m->vertices;
+    rad_vec3 n = pg->normal;
+    rad_patch *p = &b->m->patches[b->np];
+    p->v[0] = v0;
+    p->v[1] = v1;
+    p->v[2] = v2;
+    p->v[3] = v3;
+    p->polygon = b->polygon;
+    p->object = pg->object;
+    p->material = pg->material;
+    p->normal = n;
+    double a1 = 0.5 * rad_dot(rad_cross(rad_sub(V[v1], V[v0]), rad_sub(V[v2], V[v0])), n);
+    rad_vec3 c = rad_scale(rad_add(rad_add(V[v0], V[v1]), V[v2]), a1 / 3.0);
+    double area = a1;
+    if (v3 != RAD_NONE) {
+        double a2 = 0.5 * rad_dot(rad_cross(rad_sub(V[v2], V[v0]), rad_sub(V[v3], V[v0])), n);
+        c = rad_add(c, rad_scale(rad_add(rad_add(V[v0], V[v2]), V[v3]), a2 / 3.0));
+        area += a2;
+    }
+    if (!(area > 0.0) || !isfinite(area))
+        return -1;
+    p->area = area;
+    p->center = rad_scale(c, 1.0 / area);
+    b->np++;
+    return 0;
+}
+
+static void build_quad(builder *b, const rad_vec3 *q, uint32_t nu, uint32_t nv, int *bad)
+{
+    uint32_t base = b->nv;
+    for (uint32_t j = 0; j <= nv; j++) {
+        double t = (double)j / nv;
+        for (uint32_t i = 0; i <= nu; i++) {
+            double u = (double)i / nu;
+            /* P(u,t): bilinear blend of the corners; u along p0->p1, t along p1->p2 */
+            rad_vec3 p = rad_add(
+                rad_add(rad_scale(q[0], (1 - u) * (1 - t)), rad_scale(q[1], u * (1 - t))),
+                rad_add(rad_scale(q[2], u * t), rad_scale(q[3], (1 - u) * t)));
+            add_vertex(b, p, i == 0 || i == nu || j == 0 || j == nv);
+        }
+    }
+    uint32_t row = nu + 1;
+    for (uint32_t j = 0; j < nv; j++)
+        for (uint32_t i = 0; i < nu; i++) {
+            uint32_t a = base + j * row + i;
+            if (add_patch(b, a, a + 1, a + 1 + row, a + row) != 0)
+                *bad = 1;
+        }
+}
+
+/* Position of grid point (a, b), a + b <= k, in a triangle's list of its
+ * (k+1)(k+2)/2 points, stored row by row in b. */
+static size_t tri_index(uint32_t k, uint32_t a, uint32_t b)
+{
+    return (size_t)b * (k + 1) - (size_t)b * (b - (b > 0)) / 2 + a;
+}
+
+/* Emits the k² cells of a triangle whose grid points have the global
+ * indices g[tri_index(k, a, b)]: "upward" cells keep the corner order of
+ * (p0, p1, p2) and so does every "downward" one. */
+static void tri_cells(builder *b, const uint32_t *g, uint32_t k, int *bad)
+{
+    for (uint32_t y = 0; y < k; y++)
+        for (uint32_t x = 0; x + y < k; x++) {
+            uint32_t p00 = g[tri_index(k, x, y)], p10 = g[tri_index(k, x + 1, y)],
+                     p01 = g[tri_index(k, x, y + 1)];
+            if (add_patch(b, p00, p10, p01, RAD_NONE) != 0)
+                *bad = 1;
+            if (x + y + 2 <= k) {
+                uint32_t p11 = g[tri_index(k, x + 1, y + 1)];
+                if (add_patch(b, p10, p11, p01, RAD_NONE) != 0)
+                    *bad = 1;
+            }
+        }
+}
+
+/* Grid point p0 + a/k (p1 - p0) + b/k (p2 - p0). */
+static rad_vec3 tri_point(rad_vec3 p0, rad_vec3 p1, rad_vec3 p2, uint32_t k, uint32_t a,
+                          uint32_t b)
+{
+    return rad_add(p0, rad_add(rad_scale(rad_sub(p1, p0), (double)a / k),
+                               rad_scale(rad_sub(p2, p0), (double)b / k)));
+}
+
+static void build_triangle(builder *b, const rad_vec3 *p, uint32_t k, uint32_t *g, int *bad)
+{
+    for (uint32_t y = 0; y <= k; y++)
+        for (uint32_t x = 0; x + y <= k; x++) {
+            rad_vec3 q = (x == k) ? p[1] : (y == k) ? p[2] : tri_point(p[0], p[1], p[2], k, x, y);
+            g[tri_index(k, x, y)] = add_vertex(b, q, x == 0 || y == 0 || x + y == k);
+        }
+    tri_cells(b, g, k, bad);
+}
+
+/* Fan about the area centroid C: triangle j is (C, P_j, P_j+1).  The points
+ * of spoke C->P_j are made once and used by triangles j-1 and j, so the fan
+ * is conforming and their coordinates are identical by construction. */
+static void build_fan(builder *b, const rad_vec3 *p, uint32_t n, uint32_t k, uint32_t *g,
+                      rad_vec3 normal, int *bad)
+{
+    rad_vec3 C = area_centroid(p, n, normal);
+    uint32_t centre = add_vertex(b, C, 0);
+    uint32_t spokes = b->nv; /* spoke j point t (1..k) is spokes + j*k + t-1 */
+    for (uint32_t j = 0; j < n; j++)
+        for (uint32_t t = 1; t <= k; t++)
+            add_vertex(b, t == k ? p[j] : rad_lerp(C, p[j], (double)t / k), t == k);
+    for (uint32_t j = 0; j < n; j++) {
+        uint32_t j1 = (j + 1) % n;
+        for (uint32_t y = 0; y <= k; y++)
+            for (uint32_t x = 0; x + y <= k; x++) {
+                uint32_t idx;
+                if (x == 0 && y == 0)
+                    idx = centre;
+                else if (y == 0)
+                    idx = spokes + j * k + (x - 1);
+                else if (x == 0)
+                    idx = spokes + j1 * k + (y - 1);
+                else
+                    idx = add_vertex(b, tri_point(C, p[j], p[j1], k, x, y), x + y == k);
+                g[tri_index(k, x, y)] = idx;
+            }
+        tri_cells(b, g, k, bad);
+    }
+}
+
+int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh **out,
+                   rad_error *err)
+{
+    if (out)
+        *out = NULL;
+    if (!scene || !out)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_mesh_build: no scene or no output");
+    const char *src = scene->source ? scene->source : "<memory>";
+    for (uint32_t i = 0; i < scene->polygon_count; i++) {
+        const rad_polygon *pg = &scene->polygons[i];
+        if (!polygon_ok(scene, pg) || pg->object >= scene->object_count ||
+            pg->material >= scene->material_count)
+            return rad_fail(err, RAD_ERR_INVALID,
+                            "%s: polygon '%s': points, object or material out of range", src,
+                            pg->name ? pg->name : "");
+    }
+    uint32_t limit = opt && opt->max_patches ? opt->max_patches : 2000000u;
+    uint64_t np, nv;
+    mesh_totals(scene, opt, &np, &nv);
+    double size = effective_default(scene, opt);
+    if (np > limit) {
+        uint64_t bytes = rad_matrix_estimate_bytes(np > UINT32_MAX ? UINT32_MAX : (uint32_t)np,
+                                                   0.5);
+        char count[32];
+        if (np == UINT64_MAX)
+            snprintf(count, sizeof count, "more than 2^64");
+        else
+            snprintf(count, sizeof count, "%llu", (unsigned long long)np);
+        return rad_fail(err, RAD_ERR_LIMIT,
+                        "%s: mesh: %s patches exceed the limit of %u (the form-factor matrix "
+                        "would need %s%.3g GB); use a larger --patch-size (now %g)",
+                        src, count, limit, np > UINT32_MAX ? "more than " : "about ",
+                        (double)bytes / 1e9, size);
+    }
+    if (nv >= UINT32_MAX)
+        return rad_fail(err, RAD_ERR_LIMIT,
+                        "%s: mesh: %llu vertices exceed %u; use a larger --patch-size (now %g)",
+                        src, (unsigned long long)nv, UINT32_MAX - 1, size);
+    if (np == 0)
+        return rad_fail(err, RAD_ERR_INVALID, "%s: mesh: the scene has no polygons", src);
+
+    /* Scratch for one triangle's grid-point indices, sized for the largest k. */
+    double opt_size = opt && opt->patch_size > 0.0 ? opt->patch_size : 0.0;
+    double def_size = rad_mesh_default_patch_size(scene);
+    uint64_t kmax = 0;
+    for (uint32_t i = 0; i < scene->polygon_count; i++) {
+        const rad_polygon *pg = &scene->polygons[i];
+        if (pg->point_count != 4) {
+            split sp = polygon_split(scene, pg, opt_size, def_size);
+            if (sp.nu > kmax)
+                kmax = sp.nu;
+        }
+    }
+    uint32_t *g = NULL;
+    if (kmax > 0) {
+        uint64_t gl = (kmax + 1) * (kmax + 2) / 2; /* kmax² <= np: no overflow */
+        g = malloc((size_t)gl * sizeof *g);
+        if (!g)
+            return rad_fail(err, RAD_ERR_NOMEM, "%s: mesh: out of memory", src);
+    }
+    rad_mesh *m = rad_mesh_alloc((uint32_t)nv, (uint32_t)np);
+    if (!m) {
+        free(g);
+        return rad_fail(err, RAD_ERR_NOMEM,
+                        "%s: mesh: out of memory for %llu patches and %llu vertices", src,
+                        (unsigned long long)np, (unsigned long long)nv);
+    }
+    builder b = {m, 0, 0, scene, 0};
+    int bad = 0;
+    for (uint32_t i = 0; i < scene->polygon_count && !bad; i++) {
+        const rad_polygon *pg = &scene->polygons[i];
+        const rad_vec3 *p = scene->points + pg->first_point;
+        split sp = polygon_split(scene, pg, opt_size, def_size);
+        b.polygon = i;
+        if (pg->point_count == 4)
+            build_quad(&b, p, (uint32_t)sp.nu, (uint32_t)sp.nv, &bad);
+        else if (pg->point_count == 3)
+            build_triangle(&b, p, (uint32_t)sp.nu, g, &bad);
+        else
+            build_fan(&b, p, pg->point_count, (uint32_t)sp.nu, g, pg->normal, &bad);
+        if (bad) {
+            free(g);
+            rad_mesh_destroy(m);
+            return rad_fail(err, RAD_ERR_INVALID,
+                            "%s: polygon '%s': a patch has no area at this subdivision "
+                            "(the polygon is too thin); use a larger patch size",
+                            src, pg->name ? pg->name : "");
+        }
+    }
+    free(g);
+    RAD_ASSERT(b.nv == nv && b.np == np);
+    *out = m;
+    return RAD_OK;
+}

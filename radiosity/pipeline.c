@@ -1,0 +1,323 @@
+/* pipeline.c - the stages in order, each one call and one comment:
+ *
+ *   load -> mesh -> form factors (hemi-cube rows) -> solve -> (store, render)
+ *
+ * rad_resolve is the qrad3-style heart: it decides which rows the solve
+ * needs, computes only those that are missing, and solves.  A relight calls
+ * it again on the same solution and computes no row that is already there.
+ *
+ * Which rows are needed: gathering solvers (Gauss-Seidel, Jacobi) need row i
+ * for every patch that reflects (ρ_i > 0 in some band): a patch with ρ = 0
+ * has B = E whatever it sees, so its row would be wasted work.  The
+ * progressive solver asks for the rows of the patches it shoots from.
+ */
+#include "pipeline.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* What the progressive solver's row callback needs. */
+typedef struct resolve_ctx {
+    rad_solution *s;
+    const rad_solve_options *opt;
+    hc_engine *hc;        /* created on first need */
+    uint8_t *exact;       /* patches with exact incoming factors (emitters), or NULL */
+    uint64_t rows_computed;
+    uint64_t max_memory;
+    double ff_seconds;    /* time inside the hemi-cube, counted apart from the solve */
+} resolve_ctx;
+
+static int start_hemicube(resolve_ctx *c, rad_error *err)
+{
+    if (c->hc)
+        return RAD_OK;
+    hc_options ho = c->opt->hemicube;
+    uint32_t n = c->s->mesh->patch_count, nb = c->s->band_count;
+    uint8_t *exact = NULL;
+    if (!c->opt->pixel_emitters && !ho.exact) {
+        /* Emitters get exact factors: their few pixels are where aliasing hurts. */
+        exact = calloc((size_t)n + 1, 1);
+        if (!exact)
+            return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", c->s->scene->source);
+        for (uint32_t i = 0; i < n; i++)
+            for (uint32_t b = 0; b < nb; b++)
+                exact[i] |= c->s->emission[(size_t)i * nb + b] > 0.0;
+        ho.exact = exact;
+    }
+    c->exact = exact; /* lives as long as the engine: freed in rad_resolve */
+    return hc_create(c->s->mesh, &ho, &c->hc, err);
+}
+
+static int compute_rows(resolve_ctx *c, const uint32_t *rows, uint32_t count, rad_error *err)
+{
+    if (count == 0)
+        return RAD_OK;
+    double t0 = rad_seconds();
+    int rc = start_hemicube(c, err);
+    if (!rc)
+        rc = hc_compute_rows(c->hc, rows, count, c->s->F, err);
+    if (!rc)
+        c->rows_computed += count;
+    c->ff_seconds += rad_seconds() - t0;
+    return rc;
+}
+
+static int need_row(void *user, uint32_t i, rad_error *err)
+{
+    resolve_ctx *c = user;
+    uint64_t used = c->s->F->capacity * (sizeof(uint32_t) + sizeof(float));
+    if (used > c->max_memory)
+        return rad_fail(err, RAD_ERR_LIMIT,
+                        "form factors: the matrix has grown to %.1f MiB, over the limit of %.1f MiB; "
+                        "use a larger --patch-size or raise --max-memory",
+                        used / 1048576.0, c->max_memory / 1048576.0);
+    return compute_rows(c, &i, 1, err);
+}
+
+static int on_preview(void *user, uint32_t shots, const double *B_display)
+{
+    resolve_ctx *c = user;
+    return c->opt->on_preview(c->opt->preview_user, c->s, shots, B_display);
+}
+
+static int reflects(const rad_solution *s, uint32_t i)
+{
+    for (uint32_t b = 0; b < s->band_count; b++)
+        if (s->rho[(size_t)i * s->band_count + b] > 0.0)
+            return 1;
+    return 0;
+}
+
+/* Refuses, before allocating, a matrix that would not fit: the estimate
+ * assumes every entry of the needed rows is non-zero (a closed room comes
+ * close), so it is an upper bound. */
+static int check_memory(const rad_solution *s, uint32_t rows, uint64_t limit, rad_error *err)
+{
+    uint32_t n = s->mesh->patch_count;
+    double bytes = (double)rows * (double)n * (sizeof(uint32_t) + sizeof(float));
+    if (bytes <= (double)limit)
+        return RAD_OK;
+    return rad_fail(err, RAD_ERR_LIMIT,
+                    "%s: form factors for %u patches need up to %.1f GiB, more than the %.1f GiB "
+                    "available; use --solver progressive (rows on demand), a larger --patch-size, "
+                    "or --max-memory",
+                    s->scene->source, n, bytes / 1073741824.0, (double)limit / 1073741824.0);
+}
+
+int rad_solution_is_grey(const rad_solution *s)
+{
+    uint32_t nb = s->band_count;
+    for (size_t i = 0; nb > 1 && i < s->mesh->patch_count; i++) {
+        const double *rho = s->rho + i * nb, *e = s->emission + i * nb;
+        for (uint32_t b = 1; b < nb; b++)
+            if (rho[b] != rho[0] || e[b] != e[0])
+                return 0;
+    }
+    return nb > 1;
+}
+
+int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err)
+{
+    static const rad_solve_options defaults;
+    if (!opt)
+        opt = &defaults;
+    uint32_t n = s->mesh->patch_count;
+    uint64_t limit = opt->max_memory;
+    if (!limit)
+        limit = (uint64_t)(0.8 * (double)rad_available_memory());
+    resolve_ctx c = {.s = s, .opt = opt, .max_memory = limit};
+    int rc = RAD_OK;
+
+    /* Form factors: the rows the gathering solvers need and do not have. */
+    if (opt->solver.method != SV_PROGRESSIVE || opt->all_rows) {
+        uint32_t *missing = malloc(((size_t)n + 1) * sizeof *missing);
+        if (!missing)
+            return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
+        uint32_t count = 0;
+        for (uint32_t i = 0; i < n; i++)
+            if (!s->F->row_done[i] && (opt->all_rows || reflects(s, i)))
+                missing[count++] = i;
+        rc = check_memory(s, s->F->rows_done + count, limit, err);
+        if (!rc)
+            rc = compute_rows(&c, missing, count, err);
+        free(missing);
+    }
+
+    /* Solve: B for every band (one band when the scene is grey); the
+     * progressive solver pulls rows as it shoots. */
+    if (!rc) {
+        uint32_t nb = rad_solution_is_grey(s) ? 1 : s->band_count;
+        sv_system sys = {.n = n, .bands = nb, .F = s->F, .rho = s->rho, .emission = s->emission};
+        double *area = malloc(((size_t)n + 1) * sizeof *area);
+        double *grey = nb < s->band_count ? malloc(((size_t)n * 3 + 1) * sizeof *grey) : NULL;
+        if (grey) { /* band 0 of each patch, packed: ρ, E, then room for B */
+            for (uint32_t i = 0; i < n; i++) {
+                grey[i] = s->rho[(size_t)i * s->band_count];
+                grey[n + i] = s->emission[(size_t)i * s->band_count];
+            }
+            sys.rho = grey;
+            sys.emission = grey + n;
+        }
+        if (!area || (nb < s->band_count && !grey)) {
+            rc = rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
+        } else {
+            for (uint32_t i = 0; i < n; i++)
+                area[i] = s->mesh->patches[i].area;
+            sys.area = area;
+            sv_options so = opt->solver;
+            so.need_row = need_row;
+            so.on_preview = opt->on_preview ? on_preview : NULL;
+            so.user = &c;
+            sv_stats st = {0};
+            double t0 = rad_seconds();
+            double *B = grey ? grey + 2 * (size_t)n : s->B;
+            rc = sv_solve(&sys, &so, B, &st, err);
+            for (uint32_t i = 0; grey && !rc && i < n; i++)
+                for (uint32_t b = 0; b < s->band_count; b++)
+                    s->B[(size_t)i * s->band_count + b] = B[i];
+            double solve_seconds = rad_seconds() - t0 - (so.method == SV_PROGRESSIVE ? c.ff_seconds : 0);
+            free(area);
+            free(grey);
+            if (!rc) {
+                snprintf(s->solver, sizeof s->solver, "%s", sv_method_name(so.method));
+                s->tolerance = so.tolerance > 0 ? so.tolerance : 1e-4;
+                s->iterations = st.iterations;
+                s->residual = st.residual;
+                s->stages[RAD_STAGE_SOLVE].seconds = solve_seconds;
+                s->stages[RAD_STAGE_SOLVE].reused = 0;
+            }
+        }
+    }
+
+    s->rows_computed = c.rows_computed;
+    s->stages[RAD_STAGE_FORM_FACTORS].seconds = c.ff_seconds;
+    s->stages[RAD_STAGE_FORM_FACTORS].reused = (c.rows_computed == 0);
+    if (c.hc)
+        s->resolution = opt->hemicube.resolution ? opt->hemicube.resolution : 128;
+    hc_destroy(c.hc);
+    free(c.exact);
+#if RAD_DEBUG
+    if (!rc) {
+        RAD_ASSERT(rad_matrix_check(s->F, NULL) == RAD_OK);
+        for (size_t k = 0; k < (size_t)n * s->band_count; k++)
+            RAD_ASSERT(isfinite(s->B[k]) && s->B[k] >= 0.0);
+    }
+#endif
+    return rc;
+}
+
+int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution **out,
+                    rad_error *err)
+{
+    static const rad_solve_options defaults;
+    if (!opt)
+        opt = &defaults;
+    *out = NULL;
+
+    /* Mesh: polygons -> conforming patches. */
+    double t0 = rad_seconds();
+    rad_mesh *mesh = NULL;
+    int rc = rad_mesh_build(scene, &opt->mesh, &mesh, err);
+    if (rc) {
+        rad_scene_destroy(scene);
+        return rc;
+    }
+    double mesh_seconds = rad_seconds() - t0;
+
+    /* Solution: ρ and E per patch from the materials, an empty matrix. */
+    rad_solution *s = NULL;
+    rc = rad_solution_create(scene, mesh, &s, err);
+    if (rc)
+        return rc;
+    s->patch_size = opt->mesh.patch_size;
+    s->stages[RAD_STAGE_MESH].seconds = mesh_seconds;
+
+    /* Form factors and solve. */
+    rc = rad_resolve(s, opt, err);
+    if (rc) {
+        rad_solution_destroy(s);
+        return rc;
+    }
+    *out = s;
+    return RAD_OK;
+}
+
+int rad_solve_scene_file(const char *path, const rad_solve_options *opt, rad_solution **out,
+                         rad_error *err)
+{
+    static const rad_solve_options defaults;
+    if (!opt)
+        opt = &defaults;
+    *out = NULL;
+
+    /* Load: glTF or polygon file -> validated scene. */
+    double t0 = rad_seconds();
+    rad_scene *scene = NULL;
+    int rc = rad_scene_load(path, &opt->load, &scene, err);
+    if (rc)
+        return rc;
+    double load_seconds = rad_seconds() - t0;
+
+    /* Mesh, form factors, solve. */
+    rc = rad_solve_scene(scene, opt, out, err);
+    if (!rc)
+        (*out)->stages[RAD_STAGE_LOAD].seconds = load_seconds;
+    return rc;
+}
+
+int rad_render_solution(const rad_solution *s, const rn_camera *cam, rn_image **out,
+                        rad_error *err)
+{
+    *out = NULL;
+    size_t count = (size_t)s->mesh->vertex_count * s->band_count;
+    double *vertex_B = malloc((count ? count : 1) * sizeof *vertex_B);
+    if (!vertex_B)
+        return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory");
+    /* Patch radiosities to vertices, then the view. */
+    rn_vertex_radiosity(s->mesh, s->band_count, s->B, vertex_B);
+    int rc = rn_render(s->mesh, s->band_count, vertex_B, cam, out, err);
+    free(vertex_B);
+    return rc;
+}
+
+int rad_camera_from_scene(const rad_scene *scene, const char *name, uint32_t width,
+                          uint32_t height, rn_camera *cam, rad_error *err)
+{
+    memset(cam, 0, sizeof *cam);
+    cam->width = width;
+    cam->height = height;
+    if (name && *name) {
+        uint32_t k = rad_scene_find_camera(scene, name);
+        if (k == RAD_NONE) {
+            char list[512] = "";
+            for (uint32_t c = 0; c < scene->camera_count; c++) {
+                size_t used = strlen(list);
+                snprintf(list + used, sizeof list - used, "%s'%s'", c ? ", " : "",
+                         scene->cameras[c].name);
+            }
+            return rad_fail(err, RAD_ERR_NOTFOUND, "%s: camera '%s' not found (cameras: %s)",
+                            scene->source, name, scene->camera_count ? list : "none");
+        }
+        const rad_camera *c = &scene->cameras[k];
+        cam->eye = c->eye, cam->target = c->target, cam->up = c->up, cam->yfov_deg = c->yfov_deg;
+        return RAD_OK;
+    }
+    if (scene->camera_count) {
+        const rad_camera *c = &scene->cameras[0];
+        cam->eye = c->eye, cam->target = c->target, cam->up = c->up, cam->yfov_deg = c->yfov_deg;
+        return RAD_OK;
+    }
+    /* No camera: look at the bounds' centre from -z, far enough to see it all. */
+    rad_vec3 lo, hi;
+    if (!rad_scene_bounds(scene, &lo, &hi))
+        return rad_fail(err, RAD_ERR_INVALID, "%s: empty scene", scene->source);
+    rad_vec3 centre = rad_scale(rad_add(lo, hi), 0.5);
+    double radius = 0.5 * rad_length(rad_sub(hi, lo));
+    cam->yfov_deg = 45.0;
+    cam->target = centre;
+    cam->eye = rad_add(centre, rad_v3(0, 0, -radius / tan(22.5 * M_PI / 180.0) - radius));
+    cam->up = rad_v3(0, 1, 0);
+    return RAD_OK;
+}

@@ -1,0 +1,388 @@
+/* relight.c - changing lights and colours of a stored solution without
+ * touching its geometry: the hemi-cube paper's "lights can be turned on/off
+ * and object colors can be changed simply by resolving the matrices".
+ *
+ * An edit changes the per-patch ρ and E a solution is solved with; the
+ * scene's materials stay the nominal values ("on" and scale factors refer to
+ * them).  Every edit of a batch is checked before any is applied, so a bad
+ * argument leaves the solution as it was.
+ *
+ * Names: an exact object name wins, then an exact material name; failing
+ * both, a unique case-insensitive prefix of either is accepted, several
+ * prefix matches are "ambiguous", none is "unknown"; both errors list the
+ * candidates.
+ */
+#include "solution.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+static const char *edit_flag(rad_edit_kind k)
+{
+    return k == RAD_EDIT_LIGHT ? "--light" : k == RAD_EDIT_EMISSION ? "--emission" : "--reflectance";
+}
+
+/* Parses "v[,v...]" into values; returns the count or -1. */
+static int parse_values(const char *text, double *values)
+{
+    int count = 0;
+    const char *p = text;
+    for (;;) {
+        if (count == RAD_MAX_BANDS)
+            return -1;
+        char *end;
+        errno = 0;
+        double v = strtod(p, &end);
+        if (end == p || errno || !isfinite(v))
+            return -1;
+        values[count++] = v;
+        if (*end == '\0')
+            return count;
+        if (*end != ',')
+            return -1;
+        p = end + 1;
+    }
+}
+
+int rad_edit_parse(rad_edit_kind kind, const char *arg, rad_edit *out, rad_error *err)
+{
+    memset(out, 0, sizeof *out);
+    out->kind = kind;
+    const char *eq = arg ? strrchr(arg, '=') : NULL;
+    if (!eq || eq == arg)
+        return rad_fail(err, RAD_ERR_USAGE, "%s '%s': expected NAME=%s", edit_flag(kind),
+                        arg ? arg : "", kind == RAD_EDIT_LIGHT ? "off|on|SCALE" : "VALUE[,VALUE...]");
+    size_t len = (size_t)(eq - arg);
+    if (len >= sizeof out->name)
+        return rad_fail(err, RAD_ERR_USAGE, "%s: name too long", edit_flag(kind));
+    memcpy(out->name, arg, len);
+    const char *v = eq + 1;
+    if (kind == RAD_EDIT_LIGHT) {
+        if (strcmp(v, "off") == 0)
+            out->scale = 0.0;
+        else if (strcmp(v, "on") == 0)
+            out->scale = 1.0;
+        else {
+            char *end;
+            errno = 0;
+            out->scale = strtod(v, &end);
+            if (end == v || *end || errno || !isfinite(out->scale) || out->scale < 0)
+                return rad_fail(err, RAD_ERR_USAGE,
+                                "--light '%s': '%s' is not off, on or a non-negative scale", arg, v);
+        }
+        return RAD_OK;
+    }
+    int count = parse_values(v, out->values);
+    if (count < 1)
+        return rad_fail(err, RAD_ERR_USAGE, "%s '%s': '%s' is not a comma-separated list of numbers",
+                        edit_flag(kind), arg, v);
+    out->value_count = (uint32_t)count;
+    for (int b = 0; b < count; b++) {
+        if (kind == RAD_EDIT_EMISSION && out->values[b] < 0)
+            return rad_fail(err, RAD_ERR_USAGE, "--emission '%s': emission %g is negative", arg,
+                            out->values[b]);
+        if (kind == RAD_EDIT_REFLECTANCE && !(out->values[b] >= 0 && out->values[b] < 1))
+            return rad_fail(err, RAD_ERR_USAGE, "--reflectance '%s': reflectance %g outside [0, 1)",
+                            arg, out->values[b]);
+    }
+    return RAD_OK;
+}
+
+/* A resolved name: an object or a material. */
+typedef struct target {
+    int is_object;
+    uint32_t index;
+} target;
+
+static int prefix_match(const char *name, const char *prefix)
+{
+    return strncasecmp(name, prefix, strlen(prefix)) == 0;
+}
+
+static void append_name(char *list, size_t size, const char *kind, const char *name)
+{
+    size_t used = strlen(list);
+    if (used + 8 >= size)
+        return;
+    snprintf(list + used, size - used, "%s%s '%s'", used ? ", " : "", kind, name);
+}
+
+static int resolve(const rad_solution *s, const rad_edit *e, target *t, rad_error *err)
+{
+    const rad_scene *sc = s->scene;
+    uint32_t k = rad_scene_find_object(sc, e->name);
+    if (k != RAD_NONE) {
+        *t = (target){1, k};
+        return RAD_OK;
+    }
+    k = rad_scene_find_material(sc, e->name);
+    if (k != RAD_NONE) {
+        *t = (target){0, k};
+        return RAD_OK;
+    }
+    char list[768] = "";
+    uint32_t matches = 0;
+    for (uint32_t o = 0; o < sc->object_count; o++)
+        if (prefix_match(sc->objects[o].name, e->name)) {
+            *t = (target){1, o};
+            matches++;
+            append_name(list, sizeof list, "object", sc->objects[o].name);
+        }
+    for (uint32_t m = 0; m < sc->material_count; m++)
+        if (prefix_match(sc->materials[m].name, e->name)) {
+            *t = (target){0, m};
+            matches++;
+            append_name(list, sizeof list, "material", sc->materials[m].name);
+        }
+    if (matches == 1)
+        return RAD_OK;
+    if (matches > 1)
+        return rad_fail(err, RAD_ERR_NOTFOUND, "%s: %s '%s': ambiguous name; candidates: %s",
+                        sc->source, edit_flag(e->kind), e->name, list);
+    for (uint32_t o = 0; o < sc->object_count; o++)
+        append_name(list, sizeof list, "object", sc->objects[o].name);
+    for (uint32_t m = 0; m < sc->material_count; m++)
+        append_name(list, sizeof list, "material", sc->materials[m].name);
+    return rad_fail(err, RAD_ERR_NOTFOUND, "%s: %s '%s': no object or material of that name; candidates: %s",
+                    sc->source, edit_flag(e->kind), e->name, list);
+}
+
+static int targets_patch(const target *t, const rad_patch *p)
+{
+    return t->is_object ? p->object == t->index : p->material == t->index;
+}
+
+static int check_edit(const rad_solution *s, const rad_edit *e, target *t, rad_error *err)
+{
+    int rc = resolve(s, e, t, err);
+    if (rc)
+        return rc;
+    const rad_scene *sc = s->scene;
+    const char *what = t->is_object ? sc->objects[t->index].name : sc->materials[t->index].name;
+    uint32_t nb = s->band_count;
+    if (e->kind != RAD_EDIT_LIGHT && e->value_count != 1 && e->value_count != nb)
+        return rad_fail(err, RAD_ERR_USAGE, "%s: %s '%s': %u values given, the scene has %u bands",
+                        sc->source, edit_flag(e->kind), e->name, e->value_count, nb);
+    int emits = 0, any = 0;
+    for (uint32_t i = 0; i < s->mesh->patch_count; i++) {
+        const rad_patch *p = &s->mesh->patches[i];
+        if (!targets_patch(t, p))
+            continue;
+        any = 1;
+        const rad_material *m = &sc->materials[p->material];
+        for (uint32_t b = 0; b < nb; b++) {
+            emits |= m->emission[b] > 0;
+            if (e->kind == RAD_EDIT_REFLECTANCE) {
+                double rho = e->values[e->value_count == 1 ? 0 : b];
+                if (rho + m->transmit[b] >= 1.0)
+                    return rad_fail(err, RAD_ERR_USAGE,
+                                    "%s: --reflectance '%s': reflectance %g plus transmittance %g "
+                                    "is not below 1",
+                                    sc->source, e->name, rho, m->transmit[b]);
+            }
+        }
+    }
+    if (!any)
+        return rad_fail(err, RAD_ERR_USAGE, "%s: %s '%s': '%s' has no patches", sc->source,
+                        edit_flag(e->kind), e->name, what);
+    if (e->kind == RAD_EDIT_LIGHT && !emits)
+        return rad_fail(err, RAD_ERR_USAGE,
+                        "%s: --light '%s': '%s' emits nothing; use --emission to make it a light",
+                        sc->source, e->name, what);
+    return RAD_OK;
+}
+
+int rad_solution_apply_edits(rad_solution *s, const rad_edit *edits, uint32_t count,
+                             rad_error *err)
+{
+    target *t = malloc((count ? count : 1) * sizeof *t);
+    if (!t)
+        return rad_fail(err, RAD_ERR_NOMEM, "out of memory");
+    for (uint32_t e = 0; e < count; e++) {
+        int rc = check_edit(s, &edits[e], &t[e], err);
+        if (rc) {
+            free(t);
+            return rc;
+        }
+    }
+    uint32_t nb = s->band_count;
+    for (uint32_t e = 0; e < count; e++) {
+        const rad_edit *ed = &edits[e];
+        for (uint32_t i = 0; i < s->mesh->patch_count; i++) {
+            const rad_patch *p = &s->mesh->patches[i];
+            if (!targets_patch(&t[e], p))
+                continue;
+            const rad_material *m = &s->scene->materials[p->material];
+            for (uint32_t b = 0; b < nb; b++) {
+                size_t k = (size_t)i * nb + b;
+                double v = ed->values[ed->value_count == 1 ? 0 : b];
+                if (ed->kind == RAD_EDIT_LIGHT)
+                    s->emission[k] = m->emission[b] * ed->scale;
+                else if (ed->kind == RAD_EDIT_EMISSION)
+                    s->emission[k] = v;
+                else
+                    s->rho[k] = v;
+            }
+        }
+    }
+    free(t);
+    return RAD_OK;
+}
+
+/* ------------------------------------------------------- variations file */
+
+void rad_variants_free(rad_variant *v, uint32_t count)
+{
+    if (!v)
+        return;
+    for (uint32_t i = 0; i < count; i++)
+        free(v[i].edits);
+    free(v);
+}
+
+/* Next line of text[0..size) into buf (comments stripped, trimmed); returns
+ * 0 at the end. */
+static int next_line(const char *text, size_t size, size_t *pos, char *buf, size_t bufsize,
+                     int *too_long)
+{
+    if (*pos >= size)
+        return 0;
+    size_t start = *pos, end = start;
+    while (end < size && text[end] != '\n')
+        end++;
+    *pos = end + 1;
+    size_t len = end - start;
+    const char *hash = memchr(text + start, '#', len);
+    if (hash)
+        len = (size_t)(hash - (text + start));
+    *too_long = len >= bufsize;
+    if (*too_long)
+        len = bufsize - 1;
+    memcpy(buf, text + start, len);
+    buf[len] = '\0';
+    while (len && isspace((unsigned char)buf[len - 1]))
+        buf[--len] = '\0';
+    size_t lead = 0;
+    while (buf[lead] && isspace((unsigned char)buf[lead]))
+        lead++;
+    memmove(buf, buf + lead, len - lead + 1);
+    return 1;
+}
+
+int rad_variants_parse(const char *text, size_t size, const char *name, rad_variant **out,
+                       uint32_t *count, rad_error *err)
+{
+    *out = NULL;
+    *count = 0;
+    rad_variant *v = NULL;
+    uint32_t nv = 0, cap = 0;
+    int open = 0, rc = RAD_OK;
+    size_t pos = 0;
+    unsigned line = 0;
+    char buf[1024];
+    int too_long;
+    while (!rc && next_line(text, size, &pos, buf, sizeof buf, &too_long)) {
+        line++;
+        if (too_long) {
+            rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: line too long", name, line);
+            break;
+        }
+        if (!buf[0])
+            continue;
+        char word[32], arg[1024];
+        int fields = sscanf(buf, "%31s %1023s", word, arg);
+        char rest[8];
+        if (fields == 2 && sscanf(buf, "%*s %*s %7s", rest) == 1) {
+            rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: unexpected '%s'", name, line, rest);
+            break;
+        }
+        if (strcmp(word, "variant") == 0) {
+            if (open) {
+                rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: 'variant' inside variant '%s' (missing 'end')",
+                              name, line, v[nv - 1].name);
+                break;
+            }
+            if (fields != 2 || strlen(arg) >= sizeof v->name) {
+                rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: expected 'variant NAME'", name, line);
+                break;
+            }
+            for (uint32_t k = 0; k < nv; k++)
+                if (strcmp(v[k].name, arg) == 0)
+                    rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: variant '%s' defined twice", name,
+                                  line, arg);
+            for (const char *c = arg; *c && !rc; c++)
+                if (!isalnum((unsigned char)*c) && *c != '_' && *c != '-' && *c != '.')
+                    rc = rad_fail(err, RAD_ERR_PARSE,
+                                  "%s: line %u: variant name '%s' may hold only letters, digits, '_', '-', '.'",
+                                  name, line, arg);
+            if (rc)
+                break;
+            if (nv == cap) {
+                uint32_t nc = cap ? cap * 2 : 8;
+                rad_variant *nvp = nc > 100000 ? NULL : realloc(v, nc * sizeof *v);
+                if (!nvp) {
+                    rc = rad_fail(err, RAD_ERR_LIMIT, "%s: line %u: too many variants", name, line);
+                    break;
+                }
+                v = nvp;
+                cap = nc;
+            }
+            memset(&v[nv], 0, sizeof v[nv]);
+            memcpy(v[nv].name, arg, strlen(arg) + 1); /* length checked above */
+            nv++;
+            open = 1;
+        } else if (strcmp(word, "end") == 0 && fields == 1) {
+            if (!open) {
+                rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: 'end' without 'variant'", name, line);
+                break;
+            }
+            open = 0;
+        } else if (strcmp(word, "light") == 0 || strcmp(word, "emission") == 0 ||
+                   strcmp(word, "reflectance") == 0) {
+            if (!open || fields != 2) {
+                rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: '%s' must stand inside a variant as '%s NAME=VALUE'",
+                              name, line, word, word);
+                break;
+            }
+            rad_variant *cur = &v[nv - 1];
+            if (cur->edit_count >= 4096) {
+                rc = rad_fail(err, RAD_ERR_LIMIT, "%s: line %u: too many edits", name, line);
+                break;
+            }
+            rad_edit *ne = realloc(cur->edits, (cur->edit_count + 1) * sizeof *ne);
+            if (!ne) {
+                rc = rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", name);
+                break;
+            }
+            cur->edits = ne;
+            rad_edit_kind kind = word[0] == 'l' ? RAD_EDIT_LIGHT
+                                 : word[0] == 'e' ? RAD_EDIT_EMISSION : RAD_EDIT_REFLECTANCE;
+            rad_error e2;
+            if (rad_edit_parse(kind, arg, &cur->edits[cur->edit_count], &e2)) {
+                rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: %s", name, line, e2.message);
+                break;
+            }
+            cur->edit_count++;
+        } else {
+            rc = rad_fail(err, RAD_ERR_PARSE,
+                          "%s: line %u: unknown statement '%s' (expected variant, light, emission, "
+                          "reflectance or end)",
+                          name, line, word);
+        }
+    }
+    if (!rc && open)
+        rc = rad_fail(err, RAD_ERR_PARSE, "%s: variant '%s' has no 'end'", name, v[nv - 1].name);
+    if (!rc && nv == 0)
+        rc = rad_fail(err, RAD_ERR_PARSE, "%s: no variants", name);
+    if (rc) {
+        rad_variants_free(v, nv);
+        return rc;
+    }
+    *out = v;
+    *count = nv;
+    return RAD_OK;
+}

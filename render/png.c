@@ -1,0 +1,122 @@
+/* png.c - 8-bit sRGB PNG previews of rendered images.
+ *
+ * The only file that uses libpng.  A pixel's byte is the sRGB transfer curve
+ * of L·2^exposure clamped to [0, 1]; one band (or two: the first) is grey,
+ * three or more bands are RGB from the first three.  Invariant: a write
+ * either renames a complete "<path>.tmp.<pid>" onto path or leaves path as it
+ * was and no temporary file behind.  libpng's errors come back through
+ * longjmp into a rad_error; nothing is printed.
+ */
+#include "rn_internal.h"
+
+#include <png.h>
+
+#include <errno.h>
+#include <setjmp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+typedef struct png_failure {
+    jmp_buf jump;
+    char message[256];
+} png_failure;
+
+static void png_quiet_error(png_structp png, png_const_charp msg)
+{
+    png_failure *f = png_get_error_ptr(png);
+    snprintf(f->message, sizeof f->message, "%s", msg ? msg : "libpng error");
+    longjmp(f->jump, 1);
+}
+
+static void png_quiet_warning(png_structp png, png_const_charp msg)
+{
+    (void)png;
+    (void)msg;
+}
+
+/* IEC 61966-2-1 sRGB encoding of a linear value, as an 8-bit code. */
+static png_byte srgb_byte(double x)
+{
+    if (!(x > 0.0))
+        return 0; /* negative and NaN */
+    if (x >= 1.0)
+        return 255;
+    double s = x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1.0 / 2.4) - 0.055;
+    return (png_byte)(s * 255.0 + 0.5);
+}
+
+/* Encodes img into the open file f; RAD_OK or RAD_ERR_IO/NOMEM. */
+static int encode(FILE *f, const rn_image *img, double scale, const char *path, rad_error *err)
+{
+    int grey = img->channels < 3;
+    size_t row_bytes = (size_t)img->width * (grey ? 1 : 3);
+    png_byte *volatile row = malloc(row_bytes);
+    if (!row)
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory for a PNG row", path);
+    png_failure fail;
+    fail.message[0] = '\0';
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &fail, png_quiet_error,
+                                              png_quiet_warning);
+    png_infop info = png ? png_create_info_struct(png) : NULL;
+    if (!png || !info) {
+        png_destroy_write_struct(&png, &info);
+        free(row);
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: libpng could not start", path);
+    }
+    if (setjmp(fail.jump)) {
+        png_destroy_write_struct(&png, &info);
+        free(row);
+        return rad_fail(err, RAD_ERR_IO, "%s: libpng: %s", path, fail.message);
+    }
+    png_init_io(png, f);
+    png_set_IHDR(png, info, img->width, img->height, 8, grey ? PNG_COLOR_TYPE_GRAY : PNG_COLOR_TYPE_RGB,
+                 PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+    png_write_info(png, info);
+    uint32_t used = grey ? 1 : 3;
+    for (uint32_t y = 0; y < img->height; y++) {
+        const float *src = img->pixels + (size_t)y * img->width * img->channels;
+        for (uint32_t x = 0; x < img->width; x++)
+            for (uint32_t c = 0; c < used; c++)
+                row[(size_t)x * used + c] = srgb_byte((double)src[(size_t)x * img->channels + c] * scale);
+        png_write_row(png, row);
+    }
+    png_write_end(png, info);
+    png_destroy_write_struct(&png, &info);
+    free(row);
+    return RAD_OK;
+}
+
+int rn_write_png(const rn_image *img, const char *path, double exposure, rad_error *err)
+{
+    int rc = rn_image_check(img, path, err);
+    if (rc)
+        return rc;
+    double scale = exp2(exposure);
+    if (!isfinite(scale))
+        return rad_fail(err, RAD_ERR_USAGE, "%s: exposure %g unusable", path, exposure);
+    char *tmp = NULL;
+    rc = rn_temp_name(path, &tmp, err);
+    if (rc)
+        return rc;
+    FILE *f = fopen(tmp, "wb");
+    if (!f) {
+        rc = rad_fail(err, RAD_ERR_IO, "%s: cannot create '%s': %s", path, tmp, strerror(errno));
+        free(tmp);
+        return rc;
+    }
+    rc = encode(f, img, scale, path, err);
+    if (!rc && (fflush(f) != 0 || fsync(fileno(f)) != 0))
+        rc = rad_fail(err, RAD_ERR_IO, "%s: cannot write '%s': %s", path, tmp, strerror(errno));
+    if (fclose(f) != 0 && !rc)
+        rc = rad_fail(err, RAD_ERR_IO, "%s: cannot close '%s': %s", path, tmp, strerror(errno));
+    if (!rc && rename(tmp, path) != 0)
+        rc = rad_fail(err, RAD_ERR_IO, "%s: cannot rename '%s' into place: %s", path, tmp,
+                      strerror(errno));
+    if (rc)
+        unlink(tmp);
+    free(tmp);
+    return rc;
+}

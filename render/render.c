@@ -1,0 +1,831 @@
+/* render.c - vertex radiosities, the item buffer and the interpolated image.
+ *
+ * Owns rn_vertex_radiosity, rn_render and rn_image_destroy, plus the small
+ * helpers the two writers share (rn_internal.h).  Invariant of an image made
+ * here: each pixel is either background (patch RAD_NONE, every band 0) or the
+ * radiance L = B/π of the one front-facing patch nearest along the pixel's
+ * eye ray, B interpolated from the vertex radiosities at the point X where
+ * that ray meets the patch's plane (Cohen & Greenberg 1985, "Rendering").
+ *
+ * The item buffer is a CPU z-buffer: patches are clipped in camera space
+ * (near plane and a guard band around the screen), projected, snapped to a
+ * fixed-point grid and filled with exact integer edge functions under a
+ * top-left rule, so a shared edge is owned by exactly one of its two patches.
+ */
+#include "rn_internal.h"
+
+#include <float.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* Sub-pixel precision of the snapped screen coordinates: 1/4096 pixel.
+ * Snapped coordinates stay below 2^16 pixels (guard band), so below 2^28
+ * sub-pixels: an edge function (two products of differences < 2^29) fits
+ * int64 exactly. */
+#define SUBPIX_BITS 12
+#define SUBPIX ((int64_t)1 << SUBPIX_BITS)
+
+/* The near plane sits this fraction of the scene's extent (seen from the eye)
+ * in front of the eye.  Depth is 1/z in double, so a tiny near plane costs no
+ * depth precision; it only has to keep 1/z finite. */
+#define NEAR_FRACTION 1e-10
+
+/* A polygon clipped by five planes; convex patches never need more than 9
+ * corners, the rest is slack for bad input. */
+#define CLIP_MAX 64
+
+/* ------------------------------------------------------------- helpers */
+
+int rn_image_check(const rn_image *img, const char *path, rad_error *err)
+{
+    const char *p = path ? path : "(no path)";
+    if (!img)
+        return rad_fail(err, RAD_ERR_USAGE, "%s: no image", p);
+    if (img->width == 0 || img->height == 0 || img->width > RN_MAX_SIDE ||
+        img->height > RN_MAX_SIDE)
+        return rad_fail(err, RAD_ERR_USAGE, "%s: image size %ux%u outside 1..%u", p, img->width,
+                        img->height, RN_MAX_SIDE);
+    if (img->channels == 0 || img->channels > RAD_MAX_BANDS)
+        return rad_fail(err, RAD_ERR_USAGE, "%s: image has %u channels, not 1..%d", p,
+                        img->channels, RAD_MAX_BANDS);
+    if (!img->pixels)
+        return rad_fail(err, RAD_ERR_USAGE, "%s: image has no pixels", p);
+    return RAD_OK;
+}
+
+int rn_temp_name(const char *path, char **tmp, rad_error *err)
+{
+    *tmp = NULL;
+    if (!path || !path[0])
+        return rad_fail(err, RAD_ERR_USAGE, "(no path): empty output path");
+    size_t n = strlen(path) + 32;
+    char *s = malloc(n);
+    if (!s)
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory for the temporary name", path);
+    snprintf(s, n, "%s.tmp.%ld", path, (long)getpid());
+    *tmp = s;
+    return RAD_OK;
+}
+
+rn_image *rn_image_alloc(uint32_t width, uint32_t height, uint32_t channels)
+{
+    rn_image *img = calloc(1, sizeof *img);
+    if (!img)
+        return NULL;
+    size_t n = (size_t)width * height;
+    img->width = width;
+    img->height = height;
+    img->channels = channels;
+    img->pixels = calloc(n * channels, sizeof *img->pixels);
+    img->patch = malloc(n * sizeof *img->patch);
+    if (!img->pixels || !img->patch) {
+        rn_image_destroy(img);
+        return NULL;
+    }
+    for (size_t k = 0; k < n; k++)
+        img->patch[k] = RAD_NONE;
+    return img;
+}
+
+void rn_image_destroy(rn_image *img)
+{
+    if (!img)
+        return;
+    free(img->pixels);
+    free(img->patch);
+    free(img);
+}
+
+/* Indices in range for this mesh (a triangle's v[3] is RAD_NONE). */
+static int patch_valid(const rad_mesh *m, const rad_patch *p)
+{
+    int n = rad_patch_corners(p);
+    for (int k = 0; k < n; k++)
+        if (p->v[k] >= m->vertex_count)
+            return 0;
+    return 1;
+}
+
+/* Two unit vectors spanning the plane with normal n (any n != 0). */
+static void plane_basis(rad_vec3 n, rad_vec3 *e1, rad_vec3 *e2)
+{
+    rad_vec3 a = fabs(n.x) <= fabs(n.y) && fabs(n.x) <= fabs(n.z) ? rad_v3(1, 0, 0)
+                 : fabs(n.y) <= fabs(n.z)                          ? rad_v3(0, 1, 0)
+                                                                   : rad_v3(0, 0, 1);
+    *e1 = rad_normalize(rad_cross(n, a));
+    *e2 = rad_normalize(rad_cross(n, *e1));
+}
+
+/* -------------------------------------------------- vertex radiosities */
+
+/* Outline vertex v: the paper extrapolates "from the adjacent interior vertex
+ * radiosities through an average of the adjacent patch radiosities".  We fit
+ * an affine B(x) in the polygon's plane, by least squares, to the samples
+ * around v - the centres of the patches using v (value B_patch) and the
+ * interior vertices sharing a patch with v (value B_w) - and evaluate it at v.
+ * On a regular grid this is exactly the paper's rule: a corner gives
+ * 2·B_patch − B_(1,1) and an edge vertex with three interior neighbours
+ * 2·P(v) − their mean.  Unlike a plain "2·P − mean" it stays exact for a
+ * linear field next to a corner, where the interior neighbours are lopsided.
+ * When the samples are collinear (a corner) the fit is along their line only
+ * (pseudo-inverse), which still contains v on a regular grid.  When no
+ * interior vertex shares a patch with v, the samples come from one ring
+ * further; when there is none there either, B_v = P(v). */
+typedef struct vr_sample {
+    double x, y;   /* plane coordinates relative to v */
+    uint32_t id;   /* patch index or vertex index */
+    int is_vertex;
+} vr_sample;
+
+static void outline_fit(uint32_t bands, const double *B, double *vertex_B, uint32_t v,
+                        const vr_sample *s, size_t ns)
+{
+    double mx = 0, my = 0;
+    for (size_t k = 0; k < ns; k++) {
+        mx += s[k].x;
+        my += s[k].y;
+    }
+    mx /= ns;
+    my /= ns;
+    double sxx = 0, sxy = 0, syy = 0;
+    for (size_t k = 0; k < ns; k++) {
+        double dx = s[k].x - mx, dy = s[k].y - my;
+        sxx += dx * dx;
+        sxy += dx * dy;
+        syy += dy * dy;
+    }
+    /* Pseudo-inverse of the 2×2 scatter matrix S: full inverse when both
+     * eigenvalues are significant, else the projector on the dominant one. */
+    double tr = sxx + syy, det = sxx * syy - sxy * sxy;
+    double disc = sqrt(fmax(0.0, 0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy));
+    double l1 = 0.5 * tr + disc, l2 = 0.5 * tr - disc;
+    double ixx = 0, ixy = 0, iyy = 0;
+    if (l1 > 0 && l2 > 1e-9 * l1) {
+        ixx = syy / det;
+        iyy = sxx / det;
+        ixy = -sxy / det;
+    } else if (l1 > 0) {
+        /* Rank one: S ≈ λ1 e eᵀ, and its larger column is parallel to e. */
+        double cx = sxx, cy = sxy;
+        if (sxy * sxy + syy * syy > cx * cx + cy * cy) {
+            cx = sxy;
+            cy = syy;
+        }
+        double l = sqrt(cx * cx + cy * cy);
+        cx /= l;
+        cy /= l;
+        ixx = cx * cx / l1;
+        ixy = cx * cy / l1;
+        iyy = cy * cy / l1;
+    }
+    for (uint32_t c = 0; c < bands; c++) {
+        double mb = 0;
+        for (size_t k = 0; k < ns; k++)
+            mb += s[k].is_vertex ? vertex_B[(size_t)s[k].id * bands + c]
+                                 : B[(size_t)s[k].id * bands + c];
+        mb /= ns;
+        double gx = 0, gy = 0;
+        for (size_t k = 0; k < ns; k++) {
+            double b = s[k].is_vertex ? vertex_B[(size_t)s[k].id * bands + c]
+                                      : B[(size_t)s[k].id * bands + c];
+            gx += (s[k].x - mx) * (b - mb);
+            gy += (s[k].y - my) * (b - mb);
+        }
+        double ax = ixx * gx + ixy * gy, ay = ixy * gx + iyy * gy;
+        /* v is the origin of the plane coordinates. */
+        double bv = mb - (ax * mx + ay * my);
+        vertex_B[(size_t)v * bands + c] = bv > 0.0 ? bv : 0.0; /* NaN -> 0 too */
+    }
+}
+
+/* The samples of one outline vertex v, each patch and interior vertex once
+ * (stamps hold v + 1 once taken). */
+typedef struct gather {
+    vr_sample *s;
+    size_t n, cap;
+    uint32_t *vstamp, *pstamp;
+    int failed; /* out of memory: v keeps P(v) */
+} gather;
+
+static void gather_push(gather *g, double x, double y, uint32_t id, int is_vertex)
+{
+    if (g->n == g->cap) {
+        size_t cap = g->cap ? 2 * g->cap : 64;
+        vr_sample *s = realloc(g->s, cap * sizeof *s);
+        if (!s) {
+            g->failed = 1;
+            return;
+        }
+        g->s = s;
+        g->cap = cap;
+    }
+    g->s[g->n++] = (vr_sample){x, y, id, is_vertex};
+}
+
+/* Adds patch q's centre and its interior corners to v's samples; returns the
+ * number of interior vertices added. */
+static size_t gather_patch(gather *g, const rad_mesh *m, const uint8_t *outline, uint32_t v,
+                           uint32_t q, rad_vec3 e1, rad_vec3 e2)
+{
+    if (g->pstamp[q] == v + 1)
+        return 0;
+    g->pstamp[q] = v + 1;
+    const rad_patch *pa = &m->patches[q];
+    rad_vec3 pv = m->vertices[v], d = rad_sub(pa->center, pv);
+    gather_push(g, rad_dot(d, e1), rad_dot(d, e2), q, 0);
+    size_t added = 0;
+    for (int c = 0; c < rad_patch_corners(pa); c++) {
+        uint32_t w = pa->v[c];
+        if (w == v || outline[w] || g->vstamp[w] == v + 1)
+            continue;
+        g->vstamp[w] = v + 1;
+        d = rad_sub(m->vertices[w], pv);
+        gather_push(g, rad_dot(d, e1), rad_dot(d, e2), w, 1);
+        added++;
+    }
+    return added;
+}
+
+void rn_vertex_radiosity(const rad_mesh *mesh, uint32_t bands, const double *B, double *vertex_B)
+{
+    if (!mesh || !vertex_B || bands == 0 || bands > RAD_MAX_BANDS)
+        return;
+    uint32_t nv = mesh->vertex_count, np = mesh->patch_count;
+    for (size_t k = 0; k < (size_t)nv * bands; k++)
+        vertex_B[k] = 0.0;
+    if (!B || nv == 0 || np == 0 || !mesh->patches || !mesh->vertices)
+        return;
+
+    /* Vertex -> patches adjacency (compressed rows).  Allocation failure
+     * leaves every vertex at 0: the function has no error channel, and 0 is
+     * the one value that cannot be mistaken for light. */
+    uint64_t *start = calloc((size_t)nv + 1, sizeof *start);
+    if (!start)
+        return;
+    for (uint32_t p = 0; p < np; p++) {
+        const rad_patch *pa = &mesh->patches[p];
+        if (!patch_valid(mesh, pa))
+            continue;
+        for (int k = 0; k < rad_patch_corners(pa); k++)
+            start[pa->v[k] + 1]++;
+    }
+    for (uint32_t v = 0; v < nv; v++)
+        start[v + 1] += start[v];
+    uint32_t *adj = malloc((size_t)(start[nv] ? start[nv] : 1) * sizeof *adj);
+    uint64_t *fill = malloc(((size_t)nv + 1) * sizeof *fill);
+    if (!adj || !fill) {
+        free(start);
+        free(adj);
+        free(fill);
+        return;
+    }
+    memcpy(fill, start, ((size_t)nv + 1) * sizeof *fill);
+    for (uint32_t p = 0; p < np; p++) {
+        const rad_patch *pa = &mesh->patches[p];
+        if (!patch_valid(mesh, pa))
+            continue;
+        for (int k = 0; k < rad_patch_corners(pa); k++)
+            adj[fill[pa->v[k]]++] = p;
+    }
+
+    /* P(v): mean B of the patches using v; final for interior vertices. */
+    for (uint32_t v = 0; v < nv; v++) {
+        uint64_t n = start[v + 1] - start[v];
+        if (n == 0)
+            continue;
+        for (uint32_t c = 0; c < bands; c++) {
+            double sum = 0;
+            for (uint64_t k = start[v]; k < start[v + 1]; k++)
+                sum += B[(size_t)adj[k] * bands + c];
+            double pv = sum / (double)n;
+            vertex_B[(size_t)v * bands + c] = pv > 0.0 ? pv : 0.0;
+        }
+    }
+
+    /* Outline vertices read only interior values, which are final already,
+     * so they can be overwritten in place. */
+    const uint8_t *outline = mesh->vertex_boundary;
+    gather g = {NULL, 0, 0, NULL, NULL, 0};
+    if (outline) {
+        g.vstamp = calloc(nv, sizeof *g.vstamp);
+        g.pstamp = calloc(np, sizeof *g.pstamp);
+    }
+    for (uint32_t v = 0; outline && g.vstamp && g.pstamp && v < nv; v++) {
+        if (!outline[v] || start[v + 1] == start[v])
+            continue;
+        rad_vec3 n = mesh->patches[adj[start[v]]].normal;
+        if (!(rad_length(n) > 0.0))
+            continue; /* keep P(v) */
+        rad_vec3 e1, e2;
+        plane_basis(n, &e1, &e2);
+        g.n = 0;
+        g.failed = 0;
+        size_t interior = 0;
+        for (uint64_t k = start[v]; k < start[v + 1]; k++)
+            interior += gather_patch(&g, mesh, outline, v, adj[k], e1, e2);
+        /* No interior vertex next to v (the sharp corner of a triangle
+         * polygon, say): look one ring further, through v's neighbours. */
+        for (uint64_t k = start[v]; interior == 0 && k < start[v + 1]; k++) {
+            const rad_patch *pa = &mesh->patches[adj[k]];
+            for (int c = 0; c < rad_patch_corners(pa); c++) {
+                uint32_t u = pa->v[c];
+                for (uint64_t q = start[u]; u != v && q < start[u + 1]; q++)
+                    interior += gather_patch(&g, mesh, outline, v, adj[q], e1, e2);
+            }
+        }
+        if (interior > 0 && !g.failed)
+            outline_fit(bands, B, vertex_B, v, g.s, g.n);
+    }
+    free(g.s);
+    free(g.vstamp);
+    free(g.pstamp);
+    free(start);
+    free(adj);
+    free(fill);
+}
+
+/* ---------------------------------------------------------------- camera */
+
+/* Right-handed camera frame: f forward, r right, u up; a pixel (i, j) looks
+ * along f + a·r + b·u with a = (i + ½ − cx)/k, b = (cy − j − ½)/k. */
+typedef struct frame {
+    rad_vec3 eye, f, r, u;
+    double k;      /* pixels per unit of x/z: (H/2) / tan(yfov/2) */
+    double cx, cy; /* image centre in pixels */
+    uint32_t w, h;
+} frame;
+
+static int camera_frame(const rn_camera *cam, frame *fr, rad_error *err)
+{
+    if (!cam)
+        return rad_fail(err, RAD_ERR_USAGE, "render: camera: none given");
+    if (!rad_finite3(cam->eye) || !rad_finite3(cam->target) || !rad_finite3(cam->up) ||
+        !isfinite(cam->yfov_deg))
+        return rad_fail(err, RAD_ERR_USAGE, "render: camera: eye, target, up and fov must be finite");
+    if (!(cam->yfov_deg > 0.0 && cam->yfov_deg < 180.0))
+        return rad_fail(err, RAD_ERR_USAGE, "render: camera: field of view %g not in (0, 180) degrees",
+                        cam->yfov_deg);
+    if (cam->width < 1 || cam->height < 1 || cam->width > RN_MAX_SIDE || cam->height > RN_MAX_SIDE)
+        return rad_fail(err, RAD_ERR_USAGE, "render: camera: image size %ux%u outside 1..%u",
+                        cam->width, cam->height, RN_MAX_SIDE);
+    rad_vec3 d = rad_sub(cam->target, cam->eye);
+    double dl = rad_length(d);
+    if (!(dl > 0.0) || !isfinite(dl))
+        return rad_fail(err, RAD_ERR_USAGE, "render: camera: eye and target coincide");
+    double ul = rad_length(cam->up);
+    if (!(ul > 0.0) || !isfinite(ul))
+        return rad_fail(err, RAD_ERR_USAGE, "render: camera: up vector is zero");
+    fr->f = rad_scale(d, 1.0 / dl);
+    rad_vec3 r = rad_cross(fr->f, rad_scale(cam->up, 1.0 / ul));
+    /* |r| = sin of the angle between up and the view direction. */
+    if (!(rad_length(r) > 1e-9))
+        return rad_fail(err, RAD_ERR_USAGE, "render: camera: up vector parallel to the view direction");
+    fr->r = rad_normalize(r);
+    fr->u = rad_cross(fr->r, fr->f);
+    fr->eye = cam->eye;
+    fr->w = cam->width;
+    fr->h = cam->height;
+    fr->cx = 0.5 * cam->width;
+    fr->cy = 0.5 * cam->height;
+    fr->k = fr->cy / tan(0.5 * cam->yfov_deg * (M_PI / 180.0));
+    if (!(fr->k > 0.0) || !isfinite(fr->k))
+        return rad_fail(err, RAD_ERR_USAGE, "render: camera: field of view %g unusable", cam->yfov_deg);
+    return RAD_OK;
+}
+
+/* ------------------------------------------------------------ clipping */
+
+/* Half-space a·x + b·y + c·z + d >= 0 in camera coordinates. */
+typedef struct plane4 {
+    double a, b, c, d;
+} plane4;
+
+static double plane_dist(const plane4 *p, rad_vec3 v) { return p->a * v.x + p->b * v.y + p->c * v.z + p->d; }
+
+static int vec_less(rad_vec3 a, rad_vec3 b)
+{
+    if (a.x != b.x)
+        return a.x < b.x;
+    if (a.y != b.y)
+        return a.y < b.y;
+    return a.z < b.z;
+}
+
+/* The crossing point is computed from the edge's endpoints in a canonical
+ * order, so the two patches sharing an edge get bit-identical points and the
+ * shared edge stays shared after clipping (no cracks). */
+static rad_vec3 clip_cross(rad_vec3 a, rad_vec3 b, const plane4 *p)
+{
+    if (vec_less(b, a)) {
+        rad_vec3 t = a;
+        a = b;
+        b = t;
+    }
+    double da = plane_dist(p, a), db = plane_dist(p, b);
+    return rad_lerp(a, b, da / (da - db));
+}
+
+/* Sutherland-Hodgman against one plane; returns the new corner count, 0 when
+ * nothing is left or the buffer would overflow. */
+static int clip_polygon(const rad_vec3 *in, int n, rad_vec3 *out, const plane4 *p)
+{
+    int m = 0;
+    for (int i = 0; i < n; i++) {
+        rad_vec3 a = in[i], b = in[(i + 1) % n];
+        int ina = plane_dist(p, a) >= 0.0, inb = plane_dist(p, b) >= 0.0;
+        if (m + 2 > CLIP_MAX)
+            return 0;
+        if (ina)
+            out[m++] = a;
+        if (ina != inb)
+            out[m++] = clip_cross(a, b, p);
+    }
+    return m;
+}
+
+/* --------------------------------------------------------- item buffer */
+
+typedef struct ibuf {
+    double *invz;  /* 1/z of the nearest surface so far; 0 = none (background) */
+    uint32_t *id;  /* its patch */
+    uint32_t w, h;
+} ibuf;
+
+/* 1/z over the image for one patch's plane: invz(i, j) = A·i + Bj·j + C, from
+ * the ray-plane intersection (exact perspective-correct depth). */
+typedef struct depth_plane {
+    double A, Bj, C;
+} depth_plane;
+
+static int64_t floor_div(int64_t a, int64_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+/* Top-left rule in y-down screen coordinates with the triangle wound so that
+ * edge functions are positive inside: pixels exactly on an edge belong to it
+ * only when it is a top edge (horizontal, going right) or a left edge (going
+ * up).  The reversed edge of the neighbour gets the complementary answer. */
+static int64_t edge_bias(int64_t dx, int64_t dy) { return (dy < 0 || (dy == 0 && dx > 0)) ? 0 : -1; }
+
+static void raster_triangle(ibuf *ib, const int64_t *X, const int64_t *Y, int i0, int i1, int i2,
+                            uint32_t pid, const depth_plane *dp)
+{
+    int64_t x0 = X[i0], y0 = Y[i0], x1 = X[i1], y1 = Y[i1], x2 = X[i2], y2 = Y[i2];
+    int64_t area = (x1 - x0) * (y2 - y0) - (y1 - y0) * (x2 - x0);
+    if (area == 0)
+        return;
+    if (area < 0) { /* the 3-D test already culled back faces; only snapping can flip */
+        int64_t t = x1;
+        x1 = x2;
+        x2 = t;
+        t = y1;
+        y1 = y2;
+        y2 = t;
+    }
+    int64_t xmin = x0 < x1 ? (x0 < x2 ? x0 : x2) : (x1 < x2 ? x1 : x2);
+    int64_t xmax = x0 > x1 ? (x0 > x2 ? x0 : x2) : (x1 > x2 ? x1 : x2);
+    int64_t ymin = y0 < y1 ? (y0 < y2 ? y0 : y2) : (y1 < y2 ? y1 : y2);
+    int64_t ymax = y0 > y1 ? (y0 > y2 ? y0 : y2) : (y1 > y2 ? y1 : y2);
+    /* Pixel i's centre is at i·SUBPIX + SUBPIX/2. */
+    int64_t ia = -floor_div(-(xmin - SUBPIX / 2), SUBPIX), ib_ = floor_div(xmax - SUBPIX / 2, SUBPIX);
+    int64_t ja = -floor_div(-(ymin - SUBPIX / 2), SUBPIX), jb = floor_div(ymax - SUBPIX / 2, SUBPIX);
+    if (ia < 0)
+        ia = 0;
+    if (ja < 0)
+        ja = 0;
+    if (ib_ > (int64_t)ib->w - 1)
+        ib_ = (int64_t)ib->w - 1;
+    if (jb > (int64_t)ib->h - 1)
+        jb = (int64_t)ib->h - 1;
+    if (ia > ib_ || ja > jb)
+        return;
+
+    int64_t dx0 = x1 - x0, dy0 = y1 - y0, dx1 = x2 - x1, dy1 = y2 - y1, dx2 = x0 - x2, dy2 = y0 - y2;
+    int64_t b0 = edge_bias(dx0, dy0), b1 = edge_bias(dx1, dy1), b2 = edge_bias(dx2, dy2);
+    int64_t px0 = ia * SUBPIX + SUBPIX / 2;
+    for (int64_t j = ja; j <= jb; j++) {
+        int64_t py = j * SUBPIX + SUBPIX / 2;
+        int64_t e0 = dx0 * (py - y0) - dy0 * (px0 - x0) + b0;
+        int64_t e1 = dx1 * (py - y1) - dy1 * (px0 - x1) + b1;
+        int64_t e2 = dx2 * (py - y2) - dy2 * (px0 - x2) + b2;
+        size_t row = (size_t)j * ib->w;
+        for (int64_t i = ia; i <= ib_; i++) {
+            if ((e0 | e1 | e2) >= 0) {
+                double z = dp->A * (double)i + dp->Bj * (double)j + dp->C;
+                size_t k = row + (size_t)i;
+                /* Nearer wins; on equal depth the lower patch index. */
+                if (z > 0.0 && (z > ib->invz[k] || (z == ib->invz[k] && pid < ib->id[k]))) {
+                    ib->invz[k] = z;
+                    ib->id[k] = pid;
+                }
+            }
+            e0 -= dy0 * SUBPIX;
+            e1 -= dy1 * SUBPIX;
+            e2 -= dy2 * SUBPIX;
+        }
+    }
+}
+
+/* ------------------------------------------------------- interpolation */
+
+/* What shading one patch needs, prepared once per run of pixels that see it.
+ * The patch plane gets 2-D coordinates (e1, e2) with the corner v0 at the
+ * origin.  For the pixel ray d = f + a·r + b·u every needed dot product is
+ * affine in (a, b), so a pixel costs a few multiply-adds before (u, v). */
+typedef struct shade_setup {
+    uint32_t patch;
+    int corners;
+    double Dn;             /* n·(centre − eye) */
+    double nf, nr, nu;     /* n·f, n·r, n·u */
+    double of1, of2;       /* (eye − v0)·e1, ·e2 */
+    double f1, r1, u1;     /* f·e1, r·e1, u·e1 */
+    double f2, r2, u2;     /* f·e2, r·e2, u·e2 */
+    double p[4][2];        /* corners in plane coordinates; p[0] = (0, 0) */
+    /* Quads, x = u·e + v·f + u·v·g: */
+    double ex, ey, fx, fy, gx, gy, k2, kef;
+    double det;            /* triangles: p1 × p2 */
+} shade_setup;
+
+static void shade_prepare(shade_setup *s, const rad_mesh *m, uint32_t patch, const frame *fr)
+{
+    const rad_patch *pa = &m->patches[patch];
+    rad_vec3 n = pa->normal, v0 = m->vertices[pa->v[0]];
+    rad_vec3 e1 = rad_normalize(rad_sub(m->vertices[pa->v[1]], v0));
+    rad_vec3 e2 = rad_cross(n, e1);
+    rad_vec3 o = rad_sub(fr->eye, v0);
+    s->patch = patch;
+    s->corners = rad_patch_corners(pa);
+    s->Dn = rad_dot(n, rad_sub(pa->center, fr->eye));
+    s->nf = rad_dot(n, fr->f);
+    s->nr = rad_dot(n, fr->r);
+    s->nu = rad_dot(n, fr->u);
+    s->of1 = rad_dot(o, e1);
+    s->of2 = rad_dot(o, e2);
+    s->f1 = rad_dot(fr->f, e1);
+    s->r1 = rad_dot(fr->r, e1);
+    s->u1 = rad_dot(fr->u, e1);
+    s->f2 = rad_dot(fr->f, e2);
+    s->r2 = rad_dot(fr->r, e2);
+    s->u2 = rad_dot(fr->u, e2);
+    for (int c = 0; c < s->corners; c++) {
+        rad_vec3 q = rad_sub(m->vertices[pa->v[c]], v0);
+        s->p[c][0] = rad_dot(q, e1);
+        s->p[c][1] = rad_dot(q, e2);
+    }
+    if (s->corners == 4) {
+        s->ex = s->p[1][0];
+        s->ey = s->p[1][1];
+        s->fx = s->p[3][0];
+        s->fy = s->p[3][1];
+        s->gx = -s->p[1][0] + s->p[2][0] - s->p[3][0];
+        s->gy = -s->p[1][1] + s->p[2][1] - s->p[3][1];
+        s->k2 = s->gx * s->fy - s->gy * s->fx;
+        s->kef = s->ex * s->fy - s->ey * s->fx;
+    } else {
+        s->det = s->p[1][0] * s->p[2][1] - s->p[1][1] * s->p[2][0];
+    }
+}
+
+/* (u, v) of the plane point h in the quad: h = u·e + v·f + u·v·g.
+ * Eliminating u gives k2·v² + k1·v + k0 = 0, solved in the
+ * cancellation-free form (a parallelogram, k2 = 0, falls out as
+ * v = −k0/k1); the root nearest [0, 1] is taken, then u by projection on
+ * e + v·g.  Both are clamped to [0, 1]: a pixel centre may sit a snapping
+ * error outside the patch that owns it, and clamping keeps B a convex
+ * combination of the corner values (never negative). */
+static void inverse_bilinear(const shade_setup *s, double hx, double hy, double *uo, double *vo)
+{
+    double k1 = s->kef + hx * s->gy - hy * s->gx;
+    double k0 = hx * s->ey - hy * s->ex;
+    if (s->k2 == 0.0 && k1 != 0.0) { /* parallelogram: linear, no root to pick */
+        double v = -k0 / k1;
+        v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0;
+        double ax = s->ex + s->gx * v, ay = s->ey + s->gy * v, den = ax * ax + ay * ay;
+        double u = den > 0.0 ? ((hx - s->fx * v) * ax + (hy - s->fy * v) * ay) / den : 0.5;
+        u = u >= 0.0 ? u : 0.0;
+        *uo = u > 1.0 ? 1.0 : u;
+        *vo = v;
+        return;
+    }
+    double disc = k1 * k1 - 4.0 * k0 * s->k2;
+    double q = -0.5 * (k1 + copysign(sqrt(disc > 0.0 ? disc : 0.0), k1));
+    double cand[2] = {NAN, NAN}, v = 0.5, best = INFINITY;
+    if (s->k2 != 0.0)
+        cand[0] = q / s->k2;
+    if (q != 0.0)
+        cand[1] = k0 / q;
+    for (int c = 0; c < 2; c++) {
+        if (!isfinite(cand[c]))
+            continue;
+        double out = cand[c] < 0.0 ? -cand[c] : cand[c] > 1.0 ? cand[c] - 1.0 : 0.0;
+        if (out < best) {
+            best = out;
+            v = cand[c];
+        }
+    }
+    v = v < 0.0 ? 0.0 : v > 1.0 ? 1.0 : v;
+    double ax = s->ex + s->gx * v, ay = s->ey + s->gy * v, den = ax * ax + ay * ay;
+    double u = den > 0.0 ? ((hx - s->fx * v) * ax + (hy - s->fy * v) * ay) / den : 0.5;
+    u = u >= 0.0 ? u : 0.0; /* NaN too */
+    *uo = u > 1.0 ? 1.0 : u;
+    *vo = v;
+}
+
+/* Interpolation weights of the patch's corners where the ray of pixel
+ * direction (a, b) meets its plane: bilinear for quads, barycentric
+ * (clamped, renormalised) for triangles. */
+static void shade_weights(const shade_setup *s, double a, double b, double *w)
+{
+    double dn = s->nf + a * s->nr + b * s->nu;
+    double t = dn != 0.0 ? s->Dn / dn : 0.0;
+    double hx = s->of1 + t * (s->f1 + a * s->r1 + b * s->u1);
+    double hy = s->of2 + t * (s->f2 + a * s->r2 + b * s->u2);
+    if (!isfinite(hx) || !isfinite(hy))
+        hx = hy = 0.0;
+    if (s->corners == 4) {
+        double u, v;
+        inverse_bilinear(s, hx, hy, &u, &v);
+        w[0] = (1 - u) * (1 - v);
+        w[1] = u * (1 - v);
+        w[2] = u * v;
+        w[3] = (1 - u) * v;
+        return;
+    }
+    double w1 = 1.0 / 3.0, w2 = 1.0 / 3.0;
+    if (s->det != 0.0) {
+        w1 = (hx * s->p[2][1] - hy * s->p[2][0]) / s->det;
+        w2 = (s->p[1][0] * hy - s->p[1][1] * hx) / s->det;
+    }
+    double w0 = 1.0 - w1 - w2;
+    w0 = w0 > 0.0 ? w0 : 0.0;
+    w1 = w1 > 0.0 ? w1 : 0.0;
+    w2 = w2 > 0.0 ? w2 : 0.0;
+    double sum = w0 + w1 + w2;
+    if (!(sum > 0.0) || !isfinite(sum))
+        w0 = w1 = w2 = sum = 1.0;
+    w[0] = w0 / sum;
+    w[1] = w1 / sum;
+    w[2] = w2 / sum;
+}
+
+/* -------------------------------------------------------------- render */
+
+static int mesh_check(const rad_mesh *m, rad_error *err)
+{
+    if (m->vertex_count > 0 && !m->vertices)
+        return rad_fail(err, RAD_ERR_USAGE, "render: mesh: %u vertices but no vertex array", m->vertex_count);
+    if (m->patch_count > 0 && !m->patches)
+        return rad_fail(err, RAD_ERR_USAGE, "render: mesh: %u patches but no patch array", m->patch_count);
+    for (uint32_t v = 0; v < m->vertex_count; v++)
+        if (!rad_finite3(m->vertices[v]))
+            return rad_fail(err, RAD_ERR_INVALID, "render: mesh: vertex %u is not finite", v);
+    for (uint32_t p = 0; p < m->patch_count; p++) {
+        const rad_patch *pa = &m->patches[p];
+        if (!patch_valid(m, pa))
+            return rad_fail(err, RAD_ERR_INVALID,
+                            "render: mesh: patch %u: vertex index out of range (%u vertices)", p,
+                            m->vertex_count);
+        if (!rad_finite3(pa->normal) || !rad_finite3(pa->center))
+            return rad_fail(err, RAD_ERR_INVALID, "render: mesh: patch %u: normal or centre not finite", p);
+    }
+    return RAD_OK;
+}
+
+int rn_render(const rad_mesh *mesh, uint32_t bands, const double *vertex_B, const rn_camera *cam,
+              rn_image **out, rad_error *err)
+{
+    if (!out)
+        return rad_fail(err, RAD_ERR_USAGE, "render: no output pointer");
+    *out = NULL;
+    if (!mesh)
+        return rad_fail(err, RAD_ERR_USAGE, "render: no mesh");
+    if (bands == 0 || bands > RAD_MAX_BANDS)
+        return rad_fail(err, RAD_ERR_USAGE, "render: %u bands, not 1..%d", bands, RAD_MAX_BANDS);
+    if (mesh->vertex_count > 0 && !vertex_B)
+        return rad_fail(err, RAD_ERR_USAGE, "render: no vertex radiosities");
+    frame fr;
+    memset(&fr, 0, sizeof fr);
+    int rc = camera_frame(cam, &fr, err);
+    if (rc)
+        return rc;
+    rc = mesh_check(mesh, err);
+    if (rc)
+        return rc;
+
+    uint64_t npix = (uint64_t)fr.w * fr.h;
+    uint64_t need = npix * (4u * bands + sizeof(uint32_t) + sizeof(double)) +
+                    (uint64_t)mesh->vertex_count * sizeof(rad_vec3);
+    uint64_t avail = rad_available_memory();
+    if (avail && need > avail)
+        return rad_fail(err, RAD_ERR_LIMIT, "render: a %ux%u image of %u bands needs %llu bytes, %llu available",
+                        fr.w, fr.h, bands, (unsigned long long)need, (unsigned long long)avail);
+
+    rn_image *img = rn_image_alloc(fr.w, fr.h, bands);
+    double *invz = calloc((size_t)npix, sizeof *invz);
+    rad_vec3 *cv = malloc(((size_t)mesh->vertex_count + 1) * sizeof *cv);
+    if (!img || !invz || !cv) {
+        rn_image_destroy(img);
+        free(invz);
+        free(cv);
+        return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory for a %ux%u image", fr.w, fr.h);
+    }
+
+    /* Camera-space vertices, once each, so shared corners stay identical. */
+    double extent = 0.0;
+    for (uint32_t v = 0; v < mesh->vertex_count; v++) {
+        rad_vec3 d = rad_sub(mesh->vertices[v], fr.eye);
+        cv[v] = rad_v3(rad_dot(d, fr.r), rad_dot(d, fr.u), rad_dot(d, fr.f));
+        double a = fmax(fabs(cv[v].x), fmax(fabs(cv[v].y), fabs(cv[v].z)));
+        if (a > extent)
+            extent = a;
+    }
+    double znear = extent * NEAR_FRACTION;
+    if (!(znear > DBL_MIN))
+        znear = DBL_MIN;
+
+    /* Near plane, then a guard band one image size wide around the screen:
+     * it bounds the snapped coordinates (|x| < 3·16384 < 2^16 pixels) so the
+     * edge functions are exact in int64, and the cuts it makes lie off screen. */
+    double G = fr.w > fr.h ? fr.w : fr.h;
+    plane4 planes[5] = {
+        {0, 0, 1, -znear},
+        {fr.k, 0, fr.cx + G, 0},           /* sx >= -G */
+        {-fr.k, 0, fr.w + G - fr.cx, 0},   /* sx <= W + G */
+        {0, -fr.k, fr.cy + G, 0},          /* sy >= -G */
+        {0, fr.k, fr.h + G - fr.cy, 0},    /* sy <= H + G */
+    };
+
+    ibuf ib = {invz, img->patch, fr.w, fr.h};
+    rad_vec3 bufa[CLIP_MAX], bufb[CLIP_MAX];
+    int64_t X[CLIP_MAX], Y[CLIP_MAX];
+    for (uint32_t p = 0; p < mesh->patch_count; p++) {
+        const rad_patch *pa = &mesh->patches[p];
+        rad_vec3 n = pa->normal;
+        /* One-sided patch: seen only from the side its normal points to. */
+        double Dn = rad_dot(n, rad_sub(pa->center, fr.eye));
+        if (!(Dn < 0.0))
+            continue;
+        double nf = rad_dot(n, fr.f), nr = rad_dot(n, fr.r), nu = rad_dot(n, fr.u);
+        depth_plane dp = {nr / (fr.k * Dn), -nu / (fr.k * Dn),
+                          (nf + (0.5 - fr.cx) / fr.k * nr + (fr.cy - 0.5) / fr.k * nu) / Dn};
+        int nc = rad_patch_corners(pa);
+        for (int c = 0; c < nc; c++)
+            bufa[c] = cv[pa->v[c]];
+        rad_vec3 *cur = bufa, *nxt = bufb;
+        for (int k = 0; k < 5 && nc >= 3; k++) {
+            nc = clip_polygon(cur, nc, nxt, &planes[k]);
+            rad_vec3 *t = cur;
+            cur = nxt;
+            nxt = t;
+        }
+        if (nc < 3)
+            continue;
+        int ok = 1;
+        for (int c = 0; c < nc; c++) {
+            double sx = fr.cx + fr.k * cur[c].x / cur[c].z;
+            double sy = fr.cy - fr.k * cur[c].y / cur[c].z;
+            if (!(fabs(sx) < 65536.0) || !(fabs(sy) < 65536.0)) { /* unreachable after the guard band */
+                ok = 0;
+                break;
+            }
+            X[c] = llround(sx * (double)SUBPIX);
+            Y[c] = llround(sy * (double)SUBPIX);
+        }
+        if (!ok)
+            continue;
+        for (int c = 1; c + 1 < nc; c++)
+            raster_triangle(&ib, X, Y, 0, c, c + 1, p, &dp);
+    }
+
+    /* Shade: interpolate the vertex radiosities at the ray-plane point.
+     * Neighbouring pixels mostly see the same patch, so its setup is kept. */
+    const double inv_pi = 1.0 / M_PI;
+    shade_setup ss;
+    memset(&ss, 0, sizeof ss);
+    ss.patch = RAD_NONE;
+    for (uint32_t j = 0; j < fr.h; j++) {
+        double b = (fr.cy - (double)j - 0.5) / fr.k;
+        for (uint32_t i = 0; i < fr.w; i++) {
+            size_t k = (size_t)j * fr.w + i;
+            uint32_t p = img->patch[k];
+            if (p == RAD_NONE)
+                continue;
+            if (p != ss.patch)
+                shade_prepare(&ss, mesh, p, &fr);
+            double w[4], a = ((double)i + 0.5 - fr.cx) / fr.k;
+            shade_weights(&ss, a, b, w);
+            const uint32_t *v = mesh->patches[p].v;
+            float *px = img->pixels + k * bands;
+            for (uint32_t c = 0; c < bands; c++) {
+                double sum = 0.0;
+                for (int q = 0; q < ss.corners; q++)
+                    sum += w[q] * vertex_B[(size_t)v[q] * bands + c];
+                px[c] = (float)(sum * inv_pi);
+            }
+        }
+    }
+    free(invz);
+    free(cv);
+    *out = img;
+    return RAD_OK;
+}

@@ -1,0 +1,981 @@
+/* test_gltf.c - the glTF loader (radiosity/gltf.c over gltf_bridge.cpp).
+ *
+ * Every document is built here, in memory: a small JSON writer takes the
+ * arrays a test gives it and embeds them as a base64 data URI (or as the BIN
+ * chunk of a .glb).  Expected coordinates, areas and exitances are worked out
+ * by hand in the comments; tolerances are stated where they are used.
+ * The last test holds models/cornell.gltf against models/cornell.rad.
+ */
+#include "../radiosity/scene.h"
+#include "test.h"
+
+#include <stdarg.h>
+#include <stdint.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+/* ------------------------------------------------------------ text buffer */
+
+typedef struct text {
+    char *s;
+    size_t len, cap;
+} text;
+
+static void tx_add(text *t, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    int n = vsnprintf(NULL, 0, fmt, ap);
+    va_end(ap);
+    if (n < 0)
+        abort();
+    if (t->len + (size_t)n + 1 > t->cap) {
+        size_t cap = (t->cap ? t->cap * 2 : 1024) + (size_t)n + 1;
+        t->s = realloc(t->s, cap);
+        if (!t->s)
+            abort();
+        t->cap = cap;
+    }
+    va_start(ap, fmt);
+    vsnprintf(t->s + t->len, (size_t)n + 1, fmt, ap);
+    va_end(ap);
+    t->len += (size_t)n;
+}
+
+static void tx_base64(text *t, const unsigned char *d, size_t n)
+{
+    static const char al[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    for (size_t k = 0; k < n; k += 3) {
+        uint32_t v = (uint32_t)d[k] << 16;
+        if (k + 1 < n)
+            v |= (uint32_t)d[k + 1] << 8;
+        if (k + 2 < n)
+            v |= d[k + 2];
+        char q[5] = {al[v >> 18 & 63], al[v >> 12 & 63], k + 1 < n ? al[v >> 6 & 63] : '=',
+                     k + 2 < n ? al[v & 63] : '=', 0};
+        tx_add(t, "%s", q);
+    }
+}
+
+/* ------------------------------------------------------------ binary blob */
+
+typedef struct blob {
+    unsigned char d[8192];
+    size_t n;
+} blob;
+
+static void put32(blob *b, uint32_t v)
+{
+    for (int k = 0; k < 4; k++)
+        b->d[b->n++] = (unsigned char)(v >> (8 * k));
+}
+
+static void put_float(blob *b, float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, 4);
+    put32(b, u); /* glTF is little-endian whatever the host is */
+}
+
+/* ------------------------------------------------------- document builder */
+
+/* One mesh (accessor 0 = POSITION, accessor 1 = indices) plus whatever
+ * JSON the test overrides. */
+typedef struct spec {
+    const float *pos;       /* xyz per vertex */
+    uint32_t nv;
+    uint32_t pos_count;     /* POSITION accessor count; 0 = nv */
+    uint32_t pos_stride;    /* byteStride of the positions' view; 0 = packed */
+    const char *accessors;  /* more accessors (from index 2), with a leading comma */
+    const uint32_t *idx;    /* NULL = non-indexed */
+    uint32_t ni;
+    int idx_type;           /* 5121, 5123 or 5125; 0 = 5123 */
+    const char *prim;       /* extra primitive members; NULL = "\"material\":0" */
+    const char *mesh_name;  /* NULL = unnamed */
+    const char *meshes;     /* whole "meshes" array; NULL = built from the above */
+    const char *materials;  /* whole "materials" array; NULL = one grey emitter */
+    const char *nodes;      /* whole "nodes" array; NULL = one node "quad" */
+    const char *extra;      /* more top-level members, without a trailing comma */
+    int glb;                /* wrap as .glb, the buffer in the BIN chunk */
+} spec;
+
+static const char *default_materials =
+    "[{\"name\":\"grey\",\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.5,0.5,1]},"
+    "\"emissiveFactor\":[1,1,1]}]";
+
+/* Builds the document; caller frees the result, *size its length. */
+static unsigned char *build(const spec *sp, size_t *size)
+{
+    blob b;
+    b.n = 0;
+    for (uint32_t v = 0; v < sp->nv; v++) {
+        for (uint32_t k = 0; k < 3; k++)
+            put_float(&b, sp->pos[3 * v + k]);
+        for (uint32_t k = 12; k < sp->pos_stride; k += 4)
+            put_float(&b, -99.0f); /* interleaved data that must not be read as positions */
+    }
+    size_t pos_bytes = b.n;
+    int it = sp->idx_type ? sp->idx_type : 5123;
+    size_t isz = it == 5121 ? 1 : it == 5123 ? 2 : 4;
+    for (uint32_t k = 0; sp->idx && k < sp->ni; k++)
+        for (size_t c = 0; c < isz; c++)
+            b.d[b.n++] = (unsigned char)(sp->idx[k] >> (8 * c));
+    size_t idx_bytes = b.n - pos_bytes;
+    while (b.n % 4)
+        b.d[b.n++] = 0;
+
+    text t = {0};
+    tx_add(&t, "{\"asset\":{\"version\":\"2.0\"},");
+    if (sp->extra)
+        tx_add(&t, "%s,", sp->extra);
+    tx_add(&t, "\"nodes\":%s,", sp->nodes ? sp->nodes : "[{\"name\":\"quad\",\"mesh\":0}]");
+    if (sp->meshes) {
+        tx_add(&t, "\"meshes\":%s,", sp->meshes);
+    } else {
+        tx_add(&t, "\"meshes\":[{");
+        if (sp->mesh_name)
+            tx_add(&t, "\"name\":\"%s\",", sp->mesh_name);
+        tx_add(&t, "\"primitives\":[{\"attributes\":{\"POSITION\":0}");
+        if (sp->idx)
+            tx_add(&t, ",\"indices\":1");
+        tx_add(&t, ",%s}]}],", sp->prim ? sp->prim : "\"material\":0");
+    }
+    tx_add(&t, "\"materials\":%s,", sp->materials ? sp->materials : default_materials);
+    tx_add(&t,
+           "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":%u,"
+           "\"type\":\"VEC3\"}",
+           sp->pos_count ? sp->pos_count : sp->nv);
+    if (sp->idx)
+        tx_add(&t, ",{\"bufferView\":1,\"componentType\":%d,\"count\":%u,\"type\":\"SCALAR\"}",
+               it, sp->ni);
+    if (sp->accessors)
+        tx_add(&t, "%s", sp->accessors);
+    tx_add(&t, "],\"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":%zu",
+           pos_bytes);
+    if (sp->pos_stride)
+        tx_add(&t, ",\"byteStride\":%u", sp->pos_stride);
+    tx_add(&t, "}");
+    if (sp->idx)
+        tx_add(&t, ",{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", pos_bytes,
+               idx_bytes);
+    tx_add(&t, "],\"buffers\":[{\"byteLength\":%zu", b.n);
+    if (!sp->glb) {
+        tx_add(&t, ",\"uri\":\"data:application/octet-stream;base64,");
+        tx_base64(&t, b.d, b.n);
+        tx_add(&t, "\"");
+    }
+    tx_add(&t, "}]}");
+    if (!sp->glb) {
+        *size = t.len;
+        return (unsigned char *)t.s;
+    }
+    /* .glb: 12-byte header, JSON chunk padded with spaces, BIN chunk. */
+    while (t.len % 4)
+        tx_add(&t, " ");
+    size_t total = 12 + 8 + t.len + 8 + b.n;
+    unsigned char *out = malloc(total);
+    if (!out)
+        abort();
+    size_t n = 0;
+    memcpy(out, "glTF", 4);
+    n = 4;
+    uint32_t hdr[5] = {2, (uint32_t)total, (uint32_t)t.len, 0x4E4F534Au, 0};
+    for (int k = 0; k < 4; k++)
+        for (int c = 0; c < 4; c++)
+            out[n++] = (unsigned char)(hdr[k] >> (8 * c));
+    memcpy(out + n, t.s, t.len);
+    n += t.len;
+    uint32_t bh[2] = {(uint32_t)b.n, 0x004E4942u};
+    for (int k = 0; k < 2; k++)
+        for (int c = 0; c < 4; c++)
+            out[n++] = (unsigned char)(bh[k] >> (8 * c));
+    memcpy(out + n, b.d, b.n);
+    free(t.s);
+    *size = total;
+    return out;
+}
+
+/* Parses sp as "test.gltf"; returns the result code, the scene in *out. */
+static int parse(const spec *sp, rad_scene **out, rad_error *err)
+{
+    size_t n;
+    unsigned char *d = build(sp, &n);
+    memset(err, 0, sizeof *err);
+    int rc = rad_scene_parse_gltf(d, n, sp->glb ? "test.glb" : "test.gltf", NULL, out, err);
+    free(d);
+    return rc;
+}
+
+/* Parses and expects failure with `code` and `needle` in the message. */
+static void expect_error(const spec *sp, int code, const char *needle)
+{
+    rad_scene *s = (rad_scene *)1;
+    rad_error err;
+    int rc = parse(sp, &s, &err);
+    CHECK_MSG(rc == code, "code %d, expected %d: %s", rc, code, err.message);
+    CHECK(s == NULL);
+    CHECK_MSG(strstr(err.message, needle) != NULL, "message '%s' lacks '%s'", err.message,
+              needle);
+    CHECK_MSG(strncmp(err.message, "test.gl", 7) == 0, "message '%s' does not name the file",
+              err.message);
+}
+
+static const float unit_quad[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+static const uint32_t quad_idx[] = {0, 1, 2, 0, 2, 3};
+
+static double object_area(const rad_scene *s, uint32_t o)
+{
+    double a = 0.0;
+    for (uint32_t p = 0; p < s->polygon_count; p++)
+        if (s->polygons[p].object == o)
+            a += s->polygons[p].area;
+    return a;
+}
+
+/* ------------------------------------------------------------------ tests */
+
+/* Two triangles of a unit square become one quad, counter-clockwise about
+ * +z (its normal), area 1.  Small integers are exact in float and double, so
+ * 1e-12 only absorbs the area's arithmetic. */
+TEST(unit_quad_merges)
+{
+    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6};
+    rad_scene *s;
+    rad_error err;
+    int rc = parse(&sp, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc)
+        return;
+    CHECK(s->band_count == 3);
+    CHECK(s->band_names[0] && strcmp(s->band_names[0], "R") == 0);
+    CHECK(s->band_names[2] && strcmp(s->band_names[2], "B") == 0);
+    CHECK(s->object_count == 1 && strcmp(s->objects[0].name, "quad") == 0);
+    CHECK(s->polygon_count == 1);
+    if (s->polygon_count == 1) {
+        const rad_polygon *p = &s->polygons[0];
+        CHECK(p->point_count == 4);
+        CHECK_NEAR(p->area, 1.0, 1e-12);
+        CHECK_NEAR(p->normal.z, 1.0, 1e-12);
+        /* every corner of the square appears once */
+        int seen = 0;
+        for (uint32_t k = 0; k < p->point_count; k++) {
+            rad_vec3 q = s->points[p->first_point + k];
+            seen |= 1 << (int)(q.x * 2 + q.y);
+        }
+        CHECK(seen == 0xF);
+        CHECK(strcmp(p->name, "mesh0/0/0") == 0);
+    }
+    rad_scene_destroy(s);
+
+    /* the same square without indices (six vertices, nothing shared by
+     * index) merges too: equal positions are welded */
+    static const float flat[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 0, 0, 1, 1, 0, 0, 1, 0};
+    spec sp2 = {.pos = flat, .nv = 6};
+    rc = parse(&sp2, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc)
+        return;
+    CHECK(s->polygon_count == 1 && s->polygons[0].point_count == 4);
+    rad_scene_destroy(s);
+}
+
+/* A 3×3 grid of unit squares, each cut along its diagonal, pairs into its
+ * nine cells: two triangles across a grid line also form a (slanted)
+ * parallelogram, and must not win.  Integer coordinates: exact. */
+TEST(grid_pairs_cells)
+{
+    float pos[16 * 3];
+    uint32_t idx[9 * 6];
+    for (int j = 0; j < 4; j++)
+        for (int i = 0; i < 4; i++) {
+            pos[3 * (4 * j + i)] = (float)i;
+            pos[3 * (4 * j + i) + 1] = (float)j;
+            pos[3 * (4 * j + i) + 2] = 0.0f;
+        }
+    for (int j = 0, n = 0; j < 3; j++)
+        for (int i = 0; i < 3; i++) {
+            uint32_t a = (uint32_t)(4 * j + i), b = a + 1, c = a + 5, d = a + 4;
+            uint32_t q[6] = {a, b, c, a, c, d};
+            memcpy(idx + 6 * n++, q, sizeof q);
+        }
+    spec sp = {.pos = pos, .nv = 16, .idx = idx, .ni = 54};
+    rad_scene *s;
+    rad_error err;
+    int rc = parse(&sp, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc)
+        return;
+    CHECK(s->polygon_count == 9);
+    for (uint32_t p = 0; p < s->polygon_count; p++) {
+        const rad_polygon *q = &s->polygons[p];
+        CHECK(q->point_count == 4);
+        double lo[2] = {1e9, 1e9}, hi[2] = {-1e9, -1e9};
+        for (uint32_t k = 0; k < q->point_count; k++) {
+            rad_vec3 v = s->points[q->first_point + k];
+            lo[0] = fmin(lo[0], v.x), hi[0] = fmax(hi[0], v.x);
+            lo[1] = fmin(lo[1], v.y), hi[1] = fmax(hi[1], v.y);
+        }
+        CHECK_MSG(hi[0] - lo[0] == 1 && hi[1] - lo[1] == 1, "polygon %u spans %g × %g", p,
+                  hi[0] - lo[0], hi[1] - lo[1]);
+        CHECK_NEAR(q->area, 1.0, 1e-12);
+    }
+    rad_scene_destroy(s);
+}
+
+/* A trapezoid (0,0) (1,0) (1.5,1) (0,1) is no parallelogram: it stays two
+ * triangles, of areas 0.5 and 0.75 (half the cross products). */
+TEST(non_parallelogram_stays_triangles)
+{
+    static const float trap[] = {0, 0, 0, 1, 0, 0, 1.5f, 1, 0, 0, 1, 0};
+    spec sp = {.pos = trap, .nv = 4, .idx = quad_idx, .ni = 6, .idx_type = 5121};
+    rad_scene *s;
+    rad_error err;
+    int rc = parse(&sp, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc)
+        return;
+    CHECK(s->polygon_count == 2);
+    if (s->polygon_count == 2) {
+        CHECK(s->polygons[0].point_count == 3 && s->polygons[1].point_count == 3);
+        CHECK_NEAR(s->polygons[0].area, 0.5, 1e-12);
+        CHECK_NEAR(s->polygons[1].area, 0.75, 1e-12);
+    }
+    rad_scene_destroy(s);
+}
+
+/* Hierarchy: parent T(1,2,3) R(90° about z) S(2); child T(0,1,0)
+ * R(90° about x) S(1,1,3); grandchild given as a matrix translating by
+ * (5,0,0), holding the triangle (0,0,0) (1,0,0) (0,1,0).  By hand:
+ *   (0,0,0) -> (5,0,0) -> S,R_x: (5,0,0) -> +T: (5,1,0) -> S: (10,2,0)
+ *           -> R_z (x,y)->(-y,x): (-2,10,0) -> +T: (-1,12,3)
+ *   (1,0,0) -> (6,0,0) -> (6,1,0) -> (12,2,0) -> (-2,12,0) -> (-1,14,3)
+ *   (0,1,0) -> (5,1,0) -> R_x (y,z)->(-z,y): (5,0,1) -> (5,1,1)
+ *           -> (10,2,2) -> (-2,10,2) -> (-1,12,5)
+ * The quaternions hold sin 45° to 17 digits, so 1e-9 is generous. */
+TEST(hierarchy_transforms)
+{
+    static const float tri[] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    spec sp = {
+        .pos = tri,
+        .nv = 3,
+        .nodes = "[{\"name\":\"parent\",\"children\":[1],\"translation\":[1,2,3],"
+                 "\"rotation\":[0,0,0.7071067811865476,0.7071067811865476],\"scale\":[2,2,2]},"
+                 "{\"name\":\"child\",\"children\":[2],\"translation\":[0,1,0],"
+                 "\"rotation\":[0.7071067811865476,0,0,0.7071067811865476],\"scale\":[1,1,3]},"
+                 "{\"name\":\"leaf\",\"mesh\":0,"
+                 "\"matrix\":[1,0,0,0, 0,1,0,0, 0,0,1,0, 5,0,0,1]}]",
+        .extra = "\"scene\":0,\"scenes\":[{\"nodes\":[0]}]",
+    };
+    rad_scene *s;
+    rad_error err;
+    int rc = parse(&sp, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc)
+        return;
+    CHECK(s->object_count == 1 && strcmp(s->objects[0].name, "leaf") == 0);
+    CHECK(s->polygon_count == 1);
+    if (s->polygon_count == 1 && s->polygons[0].point_count == 3) {
+        const rad_vec3 *p = &s->points[s->polygons[0].first_point];
+        const double want[3][3] = {{-1, 12, 3}, {-1, 14, 3}, {-1, 12, 5}};
+        for (int k = 0; k < 3; k++) {
+            CHECK_NEAR(p[k].x, want[k][0], 1e-9);
+            CHECK_NEAR(p[k].y, want[k][1], 1e-9);
+            CHECK_NEAR(p[k].z, want[k][2], 1e-9);
+        }
+        /* edges (0,2,0) and (0,0,2): cross (4,0,0), area 2, normal +x */
+        CHECK_NEAR(s->polygons[0].area, 2.0, 1e-9);
+        CHECK_NEAR(s->polygons[0].normal.x, 1.0, 1e-9);
+    }
+    rad_scene_destroy(s);
+
+    /* A mirroring node (scale -1 in x) flips the winding, and glTF keeps the
+     * front face: the triangle (0,0) (1,0) (0,1) facing +z stays facing +z. */
+    spec sp2 = {.pos = tri, .nv = 3, .nodes = "[{\"mesh\":0,\"scale\":[-1,1,1]}]"};
+    rc = parse(&sp2, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc)
+        return;
+    CHECK(s->polygon_count == 1);
+    if (s->polygon_count == 1)
+        CHECK_NEAR(s->polygons[0].normal.z, 1.0, 1e-12);
+    rad_scene_destroy(s);
+}
+
+/* E = π · emissiveFactor · strength: (0.5, 0.25, 1) × 4 = (2, 1, 4) π;
+ * ρ is baseColorFactor.  Relative 1e-12: one product each. */
+TEST(emissive_strength)
+{
+    spec sp = {.pos = unit_quad,
+               .nv = 4,
+               .idx = quad_idx,
+               .ni = 6,
+               .materials = "[{\"name\":\"lamp\",\"pbrMetallicRoughness\":"
+                            "{\"baseColorFactor\":[0.1,0.2,0.3,1]},"
+                            "\"emissiveFactor\":[0.5,0.25,1],\"extensions\":"
+                            "{\"KHR_materials_emissive_strength\":{\"emissiveStrength\":4}}}]",
+               .extra = "\"extensionsUsed\":[\"KHR_materials_emissive_strength\"],"
+                        "\"extensionsRequired\":[\"KHR_materials_emissive_strength\"]"};
+    rad_scene *s;
+    rad_error err;
+    int rc = parse(&sp, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc)
+        return;
+    CHECK(s->material_count == 1 && strcmp(s->materials[0].name, "lamp") == 0);
+    const double e[3] = {2, 1, 4}, r[3] = {0.1, 0.2, 0.3};
+    for (int b = 0; b < 3; b++) {
+        CHECK_REL(s->materials[0].emission[b], M_PI * e[b], 1e-12);
+        CHECK_REL(s->materials[0].rho[b], r[b], 1e-12);
+    }
+    rad_scene_destroy(s);
+}
+
+/* Object names: node name, else mesh name, else node<index>; a repeated
+ * name gets #2.  Unnamed materials become material<index>. */
+TEST(name_fallbacks)
+{
+    spec sp = {
+        .pos = unit_quad,
+        .nv = 4,
+        .idx = quad_idx,
+        .ni = 6,
+        .meshes = "[{\"name\":\"m0\",\"primitives\":[{\"attributes\":{\"POSITION\":0},"
+                  "\"indices\":1,\"material\":0}]},"
+                  "{\"name\":\"beta\",\"primitives\":[{\"attributes\":{\"POSITION\":0},"
+                  "\"indices\":1,\"material\":0}]},"
+                  "{\"primitives\":[{\"attributes\":{\"POSITION\":0},"
+                  "\"indices\":1,\"material\":0}]}]",
+        .nodes = "[{\"name\":\"alpha\",\"mesh\":0},{\"mesh\":1},{\"mesh\":2},"
+                 "{\"name\":\"dup\",\"mesh\":0},{\"name\":\"dup\",\"mesh\":0}]",
+        .materials = "[{\"emissiveFactor\":[1,0,0],"
+                     "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.5,0.5,1]}}]",
+    };
+    rad_scene *s;
+    rad_error err;
+    int rc = parse(&sp, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc)
+        return;
+    const char *want[] = {"alpha", "beta", "node2", "dup", "dup#2"};
+    CHECK(s->object_count == 5);
+    for (uint32_t k = 0; k < 5 && k < s->object_count; k++)
+        CHECK_MSG(strcmp(s->objects[k].name, want[k]) == 0, "object %u is '%s', want '%s'", k,
+                  s->objects[k].name, want[k]);
+    CHECK(s->material_count == 1 && strcmp(s->materials[0].name, "material0") == 0);
+    /* each node's square became its own quad, in its own object */
+    CHECK(s->polygon_count == 5);
+    for (uint32_t p = 0; p < s->polygon_count; p++)
+        CHECK(s->polygons[p].object == p);
+    rad_scene_destroy(s);
+}
+
+/* Positions interleaved with other data (byteStride 24) are read at the
+ * stride: the padding (-99) never shows up as a coordinate. */
+TEST(strided_positions)
+{
+    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6, .pos_stride = 24};
+    rad_scene *s;
+    rad_error err;
+    int rc = parse(&sp, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc)
+        return;
+    CHECK(s->polygon_count == 1);
+    CHECK_NEAR(object_area(s, 0), 1.0, 1e-12);
+    for (uint32_t k = 0; k < s->point_count; k++)
+        CHECK(s->points[k].x >= 0 && s->points[k].y >= 0 && s->points[k].z == 0);
+    rad_scene_destroy(s);
+}
+
+/* The unit square as .glb gives the same quad. */
+TEST(glb_container)
+{
+    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6, .glb = 1, .idx_type = 5125};
+    rad_scene *s;
+    rad_error err;
+    int rc = parse(&sp, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc)
+        return;
+    CHECK(s->polygon_count == 1 && s->polygons[0].point_count == 4);
+    CHECK_NEAR(object_area(s, 0), 1.0, 1e-12);
+    rad_scene_destroy(s);
+}
+
+/* A camera node at (1,2,3) turned 90° about y looks along the turned -z:
+ * R_y(90°) takes (0,0,-1) to (-1,0,0), so the target is (0,2,3); up stays
+ * +y; yfov 0.5 rad = 28.64788975654116°.  An orthographic camera is
+ * skipped; an unnamed camera takes its node's name. */
+TEST(camera_conversion)
+{
+    spec sp = {
+        .pos = unit_quad,
+        .nv = 4,
+        .idx = quad_idx,
+        .ni = 6,
+        .nodes = "[{\"name\":\"quad\",\"mesh\":0},"
+                 "{\"name\":\"n1\",\"camera\":0,\"translation\":[1,2,3],"
+                 "\"rotation\":[0,0.7071067811865476,0,0.7071067811865476]},"
+                 "{\"name\":\"n2\",\"camera\":1},"
+                 "{\"name\":\"nodecam\",\"camera\":2,\"translation\":[0,0,5]}]",
+        .extra = "\"cameras\":[{\"name\":\"cam\",\"type\":\"perspective\",\"perspective\":"
+                 "{\"yfov\":0.5,\"aspectRatio\":1.5,\"znear\":0.1}},"
+                 "{\"type\":\"orthographic\",\"orthographic\":"
+                 "{\"xmag\":1,\"ymag\":1,\"znear\":0.1,\"zfar\":10}},"
+                 "{\"type\":\"perspective\",\"perspective\":{\"yfov\":1,\"znear\":0.1}}]",
+    };
+    rad_scene *s;
+    rad_error err;
+    int rc = parse(&sp, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc)
+        return;
+    CHECK(s->camera_count == 2);
+    if (s->camera_count == 2) {
+        const rad_camera *c = &s->cameras[0];
+        CHECK(strcmp(c->name, "cam") == 0);
+        CHECK_NEAR(c->eye.x, 1, 1e-12);
+        CHECK_NEAR(c->eye.y, 2, 1e-12);
+        CHECK_NEAR(c->eye.z, 3, 1e-12);
+        rad_vec3 d = rad_normalize(rad_sub(c->target, c->eye));
+        CHECK_NEAR(d.x, -1, 1e-12);
+        CHECK_NEAR(d.y, 0, 1e-12);
+        CHECK_NEAR(d.z, 0, 1e-12);
+        rad_vec3 u = rad_normalize(c->up);
+        CHECK_NEAR(u.y, 1, 1e-12);
+        CHECK_NEAR(c->yfov_deg, 0.5 * 180.0 / M_PI, 1e-12);
+        CHECK_NEAR(c->aspect, 1.5, 0);
+        const rad_camera *c2 = &s->cameras[1];
+        CHECK(strcmp(c2->name, "nodecam") == 0);
+        CHECK_NEAR(c2->aspect, 0, 0);
+        CHECK_NEAR(rad_normalize(rad_sub(c2->target, c2->eye)).z, -1, 1e-12);
+    }
+    rad_scene_destroy(s);
+}
+
+/* doubleSided: the quad and a reversed copy (opposite normal, same object). */
+TEST(double_sided)
+{
+    spec sp = {.pos = unit_quad,
+               .nv = 4,
+               .idx = quad_idx,
+               .ni = 6,
+               .materials = "[{\"doubleSided\":true,\"emissiveFactor\":[1,1,1],"
+                            "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.5,0.5,1]}}]"};
+    rad_scene *s;
+    rad_error err;
+    int rc = parse(&sp, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc)
+        return;
+    CHECK(s->polygon_count == 2);
+    if (s->polygon_count == 2) {
+        CHECK_NEAR(s->polygons[0].normal.z, 1, 1e-12);
+        CHECK_NEAR(s->polygons[1].normal.z, -1, 1e-12);
+        CHECK(s->polygons[0].object == s->polygons[1].object);
+        CHECK_NEAR(s->polygons[1].area, 1.0, 1e-12);
+    }
+    rad_scene_destroy(s);
+}
+
+/* Zero-area triangles (a repeated index; a sliver of area 3.5e-21 in a
+ * scene 1.4 across) are dropped without failing; the square still merges. */
+TEST(degenerate_triangles_dropped)
+{
+    static const float pos[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0.5f, 0.5f, 0, 0.5f, 0.5f,
+                                1e-20f};
+    static const uint32_t idx[] = {0, 1, 1, 0, 1, 2, 0, 2, 3, 0, 4, 5, 2, 2, 2};
+    spec sp = {.pos = pos, .nv = 6, .idx = idx, .ni = 15};
+    rad_scene *s;
+    rad_error err;
+    int rc = parse(&sp, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc)
+        return;
+    CHECK(s->polygon_count == 1 && s->polygons[0].point_count == 4);
+    rad_scene_destroy(s);
+
+    /* nothing but degenerate triangles: an error that says so */
+    static const uint32_t bad[] = {0, 1, 1, 2, 2, 2};
+    spec sp2 = {.pos = pos, .nv = 6, .idx = bad, .ni = 6};
+    expect_error(&sp2, RAD_ERR_INVALID, "zero area");
+}
+
+/* Extensions only used (Blender's KHR_materials_specular, ior) are ignored. */
+TEST(ignored_extension)
+{
+    spec sp = {.pos = unit_quad,
+               .nv = 4,
+               .idx = quad_idx,
+               .ni = 6,
+               .materials = "[{\"name\":\"m\",\"emissiveFactor\":[1,1,1],"
+                            "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.5,0.5,1]},"
+                            "\"extensions\":{\"KHR_materials_specular\":"
+                            "{\"specularFactor\":0.5},\"KHR_materials_ior\":{\"ior\":1.45}}}]",
+               .extra = "\"extensionsUsed\":[\"KHR_materials_specular\",\"KHR_materials_ior\"]"};
+    rad_scene *s;
+    rad_error err;
+    int rc = parse(&sp, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc == RAD_OK)
+        CHECK(s->polygon_count == 1);
+    rad_scene_destroy(s);
+}
+
+/* ----------------------------------------------------------------- errors */
+
+TEST(error_malformed_json)
+{
+    const char *bad = "{\"asset\":{\"version\":\"2.0\"},\"nodes\":[";
+    rad_scene *s = (rad_scene *)1;
+    rad_error err;
+    int rc = rad_scene_parse_gltf(bad, strlen(bad), "bad.gltf", NULL, &s, &err);
+    CHECK(rc == RAD_ERR_PARSE);
+    CHECK(s == NULL);
+    CHECK_MSG(strstr(err.message, "bad.gltf: malformed JSON") != NULL, "%s", err.message);
+
+    /* nesting far deeper than any glTF: refused before anything recurses */
+    text t = {0};
+    tx_add(&t, "{\"asset\":{\"version\":\"2.0\"},\"extras\":");
+    for (int k = 0; k < 100000; k++)
+        tx_add(&t, "[");
+    rc = rad_scene_parse_gltf(t.s, t.len, "deep.gltf", NULL, &s, &err);
+    free(t.s);
+    CHECK(rc == RAD_ERR_PARSE);
+    CHECK_MSG(strstr(err.message, "nested") != NULL, "%s", err.message);
+
+    rc = rad_scene_parse_gltf("", 0, "empty.gltf", NULL, &s, &err);
+    CHECK(rc == RAD_ERR_PARSE);
+}
+
+TEST(error_mode_lines)
+{
+    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6, .mesh_name = "M",
+               .prim = "\"material\":0,\"mode\":1"};
+    expect_error(&sp, RAD_ERR_INVALID, "mesh 'M' primitive 0: mode LINES not supported");
+}
+
+TEST(error_index_out_of_range)
+{
+    static const uint32_t idx[] = {0, 1, 2, 0, 2, 7};
+    spec sp = {.pos = unit_quad, .nv = 4, .idx = idx, .ni = 6, .mesh_name = "Cube"};
+    expect_error(&sp, RAD_ERR_PARSE, "mesh 'Cube' primitive 0: index 7 out of range (4 vertices)");
+
+    spec sp2 = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 5};
+    expect_error(&sp2, RAD_ERR_PARSE, "not a multiple of 3");
+}
+
+TEST(error_accessor_beyond_view)
+{
+    /* 8 vertices claimed, 4 (48 bytes) present */
+    spec sp = {.pos = unit_quad, .nv = 4, .pos_count = 8, .idx = quad_idx, .ni = 6};
+    expect_error(&sp, RAD_ERR_PARSE, "POSITION accessor 0: 8 elements");
+    expect_error(&sp, RAD_ERR_PARSE, "beyond buffer view 0");
+}
+
+TEST(error_required_extension)
+{
+    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6,
+               .extra = "\"extensionsUsed\":[\"KHR_draco_mesh_compression\"],"
+                        "\"extensionsRequired\":[\"KHR_draco_mesh_compression\"]"};
+    expect_error(&sp, RAD_ERR_INVALID,
+                 "extension 'KHR_draco_mesh_compression' is required but not supported");
+}
+
+TEST(error_base_color_one)
+{
+    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6,
+               .materials = "[{\"name\":\"X\",\"pbrMetallicRoughness\":"
+                            "{\"baseColorFactor\":[0.5,1.0,0.5,1]}}]"};
+    expect_error(&sp, RAD_ERR_INVALID, "material 'X': baseColorFactor 1 is not a reflectance below 1");
+    /* no pbrMetallicRoughness at all: glTF's default white 1.0 */
+    spec sp2 = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6,
+                .materials = "[{\"name\":\"plain\"}]"};
+    expect_error(&sp2, RAD_ERR_INVALID, "material 'plain': baseColorFactor 1");
+}
+
+TEST(error_no_material)
+{
+    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6, .mesh_name = "M",
+               .prim = "\"mode\":4"};
+    expect_error(&sp, RAD_ERR_INVALID, "mesh 'M' primitive 0: no material");
+}
+
+TEST(error_truncated_glb)
+{
+    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6, .glb = 1};
+    size_t n;
+    unsigned char *d = build(&sp, &n);
+    /* every prefix fails cleanly; the header and chunk cuts say "truncated" */
+    for (size_t cut = 0; cut < n; cut++) {
+        rad_scene *s = (rad_scene *)1;
+        rad_error err;
+        int rc = rad_scene_parse_gltf(d, cut, "cut.glb", NULL, &s, &err);
+        CHECK_MSG(rc != RAD_OK && s == NULL, "prefix %zu accepted", cut);
+        if (cut >= 4 && cut < n)
+            CHECK_MSG(strstr(err.message, "truncated .glb") != NULL, "prefix %zu: %s", cut,
+                      err.message);
+    }
+    free(d);
+}
+
+/* Structural faults in the node graph and accessors. */
+TEST(error_structure)
+{
+    spec cyc = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6,
+                .nodes = "[{\"name\":\"a\",\"mesh\":0},{\"name\":\"b\",\"children\":[2]},"
+                         "{\"name\":\"c\",\"children\":[1]}]"};
+    expect_error(&cyc, RAD_ERR_PARSE, "cycle");
+    spec two = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6,
+                .nodes = "[{\"name\":\"a\",\"children\":[2]},{\"name\":\"b\",\"children\":[2]},"
+                         "{\"name\":\"c\",\"mesh\":0}]"};
+    expect_error(&two, RAD_ERR_PARSE, "node 'c' has two parents");
+    spec nomesh = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6,
+                   .nodes = "[{\"name\":\"a\",\"mesh\":3}]"};
+    expect_error(&nomesh, RAD_ERR_PARSE, "node 'a': mesh 3 does not exist");
+    spec badtype = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6, .idx_type = 5122};
+    expect_error(&badtype, RAD_ERR_PARSE, "componentType 5122");
+    /* accessor 2 reads the positions as VEC2; accessor 3 is sparse */
+    const char *more = ",{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC2\"}"
+                       ",{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\","
+                       "\"sparse\":{\"count\":1,\"indices\":{\"bufferView\":1,"
+                       "\"componentType\":5123},\"values\":{\"bufferView\":0}}}";
+    spec vec2 = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6, .accessors = more,
+                 .meshes = "[{\"name\":\"M\",\"primitives\":[{\"attributes\":{\"POSITION\":2},"
+                           "\"indices\":1,\"material\":0}]}]"};
+    expect_error(&vec2, RAD_ERR_PARSE, "mesh 'M' primitive 0: POSITION accessor 2: type VEC2");
+    spec sparse = vec2;
+    sparse.meshes = "[{\"name\":\"M\",\"primitives\":[{\"attributes\":{\"POSITION\":3},"
+                    "\"indices\":1,\"material\":0}]}]";
+    expect_error(&sparse, RAD_ERR_PARSE, "accessor 3: sparse accessors are not supported");
+    spec absent = vec2;
+    absent.meshes = "[{\"name\":\"M\",\"primitives\":[{\"attributes\":{\"POSITION\":9},"
+                    "\"indices\":1,\"material\":0}]}]";
+    expect_error(&absent, RAD_ERR_PARSE, "POSITION accessor 9 does not exist");
+    spec limit = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6,
+                  .nodes = "[{\"mesh\":0},{\"mesh\":0}]"};
+    size_t n;
+    unsigned char *d = build(&limit, &n);
+    rad_load_options opt = {.max_polygons = 3};
+    rad_scene *s;
+    rad_error err;
+    int rc = rad_scene_parse_gltf(d, n, "lim.gltf", &opt, &s, &err);
+    free(d);
+    CHECK_MSG(rc == RAD_ERR_LIMIT && strstr(err.message, "limit"), "%d %s", rc, err.message);
+}
+
+/* External buffers: a relative file beside the document loads; '..', an
+ * absolute path, a missing file and a document without a file name are
+ * refused. */
+TEST(external_buffers)
+{
+    char dir[] = "/tmp/test_gltf_XXXXXX";
+    if (!mkdtemp(dir)) {
+        CHECK(!"mkdtemp failed");
+        return;
+    }
+    blob b;
+    b.n = 0;
+    for (int k = 0; k < 12; k++)
+        put_float(&b, unit_quad[k]);
+    char path[256];
+    snprintf(path, sizeof path, "%s/q.bin", dir);
+    FILE *f = fopen(path, "wb");
+    CHECK(f != NULL);
+    if (!f)
+        return;
+    fwrite(b.d, 1, b.n, f);
+    fclose(f);
+    static const char fmt[] =
+        "{\"asset\":{\"version\":\"2.0\"},\"nodes\":[{\"name\":\"q\",\"mesh\":0}],"
+        "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"material\":0}]}],"
+        "\"materials\":[{\"emissiveFactor\":[1,1,1],"
+        "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.5,0.5,1]}}],"
+        "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"}],"
+        "\"bufferViews\":[{\"buffer\":0,\"byteLength\":36}],"
+        "\"buffers\":[{\"byteLength\":%d,\"uri\":\"%s\"}]}";
+    char doc[2048], name[300];
+    snprintf(name, sizeof name, "%s/scene.gltf", dir);
+    rad_scene *s;
+    rad_error err;
+
+    snprintf(doc, sizeof doc, fmt, 48, "q.bin");
+    int rc = rad_scene_parse_gltf(doc, strlen(doc), name, NULL, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc == RAD_OK) {
+        CHECK(s->polygon_count == 1);
+        CHECK_NEAR(s->polygons[0].area, 0.5, 1e-12);
+        rad_scene_destroy(s);
+    }
+    /* percent-encoded name of the same file */
+    snprintf(doc, sizeof doc, fmt, 48, "%71.bin");
+    rc = rad_scene_parse_gltf(doc, strlen(doc), name, NULL, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc == RAD_OK)
+        rad_scene_destroy(s);
+
+    const char *refused[] = {"../q.bin", "%2e%2e/q.bin", "/etc/passwd", "x/../q.bin"};
+    for (int k = 0; k < 4; k++) {
+        snprintf(doc, sizeof doc, fmt, 48, refused[k]);
+        rc = rad_scene_parse_gltf(doc, strlen(doc), name, NULL, &s, &err);
+        CHECK_MSG(rc == RAD_ERR_IO && strstr(err.message, "buffer 0: external file"),
+                  "%s: %d %s", refused[k], rc, err.message);
+    }
+    snprintf(doc, sizeof doc, fmt, 48, "missing.bin");
+    rc = rad_scene_parse_gltf(doc, strlen(doc), name, NULL, &s, &err);
+    CHECK_MSG(rc == RAD_ERR_IO && strstr(err.message, "missing.bin"), "%d %s", rc, err.message);
+    snprintf(doc, sizeof doc, fmt, 48, "q.bin");
+    rc = rad_scene_parse_gltf(doc, strlen(doc), NULL, NULL, &s, &err);
+    CHECK_MSG(rc == RAD_ERR_IO && strstr(err.message, "<memory>: buffer 0: external file"),
+              "%d %s", rc, err.message);
+    /* a file whose size differs from the declared byteLength is refused
+     * before it is read */
+    snprintf(doc, sizeof doc, fmt, 60, "q.bin");
+    rc = rad_scene_parse_gltf(doc, strlen(doc), name, NULL, &s, &err);
+    CHECK_MSG(rc == RAD_ERR_IO && strstr(err.message, "has 48 bytes, the document declares 60"),
+              "%d %s", rc, err.message);
+    unlink(path);
+    rmdir(dir);
+}
+
+/* ------------------------------------------------------------ Cornell box */
+
+/* models/cornell.gltf against models/cornell.rad: the same object names,
+ * the same per-object areas (relative 1e-6: the glTF stores float32
+ * positions, 6e-8 relative each, and the blocks' local coordinates pass
+ * through a rotation), the same materials and the same camera view. */
+TEST(cornell_matches_polygon_model)
+{
+    const char *gl = "models/cornell.gltf", *pf = "models/cornell.rad";
+    struct stat st;
+    if (stat(gl, &st) != 0) {
+        gl = "../models/cornell.gltf";
+        pf = "../models/cornell.rad";
+    }
+    rad_scene *g = NULL, *p = NULL;
+    rad_error err;
+    int rc = rad_scene_load(gl, NULL, &g, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    rc = rad_scene_load(pf, NULL, &p, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (!g || !p) {
+        rad_scene_destroy(g);
+        rad_scene_destroy(p);
+        return;
+    }
+    CHECK(g->object_count == 8 && g->object_count == p->object_count);
+    for (uint32_t o = 0; o < p->object_count; o++) {
+        uint32_t k = rad_scene_find_object(g, p->objects[o].name);
+        CHECK_MSG(k != RAD_NONE, "object '%s' missing from the glTF", p->objects[o].name);
+        if (k != RAD_NONE)
+            CHECK_REL(object_area(g, k), object_area(p, o), 1e-6);
+    }
+    CHECK(g->material_count == p->material_count);
+    for (uint32_t m = 0; m < p->material_count; m++) {
+        uint32_t k = rad_scene_find_material(g, p->materials[m].name);
+        CHECK_MSG(k != RAD_NONE, "material '%s' missing", p->materials[m].name);
+        if (k == RAD_NONE)
+            continue;
+        for (uint32_t b = 0; b < 3; b++) {
+            /* both files write these to 15+ digits */
+            CHECK_NEAR(g->materials[k].rho[b], p->materials[m].rho[b], 1e-12);
+            CHECK_REL(g->materials[k].emission[b], p->materials[m].emission[b], 1e-12);
+        }
+    }
+    /* the light's exitance is π × radiance (17, 12, 4) */
+    uint32_t light = rad_scene_find_material(g, "light");
+    if (light != RAD_NONE) {
+        CHECK_REL(g->materials[light].emission[0], 17 * M_PI, 1e-12);
+        CHECK_REL(g->materials[light].emission[1], 12 * M_PI, 1e-12);
+        CHECK_REL(g->materials[light].emission[2], 4 * M_PI, 1e-12);
+    }
+    /* the ceiling is four quads, the tall block's sides merged into quads
+     * (its top is no parallelogram: two triangles) */
+    uint32_t ceil = rad_scene_find_object(g, "ceiling"), tall = rad_scene_find_object(g, "tall_block");
+    int ceil_quads = 0, tall_quads = 0, tall_tris = 0;
+    for (uint32_t k = 0; k < g->polygon_count; k++) {
+        const rad_polygon *q = &g->polygons[k];
+        ceil_quads += q->object == ceil && q->point_count == 4;
+        tall_quads += q->object == tall && q->point_count == 4;
+        tall_tris += q->object == tall && q->point_count == 3;
+    }
+    CHECK(ceil_quads == 4);
+    CHECK(tall_quads == 4 && tall_tris == 2);
+    CHECK(g->camera_count == 1 && p->camera_count == 1);
+    if (g->camera_count == 1 && p->camera_count == 1) {
+        const rad_camera *a = &g->cameras[0], *c = &p->cameras[0];
+        CHECK(strcmp(a->name, c->name) == 0);
+        CHECK_NEAR(rad_length(rad_sub(a->eye, c->eye)), 0, 1e-12);
+        rad_vec3 da = rad_normalize(rad_sub(a->target, a->eye));
+        rad_vec3 dc = rad_normalize(rad_sub(c->target, c->eye));
+        CHECK_NEAR(rad_dot(da, dc), 1, 1e-12);
+        CHECK_NEAR(rad_dot(rad_normalize(a->up), rad_normalize(c->up)), 1, 1e-12);
+        /* cornell.rad rounds the published 39.307648° to 39.3077 */
+        CHECK_NEAR(a->yfov_deg, c->yfov_deg, 1e-4);
+    }
+    rad_scene_destroy(g);
+    rad_scene_destroy(p);
+}
+
+/* test/data/gltf/cornell.glb (written by the same tool) holds the same
+ * float32 data in a BIN chunk: it must give exactly the same scene. */
+TEST(cornell_glb_equals_gltf)
+{
+    const char *gl = "models/cornell.gltf", *gb = "test/data/gltf/cornell.glb";
+    struct stat st;
+    if (stat(gl, &st) != 0) {
+        gl = "../models/cornell.gltf";
+        gb = "../test/data/gltf/cornell.glb";
+    }
+    rad_scene *a = NULL, *b = NULL;
+    rad_error err;
+    int rc = rad_scene_load(gl, NULL, &a, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    rc = rad_scene_load(gb, NULL, &b, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (a && b) {
+        CHECK(a->object_count == b->object_count && a->polygon_count == b->polygon_count &&
+              a->point_count == b->point_count && a->camera_count == b->camera_count);
+        for (uint32_t o = 0; o < a->object_count && o < b->object_count; o++)
+            CHECK(strcmp(a->objects[o].name, b->objects[o].name) == 0);
+        /* identical inputs, identical arithmetic: equal to the last bit */
+        for (uint32_t k = 0; k < a->point_count && k < b->point_count; k++)
+            CHECK(a->points[k].x == b->points[k].x && a->points[k].y == b->points[k].y &&
+                  a->points[k].z == b->points[k].z);
+    }
+    rad_scene_destroy(a);
+    rad_scene_destroy(b);
+}
+
+int main(void)
+{
+    RUN(unit_quad_merges);
+    RUN(non_parallelogram_stays_triangles);
+    RUN(grid_pairs_cells);
+    RUN(hierarchy_transforms);
+    RUN(emissive_strength);
+    RUN(name_fallbacks);
+    RUN(strided_positions);
+    RUN(glb_container);
+    RUN(camera_conversion);
+    RUN(double_sided);
+    RUN(degenerate_triangles_dropped);
+    RUN(ignored_extension);
+    RUN(error_malformed_json);
+    RUN(error_mode_lines);
+    RUN(error_index_out_of_range);
+    RUN(error_accessor_beyond_view);
+    RUN(error_required_extension);
+    RUN(error_base_color_one);
+    RUN(error_no_material);
+    RUN(error_truncated_glb);
+    RUN(error_structure);
+    RUN(external_buffers);
+    RUN(cornell_matches_polygon_model);
+    RUN(cornell_glb_equals_gltf);
+    return test_finish("test_gltf");
+}

@@ -1,0 +1,1281 @@
+/* test_solution.c - the solution store: round trip, the file layout of
+ * docs/solution-format.md (checked with this file's own CRC-64/XZ), refusal
+ * of truncated, corrupted, newer and foreign files, and writes that fail
+ * without leaving a temporary file or harming the file already there.
+ *
+ * Run as `test_solution --write-seeds DIR` it writes the fuzzer's seed
+ * corpus (three small valid solution files) into DIR instead.
+ */
+#include "../radiosity/mesh.h"
+#include "../radiosity/scene.h"
+#include "../radiosity/solution.h"
+#include "test.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <stdint.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* ------------------------------------------------- an independent CRC-64 */
+
+/* CRC-64/XZ written from its definition (bit by bit, reflected polynomial
+ * 0xC96C5795D7870F42, init and final XOR all ones), independent of
+ * solution.c's table-driven code.  crc_step advances the raw register. */
+static uint64_t crc_step(uint64_t reg, uint8_t byte)
+{
+    reg ^= byte;
+    for (int k = 0; k < 8; k++)
+        reg = (reg & 1) ? (reg >> 1) ^ 0xC96C5795D7870F42ull : reg >> 1;
+    return reg;
+}
+
+static uint64_t crc64_xz(const uint8_t *p, size_t n)
+{
+    uint64_t reg = ~0ull;
+    for (size_t i = 0; i < n; i++)
+        reg = crc_step(reg, p[i]);
+    return reg ^ ~0ull;
+}
+
+static uint64_t rd64(const uint8_t *p)
+{
+    uint64_t v = 0;
+    for (int k = 7; k >= 0; k--)
+        v = (v << 8) | p[k];
+    return v;
+}
+
+static uint32_t rd32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+static void wr64(uint8_t *p, uint64_t v)
+{
+    for (int k = 0; k < 8; k++)
+        p[k] = (uint8_t)(v >> (8 * k));
+}
+
+static void wr32(uint8_t *p, uint32_t v)
+{
+    for (int k = 0; k < 4; k++)
+        p[k] = (uint8_t)(v >> (8 * k));
+}
+
+/* Makes the header's payload size and checksum agree with the bytes, so a
+ * deliberate edit reaches the structure checks. */
+static void fix_header(uint8_t *buf, size_t size)
+{
+    wr64(buf + 16, size - 32);
+    wr64(buf + 24, crc64_xz(buf + 32, size - 32));
+}
+
+/* Offset of the body of the section with this tag (its length in *len), or 0. */
+static size_t find_section(const uint8_t *buf, size_t size, const char *tag, uint64_t *len)
+{
+    size_t off = 32;
+    while (off + 12 <= size) {
+        uint64_t l = rd64(buf + off + 4);
+        if (memcmp(buf + off, tag, 4) == 0) {
+            *len = l;
+            return off + 12;
+        }
+        off += 12 + (size_t)l;
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------ fixtures */
+
+static const double rho_white[3] = {0.7, 0.65, 0.6};
+static const double rho_red[3] = {0.6, 0.1, 0.1};
+static const double tr_red[3] = {0.1, 0.0, 0.05};
+static const double e_lamp[3] = {10.0, 9.0, 8.5};
+static const double rho_lamp[3] = {0.2, 0.2, 0.2};
+
+/* Fills F with a deterministic pattern: rows i % 3 == 1 missing, row 0
+ * present but empty, other rows hold columns where `pick` says so, with
+ * F_ij < 0.9 / n so that every row sum stays below 0.9. */
+static int fill_rows(rad_solution *s, int (*pick)(uint32_t i, uint32_t j, uint32_t n))
+{
+    uint32_t n = s->mesh->patch_count;
+    uint32_t *col = malloc((n ? n : 1) * sizeof *col);
+    float *val = malloc((n ? n : 1) * sizeof *val);
+    int rc = (col && val) ? RAD_OK : RAD_ERR_NOMEM;
+    for (uint32_t i = 0; i < n && rc == RAD_OK; i++) {
+        if (i % 3 == 1)
+            continue;
+        uint32_t c = 0;
+        for (uint32_t j = 0; j < n && i != 0; j++) {
+            if (j != i && pick(i, j, n)) {
+                col[c] = j;
+                /* odd float bit patterns test bit exactness */
+                val[c] = (float)(0.9 / n * ((1 + (i + j) % 3) / 3.0)) * 0.999999f;
+                c++;
+            }
+        }
+        rc = rad_matrix_set_row(s->F, i, c, col, val, NULL);
+    }
+    free(col);
+    free(val);
+    return rc;
+}
+
+static int pick_some(uint32_t i, uint32_t j, uint32_t n)
+{
+    (void)n;
+    return (i * 31 + j * 17) % 5 == 0;
+}
+
+/* Far-apart columns: their gaps need two-byte varints. */
+static int pick_wide(uint32_t i, uint32_t j, uint32_t n)
+{
+    (void)i;
+    return j == 0 || j == n - 1 || j % 50 == 7;
+}
+
+static void set_provenance(rad_solution *s, const char *solver)
+{
+    s->patch_size = 0.25;
+    s->resolution = 128;
+    snprintf(s->solver, sizeof s->solver, "%s", solver);
+    s->tolerance = 1e-6;
+    s->iterations = 17;
+    s->residual = 3.5e-7 / 3.0;
+    s->rows_computed = 12345678901ull;
+    for (int k = 0; k < RAD_STAGE_COUNT; k++) {
+        s->stages[k].seconds = 0.1 * (k + 1) / 7.0;
+        s->stages[k].reused = k % 2;
+    }
+}
+
+static void set_B(rad_solution *s)
+{
+    size_t count = (size_t)s->mesh->patch_count * s->band_count;
+    for (size_t k = 0; k < count; k++)
+        s->B[k] = s->emission[k] + 0.01 * (double)(k % 7) + 1.0 / 3.0;
+}
+
+static int add_poly(rad_scene *sc, const char *name, uint32_t obj, uint32_t mat, const rad_vec3 *p,
+                    uint32_t n, uint32_t su, uint32_t sv)
+{
+    rad_error e;
+    int rc = rad_scene_add_polygon(sc, name, obj, mat, p, n, su, sv, NULL, NULL, &e);
+    if (rc)
+        fprintf(stderr, "fixture: %s\n", e.message);
+    return rc;
+}
+
+/* Three bands with names; quads, a triangle, a pentagon (fan), two cameras,
+ * meshed by rad_mesh_build from the polygons' subdivisions. */
+static rad_solution *make_rgb(void)
+{
+    rad_scene *sc = rad_scene_create(3, "fixtures/rgb-room.rad");
+    if (!sc)
+        return NULL;
+    const char *bn[3] = {"R", "G", "B"};
+    for (int b = 0; b < 3; b++)
+        sc->band_names[b] = strdup(bn[b]); /* no builder exists for band names */
+    uint32_t white, red, lamp, room, light;
+    int rc = rad_scene_add_material(sc, "white", rho_white, NULL, NULL, NULL, &white, NULL);
+    rc |= rad_scene_add_material(sc, "red paint", rho_red, NULL, tr_red, NULL, &red, NULL);
+    rc |= rad_scene_add_material(sc, "lamp", rho_lamp, e_lamp, NULL, NULL, &lamp, NULL);
+    rc |= rad_scene_add_object(sc, "room", NULL, &room, NULL);
+    rc |= rad_scene_add_object(sc, "light", NULL, &light, NULL);
+    const rad_vec3 floor[4] = {{0, 0, 0}, {3, 0, 0}, {3, 2, 0}, {0, 2, 0}};
+    const rad_vec3 wall[4] = {{0, 0, 0}, {0, 2, 0}, {0, 2, 2}, {0, 0, 2}};
+    const rad_vec3 tri[3] = {{3, 0, 0}, {3, 0, 2}, {3, 2, 0}};
+    rad_vec3 pent[5];
+    for (int k = 0; k < 5; k++) {
+        double a = 2.0 * M_PI * k / 5.0;
+        pent[k] = rad_v3(1.5 + 0.5 * cos(a), 2.0, 1.0 + 0.5 * sin(a));
+    }
+    const rad_vec3 lampq[4] = {{1, 0.5, 1.9}, {1, 1.5, 1.9}, {2, 1.5, 1.9}, {2, 0.5, 1.9}};
+    rc |= add_poly(sc, "floor", room, white, floor, 4, 3, 2);
+    rc |= add_poly(sc, "left wall", room, red, wall, 4, 2, 2);
+    rc |= add_poly(sc, "corner", room, white, tri, 3, 2, 0);
+    rc |= add_poly(sc, "window", room, red, pent, 5, 1, 0);
+    rc |= add_poly(sc, "lamp", light, lamp, lampq, 4, 1, 1);
+    rc |= rad_scene_add_camera(sc, "main", rad_v3(1.5, -3, 1), rad_v3(1.5, 1, 1), rad_v3(0, 0, 1),
+                               45.0, 4.0 / 3.0, NULL, NULL, NULL);
+    rc |= rad_scene_add_camera(sc, "top", rad_v3(1.5, 1, 5), rad_v3(1.5, 1, 0), rad_v3(0, 1, 0),
+                               60.0, 0.0, NULL, NULL, NULL);
+    rad_mesh *m = NULL;
+    rad_error e;
+    if (rc || rad_mesh_build(sc, NULL, &m, &e)) {
+        rad_scene_destroy(sc);
+        return NULL;
+    }
+    rad_solution *s = NULL;
+    if (rad_solution_create(sc, m, &s, &e))
+        return NULL;
+    set_provenance(s, "gauss-seidel");
+    set_B(s);
+    if (fill_rows(s, pick_some)) {
+        rad_solution_destroy(s);
+        return NULL;
+    }
+    return s;
+}
+
+/* One grey band, unnamed; a mesh built by hand with rad_mesh_alloc: a
+ * floor quad and a ceiling split into two triangle patches; no cameras. */
+static rad_solution *make_grey(void)
+{
+    rad_scene *sc = rad_scene_create(1, NULL);
+    if (!sc)
+        return NULL;
+    double grey = 0.5, zero = 0.0, five = 5.0;
+    int rc = rad_scene_add_material(sc, "grey", &grey, &zero, NULL, NULL, NULL, NULL);
+    rc |= rad_scene_add_material(sc, "emitter", &zero, &five, NULL, NULL, NULL, NULL);
+    rc |= rad_scene_add_object(sc, "box", NULL, NULL, NULL);
+    const rad_vec3 fl[4] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+    const rad_vec3 ce[4] = {{0, 0, 1}, {0, 1, 1}, {1, 1, 1}, {1, 0, 1}};
+    rc |= add_poly(sc, "floor", 0, 0, fl, 4, 1, 1);
+    rc |= add_poly(sc, "ceiling", 0, 1, ce, 4, 1, 1);
+    rad_mesh *m = rc ? NULL : rad_mesh_alloc(8, 3);
+    if (!m) {
+        rad_scene_destroy(sc);
+        return NULL;
+    }
+    for (int k = 0; k < 4; k++) {
+        m->vertices[k] = fl[k];
+        m->vertices[4 + k] = ce[k];
+        m->vertex_boundary[k] = m->vertex_boundary[4 + k] = 1;
+    }
+    rad_patch p0 = {{0, 1, 2, 3}, 0, 0, 0, {0.5, 0.5, 0}, {0, 0, 1}, 1.0};
+    rad_patch p1 = {{4, 5, 6, RAD_NONE}, 1, 0, 1, {1 / 3.0, 2 / 3.0, 1}, {0, 0, -1}, 0.5};
+    rad_patch p2 = {{4, 6, 7, RAD_NONE}, 1, 0, 1, {2 / 3.0, 1 / 3.0, 1}, {0, 0, -1}, 0.5};
+    m->patches[0] = p0;
+    m->patches[1] = p1;
+    m->patches[2] = p2;
+    rad_solution *s = NULL;
+    if (rad_solution_create(sc, m, &s, NULL))
+        return NULL;
+    set_provenance(s, "jacobi");
+    set_B(s);
+    /* F from a unit square to the parallel unit square one unit away is
+     * 0.1998 (Hottel); each ceiling triangle takes half by symmetry. */
+    const uint32_t c0[2] = {1, 2};
+    const float v0[2] = {0.0999f, 0.0999f};
+    const uint32_t c2[1] = {0};
+    const float v2[1] = {0.1998f};
+    if (rad_matrix_set_row(s->F, 0, 2, c0, v0, NULL) ||
+        rad_matrix_set_row(s->F, 2, 1, c2, v2, NULL)) {
+        rad_solution_destroy(s);
+        return NULL;
+    }
+    return s;
+}
+
+/* One band, 16×10 floor (160 patches) and a lamp: columns beyond 127. */
+static rad_solution *make_wide(void)
+{
+    rad_scene *sc = rad_scene_create(1, "wide.gltf");
+    if (!sc)
+        return NULL;
+    double w = 0.8, l = 0.0, e = 0.0, le = 100.0;
+    int rc = rad_scene_add_material(sc, "floor", &w, &e, NULL, NULL, NULL, NULL);
+    rc |= rad_scene_add_material(sc, "lamp", &l, &le, NULL, NULL, NULL, NULL);
+    rc |= rad_scene_add_object(sc, "floor", NULL, NULL, NULL);
+    rc |= rad_scene_add_object(sc, "lamp", NULL, NULL, NULL);
+    const rad_vec3 fl[4] = {{0, 0, 0}, {16, 0, 0}, {16, 10, 0}, {0, 10, 0}};
+    const rad_vec3 la[4] = {{7, 4, 3}, {7, 6, 3}, {9, 6, 3}, {9, 4, 3}};
+    rc |= add_poly(sc, "floor/0/0", 0, 0, fl, 4, 16, 10);
+    rc |= add_poly(sc, "lamp/0/0", 1, 1, la, 4, 1, 1);
+    rc |= rad_scene_add_camera(sc, "cam", rad_v3(8, -10, 5), rad_v3(8, 5, 0), rad_v3(0, 0, 1),
+                               50.0, 1.5, NULL, NULL, NULL);
+    rad_mesh *m = NULL;
+    if (rc || rad_mesh_build(sc, NULL, &m, NULL)) {
+        rad_scene_destroy(sc);
+        return NULL;
+    }
+    rad_solution *s = NULL;
+    if (rad_solution_create(sc, m, &s, NULL))
+        return NULL;
+    set_provenance(s, "progressive");
+    s->residual = INFINITY; /* allowed: no sweep measured */
+    set_B(s);
+    if (fill_rows(s, pick_wide)) {
+        rad_solution_destroy(s);
+        return NULL;
+    }
+    return s;
+}
+
+/* ----------------------------------------------------------- comparison */
+
+static int same_bits(const void *a, const void *b, size_t n)
+{
+    return n == 0 || memcmp(a, b, n) == 0;
+}
+
+static int same_str(const char *a, const char *b)
+{
+    return (a == NULL && b == NULL) || (a && b && strcmp(a, b) == 0);
+}
+
+/* Every field of b equals a's, doubles and floats bit for bit. */
+static void check_same(const rad_solution *a, const rad_solution *b)
+{
+    CHECK(a && b);
+    if (!a || !b)
+        return;
+    const rad_scene *x = a->scene, *y = b->scene;
+    CHECK(same_str(x->source, y->source));
+    CHECK(x->band_count == y->band_count && a->band_count == b->band_count);
+    for (uint32_t k = 0; k < RAD_MAX_BANDS; k++)
+        CHECK(same_str(x->band_names[k], y->band_names[k]));
+    uint32_t nb = x->band_count;
+    CHECK(x->material_count == y->material_count);
+    for (uint32_t i = 0; i < x->material_count && i < y->material_count; i++) {
+        const rad_material *p = &x->materials[i], *q = &y->materials[i];
+        CHECK(same_str(p->name, q->name));
+        CHECK(same_bits(p->rho, q->rho, nb * sizeof(double)));
+        CHECK(same_bits(p->emission, q->emission, nb * sizeof(double)));
+        CHECK(same_bits(p->transmit, q->transmit, nb * sizeof(double)));
+    }
+    CHECK(x->object_count == y->object_count);
+    for (uint32_t i = 0; i < x->object_count && i < y->object_count; i++)
+        CHECK(same_str(x->objects[i].name, y->objects[i].name));
+    CHECK(x->polygon_count == y->polygon_count && x->point_count == y->point_count);
+    for (uint32_t i = 0; i < x->polygon_count && i < y->polygon_count; i++) {
+        const rad_polygon *p = &x->polygons[i], *q = &y->polygons[i];
+        CHECK(same_str(p->name, q->name));
+        CHECK(p->first_point == q->first_point && p->point_count == q->point_count);
+        CHECK(p->material == q->material && p->object == q->object);
+        CHECK(p->subdiv_u == q->subdiv_u && p->subdiv_v == q->subdiv_v);
+        CHECK(same_bits(&p->normal, &q->normal, sizeof p->normal));
+        CHECK(same_bits(&p->area, &q->area, sizeof p->area));
+    }
+    if (x->point_count == y->point_count)
+        CHECK(same_bits(x->points, y->points, x->point_count * sizeof *x->points));
+    CHECK(x->camera_count == y->camera_count);
+    for (uint32_t i = 0; i < x->camera_count && i < y->camera_count; i++) {
+        const rad_camera *p = &x->cameras[i], *q = &y->cameras[i];
+        CHECK(same_str(p->name, q->name));
+        CHECK(same_bits(&p->eye, &q->eye, sizeof p->eye));
+        CHECK(same_bits(&p->target, &q->target, sizeof p->target));
+        CHECK(same_bits(&p->up, &q->up, sizeof p->up));
+        CHECK(same_bits(&p->yfov_deg, &q->yfov_deg, sizeof(double)));
+        CHECK(same_bits(&p->aspect, &q->aspect, sizeof(double)));
+    }
+
+    const rad_mesh *m = a->mesh, *n = b->mesh;
+    CHECK(m->vertex_count == n->vertex_count && m->patch_count == n->patch_count);
+    if (m->vertex_count == n->vertex_count) {
+        CHECK(same_bits(m->vertices, n->vertices, m->vertex_count * sizeof *m->vertices));
+        CHECK(same_bits(m->vertex_boundary, n->vertex_boundary, m->vertex_count));
+    }
+    for (uint32_t i = 0; i < m->patch_count && i < n->patch_count; i++) {
+        const rad_patch *p = &m->patches[i], *q = &n->patches[i];
+        CHECK(same_bits(p->v, q->v, sizeof p->v));
+        CHECK(p->polygon == q->polygon && p->object == q->object && p->material == q->material);
+        CHECK(same_bits(&p->center, &q->center, sizeof p->center));
+        CHECK(same_bits(&p->normal, &q->normal, sizeof p->normal));
+        CHECK(same_bits(&p->area, &q->area, sizeof p->area));
+    }
+
+    const rad_matrix *F = a->F, *G = b->F;
+    CHECK(F->n == G->n && F->rows_done == G->rows_done);
+    for (uint32_t i = 0; i < F->n && i < G->n; i++) {
+        CHECK(F->row_done[i] == G->row_done[i]);
+        if (!F->row_done[i] || !G->row_done[i])
+            continue;
+        CHECK(F->row_count[i] == G->row_count[i]);
+        if (F->row_count[i] != G->row_count[i] || F->row_count[i] == 0)
+            continue; /* an empty row may have no pool to point into */
+        CHECK(same_bits(F->col + F->row_start[i], G->col + G->row_start[i],
+                        F->row_count[i] * sizeof(uint32_t)));
+        CHECK(same_bits(F->val + F->row_start[i], G->val + G->row_start[i],
+                        F->row_count[i] * sizeof(float)));
+    }
+
+    if (m->patch_count == n->patch_count && a->band_count == b->band_count) {
+        size_t bytes = (size_t)m->patch_count * a->band_count * sizeof(double);
+        CHECK(same_bits(a->rho, b->rho, bytes));
+        CHECK(same_bits(a->emission, b->emission, bytes));
+        CHECK(same_bits(a->B, b->B, bytes));
+    }
+    CHECK(same_bits(&a->patch_size, &b->patch_size, sizeof(double)));
+    CHECK(a->resolution == b->resolution);
+    CHECK(strcmp(a->solver, b->solver) == 0);
+    CHECK(same_bits(&a->tolerance, &b->tolerance, sizeof(double)));
+    CHECK(a->iterations == b->iterations);
+    CHECK(same_bits(&a->residual, &b->residual, sizeof(double)));
+    CHECK(a->rows_computed == b->rows_computed);
+    for (int k = 0; k < RAD_STAGE_COUNT; k++) {
+        CHECK(same_bits(&a->stages[k].seconds, &b->stages[k].seconds, sizeof(double)));
+        CHECK(a->stages[k].reused == b->stages[k].reused);
+    }
+}
+
+/* The invariants solution.h promises of anything the reader returns. */
+static int invariants_hold(const rad_solution *s)
+{
+    const rad_scene *sc = s->scene;
+    if (!sc || !s->mesh || !s->F || s->F->n != s->mesh->patch_count ||
+        s->band_count != sc->band_count)
+        return 0;
+    /* rad_matrix_check forms col + 0 even without a pool (no entries), which
+     * UBSan reports; an entry-less matrix has nothing for it to check. */
+    if (rad_mesh_check(s->mesh, sc->polygon_count, sc->object_count, sc->material_count, NULL) ||
+        (s->F->col && rad_matrix_check(s->F, NULL)))
+        return 0;
+    size_t count = (size_t)s->mesh->patch_count * s->band_count;
+    for (size_t k = 0; k < count; k++)
+        if (!(s->rho[k] >= 0 && s->rho[k] < 1) || !(s->emission[k] >= 0) ||
+            !isfinite(s->emission[k]) || !(s->B[k] >= 0) || !isfinite(s->B[k]))
+            return 0;
+    return 1;
+}
+
+/* ------------------------------------------------------------ file helpers */
+
+static char tmpdir[256];
+
+static void path_in(char *out, size_t size, const char *name)
+{
+    snprintf(out, size, "%s/%s", tmpdir, name);
+}
+
+static uint8_t *slurp(const char *path, size_t *size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    uint8_t *buf = malloc(n > 0 ? (size_t)n : 1);
+    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
+        free(buf);
+        buf = NULL;
+    }
+    fclose(f);
+    *size = (size_t)n;
+    return buf;
+}
+
+static int spit(const char *path, const void *data, size_t size)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f)
+        return -1;
+    size_t w = fwrite(data, 1, size, f);
+    return fclose(f) == 0 && w == size ? 0 : -1;
+}
+
+/* Entries of dir whose name contains ".tmp.": left-over temporary files. */
+static int temp_files_in(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return -1;
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d)))
+        if (strstr(e->d_name, ".tmp."))
+            n++;
+    closedir(d);
+    return n;
+}
+
+static void remove_tree(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return;
+    struct dirent *e;
+    char p[512];
+    while ((e = readdir(d))) {
+        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, ".."))
+            continue;
+        snprintf(p, sizeof p, "%s/%s", dir, e->d_name);
+        struct stat st;
+        if (lstat(p, &st) == 0 && S_ISDIR(st.st_mode))
+            remove_tree(p);
+        else
+            unlink(p);
+    }
+    closedir(d);
+    rmdir(dir);
+}
+
+/* The rgb fixture serialised once, shared by the byte-level tests. */
+static uint8_t *golden;
+static size_t golden_size;
+
+static int load_golden(void)
+{
+    if (golden)
+        return 1;
+    rad_solution *s = make_rgb();
+    char p[300];
+    path_in(p, sizeof p, "golden.sol");
+    rad_error e;
+    if (!s || rad_solution_write(s, p, &e)) {
+        rad_solution_destroy(s);
+        return 0;
+    }
+    rad_solution_destroy(s);
+    golden = slurp(p, &golden_size);
+    return golden != NULL;
+}
+
+/* ------------------------------------------------------------------- tests */
+
+TEST(crc_matches_published_check_value)
+{
+    /* The catalogue check value of CRC-64/XZ: validates this file's CRC,
+     * which the layout tests below use to judge solution.c's. */
+    CHECK(crc64_xz((const uint8_t *)"123456789", 9) == 0x995DC9BBDF1939FAull);
+    CHECK(crc64_xz(NULL, 0) == 0);
+}
+
+TEST(stage_names)
+{
+    CHECK(strcmp(rad_stage_name(RAD_STAGE_LOAD), "load") == 0);
+    CHECK(strcmp(rad_stage_name(RAD_STAGE_MESH), "mesh") == 0);
+    CHECK(strcmp(rad_stage_name(RAD_STAGE_FORM_FACTORS), "form_factors") == 0);
+    CHECK(strcmp(rad_stage_name(RAD_STAGE_SOLVE), "solve") == 0);
+    CHECK(strcmp(rad_stage_name(RAD_STAGE_STORE), "store") == 0);
+}
+
+TEST(create_copies_materials)
+{
+    rad_solution *s = make_rgb();
+    CHECK(s != NULL);
+    if (!s)
+        return;
+    CHECK(s->band_count == 3);
+    CHECK(s->F->n == s->mesh->patch_count);
+    /* floor 3×2 + wall 2×2 + triangle 2² + pentagon fan 5 + lamp 1 */
+    CHECK(s->mesh->patch_count == 6 + 4 + 4 + 5 + 1);
+    rad_solution_destroy(s);
+
+    /* Fresh: ρ and E from each patch's material, B = E, no rows. */
+    rad_scene *sc = rad_scene_create(3, NULL);
+    uint32_t w, l;
+    CHECK(rad_scene_add_material(sc, "w", rho_white, NULL, NULL, NULL, &w, NULL) == RAD_OK);
+    CHECK(rad_scene_add_material(sc, "l", rho_lamp, e_lamp, NULL, NULL, &l, NULL) == RAD_OK);
+    CHECK(rad_scene_add_object(sc, "o", NULL, NULL, NULL) == RAD_OK);
+    const rad_vec3 q[4] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+    const rad_vec3 t[4] = {{0, 0, 1}, {0, 1, 1}, {1, 1, 1}, {1, 0, 1}};
+    CHECK(add_poly(sc, "a", 0, w, q, 4, 2, 1) == RAD_OK);
+    CHECK(add_poly(sc, "b", 0, l, t, 4, 1, 1) == RAD_OK);
+    rad_mesh *m = NULL;
+    CHECK(rad_mesh_build(sc, NULL, &m, NULL) == RAD_OK);
+    rad_error e;
+    CHECK(rad_solution_create(sc, m, &s, &e) == RAD_OK);
+    if (!s)
+        return;
+    CHECK(s->F->rows_done == 0);
+    for (uint32_t i = 0; i < s->mesh->patch_count; i++) {
+        const rad_material *mat = &s->scene->materials[s->mesh->patches[i].material];
+        for (uint32_t b = 0; b < 3; b++) {
+            CHECK(s->rho[i * 3 + b] == mat->rho[b]);
+            CHECK(s->emission[i * 3 + b] == mat->emission[b]);
+            CHECK(s->B[i * 3 + b] == mat->emission[b]);
+        }
+    }
+    rad_solution_destroy(s);
+    rad_solution_destroy(NULL);
+
+    /* Misuse: both inputs are consumed and the error says so. */
+    s = (rad_solution *)&e;
+    CHECK(rad_solution_create(rad_scene_create(1, NULL), NULL, &s, &e) == RAD_ERR_USAGE);
+    CHECK(s == NULL);
+}
+
+TEST(round_trip_is_bit_exact)
+{
+    rad_solution *(*make[3])(void) = {make_rgb, make_grey, make_wide};
+    for (int v = 0; v < 3; v++) {
+        rad_solution *s = make[v]();
+        CHECK(s != NULL);
+        if (!s)
+            continue;
+        char p[300];
+        path_in(p, sizeof p, "round.sol");
+        rad_error e;
+        int rc = rad_solution_write(s, p, &e);
+        CHECK_MSG(rc == RAD_OK, "%s", e.message);
+        rad_solution *r = NULL;
+        rc = rad_solution_read(p, &r, &e);
+        CHECK_MSG(rc == RAD_OK, "%s", e.message);
+        check_same(s, r);
+        CHECK(r && invariants_hold(r));
+        /* rows missing in the fixture stay missing */
+        if (r && r->mesh->patch_count > 1)
+            CHECK(r->F->row_done[1] == 0);
+        /* writing the read solution gives the same bytes */
+        char p2[300];
+        path_in(p2, sizeof p2, "round2.sol");
+        CHECK(r && rad_solution_write(r, p2, &e) == RAD_OK);
+        size_t n1 = 0, n2 = 0;
+        uint8_t *b1 = slurp(p, &n1), *b2 = slurp(p2, &n2);
+        CHECK(b1 && b2 && n1 == n2 && memcmp(b1, b2, n1) == 0);
+        if (v == 2 && b1) {
+            /* the wide fixture must exercise multi-byte column gaps */
+            uint64_t len;
+            size_t off = find_section(b1, n1, "MTRX", &len);
+            int multi = 0;
+            for (size_t k = off; off && k < off + len; k++)
+                multi |= (b1[k] & 0x80) != 0;
+            CHECK(off > 0 && multi);
+        }
+        free(b1);
+        free(b2);
+        rad_solution_destroy(r);
+        rad_solution_destroy(s);
+    }
+    char p[300];
+    path_in(p, sizeof p, "");
+    CHECK(temp_files_in(p) == 0);
+}
+
+/* F with no rows, and F whose present rows are all empty: both legal, and
+ * distinct (an empty row was computed and sees nothing; a missing row was
+ * never computed). */
+TEST(matrix_without_entries_round_trips)
+{
+    for (int variant = 0; variant < 2; variant++) {
+        rad_solution *s = make_grey();
+        CHECK(s != NULL);
+        if (!s)
+            return;
+        rad_matrix_destroy(s->F);
+        s->F = rad_matrix_create(s->mesh->patch_count);
+        if (variant == 1)
+            for (uint32_t i = 0; i < s->mesh->patch_count; i++)
+                CHECK(rad_matrix_set_row(s->F, i, 0, NULL, NULL, NULL) == RAD_OK);
+        char p[300];
+        path_in(p, sizeof p, "empty.sol");
+        rad_error e;
+        CHECK_MSG(rad_solution_write(s, p, &e) == RAD_OK, "%s", e.message);
+        rad_solution *r = NULL;
+        CHECK_MSG(rad_solution_read(p, &r, &e) == RAD_OK, "%s", e.message);
+        check_same(s, r);
+        CHECK(r && r->F->rows_done == (variant ? r->mesh->patch_count : 0));
+        rad_solution_destroy(r);
+        rad_solution_destroy(s);
+    }
+}
+
+TEST(layout_follows_the_format)
+{
+    CHECK(load_golden());
+    if (!golden)
+        return;
+    const uint8_t *b = golden;
+    CHECK(memcmp(b, "RADSOL\r\n", 8) == 0);
+    CHECK(rd32(b + 8) == 1);
+    CHECK(rd32(b + 12) == 0);
+    CHECK(rd64(b + 16) == golden_size - 32);
+    CHECK(rd64(b + 24) == crc64_xz(b + 32, golden_size - 32));
+    /* sections in the fixed order, lengths tiling the payload exactly */
+    const char *order[5] = {"INFO", "SCEN", "MESH", "MTRX", "PDAT"};
+    size_t off = 32;
+    for (int k = 0; k < 5; k++) {
+        CHECK(off + 12 <= golden_size);
+        if (off + 12 > golden_size)
+            return;
+        CHECK(memcmp(b + off, order[k], 4) == 0);
+        off += 12 + (size_t)rd64(b + off + 4);
+    }
+    CHECK(off == golden_size);
+    /* MATRIX starts with n, then the number of rows present */
+    rad_solution *s = make_rgb();
+    uint64_t len;
+    size_t m = find_section(b, golden_size, "MTRX", &len);
+    CHECK(m && s && rd32(b + m) == s->mesh->patch_count);
+    CHECK(m && s && rd32(b + m + 4) == s->F->rows_done);
+    /* PATCHDATA: n, bands, then ρ, E and B as float64 */
+    size_t pd = find_section(b, golden_size, "PDAT", &len);
+    if (pd && s) {
+        uint32_t n = s->mesh->patch_count;
+        CHECK(len == 8 + 3ull * 8 * n * 3);
+        double b0;
+        uint64_t bits = rd64(b + pd + 8 + 2ull * 8 * n * 3);
+        memcpy(&b0, &bits, 8);
+        CHECK(same_bits(&b0, &s->B[0], 8));
+    }
+    rad_solution_destroy(s);
+}
+
+TEST(every_truncation_is_refused)
+{
+    CHECK(load_golden());
+    if (!golden)
+        return;
+    size_t bad = 0, first = SIZE_MAX;
+    for (size_t k = 0; k < golden_size; k++) {
+        for (int sum = 0; sum < 2; sum++) {
+            rad_solution *s = NULL;
+            rad_error e = {0};
+            int rc = rad_solution_parse(golden, k, "cut", sum, &s, &e);
+            if (!((rc == RAD_ERR_CORRUPT || rc == RAD_ERR_PARSE) && s == NULL)) {
+                bad++;
+                if (first == SIZE_MAX)
+                    first = k;
+            }
+            rad_solution_destroy(s);
+        }
+    }
+    CHECK_MSG(bad == 0, "%zu truncations accepted, first at %zu", bad, first);
+
+    /* The same cuts with the header made to agree (size and CRC recomputed):
+     * now only the section structure can notice, at every byte. */
+    uint8_t *buf = malloc(golden_size);
+    memcpy(buf, golden, golden_size);
+    uint64_t reg = ~0ull;
+    bad = 0;
+    first = SIZE_MAX;
+    for (size_t k = 32; k < golden_size; k++) {
+        wr64(buf + 16, k - 32);
+        wr64(buf + 24, reg ^ ~0ull);
+        rad_solution *s = NULL;
+        rad_error e = {0};
+        int rc = rad_solution_parse(buf, k, "cut", 1, &s, &e);
+        if (rc != RAD_ERR_CORRUPT || s || strncmp(e.message, "cut: ", 5) != 0) {
+            bad++;
+            if (first == SIZE_MAX)
+                first = k;
+        }
+        rad_solution_destroy(s);
+        reg = crc_step(reg, golden[k]);
+    }
+    CHECK_MSG(bad == 0, "%zu consistent truncations accepted, first at %zu", bad, first);
+    /* and the untruncated file still parses through the same path */
+    fix_header(buf, golden_size);
+    rad_solution *s = NULL;
+    CHECK(rad_solution_parse(buf, golden_size, "whole", 1, &s, NULL) == RAD_OK);
+    rad_solution_destroy(s);
+    free(buf);
+
+    /* a message of the required shape */
+    rad_error e;
+    CHECK(rad_solution_parse(golden, 1000, "x.sol", 1, &s, &e) == RAD_ERR_CORRUPT);
+    char want[96];
+    snprintf(want, sizeof want, "x.sol: truncated: 1000 of %zu bytes", golden_size);
+    CHECK_MSG(strcmp(e.message, want) == 0, "%s", e.message);
+}
+
+TEST(every_byte_flip_is_refused)
+{
+    CHECK(load_golden());
+    if (!golden)
+        return;
+    uint8_t *buf = malloc(golden_size);
+    memcpy(buf, golden, golden_size);
+    size_t accepted = 0, unclean = 0, accepted_nosum = 0, bad_nosum = 0, first = SIZE_MAX;
+    for (size_t k = 0; k < golden_size; k++) {
+        /* each byte inverted, and one bit of each byte (bit k mod 8) */
+        const uint8_t masks[2] = {0xFF, (uint8_t)(1u << (k % 8))};
+        for (int f = 0; f < 2; f++) {
+            buf[k] ^= masks[f];
+            rad_solution *s = NULL;
+            rad_error e = {0};
+            int rc = rad_solution_parse(buf, golden_size, "flip", 1, &s, &e);
+            if (rc == RAD_OK) {
+                accepted++;
+                if (first == SIZE_MAX)
+                    first = k;
+            } else if (s || (rc != RAD_ERR_CORRUPT && rc != RAD_ERR_PARSE) ||
+                       strncmp(e.message, "flip: ", 6) != 0) {
+                unclean++;
+            }
+            rad_solution_destroy(s);
+            /* Without the checksum the structure checks must hold alone: a
+             * flip may survive (a changed value still in range) but what
+             * comes back must keep every invariant. */
+            s = NULL;
+            rc = rad_solution_parse(buf, golden_size, "flip", 0, &s, &e);
+            if (rc == RAD_OK) {
+                accepted_nosum++;
+                if (!s || !invariants_hold(s))
+                    bad_nosum++;
+            } else if (s || rc == RAD_ERR_USAGE) {
+                bad_nosum++;
+            }
+            rad_solution_destroy(s);
+            buf[k] ^= masks[f];
+        }
+    }
+    CHECK_MSG(accepted == 0, "%zu flips accepted, first at byte %zu", accepted, first);
+    CHECK(unclean == 0);
+    CHECK(bad_nosum == 0);
+    /* Sanity: without the checksum some flips (in values) do get through,
+     * and most (in structure) do not; both branches were exercised. */
+    CHECK(accepted_nosum > 0 && accepted_nosum < 2 * golden_size);
+    printf("     %zu bytes, 2 flips each: %zu accepted without the checksum\n", golden_size,
+           accepted_nosum);
+    rad_error e;
+    buf[golden_size / 2] ^= 0x10;
+    rad_solution *s = NULL;
+    CHECK(rad_solution_parse(buf, golden_size, "c.sol", 1, &s, &e) == RAD_ERR_CORRUPT);
+    CHECK_MSG(strcmp(e.message, "c.sol: checksum mismatch: the file is corrupt") == 0, "%s",
+              e.message);
+    free(buf);
+}
+
+TEST(newer_version_and_foreign_files)
+{
+    CHECK(load_golden());
+    if (!golden)
+        return;
+    uint8_t *buf = malloc(golden_size);
+    memcpy(buf, golden, golden_size);
+    wr32(buf + 8, 7);
+    rad_solution *s = NULL;
+    rad_error e;
+    CHECK(rad_solution_parse(buf, golden_size, "new.sol", 1, &s, &e) == RAD_ERR_PARSE);
+    CHECK_MSG(strcmp(e.message, "new.sol: format version 7 is newer than this program (1)") == 0,
+              "%s", e.message);
+    CHECK(s == NULL);
+    free(buf);
+
+    /* Garbage: random bytes, text, an empty file, a PNG signature. */
+    uint8_t junk[4096];
+    uint32_t x = 12345;
+    for (size_t k = 0; k < sizeof junk; k++) {
+        x = x * 1664525u + 1013904223u;
+        junk[k] = (uint8_t)(x >> 24);
+    }
+    char p[300];
+    path_in(p, sizeof p, "junk.sol");
+    CHECK(spit(p, junk, sizeof junk) == 0);
+    CHECK(rad_solution_read(p, &s, &e) == RAD_ERR_PARSE);
+    char want[400];
+    snprintf(want, sizeof want, "%s: not a radiosity solution file", p);
+    CHECK_MSG(strcmp(e.message, want) == 0, "%s", e.message);
+    const char *text = "polygon floor white\n  0 0 0\n";
+    CHECK(rad_solution_parse(text, strlen(text), "t", 1, &s, &e) == RAD_ERR_PARSE);
+    CHECK(rad_solution_parse("", 0, "t", 1, &s, &e) == RAD_ERR_PARSE);
+    CHECK(rad_solution_parse(NULL, 0, "t", 0, &s, &e) == RAD_ERR_PARSE);
+    CHECK(rad_solution_parse("\x89PNG\r\n\x1a\n", 8, "t", 1, &s, &e) == RAD_ERR_PARSE);
+    /* a prefix of the magic is a truncated solution, not a foreign file */
+    CHECK(rad_solution_parse("RADS", 4, "t", 1, &s, &e) == RAD_ERR_CORRUPT);
+    CHECK(s == NULL);
+
+    path_in(p, sizeof p, "does-not-exist.sol");
+    CHECK(rad_solution_read(p, &s, &e) == RAD_ERR_IO);
+    CHECK(strstr(e.message, "does-not-exist.sol: cannot open") != NULL);
+    path_in(p, sizeof p, "");
+    CHECK(rad_solution_read(p, &s, &e) == RAD_ERR_IO); /* a directory */
+
+    /* > 64 GiB refused before reading: a sparse file costs no disk. */
+    path_in(p, sizeof p, "huge.sol");
+    int fd = open(p, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    CHECK(fd >= 0);
+    if (fd >= 0) {
+        CHECK(write(fd, golden, 32) == 32);
+        CHECK(ftruncate(fd, (off_t)(64ll << 30) + 1) == 0);
+        close(fd);
+        CHECK(rad_solution_read(p, &s, &e) == RAD_ERR_LIMIT);
+        CHECK_MSG(strstr(e.message, "64 GiB") != NULL, "%s", e.message);
+        unlink(p);
+    }
+}
+
+TEST(structure_errors_name_section_and_element)
+{
+    CHECK(load_golden());
+    if (!golden)
+        return;
+    rad_solution *ref = make_rgb();
+    CHECK(ref != NULL);
+    if (!ref)
+        return;
+    uint32_t n = ref->mesh->patch_count;
+    uint8_t *buf = malloc(golden_size);
+    rad_solution *s = NULL;
+    rad_error e;
+    uint64_t len;
+
+    /* A column out of range: the first present non-empty row is row 2
+     * (row 0 empty, row 1 missing); its first column is one varint byte. */
+    memcpy(buf, golden, golden_size);
+    size_t m = find_section(buf, golden_size, "MTRX", &len);
+    size_t r = m + 8;              /* row 0: index, count 0 */
+    CHECK(rd32(buf + r) == 0 && rd32(buf + r + 4) == 0);
+    r += 8;                        /* row 2 */
+    CHECK(rd32(buf + r) == 2 && rd32(buf + r + 4) > 0);
+    CHECK(n < 127);
+    buf[r + 8] = 127;
+    fix_header(buf, golden_size);
+    CHECK(rad_solution_parse(buf, golden_size, "m.sol", 1, &s, &e) == RAD_ERR_CORRUPT);
+    char want[200];
+    snprintf(want, sizeof want, "m.sol: section MATRIX: row 2: column 127 out of range (n = %u)",
+             n);
+    CHECK_MSG(strcmp(e.message, want) == 0, "%s", e.message);
+
+    /* ρ = 1 in PATCHDATA */
+    memcpy(buf, golden, golden_size);
+    size_t pd = find_section(buf, golden_size, "PDAT", &len);
+    double one = 1.0;
+    uint64_t bits;
+    memcpy(&bits, &one, 8);
+    wr64(buf + pd + 8 + 8 * 4, bits); /* patch 1, band 1 */
+    fix_header(buf, golden_size);
+    CHECK(rad_solution_parse(buf, golden_size, "p.sol", 1, &s, &e) == RAD_ERR_CORRUPT);
+    CHECK_MSG(strstr(e.message, "p.sol: section PATCHDATA: patch 1 band 1: ρ = 1") == e.message,
+              "%s", e.message);
+
+    /* B negative */
+    memcpy(buf, golden, golden_size);
+    double neg = -0.5;
+    memcpy(&bits, &neg, 8);
+    wr64(buf + pd + 8 + 2ull * 8 * n * 3, bits);
+    fix_header(buf, golden_size);
+    CHECK(rad_solution_parse(buf, golden_size, "b.sol", 1, &s, &e) == RAD_ERR_CORRUPT);
+    CHECK_MSG(strstr(e.message, "section PATCHDATA: patch 0 band 0: B = -0.5") != NULL, "%s",
+              e.message);
+
+    /* A vertex count that would ask for terabytes is refused before any
+     * allocation (under ASan a huge malloc would abort the test). */
+    memcpy(buf, golden, golden_size);
+    size_t me = find_section(buf, golden_size, "MESH", &len);
+    wr32(buf + me, 0xFFFFFFF0u);
+    fix_header(buf, golden_size);
+    CHECK(rad_solution_parse(buf, golden_size, "v.sol", 1, &s, &e) == RAD_ERR_CORRUPT);
+    CHECK_MSG(strstr(e.message, "v.sol: section MESH: 4294967280 vertices") == e.message, "%s",
+              e.message);
+
+    /* A patch naming a vertex past the end */
+    memcpy(buf, golden, golden_size);
+    uint32_t nv = rd32(buf + me);
+    wr32(buf + me + 8 + 25ull * nv + 4, nv + 5); /* patch 0, corner 1 */
+    fix_header(buf, golden_size);
+    CHECK(rad_solution_parse(buf, golden_size, "v.sol", 1, &s, &e) == RAD_ERR_CORRUPT);
+    CHECK_MSG(strstr(e.message, "section MESH: patch 0: vertex") != NULL, "%s", e.message);
+
+    /* A material with ρ >= 1 is refused by the scene builder, named by name. */
+    memcpy(buf, golden, golden_size);
+    size_t sc = find_section(buf, golden_size, "SCEN", &len);
+    size_t q = sc + 4 + rd32(buf + sc) + 4; /* past source, band count */
+    for (int b = 0; b < 3; b++)
+        q += 1 + 4 + rd32(buf + q + 1);      /* band names (all present) */
+    q += 4;                                  /* material count */
+    q += 4 + rd32(buf + q);                  /* material 0 name "white" */
+    wr64(buf + q, bits);                     /* ρ_R = -0.5 */
+    fix_header(buf, golden_size);
+    CHECK(rad_solution_parse(buf, golden_size, "s.sol", 1, &s, &e) == RAD_ERR_CORRUPT);
+    CHECK_MSG(strstr(e.message, "s.sol: section SCENE: material 'white'") == e.message, "%s",
+              e.message);
+
+    /* A section repeated, and one missing. */
+    uint64_t ilen;
+    CHECK(find_section(golden, golden_size, "INFO", &ilen) == 32 + 12);
+    size_t ilen_all = 12 + (size_t)ilen;
+    size_t dup_size = golden_size + ilen_all;
+    uint8_t *big = malloc(dup_size);
+    memcpy(big, golden, 32);
+    memcpy(big + 32, golden + 32, ilen_all);
+    memcpy(big + 32 + ilen_all, golden + 32, golden_size - 32);
+    fix_header(big, dup_size);
+    CHECK(rad_solution_parse(big, dup_size, "d.sol", 1, &s, &e) == RAD_ERR_CORRUPT);
+    CHECK_MSG(strstr(e.message, "section INFO appears twice") != NULL, "%s", e.message);
+    memcpy(big, golden, 32);
+    memcpy(big + 32, golden + 32 + ilen_all, golden_size - 32 - ilen_all);
+    fix_header(big, golden_size - ilen_all);
+    CHECK(rad_solution_parse(big, golden_size - ilen_all, "d.sol", 1, &s, &e) == RAD_ERR_CORRUPT);
+    CHECK_MSG(strstr(e.message, "section INFO missing") != NULL, "%s", e.message);
+    free(big);
+    CHECK(s == NULL);
+    free(buf);
+    rad_solution_destroy(ref);
+}
+
+/* A copy of golden with n bytes inserted at `at`, inside the section whose
+ * body starts at `body`; the section length and the header are fixed up. */
+static uint8_t *insert_bytes(size_t body, size_t at, const void *bytes, size_t n, size_t *size)
+{
+    uint8_t *buf = malloc(golden_size + n);
+    memcpy(buf, golden, at);
+    memcpy(buf + at, bytes, n);
+    memcpy(buf + at + n, golden + at, golden_size - at);
+    wr64(buf + body - 8, rd64(golden + body - 8) + n);
+    *size = golden_size + n;
+    fix_header(buf, *size);
+    return buf;
+}
+
+TEST(encoding_rules_are_enforced)
+{
+    CHECK(load_golden());
+    if (!golden)
+        return;
+    rad_solution *s = NULL;
+    rad_error e;
+    uint64_t len;
+    size_t size;
+
+    /* Bytes left over at the end of a known section */
+    size_t info = find_section(golden, golden_size, "INFO", &len);
+    uint8_t *buf = insert_bytes(info, info + (size_t)len, "\0", 1, &size);
+    CHECK(rad_solution_parse(buf, size, "l.sol", 1, &s, &e) == RAD_ERR_CORRUPT);
+    CHECK_MSG(strcmp(e.message, "l.sol: section INFO: 1 unexpected bytes at the end") == 0, "%s",
+              e.message);
+    free(buf);
+
+    /* A column written as a padded varint (0x80|c, 0x00): one value has one
+     * encoding, so this is corruption. Row 2's first column is at m + 24. */
+    size_t m = find_section(golden, golden_size, "MTRX", &len);
+    CHECK(rd32(golden + m + 16) == 2 && golden[m + 24] < 0x80);
+    buf = insert_bytes(m, m + 25, "\0", 1, &size);
+    buf[m + 24] |= 0x80;
+    fix_header(buf, size);
+    CHECK(rad_solution_parse(buf, size, "v.sol", 1, &s, &e) == RAD_ERR_CORRUPT);
+    CHECK_MSG(strstr(e.message, "v.sol: section MATRIX: row 2: entry 0: truncated or malformed") ==
+                  e.message, "%s", e.message);
+    free(buf);
+
+    /* A count larger than the section could hold is refused up front. */
+    buf = malloc(golden_size);
+    memcpy(buf, golden, golden_size);
+    size_t sc = find_section(buf, golden_size, "SCEN", &len);
+    size_t q = sc + 4 + rd32(buf + sc) + 4;
+    for (int b = 0; b < 3; b++)
+        q += 1 + 4 + rd32(buf + q + 1);
+    wr32(buf + q, 0xFFFFFFFFu);
+    fix_header(buf, golden_size);
+    CHECK(rad_solution_parse(buf, golden_size, "c.sol", 1, &s, &e) == RAD_ERR_CORRUPT);
+    CHECK_MSG(strstr(e.message, "c.sol: section SCENE: 4294967295 materials cannot fit") ==
+                  e.message, "%s", e.message);
+    /* rows present > n */
+    memcpy(buf, golden, golden_size);
+    wr32(buf + m + 4, rd32(buf + m) + 1);
+    fix_header(buf, golden_size);
+    CHECK(rad_solution_parse(buf, golden_size, "c.sol", 1, &s, &e) == RAD_ERR_CORRUPT);
+    CHECK_MSG(strstr(e.message, "rows present but n =") != NULL, "%s", e.message);
+    /* a section length running past the end */
+    memcpy(buf, golden, golden_size);
+    wr64(buf + m - 8, golden_size);
+    fix_header(buf, golden_size);
+    CHECK(rad_solution_parse(buf, golden_size, "c.sol", 1, &s, &e) == RAD_ERR_CORRUPT);
+    CHECK_MSG(strstr(e.message, "section MATRIX: length") != NULL, "%s", e.message);
+    /* a reserved header field that is not 0 */
+    memcpy(buf, golden, golden_size);
+    buf[13] = 1;
+    CHECK(rad_solution_parse(buf, golden_size, "c.sol", 1, &s, &e) == RAD_ERR_CORRUPT);
+    /* bytes after the payload */
+    uint8_t *longer = malloc(golden_size + 1);
+    memcpy(longer, golden, golden_size);
+    longer[golden_size] = 0;
+    CHECK(rad_solution_parse(longer, golden_size + 1, "c.sol", 1, &s, &e) == RAD_ERR_CORRUPT);
+    CHECK_MSG(strcmp(e.message, "c.sol: 1 unexpected bytes after the payload") == 0, "%s",
+              e.message);
+    CHECK(s == NULL);
+    free(longer);
+    free(buf);
+}
+
+TEST(unknown_sections_are_skipped)
+{
+    CHECK(load_golden());
+    if (!golden)
+        return;
+    /* A future writer's section between INFO and SCENE and one at the end. */
+    uint64_t ilen;
+    size_t info = find_section(golden, golden_size, "INFO", &ilen);
+    size_t cut = info + (size_t)ilen;
+    const char extra[] = "XTRA\x05\0\0\0\0\0\0\0hello";
+    size_t ex = sizeof extra - 1;
+    size_t size = golden_size + 2 * ex;
+    uint8_t *buf = malloc(size);
+    memcpy(buf, golden, cut);
+    memcpy(buf + cut, extra, ex);
+    memcpy(buf + cut + ex, golden + cut, golden_size - cut);
+    memcpy(buf + golden_size + ex, extra, ex);
+    fix_header(buf, size);
+    rad_solution *s = NULL, *ref = make_rgb();
+    rad_error e;
+    int rc = rad_solution_parse(buf, size, "future.sol", 1, &s, &e);
+    CHECK_MSG(rc == RAD_OK, "%s", e.message);
+    check_same(ref, s);
+    rad_solution_destroy(s);
+    rad_solution_destroy(ref);
+    free(buf);
+}
+
+static int dir_exists(const char *p)
+{
+    struct stat st;
+    return stat(p, &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+TEST(failed_writes_leave_no_trace)
+{
+    rad_solution *s = make_grey(), *other = make_rgb();
+    CHECK(s && other);
+    if (!s || !other)
+        return;
+    rad_error e;
+    char dir[300], p[400];
+    path_in(dir, sizeof dir, "w");
+    CHECK(mkdir(dir, 0755) == 0);
+
+    /* Missing directory */
+    snprintf(p, sizeof p, "%s/no/such/dir/x.sol", dir);
+    CHECK(rad_solution_write(s, p, &e) == RAD_ERR_IO);
+    CHECK_MSG(strstr(e.message, "no/such/dir/x.sol: cannot create temporary file") != NULL, "%s",
+              e.message);
+    CHECK(temp_files_in(dir) == 0);
+
+    /* The target is a directory: the rename fails, the temporary goes. */
+    snprintf(p, sizeof p, "%s/adir", dir);
+    CHECK(mkdir(p, 0755) == 0);
+    char inner[500];
+    snprintf(inner, sizeof inner, "%s/keep", p);
+    CHECK(spit(inner, "k", 1) == 0);
+    CHECK(rad_solution_write(s, p, &e) == RAD_ERR_IO);
+    CHECK_MSG(strstr(e.message, "cannot rename") != NULL, "%s", e.message);
+    CHECK(dir_exists(p));
+    size_t kn = 0;
+    uint8_t *kb = slurp(inner, &kn);
+    CHECK(kb && kn == 1 && kb[0] == 'k');
+    free(kb);
+    CHECK(temp_files_in(dir) == 0);
+
+    /* A good file, then writes that fail at different points. */
+    snprintf(p, sizeof p, "%s/good.sol", dir);
+    CHECK(rad_solution_write(s, p, &e) == RAD_OK);
+    size_t n0 = 0;
+    uint8_t *before = slurp(p, &n0);
+    CHECK(before != NULL);
+
+    /* (1) refused by validation before any file exists: B < 0 */
+    double keep = other->B[5];
+    other->B[5] = -1e-9;
+    CHECK(rad_solution_write(other, p, &e) == RAD_ERR_INVALID);
+    CHECK_MSG(strstr(e.message, "patch 1 band 2: B = ") != NULL, "%s", e.message);
+    other->B[5] = keep;
+
+    /* (2) failing in the middle of the data: a file-size limit below the
+     * file's size makes write() fail with EFBIG after a partial write. */
+    struct rlimit old, lim;
+    CHECK(getrlimit(RLIMIT_FSIZE, &old) == 0);
+    lim = old;
+    lim.rlim_cur = 2048;
+    void (*prev)(int) = signal(SIGXFSZ, SIG_IGN);
+    CHECK(setrlimit(RLIMIT_FSIZE, &lim) == 0);
+    int rc = rad_solution_write(other, p, &e);
+    setrlimit(RLIMIT_FSIZE, &old);
+    signal(SIGXFSZ, prev);
+    CHECK(rc == RAD_ERR_IO);
+    CHECK_MSG(strstr(e.message, "cannot write") != NULL, "%s", e.message);
+
+    size_t n1 = 0;
+    uint8_t *after = slurp(p, &n1);
+    CHECK(after && n1 == n0 && memcmp(before, after, n0) == 0);
+    CHECK(temp_files_in(dir) == 0);
+    free(after);
+
+    /* (3) a successful write replaces it */
+    CHECK(rad_solution_write(other, p, &e) == RAD_OK);
+    rad_solution *r = NULL;
+    CHECK(rad_solution_read(p, &r, &e) == RAD_OK);
+    check_same(other, r);
+    CHECK(temp_files_in(dir) == 0);
+
+    /* (4) a stale temporary file of our own pid is replaced, not an obstacle */
+    char stale[600];
+    snprintf(stale, sizeof stale, "%s.tmp.%ld", p, (long)getpid());
+    CHECK(spit(stale, "stale", 5) == 0);
+    CHECK(rad_solution_write(s, p, &e) == RAD_OK);
+    CHECK(temp_files_in(dir) == 0);
+
+    free(before);
+    rad_solution_destroy(r);
+    rad_solution_destroy(s);
+    rad_solution_destroy(other);
+}
+
+TEST(writer_refuses_what_reader_would)
+{
+    rad_solution *s = make_grey();
+    CHECK(s != NULL);
+    if (!s)
+        return;
+    char p[300];
+    path_in(p, sizeof p, "refused.sol");
+    rad_error e;
+    s->rho[0] = 1.0;
+    CHECK(rad_solution_write(s, p, &e) == RAD_ERR_INVALID);
+    s->rho[0] = 0.5;
+    s->residual = NAN;
+    CHECK(rad_solution_write(s, p, &e) == RAD_ERR_INVALID);
+    s->residual = 0.0;
+    memset(s->solver, 'x', sizeof s->solver); /* no terminator */
+    CHECK(rad_solution_write(s, p, &e) == RAD_ERR_USAGE);
+    strcpy(s->solver, "jacobi");
+    char *longname = malloc(5000);
+    memset(longname, 'n', 4999);
+    longname[4999] = '\0';
+    char *old = s->scene->objects[0].name;
+    s->scene->objects[0].name = longname;
+    CHECK(rad_solution_write(s, p, &e) == RAD_ERR_LIMIT);
+    s->scene->objects[0].name = old;
+    free(longname);
+    CHECK(rad_solution_write(NULL, p, &e) == RAD_ERR_USAGE);
+    struct stat st;
+    CHECK(stat(p, &st) != 0); /* nothing was created */
+    char d[300];
+    path_in(d, sizeof d, "");
+    CHECK(temp_files_in(d) == 0);
+    rad_solution_destroy(s);
+}
+
+/* The fuzzer's seeds: the three fixtures. */
+static int write_seeds(const char *dir)
+{
+    rad_solution *(*make[3])(void) = {make_rgb, make_grey, make_wide};
+    const char *names[3] = {"rgb-room", "grey-box", "wide-floor"};
+    for (int v = 0; v < 3; v++) {
+        rad_solution *s = make[v]();
+        char p[600];
+        snprintf(p, sizeof p, "%s/%s", dir, names[v]);
+        rad_error e;
+        if (!s || rad_solution_write(s, p, &e)) {
+            fprintf(stderr, "%s: %s\n", p, s ? e.message : "fixture failed");
+            rad_solution_destroy(s);
+            return 1;
+        }
+        rad_solution_destroy(s);
+    }
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc == 3 && strcmp(argv[1], "--write-seeds") == 0)
+        return write_seeds(argv[2]);
+    snprintf(tmpdir, sizeof tmpdir, "/tmp/test_solution.XXXXXX");
+    if (!mkdtemp(tmpdir)) {
+        perror("mkdtemp");
+        return 1;
+    }
+    RUN(crc_matches_published_check_value);
+    RUN(stage_names);
+    RUN(create_copies_materials);
+    RUN(round_trip_is_bit_exact);
+    RUN(matrix_without_entries_round_trips);
+    RUN(layout_follows_the_format);
+    RUN(every_truncation_is_refused);
+    RUN(every_byte_flip_is_refused);
+    RUN(newer_version_and_foreign_files);
+    RUN(structure_errors_name_section_and_element);
+    RUN(encoding_rules_are_enforced);
+    RUN(unknown_sections_are_skipped);
+    RUN(failed_writes_leave_no_trace);
+    RUN(writer_refuses_what_reader_would);
+    free(golden);
+    remove_tree(tmpdir);
+    return test_finish("test_solution");
+}

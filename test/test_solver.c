@@ -1,0 +1,919 @@
+/* test_solver.c - the radiosity solver (solver/solver.h) against an
+ * independent dense Gaussian elimination and against closed forms.
+ *
+ * Every system is built here: random reciprocal systems (A_i F_ij = A_j F_ji,
+ * rows summing to at most 1), closed enclosures whose rows sum to exactly 1
+ * (B = E/(1-ρ) for uniform ρ and E), and closed reciprocal enclosures made by
+ * symmetric matrix scaling.  The reference solves (I - diag(ρ)F) B = E per
+ * band by elimination with partial pivoting, on the very float values stored
+ * in the rad_matrix, so the comparison measures the solver and nothing else.
+ */
+#include "../solver/solver.h"
+#include "test.h"
+
+#include <stdint.h>
+
+/* ---------------------------------------------------------------- helpers */
+
+static uint64_t rng_state = 0x9e3779b97f4a7c15ull;
+static void rng_seed(uint64_t s) { rng_state = s * 0x9e3779b97f4a7c15ull + 1; }
+static double urand(void) /* uniform in [0,1), splitmix64 */
+{
+    uint64_t z = (rng_state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    z ^= z >> 31;
+    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
+}
+
+typedef struct tsys {
+    uint32_t n, nb;
+    double *A, *rho, *E; /* [i*nb+b] */
+    double *Fd;          /* dense F, n×n, before it is rounded to float */
+    rad_matrix *F;
+} tsys;
+
+static tsys tsys_new(uint32_t n, uint32_t nb)
+{
+    tsys t = {n, nb, calloc(n, sizeof(double)), calloc((size_t)n * nb, sizeof(double)),
+              calloc((size_t)n * nb, sizeof(double)), calloc((size_t)n * n, sizeof(double)), NULL};
+    return t;
+}
+
+static void tsys_free(tsys *t)
+{
+    free(t->A);
+    free(t->rho);
+    free(t->E);
+    free(t->Fd);
+    rad_matrix_destroy(t->F);
+    memset(t, 0, sizeof *t);
+}
+
+/* Stores the dense F as rows (positive entries only); row `skip` is left out. */
+static rad_matrix *store_rows(const tsys *t, uint32_t skip)
+{
+    rad_matrix *m = rad_matrix_create(t->n);
+    uint32_t *col = malloc(t->n * sizeof *col);
+    float *val = malloc(t->n * sizeof *val);
+    for (uint32_t i = 0; i < t->n; i++) {
+        if (i == skip)
+            continue;
+        uint32_t c = 0;
+        for (uint32_t j = 0; j < t->n; j++) {
+            float f = (float)t->Fd[(size_t)i * t->n + j];
+            if (f > 0.0f) {
+                col[c] = j;
+                val[c++] = f;
+            }
+        }
+        rad_matrix_set_row(m, i, c, col, val, NULL);
+    }
+    free(col);
+    free(val);
+    return m;
+}
+
+static sv_system sys_of(const tsys *t)
+{
+    sv_system s = {t->n, t->nb, t->F, t->A, t->rho, t->E};
+    return s;
+}
+
+/* Dense Gaussian elimination with partial pivoting on (I - diag(ρ)F) B = E,
+ * one band at a time, F read back from the stored float rows (missing rows
+ * are zero rows). */
+static void dense_solve(const tsys *t, double *B)
+{
+    uint32_t n = t->n;
+    double *M = malloc((size_t)n * n * sizeof *M), *x = malloc(n * sizeof *x);
+    for (uint32_t b = 0; b < t->nb; b++) {
+        for (size_t k = 0; k < (size_t)n * n; k++)
+            M[k] = 0.0;
+        for (uint32_t i = 0; i < n; i++) {
+            M[(size_t)i * n + i] = 1.0;
+            x[i] = t->E[(size_t)i * t->nb + b];
+            if (!t->F->row_done[i])
+                continue;
+            for (uint32_t k = 0; k < t->F->row_count[i]; k++) {
+                uint64_t e = t->F->row_start[i] + k;
+                M[(size_t)i * n + t->F->col[e]] -= t->rho[(size_t)i * t->nb + b] * t->F->val[e];
+            }
+        }
+        for (uint32_t c = 0; c < n; c++) {
+            uint32_t p = c;
+            for (uint32_t r = c + 1; r < n; r++)
+                if (fabs(M[(size_t)r * n + c]) > fabs(M[(size_t)p * n + c]))
+                    p = r;
+            if (p != c) {
+                for (uint32_t k = 0; k < n; k++) {
+                    double tmp = M[(size_t)c * n + k];
+                    M[(size_t)c * n + k] = M[(size_t)p * n + k];
+                    M[(size_t)p * n + k] = tmp;
+                }
+                double tmp = x[c];
+                x[c] = x[p];
+                x[p] = tmp;
+            }
+            for (uint32_t r = c + 1; r < n; r++) {
+                double f = M[(size_t)r * n + c] / M[(size_t)c * n + c];
+                if (f == 0.0)
+                    continue;
+                for (uint32_t k = c; k < n; k++)
+                    M[(size_t)r * n + k] -= f * M[(size_t)c * n + k];
+                x[r] -= f * x[c];
+            }
+        }
+        for (uint32_t c = n; c-- > 0;) {
+            double s = x[c];
+            for (uint32_t k = c + 1; k < n; k++)
+                s -= M[(size_t)c * n + k] * x[k];
+            x[c] = s / M[(size_t)c * n + c];
+        }
+        for (uint32_t i = 0; i < n; i++)
+            B[(size_t)i * t->nb + b] = x[i];
+    }
+    free(M);
+    free(x);
+}
+
+/* max |a - b| / max |b|: the relative error the solver's tolerance speaks of. */
+static double rel_diff(const double *a, const double *b, size_t len)
+{
+    double num = 0.0, den = 0.0;
+    for (size_t k = 0; k < len; k++) {
+        if (fabs(a[k] - b[k]) > num)
+            num = fabs(a[k] - b[k]);
+        if (fabs(b[k]) > den)
+            den = fabs(b[k]);
+    }
+    return den > 0.0 ? num / den : num;
+}
+
+/* B >= E >= 0 and finite everywhere: the invariant of every result. */
+static int all_valid(const tsys *t, const double *B)
+{
+    for (size_t k = 0; k < (size_t)t->n * t->nb; k++)
+        if (!isfinite(B[k]) || B[k] < 0.0 || B[k] < t->E[k])
+            return 0;
+    return 1;
+}
+
+/* (a) Random reciprocal: symmetric G >= 0 (G_ii = 0, ~60 % filled),
+ * F_ij = s·G_ij/A_i with one global s so that the largest row sums to 0.95.
+ * ρ differs per band (band b's range rises with b); a few emitters. */
+static tsys make_random(uint32_t n, uint32_t nb, uint64_t seed)
+{
+    rng_seed(seed);
+    tsys t = tsys_new(n, nb);
+    for (uint32_t i = 0; i < n; i++)
+        t.A[i] = 0.5 + 1.5 * urand();
+    for (uint32_t i = 0; i < n; i++)
+        for (uint32_t j = i + 1; j < n; j++)
+            if (urand() < 0.6)
+                t.Fd[(size_t)i * n + j] = t.Fd[(size_t)j * n + i] = urand();
+    double maxsum = 0.0;
+    for (uint32_t i = 0; i < n; i++) {
+        double s = 0.0;
+        for (uint32_t j = 0; j < n; j++)
+            s += t.Fd[(size_t)i * n + j] / t.A[i];
+        if (s > maxsum)
+            maxsum = s;
+    }
+    for (uint32_t i = 0; i < n; i++)
+        for (uint32_t j = 0; j < n; j++)
+            t.Fd[(size_t)i * n + j] *= 0.95 / maxsum / t.A[i];
+    for (uint32_t i = 0; i < n; i++)
+        for (uint32_t b = 0; b < nb; b++) {
+            double lo = 0.2 + 0.5 * b / (nb > 1 ? nb - 1 : 1), hi = lo + 0.25;
+            t.rho[(size_t)i * nb + b] = lo + (hi - lo) * urand();
+            t.E[(size_t)i * nb + b] = (i % 9 == 2) ? 1.0 + 9.0 * urand() : 0.0;
+        }
+    t.F = store_rows(&t, RAD_NONE);
+    return t;
+}
+
+/* (b) Closed enclosure: F_ij = A_j / Σ_{k≠i} A_k, every row sums to 1 but
+ * A_i F_ij != A_j F_ji (gathering does not need reciprocity).  Uniform ρ and
+ * E, so B = E/(1-ρ) exactly. */
+static tsys make_enclosure(uint32_t n, double rho, double E, uint64_t seed)
+{
+    rng_seed(seed);
+    tsys t = tsys_new(n, 1);
+    double S = 0.0;
+    for (uint32_t i = 0; i < n; i++) {
+        t.A[i] = 0.5 + 2.0 * urand();
+        S += t.A[i];
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        for (uint32_t j = 0; j < n; j++)
+            if (j != i)
+                t.Fd[(size_t)i * n + j] = t.A[j] / (S - t.A[i]);
+        t.rho[i] = rho;
+        t.E[i] = E;
+    }
+    t.F = store_rows(&t, RAD_NONE);
+    return t;
+}
+
+/* (c) Closed reciprocal enclosure: K symmetric >= 0, scaled symmetrically
+ * (d_i Σ_j K_ij d_j = A_i, symmetric Sinkhorn) so that F_ij = d_i K_ij d_j / A_i
+ * has rows summing to 1 and A_i F_ij = A_j F_ji.  ring_width > 0 couples
+ * patch i only to its ring neighbours (K_ij = exp(-dist/width), dist <= 3
+ * width): light mixes slowly, as in a long corridor, so the second error mode
+ * decays almost as slowly as the first, the hard case for extrapolation. */
+static tsys make_closed_reciprocal(uint32_t n, uint32_t nb, double ring_width, uint64_t seed)
+{
+    rng_seed(seed);
+    tsys t = tsys_new(n, nb);
+    for (uint32_t i = 0; i < n; i++)
+        t.A[i] = 0.5 + 1.5 * urand();
+    for (uint32_t i = 0; i < n; i++)
+        for (uint32_t j = i + 1; j < n; j++) {
+            double k;
+            if (ring_width > 0.0) {
+                uint32_t d = j - i < n - (j - i) ? j - i : n - (j - i);
+                k = d <= 3.0 * ring_width ? exp(-(double)d / ring_width) * (0.5 + urand()) : 0.0;
+            } else {
+                k = urand() < 0.7 ? urand() : 0.0;
+            }
+            t.Fd[(size_t)i * n + j] = t.Fd[(size_t)j * n + i] = k;
+        }
+    double *d = malloc(n * sizeof *d);
+    for (uint32_t i = 0; i < n; i++)
+        d[i] = 1.0;
+    for (int it = 0; it < 20000; it++) {
+        double worst = 0.0;
+        for (uint32_t i = 0; i < n; i++) {
+            double kd = 0.0;
+            for (uint32_t j = 0; j < n; j++)
+                kd += t.Fd[(size_t)i * n + j] * d[j];
+            double r = d[i] * kd / t.A[i];
+            if (fabs(r - 1.0) > worst)
+                worst = fabs(r - 1.0);
+            d[i] *= sqrt(1.0 / r);
+        }
+        if (worst < 1e-14)
+            break;
+    }
+    for (uint32_t i = 0; i < n; i++)
+        for (uint32_t j = 0; j < n; j++)
+            t.Fd[(size_t)i * n + j] *= d[i] * d[j] / t.A[i];
+    free(d);
+    t.F = store_rows(&t, RAD_NONE);
+    return t;
+}
+
+static int solve(const tsys *t, sv_method m, double tol, int plain, double *B, sv_stats *st)
+{
+    sv_system s = sys_of(t);
+    sv_options o = {0};
+    o.method = m;
+    o.tolerance = tol;
+    o.max_iterations = 1000000;
+    o.no_acceleration = plain;
+    rad_error err = {0};
+    int rc = sv_solve(&s, &o, B, st, &err);
+    if (rc)
+        fprintf(stderr, "  sv_solve: %s\n", err.message);
+    return rc;
+}
+
+/* ------------------------------------------------------------------ tests */
+
+/* The three methods on (a), 3 bands with different ρ: each, and each pair,
+ * within 10 × tolerance (relative to max B) of the dense solution — the
+ * stopping rule estimates the error, so 10× leaves room for the estimate
+ * being off by a small factor, yet catches a method that stops far early. */
+TEST(methods_agree_with_dense)
+{
+    const double tol = 1e-4;
+    tsys t = make_random(60, 3, 1);
+    size_t len = (size_t)t.n * t.nb;
+    double *ref = malloc(len * sizeof *ref);
+    dense_solve(&t, ref);
+    double *B[5];
+    sv_method m[5] = {SV_GAUSS_SEIDEL, SV_JACOBI, SV_PROGRESSIVE, SV_GAUSS_SEIDEL, SV_JACOBI};
+    int plain[5] = {0, 0, 0, 1, 1};
+    for (int k = 0; k < 5; k++) {
+        B[k] = malloc(len * sizeof *B[k]);
+        sv_stats st;
+        CHECK(solve(&t, m[k], tol, plain[k], B[k], &st) == RAD_OK);
+        CHECK(st.converged == 1);
+        CHECK(all_valid(&t, B[k]));
+        double e = rel_diff(B[k], ref, len);
+        CHECK_MSG(e <= 10 * tol, "%s%s: error %.3g", sv_method_name(m[k]), plain[k] ? " plain" : "",
+                  e);
+        /* residual is max|E + ρFB - B|/max B; at an error e it is at most (1+γ)e <= 2e */
+        CHECK(st.residual <= 20 * tol);
+        CHECK_NEAR(st.residual, sv_residual(&(sv_system){t.n, t.nb, t.F, t.A, t.rho, t.E}, B[k]),
+                   1e-15);
+        printf("     random n=60 %-12s %-5s %5u iterations, error %.2e, estimate %.2e\n",
+               sv_method_name(m[k]), plain[k] ? "plain" : "", st.iterations, e,
+               st.estimated_error);
+    }
+    for (int a = 0; a < 5; a++)
+        for (int b = a + 1; b < 5; b++)
+            CHECK_MSG(rel_diff(B[a], B[b], len) <= 10 * tol, "methods %d and %d differ by %.3g", a,
+                      b, rel_diff(B[a], B[b], len));
+    /* The dense solution is the fixed point: its residual is rounding only
+     * (n = 60 terms of size <= max B, so well below 1e-12). */
+    sv_system s = sys_of(&t);
+    CHECK(sv_residual(&s, ref) <= 1e-12);
+    for (int k = 0; k < 5; k++)
+        free(B[k]);
+    free(ref);
+    tsys_free(&t);
+}
+
+/* One band (the 4-partial-sum loop) and five bands (the general loop) give
+ * the same accuracy as three. */
+TEST(other_band_counts)
+{
+    const double tol = 1e-5;
+    uint32_t counts[2] = {1, 5};
+    for (int c = 0; c < 2; c++) {
+        tsys t = make_random(45, counts[c], 7 + c);
+        size_t len = (size_t)t.n * t.nb;
+        double *ref = malloc(len * sizeof *ref), *B = malloc(len * sizeof *B);
+        dense_solve(&t, ref);
+        sv_method m[3] = {SV_GAUSS_SEIDEL, SV_JACOBI, SV_PROGRESSIVE};
+        for (int k = 0; k < 3; k++) {
+            sv_stats st;
+            CHECK(solve(&t, m[k], tol, 0, B, &st) == RAD_OK);
+            CHECK(all_valid(&t, B));
+            /* same 10 × tolerance margin as above */
+            CHECK_MSG(rel_diff(B, ref, len) <= 10 * tol, "%u bands, %s: %.3g", counts[c],
+                      sv_method_name(m[k]), rel_diff(B, ref, len));
+        }
+        free(ref);
+        free(B);
+        tsys_free(&t);
+    }
+}
+
+/* The closed enclosure at ρ → 1: B = E/(1-ρ) within 0.5 % (the float rows sum
+ * to 1 within ~1e-7, which moves B by ~1e-7/(1-ρ) <= 1e-4 relative), and the
+ * stopping rule does not stop early: the true error (against the dense
+ * solution of the stored system) at stop is <= 10 × tolerance. */
+TEST(closed_enclosure_high_reflectance)
+{
+    const double tol = 1e-4, rhos[4] = {0.5, 0.9, 0.99, 0.999};
+    for (int r = 0; r < 4; r++) {
+        tsys t = make_enclosure(40, rhos[r], 2.0, 11);
+        double ref[40], B[40], exact = 2.0 / (1.0 - rhos[r]);
+        dense_solve(&t, ref);
+        sv_method m[2] = {SV_GAUSS_SEIDEL, SV_JACOBI};
+        for (int k = 0; k < 2; k++)
+            for (int plain = 0; plain <= 1; plain++) {
+                sv_stats st;
+                CHECK(solve(&t, m[k], tol, plain, B, &st) == RAD_OK);
+                CHECK(st.converged == 1);
+                CHECK(all_valid(&t, B));
+                double worst = 0.0;
+                for (int i = 0; i < 40; i++)
+                    if (fabs(B[i] - exact) / exact > worst)
+                        worst = fabs(B[i] - exact) / exact;
+                CHECK_MSG(worst <= 0.005, "ρ=%g %s: %.3g from E/(1-ρ)", rhos[r],
+                          sv_method_name(m[k]), worst);
+                double e = rel_diff(B, ref, 40);
+                CHECK_MSG(e <= 10 * tol, "ρ=%g %s%s: stopped with true error %.3g", rhos[r],
+                          sv_method_name(m[k]), plain ? " plain" : "", e);
+                printf("     enclosure ρ=%-5g %-12s %-5s %6u sweeps (%u extrapolations), q %.5f, "
+                       "true error %.2e, estimate %.2e\n",
+                       rhos[r], sv_method_name(m[k]), plain ? "plain" : "accel", st.iterations,
+                       st.extrapolations, st.contraction, e, st.estimated_error);
+            }
+        tsys_free(&t);
+    }
+}
+
+/* The same promise where light mixes slowly (a ring-shaped closed reciprocal
+ * enclosure, non-uniform E and ρ): several slow modes, so a hasty
+ * extrapolation or a rate read off a transient would show here. */
+TEST(slow_mixing_enclosure)
+{
+    const double tol = 1e-4, rhos[3] = {0.9, 0.99, 0.999};
+    for (int r = 0; r < 3; r++) {
+        tsys t = make_closed_reciprocal(120, 2, 4.0, 21);
+        for (uint32_t i = 0; i < t.n; i++) {
+            t.rho[2 * i] = rhos[r];
+            t.rho[2 * i + 1] = rhos[r] * (0.9 + 0.1 * urand());
+            t.E[2 * i] = t.E[2 * i + 1] = i < 3 ? 5.0 : 0.0;
+        }
+        /* the scaling closed the enclosure: every stored row sums to 1 (float rounding) */
+        for (uint32_t i = 0; i < t.n; i++)
+            CHECK_NEAR(rad_matrix_row_sum(t.F, i), 1.0, 1e-6);
+        size_t len = 2 * (size_t)t.n;
+        double *ref = malloc(len * sizeof *ref), *B = malloc(len * sizeof *B);
+        dense_solve(&t, ref);
+        sv_method m[2] = {SV_GAUSS_SEIDEL, SV_JACOBI};
+        for (int k = 0; k < 2; k++)
+            for (int plain = 0; plain <= 1; plain++) {
+                sv_stats st;
+                CHECK(solve(&t, m[k], tol, plain, B, &st) == RAD_OK);
+                CHECK(st.converged == 1);
+                CHECK(all_valid(&t, B));
+                double e = rel_diff(B, ref, len);
+                /* 10 × tolerance, as above */
+                CHECK_MSG(e <= 10 * tol, "ring ρ=%g %s%s: true error %.3g", rhos[r],
+                          sv_method_name(m[k]), plain ? " plain" : "", e);
+                printf("     ring ρ=%-5g %-12s %-5s %6u sweeps (%u extrapolations), q %.5f, "
+                       "true error %.2e\n",
+                       rhos[r], sv_method_name(m[k]), plain ? "plain" : "accel", st.iterations,
+                       st.extrapolations, st.contraction, e);
+            }
+        free(ref);
+        free(B);
+        tsys_free(&t);
+    }
+}
+
+/* Two facing walls that see only each other (F_ij = 0.999 A_j / Σ_wall A):
+ * Jacobi's iteration matrix has eigenvalues +q and -q of equal size, so ΔB
+ * flips between the walls every sweep.  Extrapolating that as if it were one
+ * mode would amplify the error; the answer must still be within 10 ×
+ * tolerance of the dense one, and the Aitken variant must not need more
+ * sweeps than the plain one. */
+TEST(facing_walls)
+{
+    const double tol = 1e-4;
+    const uint32_t m = 30;
+    tsys t = tsys_new(2 * m, 1);
+    rng_seed(41);
+    double S[2] = {0.0, 0.0};
+    for (uint32_t i = 0; i < 2 * m; i++)
+        S[i / m] += t.A[i] = 0.5 + urand();
+    for (uint32_t i = 0; i < 2 * m; i++) {
+        for (uint32_t j = 0; j < 2 * m; j++)
+            if (i / m != j / m)
+                t.Fd[(size_t)i * 2 * m + j] = 0.999 * t.A[j] / S[j / m];
+        t.rho[i] = 0.999;
+        t.E[i] = i == 0 ? 1.0 : 0.0;
+    }
+    t.F = store_rows(&t, RAD_NONE);
+    double ref[60], B[60];
+    dense_solve(&t, ref);
+    for (int k = 0; k < 2; k++) {
+        sv_stats acc, plain;
+        CHECK(solve(&t, k ? SV_JACOBI : SV_GAUSS_SEIDEL, tol, 1, B, &plain) == RAD_OK);
+        CHECK(plain.converged && rel_diff(B, ref, 60) <= 10 * tol);
+        CHECK(solve(&t, k ? SV_JACOBI : SV_GAUSS_SEIDEL, tol, 0, B, &acc) == RAD_OK);
+        CHECK(acc.converged);
+        CHECK(all_valid(&t, B));
+        CHECK_MSG(rel_diff(B, ref, 60) <= 10 * tol, "%.3g", rel_diff(B, ref, 60));
+        CHECK(acc.iterations <= plain.iterations);
+        printf("     facing walls %-12s plain %5u sweeps, accel %5u sweeps (%u extrapolations), "
+               "error %.2e\n",
+               k ? "jacobi" : "gauss-seidel", plain.iterations, acc.iterations,
+               acc.extrapolations, rel_diff(B, ref, 60));
+    }
+    tsys_free(&t);
+}
+
+TEST(rejects_bad_input)
+{
+    tsys t = make_random(20, 3, 3);
+    double B[60];
+    sv_system s = sys_of(&t);
+    rad_error err;
+
+    t.rho[12 * 3 + 0] = 1.0;
+    CHECK(sv_solve(&s, NULL, B, NULL, &err) == RAD_ERR_INVALID);
+    CHECK_MSG(strstr(err.message, "patch 12 band 0") && strstr(err.message, "reflectance 1 "),
+              "%s", err.message);
+    t.rho[12 * 3 + 0] = 1.5;
+    CHECK(sv_solve(&s, NULL, B, NULL, &err) == RAD_ERR_INVALID);
+    t.rho[12 * 3 + 0] = -0.1;
+    CHECK(sv_solve(&s, NULL, B, NULL, &err) == RAD_ERR_INVALID);
+    CHECK(strstr(err.message, "patch 12") != NULL);
+    t.rho[12 * 3 + 0] = NAN;
+    CHECK(sv_solve(&s, NULL, B, NULL, &err) == RAD_ERR_INVALID);
+    t.rho[12 * 3 + 0] = 0.5;
+
+    t.E[7 * 3 + 2] = -1.0;
+    for (int m = 0; m < 3; m++) {
+        sv_options o = {.method = (sv_method)m};
+        CHECK(sv_solve(&s, &o, B, NULL, &err) == RAD_ERR_INVALID);
+        CHECK_MSG(strstr(err.message, "patch 7 band 2") != NULL, "%s", err.message);
+    }
+    t.E[7 * 3 + 2] = INFINITY;
+    CHECK(sv_solve(&s, NULL, B, NULL, &err) == RAD_ERR_INVALID);
+    CHECK(strstr(err.message, "patch 7") != NULL);
+    t.E[7 * 3 + 2] = 0.0;
+
+    t.A[4] = 0.0;
+    CHECK(sv_solve(&s, NULL, B, NULL, &err) == RAD_ERR_INVALID);
+    CHECK(strstr(err.message, "patch 4") != NULL);
+    t.A[4] = 1.0;
+
+    CHECK(sv_solve(&s, NULL, B, NULL, &err) == RAD_OK); /* everything restored */
+    CHECK(sv_solve(NULL, NULL, B, NULL, &err) == RAD_ERR_USAGE);
+    CHECK(sv_solve(&s, NULL, NULL, NULL, &err) == RAD_ERR_USAGE);
+    sv_system bad = s;
+    bad.bands = 0;
+    CHECK(sv_solve(&bad, NULL, B, NULL, &err) == RAD_ERR_USAGE);
+    bad.bands = RAD_MAX_BANDS + 1;
+    CHECK(sv_solve(&bad, NULL, B, NULL, &err) == RAD_ERR_USAGE);
+    bad = s;
+    bad.n = 0;
+    CHECK(sv_solve(&bad, NULL, B, NULL, &err) == RAD_ERR_USAGE);
+    bad = s;
+    bad.n = 19; /* F has 20 rows */
+    CHECK(sv_solve(&bad, NULL, B, NULL, &err) == RAD_ERR_USAGE);
+    bad = s;
+    bad.rho = NULL;
+    CHECK(sv_solve(&bad, NULL, B, NULL, &err) == RAD_ERR_USAGE);
+    sv_options o = {.tolerance = -1.0};
+    CHECK(sv_solve(&s, &o, B, NULL, &err) == RAD_ERR_USAGE);
+    o = (sv_options){.method = (sv_method)7};
+    CHECK(sv_solve(&s, &o, B, NULL, &err) == RAD_ERR_USAGE);
+
+    /* A corrupt matrix is refused, not followed: a column out of range, then
+     * a row summing to more than 1 + 1e-3. */
+    uint32_t c0 = t.F->col[t.F->row_start[3]];
+    t.F->col[t.F->row_start[3]] = 1000;
+    for (int m = 0; m < 3; m++) {
+        sv_options om = {.method = (sv_method)m};
+        CHECK(sv_solve(&s, &om, B, NULL, &err) == RAD_ERR_USAGE);
+        CHECK_MSG(strstr(err.message, "row 3") != NULL, "%s", err.message);
+    }
+    CHECK(isnan(sv_residual(&s, t.E)));
+    t.F->col[t.F->row_start[3]] = c0;
+    float v0 = t.F->val[t.F->row_start[3]];
+    t.F->val[t.F->row_start[3]] = 1.5f;
+    CHECK(sv_solve(&s, NULL, B, NULL, &err) == RAD_ERR_USAGE);
+    CHECK(strstr(err.message, "row 3") != NULL);
+    t.F->val[t.F->row_start[3]] = v0;
+    CHECK(isnan(sv_residual(NULL, B)));
+    CHECK(isnan(sv_residual(&s, NULL)));
+    tsys_free(&t);
+}
+
+/* ------------------------------------------------------------ progressive */
+
+typedef struct rowsrc {
+    const rad_matrix *full;
+    rad_matrix *target;
+    uint32_t *calls;
+    int fail_at;      /* request number that fails with RAD_ERR_IO; -1 never */
+    int forget;       /* 1: return OK without filling the row */
+    int requests;
+} rowsrc;
+
+static int copy_row(void *user, uint32_t i, rad_error *err)
+{
+    rowsrc *r = user;
+    r->calls[i]++;
+    if (r->requests++ == r->fail_at)
+        return rad_fail(err, RAD_ERR_IO, "box.rad: row %u: cannot compute", i);
+    if (r->forget)
+        return RAD_OK;
+    const rad_matrix *f = r->full;
+    return rad_matrix_set_row(r->target, i, f->row_count[i], f->col + f->row_start[i],
+                              f->val + f->row_start[i], err);
+}
+
+/* Rows on demand: the matrix starts empty and need_row copies a row from a
+ * full reference.  Each row is asked for once, every emitter's row is asked
+ * for (it shoots first), the count matches stats, and the answer matches the
+ * dense solution of the full system within 10 × tolerance. */
+TEST(progressive_rows_on_demand)
+{
+    const double tol = 1e-4;
+    tsys t = make_random(60, 3, 5);
+    size_t len = (size_t)t.n * t.nb;
+    double *ref = malloc(len * sizeof *ref), *B = malloc(len * sizeof *B);
+    dense_solve(&t, ref);
+    rad_matrix *empty = rad_matrix_create(t.n);
+    uint32_t calls[60] = {0};
+    rowsrc src = {t.F, empty, calls, -1, 0, 0};
+    sv_system s = {t.n, t.nb, empty, t.A, t.rho, t.E};
+    sv_options o = {.method = SV_PROGRESSIVE, .tolerance = tol, .need_row = copy_row, .user = &src};
+    sv_stats st;
+    rad_error err = {0};
+    CHECK(sv_solve(&s, &o, B, &st, &err) == RAD_OK);
+    CHECK(st.converged == 1);
+    uint32_t total = 0, asked_twice = 0;
+    for (uint32_t i = 0; i < t.n; i++) {
+        total += calls[i];
+        asked_twice += calls[i] > 1;
+        CHECK(calls[i] == empty->row_done[i]);
+        if (t.E[i * 3] > 0.0)
+            CHECK(calls[i] == 1);
+    }
+    CHECK(asked_twice == 0);
+    CHECK(total == st.rows_requested);
+    CHECK(st.rows_requested > 0);
+    CHECK(all_valid(&t, B));
+    CHECK_MSG(rel_diff(B, ref, len) <= 10 * tol, "%.3g", rel_diff(B, ref, len));
+    printf("     progressive n=60: %u shots, %u rows requested, error %.2e\n", st.iterations,
+           st.rows_requested, rel_diff(B, ref, len));
+
+    /* need_row's error stops the solve and comes back unchanged. */
+    rad_matrix_destroy(empty);
+    empty = rad_matrix_create(t.n);
+    memset(calls, 0, sizeof calls);
+    src = (rowsrc){t.F, empty, calls, 2, 0, 0};
+    s.F = empty;
+    CHECK(sv_solve(&s, &o, B, &st, &err) == RAD_ERR_IO);
+    CHECK(strncmp(err.message, "box.rad: row ", 13) == 0);
+    CHECK(st.rows_requested == 3);
+
+    /* A callback that does not deliver is a usage error, not a crash. */
+    rad_matrix_destroy(empty);
+    empty = rad_matrix_create(t.n);
+    src = (rowsrc){t.F, empty, calls, -1, 1, 0};
+    s.F = empty;
+    CHECK(sv_solve(&s, &o, B, &st, &err) == RAD_ERR_USAGE);
+    CHECK(strstr(err.message, "row") != NULL);
+    o.need_row = NULL;
+    CHECK(sv_solve(&s, &o, B, &st, &err) == RAD_ERR_USAGE);
+    rad_matrix_destroy(empty);
+    free(ref);
+    free(B);
+    tsys_free(&t);
+}
+
+typedef struct order_log {
+    const rad_matrix *full;
+    rad_matrix *target;
+    uint32_t order[8], count;
+} order_log;
+
+static int log_order(void *user, uint32_t i, rad_error *err)
+{
+    order_log *l = user;
+    if (l->count < 8)
+        l->order[l->count++] = i;
+    const rad_matrix *f = l->full;
+    return rad_matrix_set_row(l->target, i, f->row_count[i], f->col + f->row_start[i],
+                              f->val + f->row_start[i], err);
+}
+
+/* Equal unshot power: the lowest index shoots first.  Four patches of equal
+ * area, each seeing the others with F = 0.3; patches 1 and 3 emit the same. */
+TEST(progressive_ties)
+{
+    tsys t = tsys_new(4, 2);
+    for (uint32_t i = 0; i < 4; i++) {
+        t.A[i] = 1.0;
+        for (uint32_t j = 0; j < 4; j++)
+            t.Fd[i * 4 + j] = i == j ? 0.0 : 0.3;
+        for (uint32_t b = 0; b < 2; b++) {
+            t.rho[i * 2 + b] = 0.5;
+            t.E[i * 2 + b] = (i == 1 || i == 3) ? 2.0 : 0.0;
+        }
+    }
+    t.F = store_rows(&t, RAD_NONE);
+    for (int run = 0; run < 2; run++) { /* and the same order twice */
+        rad_matrix *empty = rad_matrix_create(4);
+        order_log l = {t.F, empty, {0}, 0};
+        sv_system s = {4, 2, empty, t.A, t.rho, t.E};
+        sv_options o = {.method = SV_PROGRESSIVE, .need_row = log_order, .user = &l};
+        double B[8];
+        CHECK(sv_solve(&s, &o, B, NULL, NULL) == RAD_OK);
+        CHECK(l.count == 4);
+        CHECK(l.order[0] == 1 && l.order[1] == 3);
+        /* then the receivers, equally lit: 0 before 2 */
+        CHECK(l.order[2] == 0 && l.order[3] == 2);
+        rad_matrix_destroy(empty);
+    }
+    tsys_free(&t);
+}
+
+typedef struct preview_log {
+    uint32_t calls, stop_after, bad_shots, n, nb;
+    uint32_t every, last_shots;
+    const double *A;
+    double total[RAD_MAX_BANDS]; /* Σ A_i B_display,i per band at the last call */
+} preview_log;
+
+static int log_preview(void *user, uint32_t shots, const double *D)
+{
+    preview_log *p = user;
+    p->calls++;
+    if (shots != p->calls * p->every)
+        p->bad_shots++;
+    p->last_shots = shots;
+    for (uint32_t b = 0; b < p->nb; b++) {
+        p->total[b] = 0.0;
+        for (uint32_t i = 0; i < p->n; i++)
+            p->total[b] += p->A[i] * D[(size_t)i * p->nb + b];
+    }
+    return p->stop_after && p->calls >= p->stop_after;
+}
+
+/* The ambient term (Cohen et al. 1988) on a closed reciprocal enclosure
+ * (symmetric-scaled random K, 200 patches, rows summing to 1, 3 bands).
+ * With uniform ρ per band the corrected total Σ A_i B_display,i equals the
+ * converged total ΣAE/(1-ρ) at every shot: to 1e-5 (float rows move it by
+ * ~1e-7/(1-ρ)).  With ρ varying from patch to patch it is an estimate; after
+ * n/10 shots it is within 1 % of the converged total, and closer than the
+ * uncorrected total. */
+TEST(progressive_ambient)
+{
+    for (int uniform = 1; uniform >= 0; uniform--) {
+        tsys t = make_closed_reciprocal(200, 3, 0.0, 31);
+        for (uint32_t i = 0; i < t.n; i++)
+            CHECK_NEAR(rad_matrix_row_sum(t.F, i), 1.0, 1e-6); /* closed, up to float rounding */
+        for (uint32_t i = 0; i < t.n; i++)
+            for (uint32_t b = 0; b < 3; b++) {
+                double base = 0.3 + 0.25 * b;
+                t.rho[i * 3 + b] = uniform ? base : base * (0.75 + 0.5 * urand());
+                t.E[i * 3 + b] = (i % 50 == 0) ? 3.0 + b : 0.0;
+            }
+        size_t len = (size_t)t.n * 3;
+        double *ref = malloc(len * sizeof *ref), *B = malloc(len * sizeof *B);
+        dense_solve(&t, ref);
+        double conv[3] = {0}, raw[3] = {0};
+        for (uint32_t i = 0; i < t.n; i++)
+            for (uint32_t b = 0; b < 3; b++)
+                conv[b] += t.A[i] * ref[i * 3 + b];
+
+        preview_log log = {0};
+        log.stop_after = 1;
+        log.every = t.n / 10;
+        log.n = t.n;
+        log.nb = 3;
+        log.A = t.A;
+        sv_system s = sys_of(&t);
+        sv_options o = {.method = SV_PROGRESSIVE, .on_preview = log_preview, .user = &log,
+                        .preview_every = t.n / 10};
+        sv_stats st;
+        CHECK(sv_solve(&s, &o, B, &st, NULL) == RAD_OK);
+        CHECK(log.calls == 1);
+        CHECK(st.iterations == t.n / 10);
+        CHECK(st.converged == 0);
+        for (uint32_t i = 0; i < t.n; i++)
+            for (uint32_t b = 0; b < 3; b++)
+                raw[b] += t.A[i] * B[i * 3 + b];
+        for (uint32_t b = 0; b < 3; b++) {
+            double e = fabs(log.total[b] - conv[b]) / conv[b];
+            double eraw = fabs(raw[b] - conv[b]) / conv[b];
+            CHECK_MSG(e <= (uniform ? 1e-5 : 0.01), "band %u: corrected total off by %.3g", b, e);
+            CHECK(e < eraw);
+            printf("     ambient (%s ρ) band %u after %u shots: corrected %.2e, raw %.2e\n",
+                   uniform ? "uniform" : "varying", b, st.iterations, e, eraw);
+        }
+        free(ref);
+        free(B);
+        tsys_free(&t);
+    }
+}
+
+/* on_preview comes every K shots with shots = K, 2K, ...; a non-zero return
+ * stops the solve at once, with RAD_OK and converged = 0. */
+TEST(progressive_preview_cadence)
+{
+    tsys t = make_random(50, 3, 9);
+    double B[150];
+    preview_log log = {0};
+    log.stop_after = 3;
+    log.every = 7;
+    log.n = t.n;
+    log.nb = 3;
+    log.A = t.A;
+    sv_system s = sys_of(&t);
+    sv_options o = {.method = SV_PROGRESSIVE, .on_preview = log_preview, .user = &log,
+                    .preview_every = 7};
+    sv_stats st;
+    CHECK(sv_solve(&s, &o, B, &st, NULL) == RAD_OK);
+    CHECK(log.calls == 3);
+    CHECK(log.last_shots == 21);
+    CHECK(log.bad_shots == 0);
+    CHECK(st.iterations == 21);
+    CHECK(st.converged == 0);
+    CHECK(all_valid(&t, B));
+    /* Without stopping, the calls keep their cadence to the end. */
+    log = (preview_log){0};
+    log.every = 7;
+    log.n = t.n;
+    log.nb = 3;
+    log.A = t.A;
+    CHECK(sv_solve(&s, &o, B, &st, NULL) == RAD_OK);
+    CHECK(st.converged == 1);
+    CHECK(log.calls == st.iterations / 7);
+    CHECK(log.bad_shots == 0);
+    tsys_free(&t);
+}
+
+/* Light off gives exactly zero; doubling E doubles B (the solvers are linear
+ * and their stopping rules scale-free, so to 1e-12 relative — in fact the
+ * same operations on doubled numbers, exact). */
+TEST(linearity)
+{
+    tsys t = make_random(40, 3, 13);
+    size_t len = (size_t)t.n * 3;
+    double *B1 = malloc(len * sizeof *B1), *B2 = malloc(len * sizeof *B2);
+    for (int m = 0; m < 3; m++) {
+        double *E = t.E;
+        double *zero = calloc(len, sizeof *zero), *twice = malloc(len * sizeof *twice);
+        for (size_t k = 0; k < len; k++)
+            twice[k] = 2.0 * E[k];
+        sv_stats st;
+        t.E = zero;
+        CHECK(solve(&t, (sv_method)m, 1e-4, 0, B1, &st) == RAD_OK);
+        CHECK(st.converged == 1);
+        int nonzero = 0;
+        for (size_t k = 0; k < len; k++)
+            nonzero += B1[k] != 0.0;
+        CHECK(nonzero == 0);
+        t.E = E;
+        CHECK(solve(&t, (sv_method)m, 1e-4, 0, B1, &st) == RAD_OK);
+        t.E = twice;
+        CHECK(solve(&t, (sv_method)m, 1e-4, 0, B2, &st) == RAD_OK);
+        t.E = E;
+        for (size_t k = 0; k < len; k++)
+            CHECK_MSG(fabs(B2[k] - 2.0 * B1[k]) <= 1e-12 * 2.0 * B1[k], "%s: %zu: %.17g vs %.17g",
+                      sv_method_name((sv_method)m), k, B2[k], 2.0 * B1[k]);
+        free(zero);
+        free(twice);
+    }
+    free(B1);
+    free(B2);
+    tsys_free(&t);
+}
+
+/* A patch with ρ = 0 whose row was never computed: the sweeps take B = E for
+ * it and the answer equals the dense solution of the system with that row
+ * empty (10 × tolerance, as above); progressive solves too. */
+TEST(missing_row_without_reflectance)
+{
+    const double tol = 1e-4;
+    tsys t = make_random(50, 3, 17);
+    for (uint32_t b = 0; b < 3; b++) {
+        t.rho[5 * 3 + b] = 0.0;
+        CHECK(t.E[5 * 3 + b] == 0.0);
+    }
+    rad_matrix_destroy(t.F);
+    t.F = store_rows(&t, 5);
+    CHECK(t.F->row_done[5] == 0);
+    size_t len = (size_t)t.n * 3;
+    double *ref = malloc(len * sizeof *ref), *B = malloc(len * sizeof *B);
+    dense_solve(&t, ref);
+    for (int m = 0; m < 3; m++) {
+        sv_stats st;
+        CHECK(solve(&t, (sv_method)m, tol, 0, B, &st) == RAD_OK);
+        CHECK(st.converged == 1);
+        CHECK(all_valid(&t, B));
+        CHECK(B[5 * 3] == 0.0 || m == SV_PROGRESSIVE || B[5 * 3] == t.E[5 * 3]);
+        CHECK_MSG(rel_diff(B, ref, len) <= 10 * tol, "%s: %.3g", sv_method_name((sv_method)m),
+                  rel_diff(B, ref, len));
+    }
+    free(ref);
+    free(B);
+    tsys_free(&t);
+}
+
+/* Hitting max_iterations is not an error: converged = 0, B still valid. */
+TEST(iteration_limit)
+{
+    tsys t = make_enclosure(30, 0.99, 1.0, 19);
+    double B[30];
+    sv_system s = sys_of(&t);
+    for (int m = 0; m < 3; m++) {
+        sv_options o = {.method = (sv_method)m, .max_iterations = 5, .no_acceleration = 1};
+        sv_stats st;
+        CHECK(sv_solve(&s, &o, B, &st, NULL) == RAD_OK);
+        CHECK(st.converged == 0);
+        CHECK(st.iterations == 5);
+        CHECK(st.estimated_error > 1e-4);
+        CHECK(all_valid(&t, B));
+    }
+    tsys_free(&t);
+}
+
+TEST(method_names)
+{
+    sv_method m = SV_JACOBI;
+    const char *names[3] = {"gauss-seidel", "jacobi", "progressive"};
+    for (int k = 0; k < 3; k++) {
+        CHECK(strcmp(sv_method_name((sv_method)k), names[k]) == 0);
+        CHECK(sv_method_parse(names[k], &m) == 0 && m == (sv_method)k);
+    }
+    m = SV_JACOBI;
+    CHECK(sv_method_parse("gauss", &m) == -1 && m == SV_JACOBI);
+    CHECK(sv_method_parse("", &m) == -1);
+    CHECK(sv_method_parse(NULL, &m) == -1);
+    CHECK(sv_method_parse("jacobi", NULL) == -1);
+}
+
+int main(void)
+{
+    RUN(methods_agree_with_dense);
+    RUN(other_band_counts);
+    RUN(closed_enclosure_high_reflectance);
+    RUN(slow_mixing_enclosure);
+    RUN(facing_walls);
+    RUN(rejects_bad_input);
+    RUN(progressive_rows_on_demand);
+    RUN(progressive_ties);
+    RUN(progressive_ambient);
+    RUN(progressive_preview_cadence);
+    RUN(linearity);
+    RUN(missing_row_without_reflectance);
+    RUN(iteration_limit);
+    RUN(method_names);
+    return test_finish("test_solver");
+}
