@@ -8,6 +8,7 @@
 #   make report  write report/accuracy.md (issue 4)
 #   make fuzz    run each fuzz target for FUZZ_SECONDS (default 60)
 
+NPROC   := $(shell nproc 2>/dev/null || echo 2)
 CC      ?= cc
 CXX     ?= c++
 MODE    ?= release
@@ -46,27 +47,31 @@ benches: $(BENCH_BIN)
 
 $(B)/obj/%.o: %.c
 	@mkdir -p $(dir $@)
-	$(CC) $(CPPFLAGS) $(CFLAGS) -c $< -o $@
+	@echo "CC  $(MODE) $<"
+	@$(CC) $(CPPFLAGS) $(CFLAGS) -c $< -o $@
 
 $(B)/obj/%.o: %.cpp
 	@mkdir -p $(dir $@)
-	$(CXX) $(CPPFLAGS) $(CXXFLAGS) -c $< -o $@
+	@echo "CXX $(MODE) $<"
+	@$(CXX) $(CPPFLAGS) $(CXXFLAGS) -c $< -o $@
 
 $(LIB): $(LIB_OBJ)
 	@mkdir -p $(dir $@)
-	rm -f $@
-	ar rcs $@ $^
+	@rm -f $@
+	@echo "AR  $(MODE) $@"
+	@ar rcs $@ $^
 
 $(PROG): $(CLI_C:%.c=$(B)/obj/%.o) $(LIB)
-	$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
+	@echo "LD  $(MODE) $@"
+	@$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
 $(B)/test/%: $(B)/obj/test/%.o $(LIB)
 	@mkdir -p $(dir $@)
-	$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
+	@$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
 $(B)/bench/%: $(B)/obj/bench/%.o $(LIB)
 	@mkdir -p $(dir $@)
-	$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
+	@$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
 # ------------------------------------------------------------------ commands
 
@@ -74,7 +79,7 @@ deps:
 	@bash tools/install-deps.sh
 
 demo: deps
-	$(MAKE) --no-print-directory MODE=release prog
+	@$(MAKE) --no-print-directory -j$(NPROC) MODE=release prog
 	@mkdir -p out
 	build/release/radiosity solve models/cornell.rad -o out/cornell.sol
 	build/release/radiosity render out/cornell.sol -o out/cornell.exr --png out/cornell.png
@@ -82,16 +87,16 @@ demo: deps
 	@echo "demo: wrote out/cornell.exr and out/cornell.png"
 
 test: deps
-	$(MAKE) --no-print-directory MODE=release prog tests
-	$(MAKE) --no-print-directory MODE=asan prog tests
+	@$(MAKE) --no-print-directory -j$(NPROC) MODE=release prog tests
+	@$(MAKE) --no-print-directory -j$(NPROC) MODE=asan prog tests
 	@bash test/run_tests.sh
 
 bench: deps
-	$(MAKE) --no-print-directory MODE=release prog benches
+	@$(MAKE) --no-print-directory -j$(NPROC) MODE=release prog benches
 	@bash bench/run_bench.sh
 
 report: deps
-	$(MAKE) --no-print-directory MODE=release prog
+	@$(MAKE) --no-print-directory -j$(NPROC) MODE=release prog
 	@bash tools/make_report.sh
 
 fuzz: deps

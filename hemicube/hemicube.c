@@ -24,6 +24,29 @@
  * four half faces (+u, -u, +v, -v), R/2 rows each, their bottom row at the
  * horizon and their top row towards n_i.  hc_delta_form_factors uses the
  * same order.
+ *
+ * Exact entries (hc_options.exact, .exact_near).  For a candidate j of row
+ * i the pixel sum S_ij (ΔF over the pixels showing j) is replaced by
+ *   F_ij = F_exact · v_ij,   v_ij = S_ij / S°_ij,
+ * where F_exact is hc_ff_point_polygon from (c_i, n_i) to j, or for a j
+ * nearer to c_i than its own diameter (exact_near) the area average
+ * hc_ff_polygon_polygon from i to j: near a patch, the point c_i is what is
+ * wrong with the hemi-cube, not the pixel count.  S°_ij is the same sum in a
+ * second rendering of only the candidates with the depth test off and
+ * GL_OR logic: candidate j writes bit (j mod 32), so a pixel lists every
+ * candidate covering it and S°_ij is j's whole unoccluded projection even
+ * where candidates overlap (more than one pass when 32 residues do not
+ * suffice).  Both sums cover the same rasterisation, so an unoccluded j gets
+ * v_ij = 1 exactly.  A candidate with no pixel (sub-pixel, or wholly hidden)
+ * is probed instead: v_ij = 1 when the depth buffer at the pixel holding the
+ * direction to c_j shows nothing nearer than j's plane along that pixel's
+ * ray (1e-4 relative), else 0.  Should the exact entries push Σ_j F_ij above
+ * 1, the row is scaled down to sum to 1 (renormalisation).
+ *
+ * Lights (hc_light_power) are a second request type served by the same
+ * workers: one request per cube face (the directional light's single view
+ * is part 0), answered with Φ_j of that part; the caller adds the parts in
+ * part order, so the result never depends on which worker drew what.
  */
 #define GL_GLEXT_PROTOTYPES 1
 #include "hemicube.h"
@@ -49,6 +72,15 @@
 #define HC_NO_PATCH 0xFFFFFFFFu   /* item-buffer clear value */
 #define HC_MSG_ERROR 0xFFFFFFFFu  /* row field of a worker's error message */
 #define HC_MSG_BATCH 0xFFFFFFFEu  /* header of the answer to one request */
+#define HC_MSG_LIGHT 0xFFFFFFFDu  /* header of the answer to one light part */
+#define HC_REQ_LIGHT 0xFFFFFFF0u  /* request word of a light part (else: a row count) */
+#define HC_LIGHT_DEFAULT_R 512u   /* hc_light_power's resolution 0 */
+/* A candidate shows nothing nearer than this relative depth margin: a
+ * coplanar neighbour (a light flush with its ceiling) never hides it. */
+#define HC_PROBE_MARGIN 1e-4
+/* Bound of the area-average subdivision of exact_near entries: 16² sub-
+ * triangles per fan triangle give ~1e-4 at a gap of 1 % of the size. */
+#define HC_NEAR_MAX_SUBDIV 16u
 #define HC_FLUSH (1u << 20)       /* a worker sends when this much is buffered */
 #define HC_MAX_PROCESSES 1024u
 #define HC_MAX_CHUNK 32u
@@ -81,6 +113,10 @@ struct hc_engine {
     rad_vec3 *center;  /* n: patch centre - origin */
     uint8_t *ncorner;  /* n: 3 or 4 */
     double *bsphere;   /* per HC_BLOCK consecutive patches: centre - origin, radius */
+    double *radius;    /* n: largest distance from patch centre to a corner */
+    double bradius;    /* every corner lies within this distance of the origin */
+    uint8_t *exact;    /* n: copy of opt->exact, or NULL */
+    int any_exact;     /* rows have candidates: exact marks or exact_near */
     hc_worker *w;
     int broken;        /* a worker is gone: every later call fails */
     char broken_msg[HC_MAX_MSG + 64];
@@ -164,11 +200,31 @@ double hc_delta_form_factors(uint32_t resolution, double *out)
 
 /* ------------------------------------------------------------ worker: GL */
 
+/* A candidate for an exact entry in the current row. */
+typedef struct hc_cand {
+    uint32_t j;
+    uint32_t pass;     /* OR pass that measures S°_ij: earlier candidates with j's residue */
+    double occ;        /* S_ij: ΔF of the pixels showing j in the occluded item buffer */
+    double free;       /* S°_ij: the same with only the candidates drawn */
+    double exact;      /* F_exact */
+    uint8_t faces;     /* bit f: drawn on hemi-cube face f */
+    uint8_t near;      /* nearer to c_i than its own diameter */
+} hc_cand;
+
 typedef struct hc_gl {
     OSMesaContext ctx;
     unsigned char dummy[16];
     GLuint fbo, rb[2], prog, vao, vbo;
-    GLint loc_m, loc_eye;
+    GLint loc_m, loc_eye, loc_mode;
+    uint32_t nvert;    /* vertices in the VBO */
+    hc_cand *cand;     /* n when any_exact, else NULL */
+    uint32_t *order;   /* n when any_exact: candidate indices sorted by pass */
+    /* Light target, R×R, made on the first light request of that size. */
+    GLuint lfbo, lrb[2];
+    uint32_t lR;
+    uint32_t *lpixels; /* lR² */
+    double *lweight;   /* lR²: pixel solid angle of a cube face, 6 faces sum to 4π */
+    double *lval;      /* n: Φ_j of one answer */
     GLint *vfirst;     /* n: first vertex of patch j in the VBO */
     GLsizei *vcount;   /* n: 3 or 6 */
     uint32_t *pixels;  /* 3R² */
@@ -193,12 +249,17 @@ static const char *vs_src =
 
 /* A patch seen from behind still hides what lies beyond it, but its back
  * side is no patch: it neither sends nor receives (one-sided patches), so its
- * pixels keep "no patch" and reciprocity A_i F_ij = A_j F_ji holds. */
+ * pixels keep "no patch" and reciprocity A_i F_ij = A_j F_ji holds.
+ * mode 1 is the candidates' OR pass: a front side sets bit (id mod 32). */
 static const char *fs_src =
     "#version 450 core\n"
     "flat in uint vid;\n"
+    "uniform uint mode;\n"
     "layout(location = 0) out uint item;\n"
-    "void main() { item = gl_FrontFacing ? vid : 0xFFFFFFFFu; }\n";
+    "void main() {\n"
+    "    if (mode == 0u) item = gl_FrontFacing ? vid : 0xFFFFFFFFu;\n"
+    "    else item = gl_FrontFacing ? (1u << (vid & 31u)) : 0u;\n"
+    "}\n";
 
 static int gl_check(const char *where, char *msg)
 {
@@ -313,6 +374,8 @@ static int gl_setup(const hc_engine *e, hc_gl *g, char *msg)
     glUseProgram(g->prog);
     g->loc_m = glGetUniformLocation(g->prog, "m");
     g->loc_eye = glGetUniformLocation(g->prog, "eye");
+    g->loc_mode = glGetUniformLocation(g->prog, "mode");
+    glUniform1ui(g->loc_mode, 0u);
 
     /* Vertex: float x, y, z relative to the origin, then uint32 patch id. */
     uint32_t n = e->n;
@@ -322,6 +385,7 @@ static int gl_setup(const hc_engine *e, hc_gl *g, char *msg)
         g->vcount[j] = e->ncorner[j] == 4 ? 6 : 3;
         nv += (size_t)g->vcount[j];
     }
+    g->nvert = (uint32_t)nv;
     glGenVertexArrays(1, &g->vao);
     glBindVertexArray(g->vao);
     glGenBuffers(1, &g->vbo);
@@ -409,6 +473,179 @@ static void set_mat(double m[16], rad_vec3 right, rad_vec3 up, rad_vec3 d, int s
     memcpy(m + 12, r3, sizeof r3);
 }
 
+/* Per-face matrix (float, row-major), viewport row and height of the atlas. */
+typedef struct hc_faces {
+    float m[5][16];
+    GLint y0[5];
+    GLsizei h[5];
+} hc_faces;
+
+static void face_setup(hc_faces *fs, const rad_vec3 fr[5][3], uint32_t R, double near)
+{
+    for (int f = 0; f < 5; f++) {
+        double m[16];
+        set_mat(m, fr[f][0], fr[f][1], fr[f][2], f != 0, near);
+        for (int k = 0; k < 16; k++)
+            fs->m[f][k] = (float)m[k];
+        fs->y0[f] = f == 0 ? 0 : (GLint)(R + (uint32_t)(f - 1) * (R / 2));
+        fs->h[f] = f == 0 ? (GLsizei)R : (GLsizei)(R / 2);
+    }
+}
+
+static void draw_face(const hc_faces *fs, hc_gl *g, int f, uint32_t R, const GLint *first,
+                      const GLsizei *count, GLsizei nr)
+{
+    glViewport(0, fs->y0[f], (GLsizei)R, fs->h[f]);
+    glScissor(0, fs->y0[f], (GLsizei)R, fs->h[f]);
+    glUniformMatrix4fv(g->loc_m, 1, GL_TRUE, fs->m[f]);
+    glMultiDrawArrays(GL_TRIANGLES, first, count, nr);
+}
+
+static void load_corners(const hc_engine *e, uint32_t j, rad_vec3 p[4])
+{
+    const double *q = e->corner + (size_t)j * 12;
+    for (int k = 0; k < 4; k++)
+        p[k] = rad_v3(q[3 * k], q[3 * k + 1], q[3 * k + 2]);
+}
+
+/* The probe of a candidate without pixels: 1 when j faces c and the depth
+ * buffer, at the pixel holding the direction to c_j, shows nothing nearer
+ * than j's plane along that pixel's ray. */
+static int probe_visible(const hc_engine *e, uint32_t j, rad_vec3 c, const rad_vec3 fr[5][3],
+                         double near)
+{
+    const uint32_t R = e->R;
+    const rad_vec3 d = rad_sub(e->center[j], c), nj = e->mesh->patches[j].normal;
+    const double dn = rad_dot(d, nj);
+    if (!(dn < 0.0))
+        return 0; /* c_i sees j's back, or lies in j's plane */
+    double h = rad_dot(d, fr[0][2]), a = rad_dot(d, fr[1][2]), b = rad_dot(d, fr[3][2]);
+    if (!(h > 0.0))
+        return 0; /* centre on or below the horizon: left to the pixel sum (0) */
+    int f = fabs(a) <= h && fabs(b) <= h ? 0 : fabs(a) >= fabs(b) ? (a > 0 ? 1 : 2) : (b > 0 ? 3 : 4);
+    const rad_vec3 rt = fr[f][0], up = fr[f][1], fw = fr[f][2];
+    double w = rad_dot(d, fw), x = rad_dot(d, rt) / w, y = rad_dot(d, up) / w;
+    long rows = f == 0 ? (long)R : (long)R / 2;
+    long px = (long)floor((x + 1.0) * 0.5 * R);
+    long py = (long)floor(f == 0 ? (y + 1.0) * 0.5 * R : y * (R / 2));
+    px = px < 0 ? 0 : px >= (long)R ? (long)R - 1 : px;
+    py = py < 0 ? 0 : py >= rows ? rows - 1 : py;
+    double xc = (px + 0.5) * 2.0 / R - 1.0;
+    double yc = f == 0 ? (py + 0.5) * 2.0 / R - 1.0 : (py + 0.5) / (R / 2);
+    rad_vec3 ray = rad_add(fw, rad_add(rad_scale(rt, xc), rad_scale(up, yc)));
+    /* ray·fw = 1, so the ray parameter where it meets j's plane is the
+     * distance along fw that the depth buffer stores as near/distance. */
+    double s = dn / rad_dot(ray, nj);
+    if (!(s > 0.0) || !isfinite(s))
+        s = w;
+    GLint row = (GLint)(f == 0 ? py : (long)R + (f - 1) * ((long)R / 2) + py);
+    GLfloat D = 0.0f;
+    glReadPixels((GLint)px, row, 1, 1, GL_DEPTH_COMPONENT, GL_FLOAT, &D);
+    return !((double)D > near / s * (1.0 + HC_PROBE_MARGIN));
+}
+
+/* Replaces the pixel sums g->acc[j] of the ncand candidates in g->cand by
+ * their exact entries F_exact · v_ij (see the top of the file).  Needs the
+ * occluded pass's depth buffer; leaves the item buffer overwritten. */
+static void exact_entries(const hc_engine *e, hc_gl *g, uint32_t i, uint32_t ncand,
+                          const rad_vec3 fr[5][3], const hc_faces *fs, double near)
+{
+    const uint32_t R = e->R;
+    const rad_vec3 c = e->center[i], nn = e->mesh->patches[i].normal;
+    rad_vec3 pi[4], pj[4];
+    load_corners(e, i, pi);
+    uint32_t per_residue[32] = {0}, passes = 0;
+    for (uint32_t k = 0; k < ncand; k++) {
+        hc_cand *cd = &g->cand[k];
+        uint32_t j = cd->j;
+        cd->occ = g->acc[j];
+        cd->free = 0.0;
+        load_corners(e, j, pj);
+        double ex;
+        if (cd->near) {
+            /* Sub-triangles about the size of the distance: the 7-point
+             * rule then resolves F_{dA→j}, which varies on that scale. */
+            double dist = rad_length(rad_sub(e->center[j], c));
+            double sub = ceil(4.0 * e->radius[i] / fmax(dist, 1e-300));
+            sub = sub < 2.0 ? 2.0 : sub > HC_NEAR_MAX_SUBDIV ? HC_NEAR_MAX_SUBDIV : sub;
+            ex = hc_ff_polygon_polygon(pi, e->ncorner[i], pj, e->ncorner[j], (uint32_t)sub);
+        } else {
+            ex = hc_ff_point_polygon(c, nn, pj, e->ncorner[j]);
+        }
+        cd->exact = ex > 0.0 && isfinite(ex) ? ex : 0.0;
+        cd->pass = UINT32_MAX;
+        if (cd->exact > 0.0 && cd->occ > 0.0) {
+            cd->pass = per_residue[j & 31u]++;
+            passes = cd->pass + 1 > passes ? cd->pass + 1 : passes;
+        }
+    }
+    /* Probes read the occluded pass's depth, which the OR passes keep (no
+     * depth test, so no depth writes). */
+    for (uint32_t k = 0; k < ncand; k++) {
+        hc_cand *cd = &g->cand[k];
+        if (cd->exact > 0.0 && cd->occ == 0.0)
+            cd->free = probe_visible(e, cd->j, c, fr, near) ? 1.0 : 0.0;
+    }
+    if (passes) {
+        const size_t npix = (size_t)3 * R * R;
+        const GLuint zero[4] = {0, 0, 0, 0};
+        glUniform1ui(g->loc_mode, 1u);
+        glDisable(GL_DEPTH_TEST);
+        glEnable(GL_COLOR_LOGIC_OP);
+        glLogicOp(GL_OR);
+        for (uint32_t p = 0; p < passes; p++) {
+            uint32_t slot[32], nin = 0;
+            for (uint32_t k = 0; k < ncand; k++)
+                if (g->cand[k].pass == p) {
+                    slot[g->cand[k].j & 31u] = k;
+                    g->order[nin++] = k;
+                }
+            glScissor(0, 0, (GLsizei)R, (GLsizei)(3 * R));
+            glClearBufferuiv(GL_COLOR, 0, zero);
+            for (int f = 0; f < 5; f++) {
+                GLsizei nr = 0;
+                uint32_t last = 0;
+                for (uint32_t t = 0; t < nin; t++) {
+                    const hc_cand *cd = &g->cand[g->order[t]];
+                    if (!(cd->faces & (1u << f)))
+                        continue;
+                    if (nr > 0 && last + 1 == cd->j) {
+                        g->count[0][nr - 1] += g->vcount[cd->j];
+                    } else {
+                        g->first[0][nr] = g->vfirst[cd->j];
+                        g->count[0][nr] = g->vcount[cd->j];
+                        nr++;
+                    }
+                    last = cd->j;
+                }
+                if (nr)
+                    draw_face(fs, g, f, R, g->first[0], g->count[0], nr);
+            }
+            glReadPixels(0, 0, (GLsizei)R, (GLsizei)(3 * R), GL_RED_INTEGER, GL_UNSIGNED_INT,
+                         g->pixels);
+            /* In pixel order, as the occluded sums: deterministic. */
+            for (size_t q = 0; q < npix; q++) {
+                uint32_t bits = g->pixels[q];
+                while (bits) {
+                    uint32_t r = (uint32_t)__builtin_ctz(bits);
+                    bits &= bits - 1;
+                    g->cand[slot[r]].free += e->dff[q];
+                }
+            }
+        }
+        glUniform1ui(g->loc_mode, 0u);
+        glDisable(GL_COLOR_LOGIC_OP);
+        glEnable(GL_DEPTH_TEST);
+    }
+    for (uint32_t k = 0; k < ncand; k++) {
+        const hc_cand *cd = &g->cand[k];
+        double vis = 0.0;
+        if (cd->exact > 0.0)
+            vis = cd->occ > 0.0 ? fmin(1.0, cd->occ / cd->free) : cd->free;
+        g->acc[cd->j] = cd->exact * vis;
+    }
+}
+
 /* Computes row i into g->col/g->val; returns the entry count, or -1 with msg
  * set on a GL error. */
 static long compute_row(const hc_engine *e, hc_gl *g, uint32_t i, char *msg)
@@ -419,7 +656,7 @@ static long compute_row(const hc_engine *e, hc_gl *g, uint32_t i, char *msg)
     basis(nn, &u, &v);
     const rad_vec3 c = e->center[i];
     const double tol = e->tol;
-    uint32_t nfront = 0;
+    uint32_t nfront = 0, ncand = 0;
     GLsizei nr[5] = {0, 0, 0, 0, 0};
     uint32_t last[5] = {0, 0, 0, 0, 0};
 
@@ -465,9 +702,11 @@ static long compute_row(const hc_engine *e, hc_gl *g, uint32_t i, char *msg)
                           PL_H | (amax - hmin >= t) * PL_A_MH | (-amin - hmin >= t) * PL_NA_MH |
                           (bmax - hmin >= t) * PL_B_MH | (-bmin - hmin >= t) * PL_NB_MH;
         g->front[nfront++] = j;
+        unsigned faces = 0;
         for (int f = 0; f < 5; f++) {
             if ((inside & face_planes[f]) != face_planes[f])
                 continue;
+            faces |= 1u << f;
             if (nr[f] > 0 && last[f] + 1 == j) {
                 g->count[f][nr[f] - 1] += g->vcount[j];
             } else {
@@ -477,10 +716,25 @@ static long compute_row(const hc_engine *e, hc_gl *g, uint32_t i, char *msg)
             }
             last[f] = j;
         }
+        if (e->any_exact) {
+            int is_near = 0;
+            if (e->opt.exact_near) {
+                rad_vec3 d = rad_sub(e->center[j], c);
+                double size = 2.0 * e->radius[j];
+                is_near = rad_dot(d, d) < size * size;
+            }
+            if (is_near || (e->exact && e->exact[j])) {
+                hc_cand *cd = &g->cand[ncand++];
+                cd->j = j;
+                cd->faces = (uint8_t)faces;
+                cd->near = (uint8_t)is_near;
+            }
+        }
     }
 
     const GLuint clear_id[4] = {HC_NO_PATCH, 0, 0, 0};
     const GLfloat clear_depth = 0.0f;
+    glBindFramebuffer(GL_FRAMEBUFFER, g->fbo);
     glScissor(0, 0, (GLsizei)R, (GLsizei)(3 * R));
     glClearBufferuiv(GL_COLOR, 0, clear_id);
     glClearBufferfv(GL_DEPTH, 0, &clear_depth);
@@ -491,21 +745,11 @@ static long compute_row(const hc_engine *e, hc_gl *g, uint32_t i, char *msg)
     /* (right, up, forward) per face; right = forward × up keeps every face
      * unmirrored. */
     const rad_vec3 fr[5][3] = {{mu, v, nn}, {mv, nn, u}, {v, nn, mu}, {u, nn, v}, {mu, nn, mv}};
-    for (int f = 0; f < 5; f++) {
-        GLint y0 = f == 0 ? 0 : (GLint)(R + (uint32_t)(f - 1) * (R / 2));
-        GLsizei h = f == 0 ? (GLsizei)R : (GLsizei)(R / 2);
-        if (!nr[f])
-            continue;
-        double m[16];
-        float mf[16];
-        set_mat(m, fr[f][0], fr[f][1], fr[f][2], f != 0, near);
-        for (int k = 0; k < 16; k++)
-            mf[k] = (float)m[k];
-        glViewport(0, y0, (GLsizei)R, h);
-        glScissor(0, y0, (GLsizei)R, h);
-        glUniformMatrix4fv(g->loc_m, 1, GL_TRUE, mf);
-        glMultiDrawArrays(GL_TRIANGLES, g->first[f], g->count[f], nr[f]);
-    }
+    hc_faces fs;
+    face_setup(&fs, fr, R, near);
+    for (int f = 0; f < 5; f++)
+        if (nr[f])
+            draw_face(&fs, g, f, R, g->first[f], g->count[f], nr[f]);
     glReadPixels(0, 0, (GLsizei)R, (GLsizei)(3 * R), GL_RED_INTEGER, GL_UNSIGNED_INT, g->pixels);
     if (gl_check("rendering a hemi-cube", msg))
         return -1;
@@ -521,19 +765,231 @@ static long compute_row(const hc_engine *e, hc_gl *g, uint32_t i, char *msg)
         if (id < n)
             acc[id] += dff[q];
     }
+    double scale = 1.0;
+    if (ncand) {
+        exact_entries(e, g, i, ncand, fr, &fs, near);
+        if (gl_check("measuring exact form factors", msg))
+            return -1;
+        /* Renormalisation: exact entries are not bound by the cube's Σ ΔF = 1. */
+        double sum = 0.0;
+        for (uint32_t k = 0; k < nfront; k++)
+            sum += acc[g->front[k]];
+        if (sum > 1.0)
+            scale = 1.0 / sum;
+    }
     long cnt = 0;
     for (uint32_t k = 0; k < nfront; k++) {
         uint32_t j = g->front[k];
         if (acc[j] > 0.0) {
-            float f = (float)acc[j];
+            float f = (float)(acc[j] * scale);
             if (f > 0.0f) {
                 g->col[cnt] = j;
                 g->val[cnt] = f;
                 cnt++;
             }
-            acc[j] = 0.0;
+        }
+        acc[j] = 0.0;
+    }
+    return cnt;
+}
+
+/* ------------------------------------------------------- worker: lights */
+
+/* One part of a light request.  pos is relative to the scene origin. */
+typedef struct hc_light_req {
+    uint32_t resolution, kind, part, pad;
+    double pos[3], dir[3];
+    double cos_inner, cos_outer;
+} hc_light_req;
+
+/* Makes (or keeps) the R×R light target current, with its table of pixel
+ * solid angles: a cube-face pixel at (x, y) on the face at distance 1
+ * subtends ΔA/(x² + y² + 1)^{3/2}, ΔA = (2/R)², scaled so that six faces
+ * give exactly 4π (the midpoint rule is off by O(1/R²)). */
+static int light_target(hc_gl *g, uint32_t R, char *msg)
+{
+    if (g->lR == R) {
+        glBindFramebuffer(GL_FRAMEBUFFER, g->lfbo);
+        return 0;
+    }
+    GLint max_rb = 0;
+    glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
+    if (max_rb < (GLint)R) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: light resolution %u exceeds GL's %d", R, (int)max_rb);
+        return -1;
+    }
+    free(g->lpixels);
+    free(g->lweight);
+    g->lR = 0;
+    g->lpixels = malloc((size_t)R * R * sizeof *g->lpixels);
+    g->lweight = malloc((size_t)R * R * sizeof *g->lweight);
+    if (!g->lpixels || !g->lweight) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: worker out of memory for a %u² light view", R);
+        return -1;
+    }
+    if (!g->lfbo) {
+        glGenFramebuffers(1, &g->lfbo);
+        glGenRenderbuffers(2, g->lrb);
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, g->lfbo);
+    glBindRenderbuffer(GL_RENDERBUFFER, g->lrb[0]);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_R32UI, (GLsizei)R, (GLsizei)R);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, g->lrb[0]);
+    glBindRenderbuffer(GL_RENDERBUFFER, g->lrb[1]);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, (GLsizei)R, (GLsizei)R);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, g->lrb[1]);
+    const GLenum draw = GL_COLOR_ATTACHMENT0;
+    glDrawBuffers(1, &draw);
+    glReadBuffer(GL_COLOR_ATTACHMENT0);
+    GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    if (status != GL_FRAMEBUFFER_COMPLETE) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: light framebuffer incomplete (0x%04x)", (unsigned)status);
+        return -1;
+    }
+    double d = 2.0 / R, sum = 0.0;
+    for (uint32_t y = 0; y < R; y++)
+        for (uint32_t x = 0; x < R; x++) {
+            double px = -1.0 + (x + 0.5) * d, py = -1.0 + (y + 0.5) * d;
+            double r2 = px * px + py * py + 1.0;
+            double w = d * d / (r2 * sqrt(r2));
+            g->lweight[(size_t)y * R + x] = w;
+            sum += w;
+        }
+    double s = 4.0 * M_PI / (6.0 * sum);
+    for (size_t q = 0; q < (size_t)R * R; q++)
+        g->lweight[q] *= s;
+    g->lR = R;
+    return gl_check("light framebuffer set-up", msg);
+}
+
+/* Cube face f of a point light: forward ±x, ±y, ±z; right = forward × up
+ * so that front faces stay front faces. */
+static void cube_face(uint32_t f, rad_vec3 *right, rad_vec3 *up, rad_vec3 *fwd)
+{
+    static const double ax[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    *fwd = rad_v3(ax[f][0], ax[f][1], ax[f][2]);
+    *up = f < 4 ? rad_v3(0, 0, 1) : rad_v3(0, 1, 0);
+    *right = rad_cross(*fwd, *up);
+}
+
+/* Renders part q->part of a light and leaves Φ_j > 0 in g->col/g->lval;
+ * returns the entry count or -1 with msg set. */
+static long light_part(const hc_engine *e, hc_gl *g, const hc_light_req *q, char *msg)
+{
+    const uint32_t n = e->n, R = q->resolution;
+    if (light_target(g, R, msg) != 0)
+        return -1;
+    const rad_vec3 pos = rad_v3(q->pos[0], q->pos[1], q->pos[2]);
+    const rad_vec3 sd = rad_v3(q->dir[0], q->dir[1], q->dir[2]);
+    const int directional = q->kind == HC_LIGHT_DIRECTIONAL, spot = q->kind == HC_LIGHT_SPOT;
+    rad_vec3 right, up, fwd;
+    double m[16];
+    GLsizei nr = 0;
+    if (directional) {
+        /* Orthographic along the light, x, y in [-rw, rw] around the origin,
+         * reversed depth (r_z - p·fwd)/(2 r_z) in (0, 1) for every corner. */
+        rad_vec3 u, v;
+        basis(sd, &u, &v);
+        fwd = sd;
+        up = v;
+        right = rad_cross(fwd, up);
+        double rw = e->bradius * (1.0 + 1e-9), rz = e->bradius * 1.01 + 1e-300;
+        const double mm[16] = {right.x / rw, right.y / rw, right.z / rw, 0,
+                               up.x / rw, up.y / rw, up.z / rw, 0,
+                               -fwd.x / (2 * rz), -fwd.y / (2 * rz), -fwd.z / (2 * rz), 0.5,
+                               0, 0, 0, 1};
+        memcpy(m, mm, sizeof m);
+        g->first[0][0] = 0;
+        g->count[0][0] = (GLsizei)g->nvert;
+        nr = g->nvert ? 1 : 0;
+    } else {
+        cube_face(q->part, &right, &up, &fwd);
+        /* Geometry nearer than this to the light is clipped; far below any
+         * real distance, and reversed Z keeps full precision beyond. */
+        double near = 1e-6 * (e->bradius + rad_length(pos)) + 1e-300;
+        set_mat(m, right, up, fwd, 0, near);
+        /* Draw only the patches that may reach the face's frustum
+         * |p·right| <= p·fwd, |p·up| <= p·fwd; a patch is skipped when all
+         * its corners lie outside one of the four planes. */
+        uint32_t last = 0;
+        for (uint32_t j = 0; j < n; j++) {
+            const double *p = e->corner + (size_t)j * 12;
+            unsigned any = 0;
+            for (int k = 0; k < 4; k++, p += 3) {
+                rad_vec3 r = rad_v3(p[0] - pos.x, p[1] - pos.y, p[2] - pos.z);
+                double a = rad_dot(r, right), b = rad_dot(r, up), h = rad_dot(r, fwd);
+                double t = -e->tol;
+                any |= (h - a >= t) | (h + a >= t) << 1 | (h - b >= t) << 2 | (h + b >= t) << 3;
+            }
+            if (any != 15u)
+                continue;
+            if (nr > 0 && last + 1 == j) {
+                g->count[0][nr - 1] += g->vcount[j];
+            } else {
+                g->first[0][nr] = g->vfirst[j];
+                g->count[0][nr] = g->vcount[j];
+                nr++;
+            }
+            last = j;
         }
     }
+    float mf[16];
+    for (int k = 0; k < 16; k++)
+        mf[k] = (float)m[k];
+    const GLuint clear_id[4] = {HC_NO_PATCH, 0, 0, 0};
+    const GLfloat clear_depth = 0.0f;
+    glViewport(0, 0, (GLsizei)R, (GLsizei)R);
+    glScissor(0, 0, (GLsizei)R, (GLsizei)R);
+    glClearBufferuiv(GL_COLOR, 0, clear_id);
+    glClearBufferfv(GL_DEPTH, 0, &clear_depth);
+    glUniform3f(g->loc_eye, (float)(directional ? 0.0 : pos.x), (float)(directional ? 0.0 : pos.y),
+                (float)(directional ? 0.0 : pos.z));
+    glUniformMatrix4fv(g->loc_m, 1, GL_TRUE, mf);
+    if (nr)
+        glMultiDrawArrays(GL_TRIANGLES, g->first[0], g->count[0], nr);
+    glReadPixels(0, 0, (GLsizei)R, (GLsizei)R, GL_RED_INTEGER, GL_UNSIGNED_INT, g->lpixels);
+    if (gl_check("rendering a light view", msg))
+        return -1;
+
+    double *acc = g->acc;
+    if (directional) {
+        double pa = 2.0 * e->bradius * (1.0 + 1e-9) / R;
+        pa *= pa;
+        for (size_t k = 0; k < (size_t)R * R; k++)
+            if (g->lpixels[k] < n)
+                acc[g->lpixels[k]] += pa;
+    } else {
+        /* glTF KHR_lights_punctual spot falloff, t² with
+         * t = clamp(cosθ·scale + offset, 0, 1). */
+        double scale = 1.0 / fmax(0.001, q->cos_inner - q->cos_outer);
+        double offset = -q->cos_outer * scale, d = 2.0 / R;
+        for (uint32_t y = 0; y < R; y++)
+            for (uint32_t x = 0; x < R; x++) {
+                size_t k = (size_t)y * R + x;
+                uint32_t id = g->lpixels[k];
+                if (id >= n)
+                    continue;
+                double w = g->lweight[k];
+                if (spot) {
+                    double px = -1.0 + (x + 0.5) * d, py = -1.0 + (y + 0.5) * d;
+                    rad_vec3 dir = rad_add(fwd, rad_add(rad_scale(right, px), rad_scale(up, py)));
+                    double t = rad_dot(dir, sd) / rad_length(dir) * scale + offset;
+                    t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+                    w *= t * t;
+                }
+                acc[id] += w;
+            }
+    }
+    long cnt = 0;
+    for (uint32_t j = 0; j < n; j++)
+        if (acc[j] != 0.0) {
+            if (acc[j] > 0.0) {
+                g->col[cnt] = j;
+                g->lval[cnt] = acc[j];
+                cnt++;
+            }
+            acc[j] = 0.0;
+        }
     return cnt;
 }
 
@@ -595,6 +1051,9 @@ static void worker_main(const hc_engine *e, int fd)
     for (int f = 0; ok && f < 5; f++)
         ok = (g.first[f] = worker_alloc(n, sizeof *g.first[f], msg)) &&
              (g.count[f] = worker_alloc(n, sizeof *g.count[f], msg));
+    if (ok && e->any_exact)
+        ok = (g.cand = worker_alloc(n, sizeof *g.cand, msg)) &&
+             (g.order = worker_alloc(n, sizeof *g.order, msg));
     if (!ok || gl_setup(e, &g, msg) != 0) {
         send_msg(fd, HC_MSG_ERROR, msg);
         _exit(1);
@@ -614,6 +1073,27 @@ static void worker_main(const hc_engine *e, int fd)
         uint32_t count;
         if (recv_all(fd, &count, sizeof count) != 0)
             _exit(0); /* the caller closed the socket: hc_destroy */
+        if (count == HC_REQ_LIGHT) {
+            hc_light_req q;
+            if (recv_all(fd, &q, sizeof q) != 0 || !resolution_ok(q.resolution) ||
+                q.kind > HC_LIGHT_DIRECTIONAL || q.part >= 6)
+                _exit(1);
+            if (!g.lval && !(g.lval = worker_alloc(n, sizeof *g.lval, msg))) {
+                send_msg(fd, HC_MSG_ERROR, msg);
+                _exit(1);
+            }
+            long cnt = light_part(e, &g, &q, msg);
+            if (cnt < 0) {
+                send_msg(fd, HC_MSG_ERROR, msg);
+                _exit(1);
+            }
+            uint32_t hdr[2] = {HC_MSG_LIGHT, (uint32_t)cnt};
+            if (send_all(fd, hdr, sizeof hdr) != 0 ||
+                send_all(fd, g.col, (size_t)cnt * sizeof *g.col) != 0 ||
+                send_all(fd, g.lval, (size_t)cnt * sizeof *g.lval) != 0)
+                _exit(1);
+            continue;
+        }
         if (count == 0 || count > HC_MAX_CHUNK || recv_all(fd, rows, count * sizeof *rows) != 0)
             _exit(1);
         uint32_t batch[2] = {HC_MSG_BATCH, count};
@@ -697,6 +1177,8 @@ void hc_destroy(hc_engine *e)
     free(e->center);
     free(e->ncorner);
     free(e->bsphere);
+    free(e->radius);
+    free(e->exact);
     free(e->rx_col);
     free(e->rx_val);
     free(e);
@@ -803,10 +1285,24 @@ int hc_create(const rad_mesh *mesh, const hc_options *opt, hc_engine **out, rad_
     e->center = malloc((n ? n : 1) * sizeof *e->center);
     e->ncorner = malloc(n ? n : 1);
     e->bsphere = malloc(((size_t)n / HC_BLOCK + 1) * 4 * sizeof *e->bsphere);
+    e->radius = malloc((n ? n : 1) * sizeof *e->radius);
     e->rx_col = malloc((n ? n : 1) * sizeof *e->rx_col);
     e->rx_val = malloc((n ? n : 1) * sizeof *e->rx_val);
     e->w = calloc(e->nproc, sizeof *e->w);
-    if (!e->dff || !e->corner || !e->center || !e->ncorner || !e->bsphere || !e->rx_col || !e->rx_val || !e->w) {
+    if (o.exact && n) {
+        /* Read once here: later changes to the caller's array never reach
+         * workers that already forked, so none may reach the caller either. */
+        e->exact = malloc(n);
+        if (e->exact) {
+            memcpy(e->exact, o.exact, n);
+            for (uint32_t j = 0; j < n && !e->any_exact; j++)
+                e->any_exact = e->exact[j] != 0;
+        }
+    }
+    e->any_exact |= o.exact_near != 0 && n > 1;
+    e->opt.exact = e->exact;
+    if (!e->dff || !e->corner || !e->center || !e->ncorner || !e->bsphere || !e->radius ||
+        !e->rx_col || !e->rx_val || !e->w || (o.exact && n && !e->exact)) {
         hc_destroy(e);
         return rad_fail(err, RAD_ERR_NOMEM, "hc_create: out of memory for %u patches at resolution %u",
                         n, o.resolution);
@@ -837,6 +1333,15 @@ int hc_create(const rad_mesh *mesh, const hc_options *opt, hc_engine **out, rad_
             e->corner[(size_t)j * 12 + 3 * k + 2] = q.z;
         }
         e->center[j] = rad_sub(p->center, e->origin);
+        double r2 = 0.0, b2 = 0.0;
+        for (int k = 0; k < nc; k++) {
+            const double *q = e->corner + (size_t)j * 12 + 3 * k;
+            rad_vec3 d = rad_sub(rad_v3(q[0], q[1], q[2]), e->center[j]);
+            r2 = fmax(r2, rad_dot(d, d));
+            b2 = fmax(b2, q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+        }
+        e->radius[j] = sqrt(r2);
+        e->bradius = fmax(e->bradius, sqrt(b2));
     }
     for (uint32_t b0 = 0; b0 < n; b0 += HC_BLOCK) {
         uint32_t b1 = n - b0 < HC_BLOCK ? n : b0 + HC_BLOCK;
@@ -1065,5 +1570,134 @@ int hc_compute_rows(hc_engine *e, const uint32_t *rows, uint32_t count, rad_matr
     }
     free(pf);
     free(who);
+    return rc;
+}
+
+/* Reads worker k's answer to one light part and adds it to power (when
+ * add); RAD_OK, or the engine is broken and the error is in err. */
+static int receive_light(hc_engine *e, uint32_t k, double *power, double *rx, int add,
+                         rad_error *err)
+{
+    int fd = e->w[k].fd;
+    uint32_t hdr[2];
+    if (recv_all(fd, hdr, sizeof hdr) != 0)
+        return worker_gone(e, k, err);
+    if (hdr[0] == HC_MSG_ERROR)
+        return worker_error(e, k, hdr[1], err);
+    uint32_t m = hdr[1];
+    if (hdr[0] != HC_MSG_LIGHT || m > e->n ||
+        recv_all(fd, e->rx_col, (size_t)m * sizeof *e->rx_col) != 0 ||
+        recv_all(fd, rx, (size_t)m * sizeof *rx) != 0)
+        return worker_gone(e, k, err);
+    for (uint32_t q = 0; q < m; q++)
+        if (e->rx_col[q] >= e->n || (q && e->rx_col[q] <= e->rx_col[q - 1]) || !(rx[q] > 0.0) ||
+            !isfinite(rx[q]))
+            return worker_gone(e, k, err);
+    if (add)
+        for (uint32_t q = 0; q < m; q++)
+            power[e->rx_col[q]] += rx[q];
+    return RAD_OK;
+}
+
+int hc_light_power(hc_engine *e, const hc_light *light, uint32_t resolution, double *power,
+                   rad_error *err)
+{
+    if (!e || !light || (!power && e->n))
+        return rad_fail(err, RAD_ERR_USAGE, "hc_light_power: engine, light and power must be given");
+    uint32_t R = resolution ? resolution : HC_LIGHT_DEFAULT_R;
+    if (!resolution_ok(R))
+        return rad_fail(err, RAD_ERR_USAGE,
+                        "hc_light_power: resolution %u: must be even and within 8..4096", R);
+    hc_light_req q;
+    memset(&q, 0, sizeof q);
+    q.resolution = R;
+    q.kind = (uint32_t)light->kind;
+    rad_vec3 dir = rad_v3(0, 0, 0);
+    switch (light->kind) {
+    case HC_LIGHT_SPOT:
+        if (!isfinite(light->inner_cone) || !isfinite(light->outer_cone) || light->inner_cone < 0.0 ||
+            light->inner_cone > light->outer_cone || light->outer_cone > M_PI / 2)
+            return rad_fail(err, RAD_ERR_USAGE,
+                            "hc_light_power: spot cones %g, %g: need 0 <= inner <= outer <= pi/2",
+                            light->inner_cone, light->outer_cone);
+        /* fall through */
+    case HC_LIGHT_DIRECTIONAL:
+        dir = light->direction;
+        if (!rad_finite3(dir) || !(rad_length(dir) > 0.0))
+            return rad_fail(err, RAD_ERR_USAGE, "hc_light_power: light direction must be finite and non-zero");
+        dir = rad_normalize(dir);
+        if (light->kind == HC_LIGHT_DIRECTIONAL)
+            break;
+        /* fall through */
+    case HC_LIGHT_POINT:
+        if (!rad_finite3(light->position))
+            return rad_fail(err, RAD_ERR_USAGE, "hc_light_power: light position must be finite");
+        break;
+    default:
+        return rad_fail(err, RAD_ERR_USAGE, "hc_light_power: unknown light kind %d", (int)light->kind);
+    }
+    if (e->broken)
+        return rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
+    for (uint32_t j = 0; j < e->n; j++)
+        power[j] = 0.0;
+    if (e->n == 0)
+        return RAD_OK;
+    rad_vec3 pos = rad_sub(light->position, e->origin);
+    q.pos[0] = pos.x, q.pos[1] = pos.y, q.pos[2] = pos.z;
+    q.dir[0] = dir.x, q.dir[1] = dir.y, q.dir[2] = dir.z;
+    q.cos_inner = cos(light->inner_cone);
+    q.cos_outer = cos(light->outer_cone);
+
+    /* Parts: the cube faces (a spot's faces that its outer cone reaches: the
+     * face's directions lie within acos(1/√3) of its axis), or the single
+     * orthographic view. */
+    uint32_t parts[6], np = 0;
+    if (light->kind == HC_LIGHT_DIRECTIONAL) {
+        parts[np++] = 0;
+    } else {
+        for (uint32_t f = 0; f < 6; f++) {
+            rad_vec3 right, up, fwd;
+            cube_face(f, &right, &up, &fwd);
+            double ang = acos(fmax(-1.0, fmin(1.0, rad_dot(fwd, dir))));
+            if (light->kind == HC_LIGHT_SPOT && ang > light->outer_cone + acos(1.0 / sqrt(3.0)) + 1e-9)
+                continue;
+            parts[np++] = f;
+        }
+    }
+    double *rx = malloc((size_t)e->n * sizeof *rx);
+    if (!rx)
+        return rad_fail(err, RAD_ERR_NOMEM, "hc_light_power: out of memory for %u patches", e->n);
+    /* Part k goes to worker k mod nproc; each worker answers in the order
+     * asked, so reading the parts in order reads every stream in order. */
+    int rc = RAD_OK;
+    uint32_t sent = 0;
+    for (; sent < np; sent++) {
+        uint32_t k = sent % e->nproc;
+        q.part = parts[sent];
+        uint32_t word = HC_REQ_LIGHT;
+        if (send_all(e->w[k].fd, &word, sizeof word) != 0 || send_all(e->w[k].fd, &q, sizeof q) != 0) {
+            rc = worker_gone(e, k, err);
+            break;
+        }
+    }
+    /* Answers of parts already sent are read even after a failure, while
+     * their workers live, so a later call finds the streams in step. */
+    for (uint32_t p = 0; p < sent; p++) {
+        uint32_t k = p % e->nproc;
+        if (e->w[k].fd < 0)
+            continue;
+        int s = receive_light(e, k, power, rx, rc == RAD_OK, rc == RAD_OK ? err : NULL);
+        if (s != RAD_OK && rc == RAD_OK)
+            rc = s;
+        if (s != RAD_OK) {
+            /* That stream is lost: no more reads from it. */
+            close(e->w[k].fd);
+            e->w[k].fd = -1;
+        }
+    }
+    free(rx);
+    if (rc != RAD_OK)
+        for (uint32_t j = 0; j < e->n; j++)
+            power[j] = 0.0;
     return rc;
 }

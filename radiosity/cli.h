@@ -28,6 +28,10 @@ int cli_parse_u32(const char *opt, const char *s, uint32_t lo, uint32_t hi, uint
 int cli_parse_bytes(const char *opt, const char *s, uint64_t *out);
 int cli_parse_vec3(const char *opt, const char *s, rad_vec3 *out);
 int cli_check_output_dir(const char *path);
+/* What every command does with an argument none of its options took: an
+ * unknown option is an error, the first plain argument fills *slot, a
+ * second one is an error.  0, or the exit status (message printed). */
+int cli_other_arg(const char *cmd, const char *what, const char *arg, const char **slot);
 /* Meshing, hemi-cube and solver options shared by solve, relight and ff:
  * 1 consumed, 0 not one of them, -1 bad value (printed). */
 int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt);

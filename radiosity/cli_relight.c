@@ -264,7 +264,7 @@ static int find_object(const rad_scene *sc, const char *name, uint32_t *out)
 int cli_ff(int argc, char **argv)
 {
     const char *in = NULL, *from = NULL, *to = NULL;
-    int json = 0, matrix = 0;
+    int json = 0, matrix = 0, rc = 0;
     rad_solve_options opt = {0};
     for (int i = 0; i < argc; i++) {
         int r = cli_solve_option(argc, argv, &i, &opt);
@@ -280,12 +280,8 @@ int cli_ff(int argc, char **argv)
             json = 1;
         else if (!strcmp(argv[i], "--matrix"))
             matrix = 1;
-        else if (argv[i][0] == '-')
-            return cli_usage_error("ff: unknown option '%s'", argv[i]);
-        else if (!in)
-            in = argv[i];
-        else
-            return cli_usage_error("ff: more than one input given ('%s')", argv[i]);
+        else if ((rc = cli_other_arg("ff", "input", argv[i], &in)) != 0)
+            return rc;
     }
     if (!in || (!matrix && (!from || !to)))
         return cli_usage_error("usage: radiosity ff SCENE_OR_SOLUTION --from A --to B [--json] | --matrix");
@@ -304,7 +300,6 @@ int cli_ff(int argc, char **argv)
     }
     const rad_scene *sc = s->scene;
     uint32_t no = sc->object_count, a = 0, b = 0;
-    int rc = 0;
     if (!matrix && (find_object(sc, from, &a) || find_object(sc, to, &b)))
         rc = 2;
     double *M = rc ? NULL : malloc(((size_t)no * no + 1) * sizeof *M);

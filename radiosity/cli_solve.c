@@ -111,6 +111,7 @@ int cli_solve(int argc, char **argv)
 {
     const char *scene = NULL, *out = NULL, *preview_dir = NULL;
     uint32_t preview_every = 0;
+    int rc;
     rad_solve_options opt = {0};
     for (int i = 0; i < argc; i++) {
         int r = cli_solve_option(argc, argv, &i, &opt);
@@ -126,12 +127,8 @@ int cli_solve(int argc, char **argv)
             i++;
         } else if (!strcmp(argv[i], "--preview-dir") && i + 1 < argc)
             preview_dir = argv[++i];
-        else if (argv[i][0] == '-')
-            return cli_usage_error("solve: unknown option '%s'", argv[i]);
-        else if (!scene)
-            scene = argv[i];
-        else
-            return cli_usage_error("solve: more than one scene given ('%s')", argv[i]);
+        else if ((rc = cli_other_arg("solve", "scene", argv[i], &scene)) != 0)
+            return rc;
     }
     if (!scene || !out)
         return cli_usage_error("usage: radiosity solve SCENE -o SOLUTION [options]");
@@ -167,7 +164,7 @@ int cli_solve(int argc, char **argv)
         return 2;
     }
     double t0 = rad_seconds();
-    int rc = rad_solution_write(s, out, &err);
+    rc = rad_solution_write(s, out, &err);
     double store = rad_seconds() - t0;
     if (rc) {
         rad_solution_destroy(s);
@@ -189,6 +186,7 @@ int cli_render(int argc, char **argv)
 {
     const char *in = NULL, *out = NULL;
     cli_view view = {0};
+    int rc;
     for (int i = 0; i < argc; i++) {
         int r = cli_view_option(argc, argv, &i, &view);
         if (r < 0)
@@ -197,12 +195,8 @@ int cli_render(int argc, char **argv)
             continue;
         if (!strcmp(argv[i], "-o") && i + 1 < argc)
             out = argv[++i];
-        else if (argv[i][0] == '-')
-            return cli_usage_error("render: unknown option '%s'", argv[i]);
-        else if (!in)
-            in = argv[i];
-        else
-            return cli_usage_error("render: more than one solution given ('%s')", argv[i]);
+        else if ((rc = cli_other_arg("render", "solution", argv[i], &in)) != 0)
+            return rc;
     }
     if (!in || !out)
         return cli_usage_error("usage: radiosity render SOLUTION -o IMAGE.exr [options]");
@@ -210,7 +204,7 @@ int cli_render(int argc, char **argv)
     rad_solution *s = NULL;
     if (rad_solution_read(in, &s, &err))
         return cli_error(&err);
-    int rc = cli_render_to_files(s, &view, out, view.png);
+    rc = cli_render_to_files(s, &view, out, view.png);
     rad_solution_destroy(s);
     return rc;
 }
@@ -262,16 +256,12 @@ static economy count_economy(const rad_solution *s)
 int cli_report(int argc, char **argv)
 {
     const char *in = NULL;
-    int json = 0;
+    int json = 0, rc;
     for (int i = 0; i < argc; i++) {
         if (!strcmp(argv[i], "--json"))
             json = 1;
-        else if (argv[i][0] == '-')
-            return cli_usage_error("report: unknown option '%s'", argv[i]);
-        else if (!in)
-            in = argv[i];
-        else
-            return cli_usage_error("report: more than one solution given ('%s')", argv[i]);
+        else if ((rc = cli_other_arg("report", "solution", argv[i], &in)) != 0)
+            return rc;
     }
     if (!in)
         return cli_usage_error("usage: radiosity report SOLUTION [--json]");

@@ -159,6 +159,16 @@ int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt)
     return 0;
 }
 
+int cli_other_arg(const char *cmd, const char *what, const char *arg, const char **slot)
+{
+    if (arg[0] == '-')
+        return cli_usage_error("%s: unknown option '%s'", cmd, arg);
+    if (*slot)
+        return cli_usage_error("%s: more than one %s given ('%s')", cmd, what, arg);
+    *slot = arg;
+    return 0;
+}
+
 /* Checks that an output's directory exists, so the error names it plainly
  * instead of surfacing as a failed temporary file. */
 int cli_check_output_dir(const char *path)

@@ -381,6 +381,27 @@ TEST(reflectance_one_refused)
         rad_scene_destroy(sc);
         tx_free(&t);
     }
+    /* glTF: baseColorFactor is ρ, so white 1.0 (also glTF's default
+     * material) is refused too. */
+    const char *gltf =
+        "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
+        "\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},"
+        "\"material\":0}]}],\"materials\":[{\"name\":\"snow\",\"pbrMetallicRoughness\":"
+        "{\"baseColorFactor\":[1,1,1,1]},\"emissiveFactor\":[1,1,1]}],"
+        "\"buffers\":[{\"byteLength\":36,\"uri\":\"data:application/octet-stream;base64,"
+        "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAAAAAAIA/\"}],"
+        "\"bufferViews\":[{\"buffer\":0,\"byteLength\":36}],"
+        "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\","
+        "\"min\":[0,0,0],\"max\":[1,0,1]}]}";
+    rad_error gerr = {0};
+    rad_scene *gs = NULL;
+    CHECK(rad_scene_parse_gltf(gltf, strlen(gltf), "white.gltf", NULL, &gs, &gerr) == RAD_ERR_INVALID);
+    CHECK(gs == NULL);
+    CHECK_MSG(strstr(gerr.message, "white.gltf") && strstr(gerr.message, "snow"), "message: %s",
+              gerr.message);
+    printf("  glTF white: \"%s\"\n", gerr.message);
+    rad_scene_destroy(gs);
+
     text t = {0};
     tx_add(&t, "bands 1\nmaterial white reflectance 0.9999999 emission 1\n");
     add_quad(&t, "floor", "white", 0, 0, rad_v3(0, 0, 0), rad_v3(0, 0, 1), rad_v3(1, 0, 0));
@@ -939,19 +960,22 @@ static const uint32_t cube_inward[36] = {
  * and, seen from inside, are the back of a surface: they hide what lies
  * beyond and absorb what reaches them without accounting for it.  The power
  * balance of the report shows it: with consistent winding, absorbed =
- * emitted within 0.1 %; with the flipped triangles, less than 90 % of the
- * emitted power is accounted for. */
+ * emitted within 1 % (energy closes only as far as pixel-counted factors
+ * obey reciprocity, A_i F_ij = A_j F_ji: measured +0.13 % with 14×14
+ * patches a face around a lamp cube 0.4 wide); with the flipped triangles,
+ * less than 90 % of the emitted power is accounted for (measured 35 %). */
 TEST(gltf_inconsistent_winding)
 {
-    /* A double-sided lamp in the middle (two 0.2 squares back to back, both
-     * emitting) so that no power is lost on a lamp's back. */
-    float pos[12 * 3];
+    /* The lamp: a small closed cube [0.45, 0.55]³ in the middle, its faces
+     * wound outward, all emitting: closed, so no power is lost on a lamp's
+     * back. */
+    float pos[16 * 3];
     memcpy(pos, cube_pos, sizeof cube_pos);
-    const float lamp[4 * 3] = {0.4f, 0.5f, 0.4f, 0.6f, 0.5f, 0.4f, 0.6f, 0.5f, 0.6f, 0.4f, 0.5f, 0.6f};
-    memcpy(pos + 24, lamp, sizeof lamp);
+    for (int k = 0; k < 24; k++)
+        pos[24 + k] = 0.3f + 0.4f * cube_pos[k];
     const char *materials =
         "[{\"name\":\"wall\",\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.5,0.5,1]}},"
-        "{\"name\":\"lamp\",\"doubleSided\":true,\"pbrMetallicRoughness\":{\"baseColorFactor\":[0,0,0,1]},"
+        "{\"name\":\"lamp\",\"pbrMetallicRoughness\":{\"baseColorFactor\":[0,0,0,1]},"
         "\"emissiveFactor\":[1,1,1]}]";
     const char *meshes = "[{\"name\":\"box\",\"primitives\":[{\"attributes\":{\"POSITION\":0},"
                          "\"indices\":1,\"material\":0}]},"
@@ -959,7 +983,7 @@ TEST(gltf_inconsistent_winding)
                          "\"indices\":2,\"material\":1}]}]";
     const char *nodes = "[{\"name\":\"box\",\"mesh\":0},{\"name\":\"lamp\",\"mesh\":1}]";
     for (int flipped = 0; flipped < 2; flipped++) {
-        uint32_t idx[36 + 6];
+        uint32_t idx[36 + 36];
         memcpy(idx, cube_inward, sizeof cube_inward);
         if (flipped)
             for (int f = 0; f < 6; f++) { /* second triangle of each face: swap two corners */
@@ -967,11 +991,14 @@ TEST(gltf_inconsistent_winding)
                 idx[6 * f + 4] = idx[6 * f + 5];
                 idx[6 * f + 5] = tmp;
             }
-        const uint32_t lamp_idx[6] = {8, 9, 10, 8, 10, 11};
-        memcpy(idx + 36, lamp_idx, sizeof lamp_idx);
-        const uint32_t parts[2] = {36, 6};
+        for (int k = 0; k < 36; k += 3) { /* the lamp: corners + 8, wound outward */
+            idx[36 + k] = 8 + cube_inward[k];
+            idx[36 + k + 1] = 8 + cube_inward[k + 2];
+            idx[36 + k + 2] = 8 + cube_inward[k + 1];
+        }
+        const uint32_t parts[2] = {36, 36};
         size_t size;
-        char *doc = gltf_doc(pos, 12, idx, parts, 2, materials, meshes, nodes, 2, &size);
+        char *doc = gltf_doc(pos, 16, idx, parts, 2, materials, meshes, nodes, 2, &size);
         rad_error err = {0};
         rad_solution *s = solve_gltf(doc, size, &err);
         free(doc);
@@ -999,7 +1026,7 @@ TEST(gltf_inconsistent_winding)
         CHECK(inward_dark == 0);
         if (!flipped) {
             CHECK(outward == 0);
-            CHECK_REL(absorbed, emitted, 1e-3);
+            CHECK_REL(absorbed, emitted, 1e-2);
         } else {
             CHECK(outward > 0);
             CHECK_MSG(absorbed < 0.9 * emitted, "absorbed %.4g of emitted %.4g", absorbed, emitted);

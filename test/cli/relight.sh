@@ -95,7 +95,7 @@ for at in 0 9 20 40 200 $((size / 2)) $((size - 1)); do
     cp "$dir/base.sol" "$dir/flip.sol"
     printf "$(printf '\\x%02x' $(( ( $(od -An -tu1 -j "$at" -N1 "$dir/base.sol") ^ 255 ) )))" |
         dd of="$dir/flip.sol" bs=1 seek="$at" conv=notrunc 2> /dev/null
-    refuse "byte $at flipped" "checksum|corrupt|not a radiosity|version|reserved" relight "$dir/flip.sol" -o "$dir/out.sol" --light light=2
+    refuse "byte $at flipped" "checksum|corrupt|not a radiosity|version|reserved|truncated" relight "$dir/flip.sol" -o "$dir/out.sol" --light light=2
 done
 
 # Memory honesty: a limit below the matrix's estimate is refused with the estimate.
