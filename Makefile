@@ -105,4 +105,4 @@ fuzz: deps
 clean:
 	rm -rf build out
 
--include $(shell find build -name '*.d' 2>/dev/null)
+-include $(shell find $(B) -name '*.d' 2>/dev/null)

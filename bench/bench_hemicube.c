@@ -6,7 +6,10 @@
  * row at R = 128 with 1 and with 2 worker processes, and prints rows/s and
  * the seconds spent (start-up of the workers shown apart), the CPU seconds
  * the workers used (start-up and the single-row runs included) and the
- * caller spent, and the latency of single-row requests.
+ * caller spent, and the latency of single-row requests.  A second table
+ * times the exact entries (the light's patches marked, then exact_near as
+ * well) and a third the punctual lights of hc_light_power, per light and
+ * resolution.
  *
  *   bench_hemicube [max_patches]     (default 8000)
  */
@@ -149,6 +152,94 @@ static double cpu_of(int who)
 static double children_cpu(void) { return cpu_of(RUSAGE_CHILDREN); }
 static double self_cpu(void) { return cpu_of(RUSAGE_SELF); }
 
+/* Rows with exact entries, and lights, on the box of about `target`
+ * patches with 2 workers. */
+static void exact_and_lights(uint32_t target)
+{
+    builder b;
+    memset(&b, 0, sizeof b);
+    cornell(&b, side_for(target));
+    uint32_t n = b.m.patch_count, marked = 0;
+    uint32_t *rows = malloc(n * sizeof *rows);
+    uint8_t *exact = calloc(n, 1);
+    double *power = malloc(n * sizeof *power);
+    if (!rows || !exact || !power) {
+        fprintf(stderr, "bench_hemicube: out of memory\n");
+        exit(1);
+    }
+    for (uint32_t k = 0; k < n; k++) {
+        rows[k] = k;
+        /* The light sits at z = 0.999, just under the ceiling. */
+        exact[k] = fabs(b.m.patches[k].center.z - 0.999) < 1e-9;
+        marked += exact[k];
+    }
+    printf("\nexact entries, %u patches (%u light patches), R = 128, 2 workers\n", n, marked);
+    printf("%-28s %9s %9s %12s\n", "rows", "rows s", "rows/s", "worker cpu s");
+    for (int mode = 0; mode < 3; mode++) {
+        hc_options o = {.resolution = 128, .processes = 2, .exact = mode ? exact : NULL,
+                        .exact_near = mode == 2};
+        hc_engine *e = NULL;
+        rad_error err;
+        if (hc_create(&b.m, &o, &e, &err) != RAD_OK) {
+            fprintf(stderr, "bench_hemicube: %s\n", err.message);
+            exit(1);
+        }
+        rad_matrix *F = rad_matrix_create(n);
+        double c0 = children_cpu(), t0 = rad_seconds();
+        if (!F || hc_compute_rows(e, rows, n, F, &err) != RAD_OK) {
+            fprintf(stderr, "bench_hemicube: %s\n", F ? err.message : "out of memory");
+            exit(1);
+        }
+        double t1 = rad_seconds();
+        hc_destroy(e);
+        printf("%-28s %9.3f %9.0f %12.3f\n",
+               mode == 0 ? "pixel counts" : mode == 1 ? "exact = light patches" : "exact + exact_near",
+               t1 - t0, n / (t1 - t0), children_cpu() - c0);
+        rad_matrix_destroy(F);
+    }
+
+    printf("\nlights (hc_light_power), %u patches, 2 workers\n", n);
+    printf("%-12s %6s %9s\n", "light", "R", "s/light");
+    hc_options o = {.resolution = 128, .processes = 2};
+    hc_engine *e = NULL;
+    rad_error err;
+    if (hc_create(&b.m, &o, &e, &err) != RAD_OK) {
+        fprintf(stderr, "bench_hemicube: %s\n", err.message);
+        exit(1);
+    }
+    const hc_light lights[3] = {
+        {.kind = HC_LIGHT_POINT, .position = {0.5, 0.5, 0.9}},
+        {.kind = HC_LIGHT_SPOT, .position = {0.5, 0.5, 0.9}, .direction = {0, 0, -1},
+         .inner_cone = 0.3, .outer_cone = 0.6},
+        {.kind = HC_LIGHT_DIRECTIONAL, .direction = {0.2, 0.3, -1}},
+    };
+    const char *names[3] = {"point", "spot", "directional"};
+    const uint32_t res[2] = {512, 1024};
+    /* Resolution outside: a worker remakes its light target when R changes.
+     * Each light twice: the first call of a worker also compiles llvmpipe's
+     * code for the new target; the table shows the second. */
+    for (int r = 0; r < 2; r++)
+        for (int l = 0; l < 3; l++) {
+            double dt = 0.0;
+            for (int rep = 0; rep < 2; rep++) {
+                double t0 = rad_seconds();
+                if (hc_light_power(e, &lights[l], res[r], power, &err) != RAD_OK) {
+                    fprintf(stderr, "bench_hemicube: %s\n", err.message);
+                    exit(1);
+                }
+                dt = rad_seconds() - t0;
+            }
+            printf("%-12s %6u %9.3f\n", names[l], res[r], dt);
+        }
+    hc_destroy(e);
+    free(rows);
+    free(exact);
+    free(power);
+    free(b.m.vertices);
+    free(b.m.vertex_boundary);
+    free(b.m.patches);
+}
+
 int main(int argc, char **argv)
 {
     uint32_t max_patches = argc > 1 ? (uint32_t)strtoul(argv[1], NULL, 10) : 8000;
@@ -209,5 +300,6 @@ int main(int argc, char **argv)
         free(b.m.vertex_boundary);
         free(b.m.patches);
     }
+    exact_and_lights(max_patches < 2000 ? max_patches : 2000);
     return 0;
 }

@@ -7,6 +7,8 @@
  * (native-endian uint32 words, floats for F_ij):
  *   caller -> worker: count, i[count]            (count <= HC_MAX_CHUNK)
  *   worker -> caller: HC_MSG_BATCH, count, then per row i, m, j[m], F_ij[m]
+ *   caller -> worker: HC_REQ_LIGHT, hc_light_req (one part of a light)
+ *   worker -> caller: HC_MSG_LIGHT, m, j[m], Φ_j[m] (doubles)
  *   on failure:       HC_MSG_ERROR, length, text (then the worker exits)
  *   at start:         0, 0 (ready) or HC_MSG_ERROR, length, text
  * The caller hands out small chunks, at most about two per worker at a time,
@@ -14,10 +16,11 @@
  *
  * Invariants of every row sent: j strictly increasing, j != i, F_ij > 0,
  * no j lying wholly on or behind i's plane, and Σ_j F_ij <= 1 because the
- * delta form factors ΔF_q are normalised to sum to exactly 1 over the cube.
- * A row depends only on the mesh, R and i (fixed basis, fixed draw order,
- * fixed accumulation order), so it is bit-identical whichever worker
- * computes it and however the rows are split.
+ * delta form factors ΔF_q are normalised to sum to exactly 1 over the cube
+ * (and rows with exact entries are renormalised).  A row depends only on
+ * the mesh, R, the exact options and i (fixed basis, fixed draw order, fixed
+ * accumulation order), so it is bit-identical whichever worker computes it
+ * and however the rows are split.
  *
  * Item-buffer atlas, R wide and 3R tall, GL's bottom-up rows, pixel q at
  * index y·R + x: rows [0, R) are the top face (looking along n_i); then the
@@ -29,19 +32,21 @@
  * i the pixel sum S_ij (ΔF over the pixels showing j) is replaced by
  *   F_ij = F_exact · v_ij,   v_ij = S_ij / S°_ij,
  * where F_exact is hc_ff_point_polygon from (c_i, n_i) to j, or for a j
- * nearer to c_i than its own diameter (exact_near) the area average
- * hc_ff_polygon_polygon from i to j: near a patch, the point c_i is what is
- * wrong with the hemi-cube, not the pixel count.  S°_ij is the same sum in a
+ * nearer to c_i than its own diameter (exact_near; marked or not) the area
+ * average hc_ff_polygon_polygon from i to j: near a patch, the point c_i is
+ * what is wrong with the hemi-cube, not the pixel count.  S°_ij is the same sum in a
  * second rendering of only the candidates with the depth test off and
  * GL_OR logic: candidate j writes bit (j mod 32), so a pixel lists every
  * candidate covering it and S°_ij is j's whole unoccluded projection even
  * where candidates overlap (more than one pass when 32 residues do not
  * suffice).  Both sums cover the same rasterisation, so an unoccluded j gets
  * v_ij = 1 exactly.  A candidate with no pixel (sub-pixel, or wholly hidden)
- * is probed instead: v_ij = 1 when the depth buffer at the pixel holding the
- * direction to c_j shows nothing nearer than j's plane along that pixel's
- * ray (1e-4 relative), else 0.  Should the exact entries push Σ_j F_ij above
- * 1, the row is scaled down to sum to 1 (renormalisation).
+ * is probed instead: v_ij is 1 or 0 as c_j is visible or hidden at the one
+ * pixel holding the direction to it (probe_visible).  With far exact
+ * entries only, the pixel entries are then rescaled so that the row keeps
+ * the cube's own total Σ_j F_ij (1 in a closed room): exact entries
+ * redistribute the row and never open a closed room; with near entries the
+ * row is only kept from exceeding 1 (renormalisation, see compute_row).
  *
  * Lights (hc_light_power) are a second request type served by the same
  * workers: one request per cube face (the directional light's single view
@@ -205,7 +210,8 @@ typedef struct hc_cand {
     uint32_t j;
     uint32_t pass;     /* OR pass that measures S°_ij: earlier candidates with j's residue */
     double occ;        /* S_ij: ΔF of the pixels showing j in the occluded item buffer */
-    double free;       /* S°_ij: the same with only the candidates drawn */
+    double free;       /* S°_ij: the same with only the candidates drawn;
+                        * for a candidate without pixels, the probe's 1 or 0 */
     double exact;      /* F_exact */
     uint8_t faces;     /* bit f: drawn on hemi-cube face f */
     uint8_t near;      /* nearer to c_i than its own diameter */
@@ -218,7 +224,8 @@ typedef struct hc_gl {
     GLint loc_m, loc_eye, loc_mode;
     uint32_t nvert;    /* vertices in the VBO */
     hc_cand *cand;     /* n when any_exact, else NULL */
-    uint32_t *order;   /* n when any_exact: candidate indices sorted by pass */
+    uint32_t *order;   /* n when any_exact: candidates of one OR pass */
+    uint8_t *mark;     /* n when any_exact: 1 for the current row's candidates, else 0 */
     /* Light target, R×R, made on the first light request of that size. */
     GLuint lfbo, lrb[2];
     uint32_t lR;
@@ -249,14 +256,20 @@ static const char *vs_src =
 
 /* A patch seen from behind still hides what lies beyond it, but its back
  * side is no patch: it neither sends nor receives (one-sided patches), so its
- * pixels keep "no patch" and reciprocity A_i F_ij = A_j F_ji holds.
+ * pixels keep "no patch" and reciprocity A_i F_ij = A_j F_ji holds.  A back
+ * side also gives up depth ties: it is pushed 1e-5 (relative) farther, so
+ * the front of a coincident surface (a glTF double-sided copy, back to back
+ * with its original) wins whatever the drawing order.  depth_less: the
+ * written depth is never nearer (reversed-Z), so early depth tests stay valid.
  * mode 1 is the candidates' OR pass: a front side sets bit (id mod 32). */
 static const char *fs_src =
     "#version 450 core\n"
     "flat in uint vid;\n"
     "uniform uint mode;\n"
     "layout(location = 0) out uint item;\n"
+    "layout(depth_less) out float gl_FragDepth;\n"
     "void main() {\n"
+    "    gl_FragDepth = gl_FrontFacing ? gl_FragCoord.z : gl_FragCoord.z * 0.99999;\n"
     "    if (mode == 0u) item = gl_FrontFacing ? vid : 0xFFFFFFFFu;\n"
     "    else item = gl_FrontFacing ? (1u << (vid & 31u)) : 0u;\n"
     "}\n";
@@ -508,16 +521,18 @@ static void load_corners(const hc_engine *e, uint32_t j, rad_vec3 p[4])
         p[k] = rad_v3(q[3 * k], q[3 * k + 1], q[3 * k + 2]);
 }
 
-/* The probe of a candidate without pixels: 1 when j faces c and the depth
- * buffer, at the pixel holding the direction to c_j, shows nothing nearer
- * than j's plane along that pixel's ray. */
-static int probe_visible(const hc_engine *e, uint32_t j, rad_vec3 c, const rad_vec3 fr[5][3],
-                         double near)
+/* The probe of a candidate without pixels: is c_j hidden at the pixel q
+ * holding the direction to it?  When q shows a patch k (never j, which has
+ * no pixel), j is hidden when c_j lies behind k's plane as seen from c_i: a
+ * surface flush with j, like the ceiling around a small light, or one
+ * beyond it never hides it.  When q shows a back side (no patch), the depth buffer decides: hidden
+ * when it holds something nearer than c_j.  An empty q hides nothing. */
+static int probe_visible(const hc_engine *e, const hc_gl *g, uint32_t j, rad_vec3 c,
+                         const rad_vec3 fr[5][3], double near)
 {
     const uint32_t R = e->R;
     const rad_vec3 d = rad_sub(e->center[j], c), nj = e->mesh->patches[j].normal;
-    const double dn = rad_dot(d, nj);
-    if (!(dn < 0.0))
+    if (!(rad_dot(d, nj) < 0.0))
         return 0; /* c_i sees j's back, or lies in j's plane */
     double h = rad_dot(d, fr[0][2]), a = rad_dot(d, fr[1][2]), b = rad_dot(d, fr[3][2]);
     if (!(h > 0.0))
@@ -530,18 +545,16 @@ static int probe_visible(const hc_engine *e, uint32_t j, rad_vec3 c, const rad_v
     long py = (long)floor(f == 0 ? (y + 1.0) * 0.5 * R : y * (R / 2));
     px = px < 0 ? 0 : px >= (long)R ? (long)R - 1 : px;
     py = py < 0 ? 0 : py >= rows ? rows - 1 : py;
-    double xc = (px + 0.5) * 2.0 / R - 1.0;
-    double yc = f == 0 ? (py + 0.5) * 2.0 / R - 1.0 : (py + 0.5) / (R / 2);
-    rad_vec3 ray = rad_add(fw, rad_add(rad_scale(rt, xc), rad_scale(up, yc)));
-    /* ray·fw = 1, so the ray parameter where it meets j's plane is the
-     * distance along fw that the depth buffer stores as near/distance. */
-    double s = dn / rad_dot(ray, nj);
-    if (!(s > 0.0) || !isfinite(s))
-        s = w;
-    GLint row = (GLint)(f == 0 ? py : (long)R + (f - 1) * ((long)R / 2) + py);
+    long row = f == 0 ? py : (long)R + (f - 1) * ((long)R / 2) + py;
+    uint32_t k = g->pixels[(size_t)row * R + (size_t)px];
+    double dl = rad_length(d);
+    if (k < e->n) {
+        const rad_vec3 nk = e->mesh->patches[k].normal;
+        return rad_dot(rad_sub(e->center[j], e->center[k]), nk) >= -HC_PROBE_MARGIN * dl;
+    }
     GLfloat D = 0.0f;
-    glReadPixels((GLint)px, row, 1, 1, GL_DEPTH_COMPONENT, GL_FLOAT, &D);
-    return !((double)D > near / s * (1.0 + HC_PROBE_MARGIN));
+    glReadPixels((GLint)px, (GLint)row, 1, 1, GL_DEPTH_COMPONENT, GL_FLOAT, &D);
+    return !((double)D > near / w * (1.0 + HC_PROBE_MARGIN));
 }
 
 /* Replaces the pixel sums g->acc[j] of the ncand candidates in g->cand by
@@ -563,7 +576,7 @@ static void exact_entries(const hc_engine *e, hc_gl *g, uint32_t i, uint32_t nca
         load_corners(e, j, pj);
         double ex;
         if (cd->near) {
-            /* Sub-triangles about the size of the distance: the 7-point
+            /* Sub-triangles about half the distance across: the 7-point
              * rule then resolves F_{dA→j}, which varies on that scale. */
             double dist = rad_length(rad_sub(e->center[j], c));
             double sub = ceil(4.0 * e->radius[i] / fmax(dist, 1e-300));
@@ -584,7 +597,7 @@ static void exact_entries(const hc_engine *e, hc_gl *g, uint32_t i, uint32_t nca
     for (uint32_t k = 0; k < ncand; k++) {
         hc_cand *cd = &g->cand[k];
         if (cd->exact > 0.0 && cd->occ == 0.0)
-            cd->free = probe_visible(e, cd->j, c, fr, near) ? 1.0 : 0.0;
+            cd->free = probe_visible(e, g, cd->j, c, fr, near) ? 1.0 : 0.0;
     }
     if (passes) {
         const size_t npix = (size_t)3 * R * R;
@@ -765,21 +778,52 @@ static long compute_row(const hc_engine *e, hc_gl *g, uint32_t i, char *msg)
         if (id < n)
             acc[id] += dff[q];
     }
-    double scale = 1.0;
+    double scale_px = 1.0, scale_ex = 1.0;
     if (ncand) {
+        /* The row's pixel total T = Σ_j F_ij is what the cube saw covered:
+         * exact to the pixel in a closed room (T = 1).  Exact entries fix
+         * how T is shared between patches, not T itself. */
+        double total = 0.0;
+        for (uint32_t k = 0; k < nfront; k++)
+            total += acc[g->front[k]];
+        total = total < 1.0 ? total : 1.0;
         exact_entries(e, g, i, ncand, fr, &fs, near);
         if (gl_check("measuring exact form factors", msg))
             return -1;
-        /* Renormalisation: exact entries are not bound by the cube's Σ ΔF = 1. */
-        double sum = 0.0;
+        /* Renormalisation.  With far exact entries only (emitters), the
+         * pixel entries, the less accurate ones, are scaled to fill T - Σ
+         * exact: the row keeps the cube's total and a closed room stays
+         * closed (energy is conserved).  A near entry is different: there
+         * T itself carries the error of sampling i at its centre (two plates
+         * 0.01 apart cover 99.8 % of the centre's view, 98.0 % on average
+         * over the plate), so the exact entries stand and the row is only
+         * scaled down should it exceed 1. */
+        double sum_ex = 0.0, sum_px = 0.0;
+        int any_near = 0;
+        for (uint32_t k = 0; k < ncand; k++) {
+            sum_ex += acc[g->cand[k].j];
+            g->mark[g->cand[k].j] = 1;
+            any_near |= g->cand[k].near;
+        }
         for (uint32_t k = 0; k < nfront; k++)
-            sum += acc[g->front[k]];
-        if (sum > 1.0)
-            scale = 1.0 / sum;
+            if (!g->mark[g->front[k]])
+                sum_px += acc[g->front[k]];
+        if (!any_near && sum_ex <= total) {
+            if (sum_px > 0.0)
+                scale_px = (total - sum_ex) / sum_px;
+        } else if (sum_ex + sum_px > 1.0) {
+            scale_px = sum_ex < 1.0 ? (1.0 - sum_ex) / sum_px : 1.0 / (sum_ex + sum_px);
+            scale_ex = sum_ex < 1.0 ? 1.0 : scale_px;
+        }
     }
     long cnt = 0;
     for (uint32_t k = 0; k < nfront; k++) {
         uint32_t j = g->front[k];
+        double scale = scale_px;
+        if (ncand && g->mark[j]) {
+            scale = scale_ex;
+            g->mark[j] = 0;
+        }
         if (acc[j] > 0.0) {
             float f = (float)(acc[j] * scale);
             if (f > 0.0f) {
@@ -914,14 +958,14 @@ static long light_part(const hc_engine *e, hc_gl *g, const hc_light_req *q, char
         uint32_t last = 0;
         for (uint32_t j = 0; j < n; j++) {
             const double *p = e->corner + (size_t)j * 12;
-            unsigned any = 0;
+            unsigned reach = 0; /* bit: some corner inside that plane */
             for (int k = 0; k < 4; k++, p += 3) {
                 rad_vec3 r = rad_v3(p[0] - pos.x, p[1] - pos.y, p[2] - pos.z);
                 double a = rad_dot(r, right), b = rad_dot(r, up), h = rad_dot(r, fwd);
                 double t = -e->tol;
-                any |= (h - a >= t) | (h + a >= t) << 1 | (h - b >= t) << 2 | (h + b >= t) << 3;
+                reach |= (h - a >= t) | (h + a >= t) << 1 | (h - b >= t) << 2 | (h + b >= t) << 3;
             }
-            if (any != 15u)
+            if (reach != 15u)
                 continue;
             if (nr > 0 && last + 1 == j) {
                 g->count[0][nr - 1] += g->vcount[j];
@@ -1053,7 +1097,8 @@ static void worker_main(const hc_engine *e, int fd)
              (g.count[f] = worker_alloc(n, sizeof *g.count[f], msg));
     if (ok && e->any_exact)
         ok = (g.cand = worker_alloc(n, sizeof *g.cand, msg)) &&
-             (g.order = worker_alloc(n, sizeof *g.order, msg));
+             (g.order = worker_alloc(n, sizeof *g.order, msg)) &&
+             (g.mark = worker_alloc(n, sizeof *g.mark, msg));
     if (!ok || gl_setup(e, &g, msg) != 0) {
         send_msg(fd, HC_MSG_ERROR, msg);
         _exit(1);

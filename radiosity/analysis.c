@@ -14,11 +14,13 @@
 
 int rad_solution_irradiance(const rad_solution *s, double *H, rad_error *err)
 {
-    (void)err;
     const rad_matrix *F = s->F;
     const rad_patch *p = s->mesh->patches;
     uint32_t n = s->mesh->patch_count, nb = s->band_count;
-    memset(H, 0, (size_t)n * nb * sizeof *H);
+    /* the punctual lights' direct part first (zero without lights) */
+    int rc = rad_solution_direct_irradiance(s, H, err);
+    if (rc)
+        return rc;
     for (uint32_t i = 0; i < n; i++) {
         if (!F->row_done[i] || F->row_count[i] == 0)
             continue; /* an empty row may have no pool behind it */

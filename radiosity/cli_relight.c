@@ -157,12 +157,17 @@ int cli_relight(int argc, char **argv)
     /* Check everything before any work: command-line edits, then each
      * variant on top of them, on the solution's own ρ and E (restored). */
     size_t nvals = (size_t)s->mesh->patch_count * s->band_count;
+    /* punctual lights' intensities change with edits too (relight.c) */
+    size_t nl = s->light_intensity ? (size_t)s->scene->light_count * s->band_count : 0;
     double *rho0 = malloc((nvals + 1) * sizeof *rho0), *e0 = malloc((nvals + 1) * sizeof *e0);
-    if (!rho0 || !e0)
+    double *l0 = malloc((nl + 1) * sizeof *l0), *l1 = malloc((nl + 1) * sizeof *l1);
+    if (!rho0 || !e0 || !l0 || !l1)
         rc = 1;
     if (!rc) {
         memcpy(rho0, s->rho, nvals * sizeof *rho0);
         memcpy(e0, s->emission, nvals * sizeof *e0);
+        if (nl)
+            memcpy(l0, s->light_intensity, nl * sizeof *l0);
         if (rad_solution_apply_edits(s, edits, ne, &err))
             rc = cli_error(&err);
         for (uint32_t v = 0; v < nvar && !rc; v++) {
@@ -173,6 +178,8 @@ int cli_relight(int argc, char **argv)
             }
             memcpy(s->rho, rho0, nvals * sizeof *rho0);
             memcpy(s->emission, e0, nvals * sizeof *e0);
+            if (nl)
+                memcpy(s->light_intensity, l0, nl * sizeof *l0);
             if (!rc)
                 rad_solution_apply_edits(s, edits, ne, &err);
         }
@@ -201,11 +208,15 @@ int cli_relight(int argc, char **argv)
         else {
             memcpy(rho1, s->rho, nvals * sizeof *rho1); /* base = solution + command-line edits */
             memcpy(e1, s->emission, nvals * sizeof *e1);
+            if (nl)
+                memcpy(l1, s->light_intensity, nl * sizeof *l1);
         }
     }
     for (uint32_t v = 0; v < nvar && !rc; v++) {
         memcpy(s->rho, rho1, nvals * sizeof *rho1);
         memcpy(s->emission, e1, nvals * sizeof *e1);
+        if (nl)
+            memcpy(s->light_intensity, l1, nl * sizeof *l1);
         char path[4096], png[4096];
         if (rad_solution_apply_edits(s, var[v].edits, var[v].edit_count, &err) ||
             rad_resolve(s, &opt, &err)) {
@@ -231,6 +242,8 @@ int cli_relight(int argc, char **argv)
     free(e0);
     free(rho1);
     free(e1);
+    free(l0);
+    free(l1);
     free(edits);
     rad_variants_free(var, nvar);
     rad_solution_destroy(s);

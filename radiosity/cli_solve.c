@@ -277,10 +277,25 @@ int cli_report(int argc, char **argv)
         rad_solution_destroy(s);
         return err.code ? cli_error(&err) : 1;
     }
-    double tot_e[RAD_MAX_BANDS] = {0}, tot_a[RAD_MAX_BANDS] = {0};
+    double tot_e[RAD_MAX_BANDS] = {0}, tot_a[RAD_MAX_BANDS] = {0}, tot_l[RAD_MAX_BANDS] = {0};
     for (uint32_t o = 0; o < no; o++)
         for (uint32_t b = 0; b < nb; b++)
             tot_e[b] += st[o].emitted[b], tot_a[b] += st[o].absorbed[b];
+    /* Punctual lights: emitted (4πI, the spot's cone integral; for a
+     * directional light the delivered power) and delivered to patches, which
+     * is what enters the balance with the absorbed power. */
+    uint32_t nl = sc->light_count;
+    rad_light_stats *ls = calloc(nl ? nl : 1, sizeof *ls);
+    if (!ls || rad_solution_light_stats(s, ls, &err)) {
+        free(ls);
+        free(st);
+        rad_solution_destroy(s);
+        return err.code ? cli_error(&err) : 1;
+    }
+    for (uint32_t l = 0; l < nl; l++)
+        for (uint32_t b = 0; b < nb; b++)
+            tot_l[b] += ls[l].delivered[b];
+    static const char *const kind_name[3] = {"point", "spot", "directional"};
     economy eco = count_economy(s);
     FILE *f = stdout;
     if (json) {
@@ -312,8 +327,22 @@ int cli_report(int argc, char **argv)
             json_bands(f, st[o].absorbed, nb);
             fputc('}', f);
         }
+        fprintf(f, "],\n \"lights\": [");
+        for (uint32_t l = 0; l < nl; l++) {
+            fprintf(f, "%s\n  {\"name\": ", l ? "," : "");
+            json_string(f, sc->lights[l].name);
+            fprintf(f, ", \"kind\": \"%s\", \"intensity\": ", kind_name[sc->lights[l].kind]);
+            json_bands(f, s->light_intensity + (size_t)l * nb, nb);
+            fputs(", \"emitted\": ", f);
+            json_bands(f, ls[l].emitted, nb);
+            fputs(", \"delivered\": ", f);
+            json_bands(f, ls[l].delivered, nb);
+            fputc('}', f);
+        }
         fprintf(f, "],\n \"total\": {\"emitted\": ");
         json_bands(f, tot_e, nb);
+        fputs(", \"delivered_by_lights\": ", f);
+        json_bands(f, tot_l, nb);
         fputs(", \"absorbed\": ", f);
         json_bands(f, tot_a, nb);
         fprintf(f, "},\n \"solver\": {\"name\": ");
@@ -349,9 +378,24 @@ int cli_report(int argc, char **argv)
                     st[o].material != RAD_NONE ? sc->materials[st[o].material].name : "(mixed)",
                     st[o].area, b[0], b[1], b[2]);
         }
+        for (uint32_t l = 0; l < nl; l++) {
+            fprintf(f, "light %-14s %-11s emitted", sc->lights[l].name,
+                    kind_name[sc->lights[l].kind]);
+            for (uint32_t b = 0; b < nb; b++)
+                fprintf(f, " %.4g", ls[l].emitted[b]);
+            fprintf(f, "   delivered to patches");
+            for (uint32_t b = 0; b < nb; b++)
+                fprintf(f, " %.4g", ls[l].delivered[b]);
+            fputc('\n', f);
+        }
         fprintf(f, "total emitted:");
         for (uint32_t b = 0; b < nb; b++)
             fprintf(f, " %.6g", tot_e[b]);
+        if (nl) {
+            fprintf(f, "   delivered by lights:");
+            for (uint32_t b = 0; b < nb; b++)
+                fprintf(f, " %.6g", tot_l[b]);
+        }
         fprintf(f, "   total absorbed:");
         for (uint32_t b = 0; b < nb; b++)
             fprintf(f, " %.6g", tot_a[b]);
@@ -371,6 +415,7 @@ int cli_report(int argc, char **argv)
                     s->stages[k].reused ? " (reused)" : "");
         fputc('\n', f);
     }
+    free(ls);
     free(st);
     rad_solution_destroy(s);
     return 0;

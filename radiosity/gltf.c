@@ -16,8 +16,23 @@
  *     Lambertian emitter's exitance is π L_e, so an emitter seen directly
  *     renders with pixel value emissiveFactor × strength.
  *   - Only TRIANGLES primitives; extensionsRequired may only name
- *     KHR_materials_emissive_strength.  Other extensions in extensionsUsed
- *     (Blender writes KHR_materials_specular, KHR_materials_ior) are ignored.
+ *     KHR_materials_emissive_strength and KHR_lights_punctual.  Other
+ *     extensions in extensionsUsed (Blender writes KHR_materials_specular,
+ *     KHR_materials_ior) are ignored.
+ *   - KHR_lights_punctual lights placed by nodes of the scene become scene
+ *     lights: position = the node's world origin, direction (spot,
+ *     directional) = the node's world -Z, normalised.  Units: glTF gives a
+ *     point or spot light's intensity in candela (lm/sr) and a directional
+ *     light's in lux (lm/m²); we convert photometric to radiometric with the
+ *     luminous efficacy K = 683 lm/W, per band
+ *         I_b = color_b × intensity / 683
+ *     in W/sr (point, spot) or W/m² (directional), so a white light of 683 cd
+ *     has a radiant intensity of 1 W/sr in each band.  (683 lm/W holds
+ *     exactly only at 555 nm; applied to all three bands it is the usual
+ *     renderer convention, not a spectral conversion.)  glTF's `range` is
+ *     ignored: the light falls off physically, as 1/r², everywhere.  Spot
+ *     cones keep glTF's smooth falloff between inner and outer angle.  Name:
+ *     light name, else node name, else "light<index>", made unique with #k.
  *   - One object per node of the scene that has a mesh and at least one
  *     surviving polygon, named after the node, else its mesh, else
  *     "node<index>"; a name used twice gets "#2", "#3", ... in node order so
@@ -488,6 +503,32 @@ static int add_material(gltf_ctx *c, const rad_gltf_raw_material *m, uint32_t *i
     return rc;
 }
 
+/* ----------------------------------------------------------------- lights */
+
+/* Lumens per watt: photometric glTF values -> radiometric ones. */
+#define LUMINOUS_EFFICACY 683.0
+
+static int add_light(gltf_ctx *c, const rad_gltf_raw_light *L)
+{
+    const double *w = L->world;
+    double I[3];
+    for (int b = 0; b < 3; b++)
+        I[b] = L->color[b] * L->intensity / LUMINOUS_EFFICACY;
+    rad_light_kind kind = L->type == RAD_GLTF_LIGHT_SPOT          ? RAD_LIGHT_SPOT
+                          : L->type == RAD_GLTF_LIGHT_DIRECTIONAL ? RAD_LIGHT_DIRECTIONAL
+                                                                  : RAD_LIGHT_POINT;
+    rad_vec3 pos = rad_v3(w[12], w[13], w[14]);
+    rad_vec3 dir = rad_v3(-w[8], -w[9], -w[10]); /* rad_scene_add_light normalises */
+    char *name = unique_name(c->s, rad_scene_find_light, L->name, 1), where[340];
+    if (!name)
+        return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
+    snprintf(where, sizeof where, "light '%.200s' (node %u)", name, L->node);
+    int rc = rad_scene_add_light(c->s, name, kind, I, pos, dir, L->inner_cone, L->outer_cone,
+                                 where, NULL, c->err);
+    free(name);
+    return rc;
+}
+
 /* ----------------------------------------------------------------- entry */
 
 /* Directory part of a path ("." when there is none): where external
@@ -509,7 +550,8 @@ static char *dir_of(const char *path)
 static int convert(gltf_ctx *c, const rad_gltf_raw *raw)
 {
     for (uint32_t k = 0; k < raw->extensions_required_count; k++)
-        if (strcmp(raw->extensions_required[k], "KHR_materials_emissive_strength") != 0)
+        if (strcmp(raw->extensions_required[k], "KHR_materials_emissive_strength") != 0 &&
+            strcmp(raw->extensions_required[k], "KHR_lights_punctual") != 0)
             return rad_fail(c->err, RAD_ERR_INVALID,
                             "%s: extension '%s' is required but not supported", c->src,
                             raw->extensions_required[k]);
@@ -642,6 +684,9 @@ static int convert(gltf_ctx *c, const rad_gltf_raw *raw)
                                   cam->yfov * (180.0 / M_PI), cam->aspect, where, NULL, c->err);
         free(cname);
     }
+
+    for (uint32_t k = 0; k < raw->light_count && rc == RAD_OK; k++)
+        rc = add_light(c, &raw->lights[k]);
 
 done:
     free(mat_index);

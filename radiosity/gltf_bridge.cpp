@@ -3,7 +3,9 @@
  * It owns everything about reading a glTF 2.0 document (.gltf or .glb) and
  * turning it into the plain-C rad_gltf_raw of gltf_bridge.h: node
  * hierarchy to world matrices, accessors to double positions and uint32
- * triangle indices, materials and cameras as numbers.
+ * triangle indices, materials, cameras and KHR_lights_punctual lights as
+ * numbers.  The lights are read here from the JSON itself (tinygltf checks
+ * little of them), before the top-level `extensions` member is dropped.
  *
  * Invariant: no exception and no C++ type leaves this file, and no input can
  * make it read outside a buffer, recurse without bound, allocate more than
@@ -595,13 +597,119 @@ struct raw_deleter {
 };
 using raw_ptr = std::unique_ptr<rad_gltf_raw, raw_deleter>;
 
+/* One entry of extensions.KHR_lights_punctual.lights, glTF's defaults filled in. */
+struct light_def {
+    std::string name;
+    int type = RAD_GLTF_LIGHT_POINT;
+    double color[3] = {1, 1, 1};
+    double intensity = 1.0;
+    double inner = 0.0, outer = M_PI / 4;
+};
+
+/* A JSON number into *out, or a parse failure naming `where` and `what`. */
+void json_number(const nlohmann::json &o, const char *what, const std::string &where, double *out)
+{
+    auto it = o.find(what);
+    if (it == o.end())
+        return;
+    if (!it->is_number())
+        fail(RAD_ERR_PARSE, where + ": " + what + " is not a number");
+    *out = it->get<double>();
+}
+
+/* extensions.KHR_lights_punctual.lights of the document, type-checked. */
+std::vector<light_def> parse_lights(const nlohmann::json &doc)
+{
+    std::vector<light_def> out;
+    auto ext = doc.find("extensions");
+    if (ext == doc.end() || !ext->is_object())
+        return out;
+    auto kh = ext->find("KHR_lights_punctual");
+    if (kh == ext->end())
+        return out;
+    if (!kh->is_object())
+        fail(RAD_ERR_PARSE, "extensions.KHR_lights_punctual is not a JSON object");
+    auto arr = kh->find("lights");
+    if (arr == kh->end())
+        return out;
+    if (!arr->is_array())
+        fail(RAD_ERR_PARSE, "KHR_lights_punctual.lights is not an array");
+    size_t index = 0;
+    for (const auto &o : *arr) {
+        std::string where = format("KHR_lights_punctual light %zu", index++);
+        if (!o.is_object())
+            fail(RAD_ERR_PARSE, where + ": not a JSON object");
+        light_def d;
+        auto nm = o.find("name");
+        if (nm != o.end()) {
+            if (!nm->is_string())
+                fail(RAD_ERR_PARSE, where + ": name is not a string");
+            d.name = nm->get<std::string>();
+            where += " " + q(d.name);
+        }
+        auto ty = o.find("type");
+        if (ty == o.end() || !ty->is_string())
+            fail(RAD_ERR_PARSE, where + ": type missing or not a string");
+        const std::string &t = ty->get_ref<const std::string &>();
+        if (t == "point")
+            d.type = RAD_GLTF_LIGHT_POINT;
+        else if (t == "spot")
+            d.type = RAD_GLTF_LIGHT_SPOT;
+        else if (t == "directional")
+            d.type = RAD_GLTF_LIGHT_DIRECTIONAL;
+        else
+            fail(RAD_ERR_PARSE, where + ": type " + q(t) + " is not point, spot or directional");
+        auto co = o.find("color");
+        if (co != o.end()) {
+            if (!co->is_array() || co->size() != 3)
+                fail(RAD_ERR_PARSE, where + ": color is not an array of 3 numbers");
+            for (int c = 0; c < 3; c++) {
+                if (!(*co)[c].is_number())
+                    fail(RAD_ERR_PARSE, where + ": color is not an array of 3 numbers");
+                d.color[c] = (*co)[c].get<double>();
+            }
+        }
+        json_number(o, "intensity", where, &d.intensity);
+        double range = 0.0; /* checked for type, then ignored: light falls off as 1/r² */
+        json_number(o, "range", where, &range);
+        if (d.type == RAD_GLTF_LIGHT_SPOT) {
+            auto sp = o.find("spot");
+            if (sp == o.end() || !sp->is_object())
+                fail(RAD_ERR_PARSE, where + ": a spot light needs a \"spot\" object");
+            json_number(*sp, "innerConeAngle", where, &d.inner);
+            json_number(*sp, "outerConeAngle", where, &d.outer);
+        }
+        out.push_back(d);
+    }
+    return out;
+}
+
+/* The light index a node carries in extensions.KHR_lights_punctual.light,
+ * or -1. */
+int64_t node_light(const tinygltf::Model &m, size_t i, size_t light_count)
+{
+    const tinygltf::Node &n = m.nodes[i];
+    auto it = n.extensions.find("KHR_lights_punctual");
+    if (it == n.extensions.end())
+        return -1;
+    const tinygltf::Value &v = it->second;
+    if (!v.IsObject() || !v.Has("light") || !v.Get("light").IsNumber())
+        fail(RAD_ERR_PARSE, node_label(m, i) + ": KHR_lights_punctual has no light index");
+    double x = v.Get("light").GetNumberAsDouble();
+    if (!(x >= 0.0) || x != std::floor(x) || x >= (double)light_count)
+        fail(RAD_ERR_PARSE, format("%s: light %g does not exist (%zu lights)",
+                                   node_label(m, i).c_str(), x, light_count));
+    return (int64_t)x;
+}
+
 struct prim_plan {
     data_span pos, idx;
     bool indexed = false;
     uint64_t triangles = 0;
 };
 
-void convert(const tinygltf::Model &m, uint64_t max_triangles, rad_gltf_raw *raw)
+void convert(const tinygltf::Model &m, const std::vector<light_def> &lights,
+             uint64_t max_triangles, rad_gltf_raw *raw)
 {
     /* extensionsRequired: passed on, judged by gltf.c. */
     raw->extensions_required_count = count32(m.extensionsRequired.size(), "extensions");
@@ -882,6 +990,37 @@ void convert(const tinygltf::Model &m, uint64_t max_triangles, rad_gltf_raw *raw
         dst.aspect = c.perspective.aspectRatio;
         memcpy(dst.world, raw->nodes[i].world, sizeof dst.world);
     }
+
+    /* Punctual lights, one per in-scene node that carries one, in node order
+     * (every node's index is checked, shown or not). */
+    std::vector<int64_t> light_of(nn, -1);
+    size_t nlight = 0;
+    for (size_t i = 0; i < nn; i++) {
+        light_of[i] = node_light(m, i, lights.size());
+        if (raw->nodes[i].in_scene && light_of[i] >= 0)
+            nlight++;
+    }
+    raw->light_count = 0;
+    raw->lights = calloc_n<rad_gltf_raw_light>(nlight);
+    for (size_t i = 0; i < nn; i++) {
+        if (!raw->nodes[i].in_scene || light_of[i] < 0)
+            continue;
+        const light_def &d = lights[(size_t)light_of[i]];
+        rad_gltf_raw_light &dst = raw->lights[raw->light_count++];
+        std::string name = !d.name.empty() ? d.name : m.nodes[i].name;
+        if (name.empty())
+            name = format("light%lld", (long long)light_of[i]);
+        dst.name = dup_c(name);
+        dst.node = (uint32_t)i;
+        dst.light = (uint32_t)light_of[i];
+        dst.type = d.type;
+        for (int c = 0; c < 3; c++)
+            dst.color[c] = d.color[c];
+        dst.intensity = d.intensity;
+        dst.inner_cone = d.inner;
+        dst.outer_cone = d.outer;
+        memcpy(dst.world, raw->nodes[i].world, sizeof dst.world);
+    }
 }
 
 int load(const void *data, size_t size, const char *base_dir, uint64_t max_triangles,
@@ -919,6 +1058,7 @@ int load(const void *data, size_t size, const char *base_dir, uint64_t max_trian
     }
     if (!doc.is_object())
         fail(RAD_ERR_PARSE, "malformed JSON: the document is not a JSON object");
+    std::vector<light_def> lights = parse_lights(doc);
 
     nlohmann::json kept = nlohmann::json::object();
     for (const char *key : kKeptMembers) {
@@ -972,7 +1112,7 @@ int load(const void *data, size_t size, const char *base_dir, uint64_t max_trian
     }
 
     raw_ptr raw(calloc_n<rad_gltf_raw>(1));
-    convert(model, max_triangles, raw.get());
+    convert(model, lights, max_triangles, raw.get());
     *out = raw.release();
     return RAD_OK;
 }
@@ -1038,6 +1178,9 @@ extern "C" void rad_gltf_raw_free(rad_gltf_raw *raw)
     for (uint32_t i = 0; raw->cameras && i < raw->camera_count; i++)
         free(raw->cameras[i].name);
     free(raw->cameras);
+    for (uint32_t i = 0; raw->lights && i < raw->light_count; i++)
+        free(raw->lights[i].name);
+    free(raw->lights);
     for (uint32_t i = 0; raw->extensions_required && i < raw->extensions_required_count; i++)
         free(raw->extensions_required[i]);
     free(raw->extensions_required);

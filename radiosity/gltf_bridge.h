@@ -64,6 +64,27 @@ typedef struct rad_gltf_raw_camera {
     double world[16];  /* of the node, column-major */
 } rad_gltf_raw_camera;
 
+/* KHR_lights_punctual light types. */
+#define RAD_GLTF_LIGHT_POINT 0
+#define RAD_GLTF_LIGHT_SPOT 1
+#define RAD_GLTF_LIGHT_DIRECTIONAL 2
+
+/* One punctual light as placed by a node of the scene (a light used by two
+ * nodes gives two entries).  Values as the document gives them (photometric,
+ * glTF's defaults filled in); only their types have been checked, the
+ * ranges are gltf.c's (through rad_scene_add_light). */
+typedef struct rad_gltf_raw_light {
+    char *name;          /* light name, else node name, else "light<light index>" */
+    uint32_t node;       /* glTF node index */
+    uint32_t light;      /* index into KHR_lights_punctual.lights */
+    int type;            /* RAD_GLTF_LIGHT_* */
+    double color[3];     /* linear RGB (default 1 1 1) */
+    double intensity;    /* candela (point, spot) or lux (directional); default 1 */
+    double inner_cone;   /* spot.innerConeAngle, radians (default 0) */
+    double outer_cone;   /* spot.outerConeAngle, radians (default π/4) */
+    double world[16];    /* of the node, column-major */
+} rad_gltf_raw_light;
+
 typedef struct rad_gltf_raw {
     rad_gltf_raw_node *nodes;
     uint32_t node_count;
@@ -73,6 +94,8 @@ typedef struct rad_gltf_raw {
     uint32_t material_count;
     rad_gltf_raw_camera *cameras;
     uint32_t camera_count;
+    rad_gltf_raw_light *lights;
+    uint32_t light_count;
     char **extensions_required;
     uint32_t extensions_required_count;
 } rad_gltf_raw;

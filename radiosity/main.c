@@ -147,6 +147,10 @@ int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt)
         opt->pixel_emitters = 1;
         return 1;
     }
+    if (!strcmp(a, "--exact-near")) {
+        opt->exact_near = 1;
+        return 1;
+    }
     if (!strcmp(a, "--solver")) {
         if (!v || sv_method_parse(v, &opt->solver.method)) {
             cli_usage_error("--solver: '%s' is not gauss-seidel, jacobi or progressive", v ? v : "");
@@ -202,6 +206,7 @@ static const char usage[] =
     "      --max-iterations N       solver iteration limit\n"
     "      --max-memory SIZE        limit for the form-factor matrix (e.g. 4G)\n"
     "      --pixel-emitters         form factors to emitters by pixel counts, not exactly\n"
+    "      --exact-near             near patches (closer than their size) exactly too\n"
     "      --preview-every K        progressive: write a preview image every K shots\n"
     "      --preview-dir DIR        where previews go (default: the solution's directory)\n"
     "  render SOLUTION -o IMAGE.exr draw a view (radiance, linear OpenEXR)\n"

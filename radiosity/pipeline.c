@@ -1,6 +1,7 @@
 /* pipeline.c - the stages in order, each one call and one comment:
  *
- *   load -> mesh -> form factors (hemi-cube rows) -> solve -> (store, render)
+ *   load -> mesh -> form factors (hemi-cube rows) -> direct light of the
+ *   punctual lights -> solve -> (store, render)
  *
  * rad_resolve is the qrad3-style heart: it decides which rows the solve
  * needs, computes only those that are missing, and solves.  A relight calls
@@ -10,6 +11,13 @@
  * for every patch that reflects (ρ_i > 0 in some band): a patch with ρ = 0
  * has B = E whatever it sees, so its row would be wasted work.  The
  * progressive solver asks for the rows of the patches it shoots from.
+ *
+ * Punctual lights have no patches: each is rendered once as an item-buffer
+ * cube at the light (hc_light_power), which gives the power Φ_lj patch j
+ * receives at unit strength.  The direct irradiance H_d,j = Σ_l I_l Φ_lj / A_j
+ * is shot first, as the source term E_j + ρ_j H_d,j, and the solver carries
+ * the interreflection from there.  Φ is stored, so a relight that scales or
+ * switches a light renders nothing again.
  */
 #include "pipeline.h"
 
@@ -25,6 +33,7 @@ typedef struct resolve_ctx {
     hc_engine *hc;        /* created on first need */
     uint8_t *exact;       /* patches with exact incoming factors (emitters), or NULL */
     uint64_t rows_computed;
+    uint64_t lights_computed;
     uint64_t max_memory;
     double ff_seconds;    /* time inside the hemi-cube, counted apart from the solve */
 } resolve_ctx;
@@ -34,6 +43,7 @@ static int start_hemicube(resolve_ctx *c, rad_error *err)
     if (c->hc)
         return RAD_OK;
     hc_options ho = c->opt->hemicube;
+    ho.exact_near = c->opt->exact_near;
     uint32_t n = c->s->mesh->patch_count, nb = c->s->band_count;
     uint8_t *exact = NULL;
     if (!c->opt->pixel_emitters && !ho.exact) {
@@ -64,15 +74,30 @@ static int compute_rows(resolve_ctx *c, const uint32_t *rows, uint32_t count, ra
     return rc;
 }
 
+/* "12.3 MiB" / "4.5 GiB": sizes in messages, in a unit that shows digits. */
+static const char *human_bytes(double bytes, char *buf, size_t size)
+{
+    if (bytes >= 1073741824.0)
+        snprintf(buf, size, "%.1f GiB", bytes / 1073741824.0);
+    else if (bytes >= 1048576.0)
+        snprintf(buf, size, "%.1f MiB", bytes / 1048576.0);
+    else
+        snprintf(buf, size, "%.1f KiB", bytes / 1024.0);
+    return buf;
+}
+
 static int need_row(void *user, uint32_t i, rad_error *err)
 {
     resolve_ctx *c = user;
     uint64_t used = c->s->F->capacity * (sizeof(uint32_t) + sizeof(float));
-    if (used > c->max_memory)
+    if (used > c->max_memory) {
+        char a[32], b[32];
         return rad_fail(err, RAD_ERR_LIMIT,
-                        "form factors: the matrix has grown to %.1f MiB, over the limit of %.1f MiB; "
+                        "%s: form factors: the matrix has grown to %s, over the limit of %s; "
                         "use a larger --patch-size or raise --max-memory",
-                        used / 1048576.0, c->max_memory / 1048576.0);
+                        c->s->scene->source, human_bytes((double)used, a, sizeof a),
+                        human_bytes((double)c->max_memory, b, sizeof b));
+    }
     return compute_rows(c, &i, 1, err);
 }
 
@@ -99,11 +124,13 @@ static int check_memory(const rad_solution *s, uint32_t rows, uint64_t limit, ra
     double bytes = (double)rows * (double)n * (sizeof(uint32_t) + sizeof(float));
     if (bytes <= (double)limit)
         return RAD_OK;
+    char need[32], have[32];
     return rad_fail(err, RAD_ERR_LIMIT,
-                    "%s: form factors for %u patches need up to %.1f GiB, more than the %.1f GiB "
-                    "available; use --solver progressive (rows on demand), a larger --patch-size, "
+                    "%s: form factors for %u patches need up to %s, more than the %s "
+                    "allowed; use --solver progressive (rows on demand), a larger --patch-size, "
                     "or --max-memory",
-                    s->scene->source, n, bytes / 1073741824.0, (double)limit / 1073741824.0);
+                    s->scene->source, n, human_bytes(bytes, need, sizeof need),
+                    human_bytes((double)limit, have, sizeof have));
 }
 
 int rad_solution_is_grey(const rad_solution *s)
@@ -115,7 +142,50 @@ int rad_solution_is_grey(const rad_solution *s)
             if (rho[b] != rho[0] || e[b] != e[0])
                 return 0;
     }
+    for (size_t l = 0; nb > 1 && s->light_intensity && l < s->scene->light_count; l++)
+        for (uint32_t b = 1; b < nb; b++)
+            if (s->light_intensity[l * nb + b] != s->light_intensity[l * nb])
+                return 0;
     return nb > 1;
+}
+
+/* The stage "direct light": renders every punctual light whose per-patch
+ * power the solution does not hold yet, on the same engine as the rows. */
+static int shoot_lights(resolve_ctx *c, rad_error *err)
+{
+    rad_solution *s = c->s;
+    const rad_scene *sc = s->scene;
+    uint32_t n = s->mesh->patch_count;
+    uint32_t R = c->opt->light_resolution;
+    if (!R)
+        R = c->opt->hemicube.resolution > 512 ? c->opt->hemicube.resolution : 512;
+    double *power = NULL;
+    int rc = RAD_OK;
+    for (uint32_t l = 0; l < sc->light_count && !rc; l++) {
+        if (s->light_power[l].present)
+            continue;
+        double t0 = rad_seconds();
+        if (!power && !(power = malloc(((size_t)n + 1) * sizeof *power)))
+            return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", sc->source);
+        const rad_light *L = &sc->lights[l];
+        hc_light hl = {.kind = L->kind == RAD_LIGHT_POINT  ? HC_LIGHT_POINT
+                               : L->kind == RAD_LIGHT_SPOT ? HC_LIGHT_SPOT
+                                                           : HC_LIGHT_DIRECTIONAL,
+                       .position = L->position,
+                       .direction = L->direction,
+                       .inner_cone = L->inner_cone,
+                       .outer_cone = L->outer_cone};
+        rc = start_hemicube(c, err);
+        if (!rc)
+            rc = hc_light_power(c->hc, &hl, R, power, err);
+        if (!rc)
+            rc = rad_solution_set_light_power(s, l, power, err);
+        if (!rc)
+            c->lights_computed++;
+        c->ff_seconds += rad_seconds() - t0;
+    }
+    free(power);
+    return rc;
 }
 
 int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err)
@@ -145,17 +215,33 @@ int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err)
         free(missing);
     }
 
-    /* Solve: B for every band (one band when the scene is grey); the
-     * progressive solver pulls rows as it shoots. */
+    /* Direct light: the punctual lights' Φ not yet stored. */
+    if (!rc)
+        rc = shoot_lights(&c, err);
+
+    /* Solve: B for every band (one band when the scene is grey) with the
+     * source E + ρ H_d; the progressive solver pulls rows as it shoots. */
+    double *src = NULL;
+    if (!rc && s->scene->light_count) {
+        size_t count = (size_t)n * s->band_count;
+        src = malloc((count + 1) * sizeof *src);
+        if (!src)
+            rc = rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
+        else
+            rc = rad_solution_direct_irradiance(s, src, err);
+        for (size_t k = 0; !rc && k < count; k++)
+            src[k] = s->emission[k] + s->rho[k] * src[k];
+    }
     if (!rc) {
+        const double *E = src ? src : s->emission;
         uint32_t nb = rad_solution_is_grey(s) ? 1 : s->band_count;
-        sv_system sys = {.n = n, .bands = nb, .F = s->F, .rho = s->rho, .emission = s->emission};
+        sv_system sys = {.n = n, .bands = nb, .F = s->F, .rho = s->rho, .emission = E};
         double *area = malloc(((size_t)n + 1) * sizeof *area);
         double *grey = nb < s->band_count ? malloc(((size_t)n * 3 + 1) * sizeof *grey) : NULL;
         if (grey) { /* band 0 of each patch, packed: ρ, E, then room for B */
             for (uint32_t i = 0; i < n; i++) {
                 grey[i] = s->rho[(size_t)i * s->band_count];
-                grey[n + i] = s->emission[(size_t)i * s->band_count];
+                grey[n + i] = E[(size_t)i * s->band_count];
             }
             sys.rho = grey;
             sys.emission = grey + n;
@@ -191,9 +277,11 @@ int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err)
         }
     }
 
+    free(src);
     s->rows_computed = c.rows_computed;
+    s->lights_computed = c.lights_computed;
     s->stages[RAD_STAGE_FORM_FACTORS].seconds = c.ff_seconds;
-    s->stages[RAD_STAGE_FORM_FACTORS].reused = (c.rows_computed == 0);
+    s->stages[RAD_STAGE_FORM_FACTORS].reused = (c.rows_computed == 0 && c.lights_computed == 0);
     if (c.hc)
         s->resolution = opt->hemicube.resolution ? opt->hemicube.resolution : 128;
     hc_destroy(c.hc);

@@ -23,12 +23,19 @@ typedef struct rad_solve_options {
     int pixel_emitters;  /* 1 = form factors to emitters by counting pixels like any patch;
                           * 0 (default) = exactly, by the point-to-polygon integral times
                           * the visible fraction (no aliasing of small bright sources) */
+    int exact_near;      /* 1 = patches nearer than their own size exactly too (area-averaged
+                          * contour integral times the visible fraction): the proximity fix
+                          * for open configurations; off by default because in closed rooms
+                          * its row-by-row rescaling costs ~1 % of energy balance */
     /* Progressive solver only, may be NULL: called every solver.preview_every
      * shots with the current estimate including the ambient term (patch_count ×
      * bands).  Non-zero stops the solve. (solver.need_row/on_preview/user are
      * the pipeline's own and are ignored.) */
     int (*on_preview)(void *user, const rad_solution *s, uint32_t shots, const double *B_display);
     void *preview_user;
+    /* Punctual lights: R of the item-buffer cube rendered at each light
+     * (hc_light_power); 0 = the larger of 512 and the hemi-cube resolution. */
+    uint32_t light_resolution;
 } rad_solve_options;
 
 /* The whole computation for a scene file: load, mesh, form factors, solve.
@@ -42,11 +49,14 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
                     rad_error *err);
 
 /* Computes the missing form-factor rows that the solve needs (all rows of
- * patches with ρ > 0 in some band), then solves.  What a relight calls after
- * changing ρ or E: no row present is computed again. */
+ * patches with ρ > 0 in some band) and the per-patch power of every
+ * punctual light not yet rendered, then solves with the source term
+ * E_j + ρ_j H_d,j.  What a relight calls after changing ρ, E or a light's
+ * intensity: no row and no light present is computed again. */
 int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err);
 
-/* 1 when the solution has several bands but equal ρ and E in all of them:
+/* 1 when the solution has several bands but equal ρ, E and light
+ * intensities in all of them:
  * rad_resolve then solves one band and copies it (the same answer at a
  * fraction of the work). */
 int rad_solution_is_grey(const rad_solution *s);

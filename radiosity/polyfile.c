@@ -1,6 +1,7 @@
 /* polyfile.c - the plain-text polygon file (docs/polygon-file.md): the
  * hemi-cube paper's input, polygons with per-band reflectance ρ and emission
- * E and a subdivision parameter, plus named groups and cameras.
+ * E and a subdivision parameter, plus named groups, cameras and punctual
+ * lights (radiometric: W/sr or W/m², no photometric conversion).
  *
  * Invariant: the parser reads only text[0 .. size), never assumes a NUL, and
  * every failure is a rad_error "FILE: line N: WHAT" with all memory freed;
@@ -552,6 +553,72 @@ done:
     return rc;
 }
 
+/* light NAME point X Y Z intensity VALUES
+ * light NAME spot X Y Z direction X Y Z inner DEG outer DEG intensity VALUES
+ * light NAME directional direction X Y Z irradiance VALUES */
+static int parse_light(parser *P, unsigned long long line)
+{
+    char *name = NULL, ctx[300], where[40], b[64];
+    int rc = need_name(P, "a light name", &name);
+    if (rc)
+        return rc;
+    snprintf(ctx, sizeof ctx, "light '%s'", name);
+    rad_light_kind kind;
+    double pos[3] = {0, 0, 0}, dir[3] = {0, 0, -1}, inner = 0, outer = 90, I[RAD_MAX_BANDS];
+    static const char *const axis[3] = {"x", "y", "z"};
+    char what[64];
+    if (!lex_peek(P, &rc)) {
+        if (!rc)
+            rc = perr(P, P->lx.tok_line, RAD_ERR_PARSE,
+                      "%s: expected point, spot or directional, found end of file", ctx);
+        goto done;
+    }
+    if (tok_is(P, "point"))
+        kind = RAD_LIGHT_POINT;
+    else if (tok_is(P, "spot"))
+        kind = RAD_LIGHT_SPOT;
+    else if (tok_is(P, "directional"))
+        kind = RAD_LIGHT_DIRECTIONAL;
+    else {
+        rc = perr(P, P->lx.tok_line, RAD_ERR_PARSE,
+                  "%s: expected point, spot or directional, found '%s'", ctx,
+                  tok_show(P, b, sizeof b));
+        goto done;
+    }
+    lex_take(P);
+    for (int c = 0; kind != RAD_LIGHT_DIRECTIONAL && c < 3; c++) {
+        snprintf(what, sizeof what, "position %s", axis[c]);
+        if ((rc = need_number(P, what, &pos[c])))
+            goto done;
+    }
+    if (kind != RAD_LIGHT_POINT) {
+        if ((rc = need_keyword(P, "direction", ctx)))
+            goto done;
+        for (int c = 0; c < 3; c++) {
+            snprintf(what, sizeof what, "direction %s", axis[c]);
+            if ((rc = need_number(P, what, &dir[c])))
+                goto done;
+        }
+    }
+    if (kind == RAD_LIGHT_SPOT) {
+        if ((rc = need_keyword(P, "inner", ctx)) ||
+            (rc = need_number(P, "inner cone angle (degrees)", &inner)) ||
+            (rc = need_keyword(P, "outer", ctx)) ||
+            (rc = need_number(P, "outer cone angle (degrees)", &outer)))
+            goto done;
+    }
+    const char *unit = kind == RAD_LIGHT_DIRECTIONAL ? "irradiance" : "intensity";
+    if ((rc = need_keyword(P, unit, ctx)) || (rc = parse_values(P, unit, line, I)))
+        goto done;
+    snprintf(where, sizeof where, "line %llu", line);
+    rc = rad_scene_add_light(P->s, name, kind, I, rad_v3(pos[0], pos[1], pos[2]),
+                             rad_v3(dir[0], dir[1], dir[2]), inner * (M_PI / 180.0),
+                             outer * (M_PI / 180.0), where, NULL, P->err);
+done:
+    free(name);
+    return rc;
+}
+
 static int parse_all(parser *P)
 {
     int rc = parse_header(P);
@@ -572,9 +639,13 @@ static int parse_all(parser *P)
         } else if (tok_is(P, "camera")) {
             lex_take(P);
             rc = parse_camera(P, line);
+        } else if (tok_is(P, "light")) {
+            lex_take(P);
+            rc = parse_light(P, line);
         } else {
             rc = perr(P, line, RAD_ERR_PARSE,
-                      "unknown statement '%s' (expected material, polygon, group or camera)",
+                      "unknown statement '%s' (expected material, polygon, group, camera or "
+                      "light)",
                       tok_show(P, b, sizeof b));
         }
         if (rc)

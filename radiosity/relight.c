@@ -7,10 +7,11 @@
  * them).  Every edit of a batch is checked before any is applied, so a bad
  * argument leaves the solution as it was.
  *
- * Names: an exact object name wins, then an exact material name; failing
- * both, a unique case-insensitive prefix of either is accepted, several
- * prefix matches are "ambiguous", none is "unknown"; both errors list the
- * candidates.
+ * Names: an exact object name wins, then an exact punctual-light name, then
+ * an exact material name; failing all, a unique case-insensitive prefix of
+ * any is accepted, several prefix matches are "ambiguous", none is
+ * "unknown"; both errors list the candidates.  A punctual light has no
+ * patches: a light or emission edit changes its s->light_intensity.
  */
 #include "solution.h"
 
@@ -92,10 +93,11 @@ int rad_edit_parse(rad_edit_kind kind, const char *arg, rad_edit *out, rad_error
     return RAD_OK;
 }
 
-/* A resolved name: an object or a material. */
+/* A resolved name: an object, a punctual light (is_light) or a material. */
 typedef struct target {
     int is_object;
     uint32_t index;
+    int is_light;
 } target;
 
 static int prefix_match(const char *name, const char *prefix)
@@ -116,25 +118,36 @@ static int resolve(const rad_solution *s, const rad_edit *e, target *t, rad_erro
     const rad_scene *sc = s->scene;
     uint32_t k = rad_scene_find_object(sc, e->name);
     if (k != RAD_NONE) {
-        *t = (target){1, k};
+        *t = (target){1, k, 0};
+        return RAD_OK;
+    }
+    k = rad_scene_find_light(sc, e->name);
+    if (k != RAD_NONE) {
+        *t = (target){0, k, 1};
         return RAD_OK;
     }
     k = rad_scene_find_material(sc, e->name);
     if (k != RAD_NONE) {
-        *t = (target){0, k};
+        *t = (target){0, k, 0};
         return RAD_OK;
     }
     char list[768] = "";
     uint32_t matches = 0;
     for (uint32_t o = 0; o < sc->object_count; o++)
         if (prefix_match(sc->objects[o].name, e->name)) {
-            *t = (target){1, o};
+            *t = (target){1, o, 0};
             matches++;
             append_name(list, sizeof list, "object", sc->objects[o].name);
         }
+    for (uint32_t l = 0; l < sc->light_count; l++)
+        if (prefix_match(sc->lights[l].name, e->name)) {
+            *t = (target){0, l, 1};
+            matches++;
+            append_name(list, sizeof list, "light", sc->lights[l].name);
+        }
     for (uint32_t m = 0; m < sc->material_count; m++)
         if (prefix_match(sc->materials[m].name, e->name)) {
-            *t = (target){0, m};
+            *t = (target){0, m, 0};
             matches++;
             append_name(list, sizeof list, "material", sc->materials[m].name);
         }
@@ -145,15 +158,42 @@ static int resolve(const rad_solution *s, const rad_edit *e, target *t, rad_erro
                         sc->source, edit_flag(e->kind), e->name, list);
     for (uint32_t o = 0; o < sc->object_count; o++)
         append_name(list, sizeof list, "object", sc->objects[o].name);
+    for (uint32_t l = 0; l < sc->light_count; l++)
+        append_name(list, sizeof list, "light", sc->lights[l].name);
     for (uint32_t m = 0; m < sc->material_count; m++)
         append_name(list, sizeof list, "material", sc->materials[m].name);
-    return rad_fail(err, RAD_ERR_NOTFOUND, "%s: %s '%s': no object or material of that name; candidates: %s",
-                    sc->source, edit_flag(e->kind), e->name, list);
+    return rad_fail(err, RAD_ERR_NOTFOUND, "%s: %s '%s': no object%s or material of that name; candidates: %s",
+                    sc->source, edit_flag(e->kind), e->name, sc->light_count ? ", light" : "", list);
 }
 
 static int targets_patch(const target *t, const rad_patch *p)
 {
+    if (t->is_light)
+        return 0;
     return t->is_object ? p->object == t->index : p->material == t->index;
+}
+
+/* The checks of check_edit for a punctual light. */
+static int check_light_edit(const rad_solution *s, const rad_edit *e, const target *t,
+                            rad_error *err)
+{
+    const rad_scene *sc = s->scene;
+    const rad_light *L = &sc->lights[t->index];
+    if (e->kind == RAD_EDIT_REFLECTANCE)
+        return rad_fail(err, RAD_ERR_USAGE, "%s: --reflectance '%s': '%s' is a punctual light, "
+                        "which reflects nothing", sc->source, e->name, L->name);
+    if (e->kind == RAD_EDIT_EMISSION) {
+        if (e->value_count != 1 && e->value_count != s->band_count)
+            return rad_fail(err, RAD_ERR_USAGE, "%s: %s '%s': %u values given, the scene has %u bands",
+                            sc->source, edit_flag(e->kind), e->name, e->value_count, s->band_count);
+        return RAD_OK;
+    }
+    for (uint32_t b = 0; b < s->band_count; b++)
+        if (L->intensity[b] > 0)
+            return RAD_OK;
+    return rad_fail(err, RAD_ERR_USAGE,
+                    "%s: --light '%s': light '%s' has intensity 0; use --emission to set one",
+                    sc->source, e->name, L->name);
 }
 
 static int check_edit(const rad_solution *s, const rad_edit *e, target *t, rad_error *err)
@@ -161,6 +201,8 @@ static int check_edit(const rad_solution *s, const rad_edit *e, target *t, rad_e
     int rc = resolve(s, e, t, err);
     if (rc)
         return rc;
+    if (t->is_light)
+        return check_light_edit(s, e, t, err);
     const rad_scene *sc = s->scene;
     const char *what = t->is_object ? sc->objects[t->index].name : sc->materials[t->index].name;
     uint32_t nb = s->band_count;
@@ -212,6 +254,12 @@ int rad_solution_apply_edits(rad_solution *s, const rad_edit *edits, uint32_t co
     uint32_t nb = s->band_count;
     for (uint32_t e = 0; e < count; e++) {
         const rad_edit *ed = &edits[e];
+        for (uint32_t b = 0; t[e].is_light && b < nb; b++) {
+            /* I per band: the nominal one scaled, or the value given */
+            double *I = s->light_intensity + (size_t)t[e].index * nb;
+            I[b] = ed->kind == RAD_EDIT_LIGHT ? s->scene->lights[t[e].index].intensity[b] * ed->scale
+                                              : ed->values[ed->value_count == 1 ? 0 : b];
+        }
         for (uint32_t i = 0; i < s->mesh->patch_count; i++) {
             const rad_patch *p = &s->mesh->patches[i];
             if (!targets_patch(&t[e], p))

@@ -5,7 +5,9 @@
  * the later stages rely on: polygons planar, convex, of positive area and
  * wound counter-clockwise about their normal (the Newell normal, so the file's
  * winding decides which side is lit); 0 <= ρ < 1 and E >= 0 in every band;
- * unique non-empty names.  Once added, an element is never changed.
+ * unique non-empty names; punctual lights finite, of non-negative
+ * intensity, with unit directions and valid cones.  Once added, an element is
+ * never changed.
  *
  * Also holds the private name set (scene_internal.h) that keeps the
  * uniqueness checks linear in the number of names.
@@ -93,7 +95,7 @@ void rad_names_free(rad_names *set)
  * the array's count; otherwise it is rebuilt (or, in the const find
  * functions, bypassed by a linear scan). */
 typedef struct scene_names {
-    rad_names material, object, camera;
+    rad_names material, object, camera, light;
 } scene_names;
 
 static scene_names *names_of(rad_scene *s)
@@ -154,6 +156,13 @@ uint32_t rad_scene_find_object(const rad_scene *s, const char *name)
     const scene_names *nm = s ? s->names_ : NULL;
     return find_named(s, nm ? &nm->object : NULL, s ? s->objects : NULL, sizeof(rad_object),
                       offsetof(rad_object, name), s ? s->object_count : 0, name);
+}
+
+uint32_t rad_scene_find_light(const rad_scene *s, const char *name)
+{
+    const scene_names *nm = s ? s->names_ : NULL;
+    return find_named(s, nm ? &nm->light : NULL, s ? s->lights : NULL, sizeof(rad_light),
+                      offsetof(rad_light, name), s ? s->light_count : 0, name);
 }
 
 uint32_t rad_scene_find_camera(const rad_scene *s, const char *name)
@@ -281,6 +290,8 @@ void rad_scene_destroy(rad_scene *s)
         free(s->polygons[k].name);
     for (uint32_t k = 0; k < s->camera_count; k++)
         free(s->cameras[k].name);
+    for (uint32_t k = 0; k < s->light_count; k++)
+        free(s->lights[k].name);
     for (uint32_t b = 0; b < RAD_MAX_BANDS; b++)
         free(s->band_names[b]);
     scene_names *nm = s->names_;
@@ -288,6 +299,7 @@ void rad_scene_destroy(rad_scene *s)
         rad_names_free(&nm->material);
         rad_names_free(&nm->object);
         rad_names_free(&nm->camera);
+        rad_names_free(&nm->light);
         free(nm);
     }
     free(s->materials);
@@ -295,6 +307,7 @@ void rad_scene_destroy(rad_scene *s)
     free(s->polygons);
     free(s->points);
     free(s->cameras);
+    free(s->lights);
     free(s->source);
     free(s);
 }
@@ -608,6 +621,88 @@ int rad_scene_add_camera(rad_scene *s, const char *name, rad_vec3 eye, rad_vec3 
     return RAD_OK;
 }
 
+/* ------------------------------------------------------------------- lights */
+
+int rad_scene_add_light(rad_scene *s, const char *name, rad_light_kind kind,
+                        const double *intensity, rad_vec3 position, rad_vec3 direction,
+                        double inner_cone, double outer_cone, const char *where,
+                        uint32_t *index, rad_error *err)
+{
+    if (!s)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_scene_add_light: no scene");
+    if (!name || !*name)
+        return failf(err, s, RAD_ERR_INVALID, where, "a light needs a non-empty name");
+    char eb[320], bb[40];
+    const char *el = element(eb, sizeof eb, "light", name, where);
+    if (kind != RAD_LIGHT_POINT && kind != RAD_LIGHT_SPOT && kind != RAD_LIGHT_DIRECTIONAL)
+        return failf(err, s, RAD_ERR_USAGE, where, "%skind %d is not point, spot or directional",
+                     el, (int)kind);
+    if (!intensity)
+        return failf(err, s, RAD_ERR_USAGE, where, "%sno intensity given", el);
+    rad_light L;
+    memset(&L, 0, sizeof L);
+    L.kind = kind;
+    for (uint32_t b = 0; b < s->band_count; b++) {
+        if (!isfinite(intensity[b]) || intensity[b] < 0.0)
+            return failf(err, s, RAD_ERR_INVALID, where,
+                         "%s%s %g must be finite and >= 0%s", el,
+                         kind == RAD_LIGHT_DIRECTIONAL ? "irradiance" : "intensity",
+                         intensity[b], band_label(bb, sizeof bb, s, b));
+        L.intensity[b] = intensity[b];
+    }
+    if (kind != RAD_LIGHT_DIRECTIONAL) {
+        if (!rad_finite3(position))
+            return failf(err, s, RAD_ERR_INVALID, where, "%sposition is not finite", el);
+        L.position = position;
+    }
+    if (kind != RAD_LIGHT_POINT) {
+        double len = rad_length(direction);
+        if (!rad_finite3(direction) || !isfinite(len) || !(len > 1e-12))
+            return failf(err, s, RAD_ERR_INVALID, where,
+                         "%sdirection (%g %g %g) is zero or not finite", el, direction.x,
+                         direction.y, direction.z);
+        /* A direction already unit to rounding is kept as given, so that a
+         * light read back from a solution file is bit-identical. */
+        L.direction = fabs(len - 1.0) <= 1e-12
+                          ? direction
+                          : rad_v3(direction.x / len, direction.y / len, direction.z / len);
+    } else {
+        L.direction = rad_v3(0, 0, -1);
+    }
+    L.inner_cone = 0.0;
+    L.outer_cone = M_PI / 2;
+    if (kind == RAD_LIGHT_SPOT) {
+        /* glTF's rule: 0 <= inner < outer <= π/2 (a cone wider than a
+         * half-space is no spot). */
+        if (!isfinite(inner_cone) || !isfinite(outer_cone) || !(inner_cone >= 0.0) ||
+            !(inner_cone < outer_cone) || !(outer_cone <= M_PI / 2))
+            return failf(err, s, RAD_ERR_INVALID, where,
+                         "%scone angles inner %g, outer %g rad: need 0 <= inner < outer <= π/2",
+                         el, inner_cone, outer_cone);
+        L.inner_cone = inner_cone;
+        L.outer_cone = outer_cone;
+    }
+    scene_names *nm = names_of(s);
+    if (!nm || names_sync(&nm->light, s->lights, sizeof(rad_light), offsetof(rad_light, name),
+                          s->light_count) != 0)
+        return failf(err, s, RAD_ERR_NOMEM, where, "%sout of memory", el);
+    if (rad_names_find(&nm->light, name) != RAD_NONE)
+        return failf(err, s, RAD_ERR_INVALID, where, "%sa light of this name already exists", el);
+    if (grow((void **)&s->lights, &s->light_cap_, (uint64_t)s->light_count + 1,
+             sizeof *s->lights) != 0)
+        return failf(err, s, RAD_ERR_NOMEM, where, "%stoo many lights", el);
+    L.name = dup_string(name);
+    if (!L.name || rad_names_insert(&nm->light, L.name, s->light_count) != 0) {
+        free(L.name);
+        return failf(err, s, RAD_ERR_NOMEM, where, "%sout of memory", el);
+    }
+    s->lights[s->light_count] = L;
+    if (index)
+        *index = s->light_count;
+    s->light_count++;
+    return RAD_OK;
+}
+
 /* --------------------------------------------------------------- whole scene */
 
 int rad_scene_validate(const rad_scene *s, rad_error *err) { return rad_scene_check(s, 1, err); }
@@ -632,6 +727,11 @@ int rad_scene_check(const rad_scene *s, int need_emitter, rad_error *err)
 
     if (!need_emitter)
         return RAD_OK;
+    /* A punctual light of some strength is an emitter on its own. */
+    for (uint32_t l = 0; l < s->light_count; l++)
+        for (uint32_t b = 0; b < s->band_count; b++)
+            if (s->lights[l].intensity[b] > 0.0)
+                return RAD_OK;
     /* E_i > 0 only matters where a patch carries it: an emitting material
      * that no polygon uses lights nothing. */
     uint32_t unused_emitter = RAD_NONE;
@@ -659,7 +759,10 @@ int rad_scene_check(const rad_scene *s, int need_emitter, rad_error *err)
         return failf(err, s, RAD_ERR_INVALID, NULL,
                      "no emitter: material '%s' has emission > 0 but no polygon uses it",
                      s->materials[unused_emitter].name);
-    return failf(err, s, RAD_ERR_INVALID, NULL, "no emitter: no material has emission > 0");
+    return failf(err, s, RAD_ERR_INVALID, NULL,
+                 s->light_count ? "no emitter: no material has emission > 0 and every light "
+                                  "has intensity 0"
+                                : "no emitter: no material has emission > 0");
 }
 
 int rad_scene_bounds(const rad_scene *s, rad_vec3 *lo, rad_vec3 *hi)

@@ -45,6 +45,31 @@ typedef struct rad_camera {
     double aspect;   /* width / height, 0 = from the image size */
 } rad_camera;
 
+/* A punctual light (glTF KHR_lights_punctual): no surface of its own, so it
+ * is not a polygon; its direct light is shot onto the patches before the
+ * solve (pipeline.c).  Radiometric, per band:
+ *   point, spot:  intensity = radiant intensity I (power per steradian)
+ *                 along the axis; a spot falls off as glTF's smooth t²
+ *                 between inner_cone and outer_cone (half-angles);
+ *   directional:  intensity = irradiance E⊥ (power per area) on a surface
+ *                 facing the light; position is unused.
+ * Invariants (rad_scene_add_light): finite values, intensity >= 0, |direction|
+ * = 1 (the way light travels), for a spot 0 <= inner < outer <= π/2. */
+typedef enum rad_light_kind {
+    RAD_LIGHT_POINT = 0,
+    RAD_LIGHT_SPOT,
+    RAD_LIGHT_DIRECTIONAL
+} rad_light_kind;
+
+typedef struct rad_light {
+    char *name;
+    rad_light_kind kind;
+    double intensity[RAD_MAX_BANDS]; /* W/sr (point, spot) or W/m² (directional) per band */
+    rad_vec3 position;               /* point, spot */
+    rad_vec3 direction;              /* spot, directional: unit, the way light travels */
+    double inner_cone, outer_cone;   /* spot: half-angles in radians; others 0 and π/2 */
+} rad_light;
+
 typedef struct rad_scene {
     char *source;          /* the file it came from, for messages ("<memory>" if built in code) */
     uint32_t band_count;   /* 1..RAD_MAX_BANDS */
@@ -64,6 +89,10 @@ typedef struct rad_scene {
     /* name index for the uniqueness checks and find functions (private to
      * scene.c; NULL is valid and means "scan the arrays") */
     void *names_;
+    /* punctual lights (appended after the original fields) */
+    rad_light *lights;
+    uint32_t light_count;
+    uint32_t light_cap_;   /* private to scene.c */
 } rad_scene;
 
 /* Options for loading; {0} means defaults. */
@@ -114,14 +143,25 @@ int rad_scene_add_camera(rad_scene *s, const char *name, rad_vec3 eye, rad_vec3 
                          rad_vec3 up, double yfov_deg, double aspect, const char *where,
                          uint32_t *index, rad_error *err);
 
+/* Checks and stores a punctual light (see rad_light).  direction is
+ * normalised here (it must not be zero for a spot or directional light;
+ * a point light ignores it).  Cone angles are ignored except for a spot.
+ * Light names are unique among lights. */
+int rad_scene_add_light(rad_scene *s, const char *name, rad_light_kind kind,
+                        const double *intensity, rad_vec3 position, rad_vec3 direction,
+                        double inner_cone, double outer_cone, const char *where,
+                        uint32_t *index, rad_error *err);
+
 /* Whole-scene checks after loading: at least one polygon, at least one
- * emitter (E > 0 in some band).  RAD_OK or RAD_ERR_INVALID. */
+ * emitter (E > 0 in some band of a material some polygon uses, or a
+ * punctual light with intensity > 0 in some band).  RAD_OK or RAD_ERR_INVALID. */
 int rad_scene_validate(const rad_scene *s, rad_error *err);
 /* The same checks; need_emitter = 0 leaves out the emitter requirement
  * (form-factor work needs none). */
 int rad_scene_check(const rad_scene *s, int need_emitter, rad_error *err);
 
-/* Index of the material/object/camera with this name, or RAD_NONE. */
+/* Index of the material/object/camera/light with this name, or RAD_NONE. */
+uint32_t rad_scene_find_light(const rad_scene *s, const char *name);
 uint32_t rad_scene_find_material(const rad_scene *s, const char *name);
 uint32_t rad_scene_find_object(const rad_scene *s, const char *name);
 uint32_t rad_scene_find_camera(const rad_scene *s, const char *name);

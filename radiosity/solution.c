@@ -1,7 +1,8 @@
 /* solution.c - the solution store: creating and destroying a rad_solution,
  * and writing and reading the binary solution file that
  * docs/solution-format.md specifies (header, CRC-64/XZ of the payload, tagged
- * sections INFO, SCENE, MESH, MATRIX, PATCHDATA).
+ * sections INFO, SCENE, MESH, MATRIX, PATCHDATA, and LIGHTS when the scene has
+ * punctual lights).
  *
  * Invariant: whatever bytes rad_solution_parse is given, it either fails with
  * a message naming the file, the section and the element, or returns a
@@ -24,7 +25,12 @@
 #include <unistd.h>
 
 #define SOL_MAGIC "RADSOL\r\n"  /* 8 bytes; the CR LF catches text-mode mangling */
-#define SOL_VERSION 1u
+/* Version 2 = version 1 + the LIGHTS section.  A file is written as version 1
+ * when the scene has no punctual lights, so older programs still read it;
+ * with lights it is version 2, because an older reader skipping LIGHTS would
+ * lose the lights without a word and a relight would solve without them. */
+#define SOL_VERSION 2u
+#define SOL_VERSION_PLAIN 1u
 #define SOL_HEADER_BYTES 32u
 #define SOL_SECTION_HEADER 12u  /* u32 tag + u64 length */
 #define SOL_MAX_STRING 4096u
@@ -35,11 +41,15 @@
  * hemi-cube's discretisation error. */
 #define SOL_ROW_SUM_MAX (1.0 + 1e-3)
 
-enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_COUNT };
+/* The first SEC_REQUIRED sections appear in every file; LIGHTS only when the
+ * scene has punctual lights. */
+enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_COUNT };
+#define SEC_REQUIRED SEC_LIGHTS
 static const char sec_tag[SEC_COUNT][4] = {
     {'I', 'N', 'F', 'O'}, {'S', 'C', 'E', 'N'}, {'M', 'E', 'S', 'H'},
-    {'M', 'T', 'R', 'X'}, {'P', 'D', 'A', 'T'}};
-static const char *const sec_name[SEC_COUNT] = {"INFO", "SCENE", "MESH", "MATRIX", "PATCHDATA"};
+    {'M', 'T', 'R', 'X'}, {'P', 'D', 'A', 'T'}, {'L', 'G', 'H', 'T'}};
+static const char *const sec_name[SEC_COUNT] = {"INFO",   "SCENE",     "MESH",
+                                                "MATRIX", "PATCHDATA", "LIGHTS"};
 
 /* Minimum encoded sizes of one element, used to bound counts before
  * allocating: a count of k elements needs at least k × this many bytes. */
@@ -50,6 +60,8 @@ static const char *const sec_name[SEC_COUNT] = {"INFO", "SCENE", "MESH", "MATRIX
 #define VERTEX_BYTES (3u * 8u + 1u)
 #define MIN_ROW (2u * 4u)
 #define MIN_ENTRY (1u + 4u) /* one varint byte + a float32 */
+/* name, kind, position, direction, cones, present flag, count; + 16 per band */
+#define MIN_LIGHT (MIN_STRING + 1u + 48u + 16u + 1u + 4u)
 
 const char *rad_stage_name(rad_stage s)
 {
@@ -65,6 +77,8 @@ const char *rad_stage_name(rad_stage s)
 
 /* ------------------------------------------------------- create / destroy */
 
+static double *alloc_band_array(uint32_t n, uint32_t bands);
+
 void rad_solution_destroy(rad_solution *s)
 {
     if (!s)
@@ -75,7 +89,27 @@ void rad_solution_destroy(rad_solution *s)
     free(s->rho);
     free(s->emission);
     free(s->B);
+    for (uint32_t l = 0; s->light_power && l < s->light_slots_; l++) {
+        free(s->light_power[l].patch);
+        free(s->light_power[l].power);
+    }
+    free(s->light_power);
+    free(s->light_intensity);
     free(s);
+}
+
+/* The light arrays for `count` lights (intensity from the scene's nominal
+ * values, no power yet); 0, or -1 when memory runs out. */
+static int alloc_lights(rad_solution *s, uint32_t count)
+{
+    if (count == 0)
+        return 0;
+    s->light_intensity = alloc_band_array(count, s->band_count);
+    s->light_power = calloc(count, sizeof *s->light_power);
+    if (!s->light_intensity || !s->light_power)
+        return -1;
+    s->light_slots_ = count;
+    return 0;
 }
 
 /* n × bands doubles, or NULL when that does not fit in size_t or memory. */
@@ -128,7 +162,7 @@ int rad_solution_create(rad_scene *scene, rad_mesh *mesh, rad_solution **out, ra
     s->emission = alloc_band_array(n, nb);
     s->B = alloc_band_array(n, nb);
     s->F = rad_matrix_create(n);
-    if (!s->rho || !s->emission || !s->B || !s->F) {
+    if (!s->rho || !s->emission || !s->B || !s->F || alloc_lights(s, scene->light_count) != 0) {
         rad_solution_destroy(s);
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory for %u patches × %u bands", src, n,
                         nb);
@@ -141,6 +175,9 @@ int rad_solution_create(rad_scene *scene, rad_mesh *mesh, rad_solution **out, ra
             s->B[(size_t)i * nb + b] = m->emission[b]; /* B = E before any bounce */
         }
     }
+    for (uint32_t l = 0; l < scene->light_count; l++)
+        memcpy(s->light_intensity + (size_t)l * nb, scene->lights[l].intensity,
+               nb * sizeof(double));
     *out = s;
     return RAD_OK;
 }
@@ -503,9 +540,86 @@ static void emit_patchdata(sink *k, const rad_solution *s)
         put_f64(k, s->B[i]);
 }
 
+/* The lights with the intensity solved with and each one's Φ_j, patch
+ * indices as a first value then gaps like the matrix's columns. */
+static void emit_lights(sink *k, const rad_solution *s)
+{
+    const rad_scene *sc = s->scene;
+    uint32_t nb = s->band_count;
+    put_u32(k, sc->light_count);
+    put_u32(k, nb);
+    put_u64(k, s->lights_computed);
+    for (uint32_t l = 0; l < sc->light_count; l++) {
+        const rad_light *L = &sc->lights[l];
+        const rad_light_power *lp = &s->light_power[l];
+        put_str(k, L->name);
+        put_u8(k, (uint8_t)L->kind);
+        put_vec3(k, L->position);
+        put_vec3(k, L->direction);
+        put_f64(k, L->inner_cone);
+        put_f64(k, L->outer_cone);
+        for (uint32_t b = 0; b < nb; b++)
+            put_f64(k, L->intensity[b]);
+        for (uint32_t b = 0; b < nb; b++)
+            put_f64(k, s->light_intensity[(size_t)l * nb + b]);
+        put_u8(k, lp->present ? 1 : 0);
+        uint32_t cnt = lp->present ? lp->count : 0;
+        put_u32(k, cnt);
+        for (uint32_t j = 0; j < cnt; j++)
+            put_varint(k, j ? lp->patch[j] - lp->patch[j - 1] : lp->patch[0]);
+        for (uint32_t j = 0; j < cnt; j++)
+            put_f32(k, lp->power[j]);
+    }
+}
+
 typedef void (*emit_fn)(sink *, const rad_solution *);
-static const emit_fn sec_emit[SEC_COUNT] = {emit_info, emit_scene, emit_mesh, emit_matrix,
-                                            emit_patchdata};
+static const emit_fn sec_emit[SEC_COUNT] = {emit_info,   emit_scene,     emit_mesh,
+                                            emit_matrix, emit_patchdata, emit_lights};
+
+/* LIGHTS is written only when there are lights. */
+static int section_written(const rad_solution *s, int i)
+{
+    return i != SEC_LIGHTS || s->scene->light_count > 0;
+}
+
+/* The light rules; `where` as for check_patch_values. */
+static int check_lights(const rad_solution *s, const char *file, const char *where, int code,
+                        rad_error *err)
+{
+    const rad_scene *sc = s->scene;
+    uint32_t nb = s->band_count, n = s->mesh->patch_count;
+    if (sc->light_count == 0)
+        return RAD_OK;
+    if (!s->light_intensity || !s->light_power || s->light_slots_ < sc->light_count)
+        return rad_fail(err, code, "%s: %s: %u lights but no light data", file, where,
+                        sc->light_count);
+    for (uint32_t l = 0; l < sc->light_count; l++) {
+        const rad_light_power *lp = &s->light_power[l];
+        for (uint32_t b = 0; b < nb; b++)
+            if (bad_nonneg(s->light_intensity[(size_t)l * nb + b]))
+                return rad_fail(err, code,
+                                "%s: %s: light '%s' band %u: intensity %g is not finite and >= 0",
+                                file, where, sc->lights[l].name, b,
+                                s->light_intensity[(size_t)l * nb + b]);
+        if (!lp->present)
+            continue;
+        if (lp->count > n || (lp->count && (!lp->patch || !lp->power)))
+            return rad_fail(err, code, "%s: %s: light '%s': %u patches lit but the mesh has %u",
+                            file, where, sc->lights[l].name, lp->count, n);
+        for (uint32_t k = 0; k < lp->count; k++) {
+            if (lp->patch[k] >= n || (k && lp->patch[k] <= lp->patch[k - 1]))
+                return rad_fail(err, code,
+                                "%s: %s: light '%s': patch %u out of range or out of order", file,
+                                where, sc->lights[l].name, lp->patch[k]);
+            if (!(lp->power[k] > 0.0f) || !isfinite(lp->power[k]))
+                return rad_fail(err, code,
+                                "%s: %s: light '%s': patch %u: power %g is not positive and finite",
+                                file, where, sc->lights[l].name, lp->patch[k],
+                                (double)lp->power[k]);
+        }
+    }
+    return RAD_OK;
+}
 
 static int check_string(const char *str, const char *file, const char *what, uint32_t i,
                         rad_error *err)
@@ -551,6 +665,11 @@ static int validate_for_write(const rad_solution *s, const char *path, rad_error
     for (uint32_t i = 0; i < sc->camera_count; i++)
         if ((rc = check_string(sc->cameras[i].name, path, "camera", i, err)))
             return rc;
+    for (uint32_t i = 0; i < sc->light_count; i++)
+        if ((rc = check_string(sc->lights[i].name, path, "light", i, err)))
+            return rc;
+    if ((rc = check_lights(s, path, "cannot write", RAD_ERR_INVALID, err)))
+        return rc;
     for (uint32_t i = 0; i < sc->polygon_count; i++) {
         const rad_polygon *p = &sc->polygons[i];
         if ((rc = check_string(p->name, path, "polygon", i, err)))
@@ -621,6 +740,9 @@ int rad_solution_write(const rad_solution *s, const char *path, rad_error *err)
     /* Measure each section first: its length precedes it in the stream. */
     uint64_t len[SEC_COUNT], payload = 0;
     for (int i = 0; i < SEC_COUNT; i++) {
+        len[i] = 0;
+        if (!section_written(s, i))
+            continue;
         sink count = {.fd = -1};
         sec_emit[i](&count, s);
         len[i] = count.total;
@@ -664,7 +786,7 @@ int rad_solution_write(const rad_solution *s, const char *path, rad_error *err)
 
     uint8_t head[SOL_HEADER_BYTES] = {0};
     memcpy(head, SOL_MAGIC, 8);
-    store_le(head + 8, SOL_VERSION, 4);
+    store_le(head + 8, s->scene->light_count ? SOL_VERSION : SOL_VERSION_PLAIN, 4);
     store_le(head + 12, 0, 4);
     store_le(head + 16, payload, 8);
     /* bytes 24..31, the checksum, are written once the payload is through */
@@ -676,6 +798,8 @@ int rad_solution_write(const rad_solution *s, const char *path, rad_error *err)
     }
     k.fd = fd;
     for (int i = 0; i < SEC_COUNT; i++) {
+        if (!section_written(s, i))
+            continue;
         put(&k, sec_tag[i], 4);
         put_u64(&k, len[i]);
         uint64_t before = k.total;
@@ -1306,9 +1430,101 @@ static int parse_patchdata(reader *r, rad_solution *s)
     return check_patch_values(s, r->name, "section PATCHDATA", RAD_ERR_CORRUPT, r->err);
 }
 
+static int parse_lights(reader *r, rad_solution *s)
+{
+    cursor *c = &r->c;
+    rad_scene *sc = s->scene;
+    uint32_t nl, nb, n = s->mesh->patch_count;
+    if (!get_u32(c, &nl) || !get_u32(c, &nb) || !get_u64(c, &s->lights_computed))
+        return TRUNC("truncated");
+    if (nb != s->band_count)
+        return TRUNC("%u bands but the scene has %u", nb, s->band_count);
+    if (nl == 0)
+        return TRUNC("no lights (the section is written only when there are some)");
+    int rc = check_count(r, nl, MIN_LIGHT + 16ull * nb, "lights");
+    if (rc)
+        return rc;
+    if (alloc_lights(s, nl) != 0)
+        return rfail(r, RAD_ERR_NOMEM, "out of memory for %u lights", nl);
+    /* scene.c names the file being read, as in parse_scene */
+    char *stored_source = sc->source;
+    sc->source = (char *)r->name;
+    for (uint32_t l = 0; l < nl && !rc; l++) {
+        uint8_t kind = 0, present = 0;
+        rad_vec3 pos, dir;
+        double inner, outer, I[RAD_MAX_BANDS];
+        uint32_t cnt;
+        if ((rc = get_str(r, "light", l)))
+            break;
+        int ok = get_u8(c, &kind) && get_vec3(c, &pos) && get_vec3(c, &dir) &&
+                 get_f64(c, &inner) && get_f64(c, &outer);
+        for (uint32_t b = 0; b < nb; b++)
+            ok = ok && get_f64(c, &I[b]);
+        for (uint32_t b = 0; b < nb; b++)
+            ok = ok && get_f64(c, &s->light_intensity[(size_t)l * nb + b]);
+        ok = ok && get_u8(c, &present) && get_u32(c, &cnt);
+        if (!ok) {
+            rc = TRUNC("light %u: truncated", l);
+            break;
+        }
+        if (kind > RAD_LIGHT_DIRECTIONAL) {
+            rc = TRUNC("light '%s': kind %u is not 0, 1 or 2", r->str, kind);
+            break;
+        }
+        if ((rc = rad_scene_add_light(sc, r->str, (rad_light_kind)kind, I, pos, dir, inner, outer,
+                                      "section LIGHTS", NULL, r->err))) {
+            rc = scene_rc(r, rc);
+            break;
+        }
+        if (present > 1 || (!present && cnt)) {
+            rc = TRUNC("light '%s': present flag %u with %u patches", r->str, present, cnt);
+            break;
+        }
+        if (cnt > n) {
+            rc = TRUNC("light '%s': %u patches lit but the mesh has %u", r->str, cnt, n);
+            break;
+        }
+        if ((rc = check_count(r, cnt, MIN_ENTRY, "lit patches")))
+            break;
+        rad_light_power *lp = &s->light_power[l];
+        lp->present = present;
+        lp->patch = malloc((cnt ? cnt : 1) * sizeof *lp->patch);
+        lp->power = malloc((cnt ? cnt : 1) * sizeof *lp->power);
+        if (!lp->patch || !lp->power) {
+            rc = rfail(r, RAD_ERR_NOMEM, "light '%s': out of memory", r->str);
+            break;
+        }
+        uint64_t j = 0;
+        for (uint32_t e = 0; e < cnt && !rc; e++) {
+            uint32_t d;
+            if (!get_varint(c, &d))
+                rc = TRUNC("light '%s': entry %u: truncated or malformed patch index", r->str, e);
+            else if (e > 0 && d == 0)
+                rc = TRUNC("light '%s': patch %llu repeated", r->str, (unsigned long long)j);
+            else if ((j = e ? j + d : d) >= n)
+                rc = TRUNC("light '%s': patch %llu out of range (%u patches)", r->str,
+                           (unsigned long long)j, n);
+            else
+                lp->patch[e] = (uint32_t)j;
+        }
+        for (uint32_t e = 0; e < cnt && !rc; e++) {
+            if (!get_f32(c, &lp->power[e]))
+                rc = TRUNC("light '%s': values truncated", r->str);
+            else if (!(lp->power[e] > 0.0f) || !isfinite(lp->power[e]))
+                rc = TRUNC("light '%s': patch %u: power %g is not positive and finite", r->str,
+                           lp->patch[e], (double)lp->power[e]);
+        }
+        lp->count = rc ? 0 : cnt;
+    }
+    sc->source = stored_source;
+    if (rc)
+        return rc;
+    return check_lights(s, r->name, "section LIGHTS", RAD_ERR_CORRUPT, r->err);
+}
+
 typedef int (*parse_fn)(reader *, rad_solution *);
-static const parse_fn sec_parse[SEC_COUNT] = {parse_info, parse_scene, parse_mesh, parse_matrix,
-                                              parse_patchdata};
+static const parse_fn sec_parse[SEC_COUNT] = {parse_info,   parse_scene,     parse_mesh,
+                                              parse_matrix, parse_patchdata, parse_lights};
 
 static int known_section(const uint8_t tag[4])
 {
@@ -1320,7 +1536,7 @@ static int known_section(const uint8_t tag[4])
 
 /* The header: magic, version, reserved, payload size, checksum. */
 static int check_header(const uint8_t *d, size_t size, const char *name, int check_sum,
-                        rad_error *err)
+                        uint32_t *version_out, rad_error *err)
 {
     size_t m = size < 8 ? size : 8;
     if (memcmp(d, SOL_MAGIC, m) != 0 || size == 0)
@@ -1339,6 +1555,7 @@ static int check_header(const uint8_t *d, size_t size, const char *name, int che
     if (reserved != 0)
         return rad_fail(err, RAD_ERR_CORRUPT, "%s: reserved header field is %u, not 0", name,
                         reserved);
+    *version_out = version;
     uint64_t have = size - SOL_HEADER_BYTES;
     if (payload > have) {
         if (payload > UINT64_MAX - SOL_HEADER_BYTES)
@@ -1372,9 +1589,13 @@ int rad_solution_parse(const void *data, size_t size, const char *name, int chec
         return rad_fail(err, RAD_ERR_USAGE, "%s: rad_solution_parse: bad arguments", name);
     static const uint8_t empty[1];
     const uint8_t *d = size ? data : empty;
-    int rc = check_header(d, size, name, check_sum, err);
+    uint32_t version = 0;
+    int rc = check_header(d, size, name, check_sum, &version, err);
     if (rc)
         return rc;
+    /* Version 2 is exactly the files with lights: LIGHTS is required there
+     * and has no place in version 1 (a cut at its start must not pass). */
+    int required = version >= 2 ? SEC_COUNT : SEC_REQUIRED;
 
     reader *r = malloc(sizeof *r);
     rad_solution *s = calloc(1, sizeof *s);
@@ -1405,6 +1626,11 @@ int rad_solution_parse(const void *data, size_t size, const char *name, int chec
                           all.left);
             goto fail;
         }
+        if (k >= required) {
+            rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: byte %zu: section %s in a version %u file",
+                          name, offset, sec_name[k], version);
+            goto fail;
+        }
         if (k < 0) {
             /* A section from a later version of the format: skip it. */
             all.p += len;
@@ -1433,7 +1659,7 @@ int rad_solution_parse(const void *data, size_t size, const char *name, int chec
         all.left -= (size_t)len;
         next++;
     }
-    if (next < SEC_COUNT) {
+    if (next < required) {
         rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: section %s missing", name, sec_name[next]);
         goto fail;
     }

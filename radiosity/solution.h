@@ -35,6 +35,19 @@ typedef struct rad_stage_info {
     int reused;      /* 1 if this run took the stage's result from a stored solution */
 } rad_stage_info;
 
+/* The power each patch receives from one punctual light at unit strength
+ * (1 W/sr for a point or spot, 1 W/m² for a directional light), front faces
+ * only, with occlusion (hc_light_power), sparse.  Stored so that a relight
+ * can switch and scale lights without rendering them again.  Φ_j is kept in
+ * float like F_ij, and the solve uses the float values, so a solution read
+ * back solves exactly as the one written. */
+typedef struct rad_light_power {
+    int present;     /* 1 once computed (or read); 0 = to compute */
+    uint32_t count;  /* patches receiving power */
+    uint32_t *patch; /* strictly increasing patch indices (owned) */
+    float *power;    /* Φ_j > 0 and finite (owned) */
+} rad_light_power;
+
 typedef struct rad_solution {
     rad_scene *scene;        /* owned */
     rad_mesh *mesh;          /* owned */
@@ -53,11 +66,22 @@ typedef struct rad_solution {
     double residual;
     uint64_t rows_computed;  /* hemi-cube rows computed in the run that wrote this file */
     rad_stage_info stages[RAD_STAGE_COUNT];
+
+    /* Punctual lights, one entry per scene->lights[l] (NULL when the scene
+     * has none).  The direct irradiance they cause,
+     *   H_d,j = Σ_l I_l Φ_lj / A_j,
+     * enters the solve as the source term E_j + ρ_j H_d,j. */
+    double *light_intensity;       /* light_count × bands: I (or E⊥) solved with; a relight
+                                    * scales it, the scene keeps the nominal value (owned) */
+    rad_light_power *light_power;  /* light_count entries (owned) */
+    uint64_t lights_computed;      /* light item buffers rendered in the run that wrote this */
+    uint32_t light_slots_;         /* entries allocated (private to solution.c) */
 } rad_solution;
 
 /* A new solution taking ownership of scene and mesh (on failure they are
  * destroyed too).  Allocates F (no rows), ρ and E from the scene's
- * materials, and B = E.  Caller owns *out. */
+ * materials, and B = E; the lights' intensities from the scene, their
+ * per-patch power not yet computed.  Caller owns *out. */
 int rad_solution_create(rad_scene *scene, rad_mesh *mesh, rad_solution **out, rad_error *err);
 void rad_solution_destroy(rad_solution *s); /* NULL does nothing */
 
@@ -90,6 +114,31 @@ typedef struct rad_object_stats {
  * reciprocity (1/A_i) Σ_j A_j F_ji B_j from the rows present. */
 int rad_solution_irradiance(const rad_solution *s, double *H, rad_error *err);
 
+/* Direct irradiance from the punctual lights, H_d,j = Σ_l I_l Φ_lj / A_j per
+ * band, n × bands into the caller's buffer (lights whose power is not yet
+ * computed count as dark).  rad_solution_irradiance includes it. */
+int rad_solution_direct_irradiance(const rad_solution *s, double *Hd, rad_error *err);
+
+/* Stores Φ_j of light l (power[mesh->patch_count], dense, from
+ * hc_light_power) in the sparse float form and marks it present.  Values
+ * must be finite and >= 0; zeros are dropped. */
+int rad_solution_set_light_power(rad_solution *s, uint32_t light, const double *power,
+                                 rad_error *err);
+
+typedef struct rad_light_stats {
+    /* Power the light sends out: 4π I for a point light, I ∫ falloff dω over
+     * the cone for a spot; a directional light has no finite emitted power,
+     * so for it this is the power delivered (below). */
+    double emitted[RAD_MAX_BANDS];
+    /* Σ_j I Φ_j: the power reaching the patches' front faces (what enters
+     * the energy balance; the rest leaves the scene). */
+    double delivered[RAD_MAX_BANDS];
+} rad_light_stats;
+
+/* Per-light statistics into out[scene->light_count] (caller's buffer), with
+ * the intensities solved with. */
+int rad_solution_light_stats(const rad_solution *s, rad_light_stats *out, rad_error *err);
+
 /* Per-object statistics into out[scene->object_count] (caller's buffer). */
 int rad_solution_object_stats(const rad_solution *s, rad_object_stats *out, rad_error *err);
 
@@ -118,9 +167,11 @@ typedef struct rad_edit {
 int rad_edit_parse(rad_edit_kind kind, const char *arg, rad_edit *out, rad_error *err);
 
 /* Checks every edit against the solution (names resolve to exactly one
- * object or material — objects first — value counts match the bands,
- * 0 <= ρ < 1, E >= 0, a light edit names something that emits) and only
- * then applies them all to s->rho / s->emission.  Nothing changes on error. */
+ * object, punctual light or material — in that order — value counts match
+ * the bands, 0 <= ρ < 1, E >= 0, a light edit names something that emits)
+ * and only then applies them all to s->rho / s->emission /
+ * s->light_intensity (a punctual light takes light and emission edits).
+ * Nothing changes on error. */
 int rad_solution_apply_edits(rad_solution *s, const rad_edit *edits, uint32_t count,
                              rad_error *err);
 

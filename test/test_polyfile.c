@@ -261,8 +261,8 @@ TEST(lexical_errors)
               "%s", e.message);
     free(big);
     CHECK(refuses(HEAD "Polygon p w 0 0 0 1 0 0 0 1 0 end\n", RAD_ERR_PARSE,
-                  "line 4: unknown statement 'Polygon' (expected material, polygon, group or "
-                  "camera)"));
+                  "line 4: unknown statement 'Polygon' (expected material, polygon, group, "
+                  "camera or light)"));
     /* a comment runs to the end of its line, even inside a word */
     rad_scene *t = NULL;
     CHECK(parse(HEAD "polygon p#comment\n w 0 0 0 1 0 0 0 1 0 end#x", &t, &e) == RAD_OK);
@@ -453,6 +453,7 @@ TEST(documented_example)
         return;
     CHECK(rad_scene_validate(s, &e) == RAD_OK);
     CHECK(s->polygon_count == 8 && s->object_count == 7 && s->camera_count == 1);
+    CHECK(s->light_count == 1 && s->lights[0].kind == RAD_LIGHT_SPOT);
     /* the room is 4 x 2.5 x 3; every wall, the floor, the ceiling and the
      * lamp face its centre */
     rad_vec3 centre = rad_v3(2, 1.25, 1.5);

@@ -204,6 +204,13 @@ static rad_solution *make_rgb(void)
                                45.0, 4.0 / 3.0, NULL, NULL, NULL);
     rc |= rad_scene_add_camera(sc, "top", rad_v3(1.5, 1, 5), rad_v3(1.5, 1, 0), rad_v3(0, 1, 0),
                                60.0, 0.0, NULL, NULL, NULL);
+    /* punctual lights: a spot whose per-patch power is stored, a
+     * directional one whose power is not computed yet */
+    const double i_spot[3] = {1.5, 1.25, 1.0 / 3.0}, e_sun[3] = {100.0, 90.0, 0.0};
+    rc |= rad_scene_add_light(sc, "desk lamp", RAD_LIGHT_SPOT, i_spot, rad_v3(0.5, 1.0, 1.8),
+                              rad_v3(0.3, -0.2, -1.0), 0.25, 0.7, NULL, NULL, NULL);
+    rc |= rad_scene_add_light(sc, "sun", RAD_LIGHT_DIRECTIONAL, e_sun, rad_v3(0, 0, 0),
+                              rad_v3(-1, -2, -3), 0, 0, NULL, NULL, NULL);
     rad_mesh *m = NULL;
     rad_error e;
     if (rc || rad_mesh_build(sc, NULL, &m, &e)) {
@@ -215,10 +222,18 @@ static rad_solution *make_rgb(void)
         return NULL;
     set_provenance(s, "gauss-seidel");
     set_B(s);
-    if (fill_rows(s, pick_some)) {
+    s->light_intensity[1] *= 0.5; /* a relight's scaled value, apart from the nominal */
+    s->lights_computed = 1;
+    uint32_t n = s->mesh->patch_count;
+    double *phi = calloc(n, sizeof *phi);
+    for (uint32_t j = 0; phi && j < n; j++)
+        phi[j] = (j % 4 == 1) ? 0.0 : 1e-3 * (j + 1) / 7.0; /* gaps of 1 and 2 */
+    if (!phi || fill_rows(s, pick_some) || rad_solution_set_light_power(s, 0, phi, NULL)) {
+        free(phi);
         rad_solution_destroy(s);
         return NULL;
     }
+    free(phi);
     return s;
 }
 
@@ -408,6 +423,25 @@ static void check_same(const rad_solution *a, const rad_solution *b)
     CHECK(a->iterations == b->iterations);
     CHECK(same_bits(&a->residual, &b->residual, sizeof(double)));
     CHECK(a->rows_computed == b->rows_computed);
+    CHECK(a->lights_computed == b->lights_computed);
+    CHECK(x->light_count == y->light_count);
+    for (uint32_t l = 0; l < x->light_count && l < y->light_count; l++) {
+        const rad_light *p = &x->lights[l], *q = &y->lights[l];
+        CHECK(same_str(p->name, q->name) && p->kind == q->kind);
+        CHECK(same_bits(&p->position, &q->position, sizeof p->position));
+        CHECK(same_bits(&p->direction, &q->direction, sizeof p->direction));
+        CHECK(same_bits(&p->inner_cone, &q->inner_cone, sizeof(double)));
+        CHECK(same_bits(&p->outer_cone, &q->outer_cone, sizeof(double)));
+        CHECK(same_bits(p->intensity, q->intensity, nb * sizeof(double)));
+        CHECK(same_bits(a->light_intensity + l * nb, b->light_intensity + l * nb,
+                        nb * sizeof(double)));
+        const rad_light_power *u = &a->light_power[l], *v = &b->light_power[l];
+        CHECK(u->present == v->present && u->count == v->count);
+        if (u->count == v->count && u->count) {
+            CHECK(same_bits(u->patch, v->patch, u->count * sizeof(uint32_t)));
+            CHECK(same_bits(u->power, v->power, u->count * sizeof(float)));
+        }
+    }
     for (int k = 0; k < RAD_STAGE_COUNT; k++) {
         CHECK(same_bits(&a->stages[k].seconds, &b->stages[k].seconds, sizeof(double)));
         CHECK(a->stages[k].reused == b->stages[k].reused);
@@ -431,6 +465,26 @@ static int invariants_hold(const rad_solution *s)
         if (!(s->rho[k] >= 0 && s->rho[k] < 1) || !(s->emission[k] >= 0) ||
             !isfinite(s->emission[k]) || !(s->B[k] >= 0) || !isfinite(s->B[k]))
             return 0;
+    /* punctual lights: scene.h's rules, and sparse power in range */
+    for (uint32_t l = 0; l < sc->light_count; l++) {
+        const rad_light *L = &sc->lights[l];
+        const rad_light_power *lp = &s->light_power[l];
+        if (fabs(rad_length(L->direction) - 1.0) > 1e-9 || !rad_finite3(L->position) ||
+            (L->kind == RAD_LIGHT_SPOT &&
+             !(L->inner_cone >= 0 && L->inner_cone < L->outer_cone && L->outer_cone <= M_PI / 2)))
+            return 0;
+        for (uint32_t b = 0; b < s->band_count; b++) {
+            double I = s->light_intensity[(size_t)l * s->band_count + b];
+            if (!(L->intensity[b] >= 0) || !isfinite(L->intensity[b]) || !(I >= 0) || !isfinite(I))
+                return 0;
+        }
+        if (lp->count > s->mesh->patch_count || (!lp->present && lp->count))
+            return 0;
+        for (uint32_t k = 0; k < lp->count; k++)
+            if (lp->patch[k] >= s->mesh->patch_count || (k && lp->patch[k] <= lp->patch[k - 1]) ||
+                !(lp->power[k] > 0) || !isfinite(lp->power[k]))
+                return 0;
+    }
     return 1;
 }
 
@@ -674,14 +728,14 @@ TEST(layout_follows_the_format)
         return;
     const uint8_t *b = golden;
     CHECK(memcmp(b, "RADSOL\r\n", 8) == 0);
-    CHECK(rd32(b + 8) == 1);
+    CHECK(rd32(b + 8) == 2); /* the fixture has punctual lights */
     CHECK(rd32(b + 12) == 0);
     CHECK(rd64(b + 16) == golden_size - 32);
     CHECK(rd64(b + 24) == crc64_xz(b + 32, golden_size - 32));
     /* sections in the fixed order, lengths tiling the payload exactly */
-    const char *order[5] = {"INFO", "SCEN", "MESH", "MTRX", "PDAT"};
+    const char *order[6] = {"INFO", "SCEN", "MESH", "MTRX", "PDAT", "LGHT"};
     size_t off = 32;
-    for (int k = 0; k < 5; k++) {
+    for (int k = 0; k < 6; k++) {
         CHECK(off + 12 <= golden_size);
         if (off + 12 > golden_size)
             return;
@@ -705,6 +759,23 @@ TEST(layout_follows_the_format)
         memcpy(&b0, &bits, 8);
         CHECK(same_bits(&b0, &s->B[0], 8));
     }
+    /* LIGHTS: light count, bands, renders computed, then the first light's name */
+    size_t lg = find_section(b, golden_size, "LGHT", &len);
+    CHECK(lg && rd32(b + lg) == 2 && rd32(b + lg + 4) == 3 && rd64(b + lg + 8) == 1);
+    CHECK(lg && rd32(b + lg + 16) == 9 && memcmp(b + lg + 20, "desk lamp", 9) == 0);
+    rad_solution_destroy(s);
+
+    /* Without lights: version 1 and no LIGHTS section, readable by the
+     * programs that came before lights. */
+    s = make_grey();
+    char p[300];
+    path_in(p, sizeof p, "plain.sol");
+    CHECK(s && rad_solution_write(s, p, NULL) == RAD_OK);
+    size_t n = 0;
+    uint8_t *plain = slurp(p, &n);
+    CHECK(plain && n > 32 && rd32(plain + 8) == 1);
+    CHECK(plain && find_section(plain, n, "LGHT", &len) == 0);
+    free(plain);
     rad_solution_destroy(s);
 }
 
@@ -835,7 +906,7 @@ TEST(newer_version_and_foreign_files)
     rad_solution *s = NULL;
     rad_error e;
     CHECK(rad_solution_parse(buf, golden_size, "new.sol", 1, &s, &e) == RAD_ERR_PARSE);
-    CHECK_MSG(strcmp(e.message, "new.sol: format version 7 is newer than this program (1)") == 0,
+    CHECK_MSG(strcmp(e.message, "new.sol: format version 7 is newer than this program (2)") == 0,
               "%s", e.message);
     CHECK(s == NULL);
     free(buf);

@@ -1,0 +1,741 @@
+/* test_lights.c - punctual lights (glTF KHR_lights_punctual) end to end,
+ * through the public API, against values computed here independently:
+ *   - a point light above a lone floor: patch irradiance H_d,j against the
+ *     patch average of I cosθ / r², integrated by fine quadrature here; and
+ *     B_j = ρ H_d,j (a lone floor sees nothing, so the solve adds nothing);
+ *   - the shadow of a black box: umbra patches dark, far patches unoccluded;
+ *   - a spot light's cone: inside like a point light, outside dark, between
+ *     glTF's smooth falloff;
+ *   - a directional light: H = E⊥ cosθ on a tilted plane, and a blocker's
+ *     shadow;
+ *   - glTF parsing: 683 lm/W, node transforms, the required extension;
+ *   - relight: off, scale 2, nothing rendered again; solution round trip.
+ */
+#include "../radiosity/pipeline.h"
+#include "test.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* Light cube resolution for the accuracy tests.  hc_light_power counts
+ * pixels, and a patch edge lying along a pixel row or column is off by up
+ * to half a pixel: a floor patch 0.2 m wide seen from 1 m spans ~200 pixels
+ * of a 2048 face, which puts the worst patch near 0.8 % (measured: 1.2 % at
+ * R = 1024, 0.8 % at 2048, 0.3 % at 4096).  The shadow test's light is 2 m
+ * up, which halves the pixels per patch: it uses 4096. */
+#define LIGHT_R 2048u
+#define LIGHT_R_FAR 4096u
+
+/* ------------------------------------------------------------ building */
+
+static rad_scene *new_scene(void)
+{
+    rad_scene *s = rad_scene_create(1, "lights-test");
+    CHECK(s != NULL);
+    return s;
+}
+
+/* Material of reflectance rho (no emission); returns its index. */
+static uint32_t material(rad_scene *s, const char *name, double rho)
+{
+    double zero = 0.0;
+    uint32_t m = RAD_NONE;
+    rad_error e;
+    int rc = rad_scene_add_material(s, name, &rho, &zero, NULL, NULL, &m, &e);
+    CHECK_MSG(rc == RAD_OK, "%s", e.message);
+    return m;
+}
+
+/* An axis-aligned horizontal square [-h,h]² at height z facing up (+z),
+ * n×n patches, as its own object. */
+static void floor_square(rad_scene *s, const char *name, double h, double z, uint32_t n,
+                         uint32_t mat)
+{
+    uint32_t o;
+    rad_error e;
+    CHECK(rad_scene_add_object(s, name, NULL, &o, &e) == RAD_OK);
+    rad_vec3 p[4] = {{-h, -h, z}, {h, -h, z}, {h, h, z}, {-h, h, z}};
+    int rc = rad_scene_add_polygon(s, name, o, mat, p, 4, n, n, NULL, NULL, &e);
+    CHECK_MSG(rc == RAD_OK, "%s", e.message);
+}
+
+/* The box [lo, hi] with outward faces, one object. */
+static void box(rad_scene *s, const char *name, rad_vec3 lo, rad_vec3 hi, uint32_t mat)
+{
+    uint32_t o;
+    rad_error e;
+    CHECK(rad_scene_add_object(s, name, NULL, &o, &e) == RAD_OK);
+    double c[2][3] = {{lo.x, lo.y, lo.z}, {hi.x, hi.y, hi.z}};
+    for (int axis = 0; axis < 3; axis++)
+        for (int side = 0; side < 2; side++) {
+            int a = (axis + 1) % 3, b = (axis + 2) % 3;
+            double uv[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+            rad_vec3 p[4];
+            for (int k = 0; k < 4; k++) {
+                /* (a, b, axis) is right-handed: this order faces +axis; the
+                 * low side is reversed to face -axis */
+                int kk = side ? k : (4 - k) % 4;
+                double q[3];
+                q[axis] = c[side][axis];
+                q[a] = c[(int)uv[kk][0]][a];
+                q[b] = c[(int)uv[kk][1]][b];
+                p[k] = rad_v3(q[0], q[1], q[2]);
+            }
+            char pn[64];
+            snprintf(pn, sizeof pn, "%s/%d%d", name, axis, side);
+            int rc = rad_scene_add_polygon(s, pn, o, mat, p, 4, 1, 1, NULL, NULL, &e);
+            CHECK_MSG(rc == RAD_OK, "%s", e.message);
+        }
+}
+
+static void light(rad_scene *s, const char *name, rad_light_kind kind, double I, rad_vec3 pos,
+                  rad_vec3 dir, double inner, double outer)
+{
+    rad_error e;
+    int rc = rad_scene_add_light(s, name, kind, &I, pos, dir, inner, outer, NULL, NULL, &e);
+    CHECK_MSG(rc == RAD_OK, "%s", e.message);
+}
+
+static rad_solution *solve(rad_scene *s, uint32_t light_resolution)
+{
+    rad_solve_options opt = {0};
+    opt.light_resolution = light_resolution;
+    rad_solution *sol = NULL;
+    rad_error e = {0};
+    int rc = rad_solve_scene(s, &opt, &sol, &e);
+    CHECK_MSG(rc == RAD_OK, "%s", e.message);
+    return rc ? NULL : sol;
+}
+
+static double *direct(const rad_solution *s)
+{
+    double *H = malloc(((size_t)s->mesh->patch_count * s->band_count + 1) * sizeof *H);
+    CHECK(H && rad_solution_direct_irradiance(s, H, NULL) == RAD_OK);
+    return H;
+}
+
+/* The x-y extent of patch j (horizontal patches). */
+static void extent(const rad_solution *s, uint32_t j, double *x0, double *x1, double *y0,
+                   double *y1)
+{
+    const rad_patch *p = &s->mesh->patches[j];
+    *x0 = *y0 = INFINITY;
+    *x1 = *y1 = -INFINITY;
+    for (int k = 0; k < rad_patch_corners(p); k++) {
+        rad_vec3 v = s->mesh->vertices[p->v[k]];
+        *x0 = fmin(*x0, v.x), *x1 = fmax(*x1, v.x);
+        *y0 = fmin(*y0, v.y), *y1 = fmax(*y1, v.y);
+    }
+}
+
+/* ---------------------------------------------------- independent values */
+
+/* glTF KHR_lights_punctual spot falloff for the angle whose cosine is cd. */
+static double spot_falloff(double cd, double inner, double outer)
+{
+    double scale = 1.0 / fmax(0.001, cos(inner) - cos(outer));
+    double t = (cd - cos(outer)) * scale;
+    t = t < 0 ? 0 : t > 1 ? 1 : t;
+    return t * t;
+}
+
+/* Mean over the horizontal rectangle [x0,x1]×[y0,y1] at z = 0 (facing up)
+ * of the irradiance I f(θ_axis) cosθ / r² from a light at height h above
+ * the origin pointing down (f = 1 for a point light): midpoint rule on a
+ * 200×200 grid, whose error for these smooth integrands is ~1e-6, far
+ * below the tolerances used. */
+static double mean_irradiance(double x0, double x1, double y0, double y1, double h, double I,
+                              int spot, double inner, double outer)
+{
+    const int N = 200;
+    double sum = 0.0;
+    for (int a = 0; a < N; a++)
+        for (int b = 0; b < N; b++) {
+            double x = x0 + (a + 0.5) * (x1 - x0) / N, y = y0 + (b + 0.5) * (y1 - y0) / N;
+            double r2 = x * x + y * y + h * h, r = sqrt(r2);
+            double cosang = h / r; /* both at the surface and against the axis */
+            double f = spot ? spot_falloff(cosang, inner, outer) : 1.0;
+            sum += I * f * cosang / r2;
+        }
+    return sum / (N * N);
+}
+
+/* ------------------------------------------------------------------ tests */
+
+/* A 4×4 m floor at 20×20 patches, ρ = 0.5, a point light of I = 3 W/sr 1 m
+ * above its centre.  H_d within 1 % of the analytic patch average at every
+ * patch within 1.4 m of the centre (the pixel counting of a patch seen at
+ * grazing angles further out is coarser); B = ρ H_d (the floor sees
+ * nothing else: the solve adds nothing) to 1e-12 relative. */
+TEST(point_light_above_floor)
+{
+    rad_scene *s = new_scene();
+    uint32_t m = material(s, "grey", 0.5);
+    floor_square(s, "floor", 2.0, 0.0, 20, m);
+    light(s, "bulb", RAD_LIGHT_POINT, 3.0, rad_v3(0, 0, 1), rad_v3(0, 0, -1), 0, 0);
+    CHECK(rad_scene_check(s, 1, NULL) == RAD_OK); /* a light alone is an emitter */
+    rad_solution *sol = solve(s, LIGHT_R);
+    if (!sol)
+        return;
+    double *H = direct(sol);
+    double worst = 0.0, total = 0.0, exact_total = 0.0;
+    int sampled = 0;
+    for (uint32_t j = 0; j < sol->mesh->patch_count; j++) {
+        double x0, x1, y0, y1;
+        extent(sol, j, &x0, &x1, &y0, &y1);
+        double want = mean_irradiance(x0, x1, y0, y1, 1.0, 3.0, 0, 0, 0);
+        double A = sol->mesh->patches[j].area;
+        total += H[j] * A;
+        exact_total += want * A;
+        CHECK_NEAR(sol->B[j], 0.5 * H[j], 1e-12 * H[j]);
+        rad_vec3 c = sol->mesh->patches[j].center;
+        if (hypot(c.x, c.y) > 1.4)
+            continue;
+        sampled++;
+        worst = fmax(worst, fabs(H[j] / want - 1.0));
+        CHECK_REL(H[j], want, 0.01);
+    }
+    printf("     point light: %d patches sampled, worst relative error %.2e\n", sampled, worst);
+    CHECK(sampled >= 150);
+    /* The whole floor receives I Ω(floor): solid angle of a 4×4 square seen
+     * from 1 m above its centre is 4 asin(a²/(1+a²)) with a = 2 (half
+     * width / height)... here from the patches' analytic sum; 0.5 %: the
+     * far patches carry their coarser counts. */
+    CHECK_REL(total, exact_total, 0.005);
+    double omega = 4.0 * asin(4.0 / 5.0); /* 4 asin(a b / sqrt((1+a²)(1+b²))), a = b = 2 */
+    CHECK_REL(exact_total, 3.0 * omega, 1e-4);
+    rad_light_stats st;
+    CHECK(rad_solution_light_stats(sol, &st, NULL) == RAD_OK);
+    CHECK_REL(st.emitted[0], 4.0 * M_PI * 3.0, 1e-12);
+    CHECK_REL(st.delivered[0], total, 1e-6); /* Σ I Φ_j = Σ H_j A_j */
+    /* The absorbed power is the delivered power times (1 − ρ): nothing else
+     * lights the floor. */
+    rad_object_stats os;
+    CHECK(rad_solution_object_stats(sol, &os, NULL) == RAD_OK);
+    CHECK_REL(os.absorbed[0], 0.5 * total, 1e-9);
+    free(H);
+    rad_solution_destroy(sol);
+}
+
+/* The same floor (light at 2 m) and a black box [-0.35,0.35]²×[0.5,1]: its
+ * top face's outline, projected from the light, is the umbra
+ * [-0.7,0.7]².  Patches wholly inside [-0.6,0.6]² get H_d = 0 exactly;
+ * patches wholly outside [-0.8,0.8]² (clear of the shadow by a pixel or
+ * more) within 1 % of the unoccluded value. */
+TEST(point_light_shadow_of_a_box)
+{
+    rad_scene *s = new_scene();
+    uint32_t grey = material(s, "grey", 0.5), black = material(s, "black", 0.0);
+    floor_square(s, "floor", 2.0, 0.0, 20, grey);
+    box(s, "box", rad_v3(-0.35, -0.35, 0.5), rad_v3(0.35, 0.35, 1.0), black);
+    light(s, "bulb", RAD_LIGHT_POINT, 1.0, rad_v3(0, 0, 2), rad_v3(0, 0, -1), 0, 0);
+    rad_solution *sol = solve(s, LIGHT_R_FAR);
+    if (!sol)
+        return;
+    double *H = direct(sol);
+    int umbra = 0, lit = 0;
+    for (uint32_t j = 0; j < sol->mesh->patch_count; j++) {
+        if (sol->mesh->patches[j].object != 0)
+            continue;
+        double x0, x1, y0, y1;
+        extent(sol, j, &x0, &x1, &y0, &y1);
+        if (x0 >= -0.6 - 1e-9 && x1 <= 0.6 + 1e-9 && y0 >= -0.6 - 1e-9 && y1 <= 0.6 + 1e-9) {
+            umbra++;
+            CHECK(H[j] == 0.0);
+            CHECK(sol->B[j] == 0.0);
+        } else if (x0 >= 0.8 - 1e-9 || x1 <= -0.8 + 1e-9 || y0 >= 0.8 - 1e-9 ||
+                   y1 <= -0.8 + 1e-9) {
+            rad_vec3 c = sol->mesh->patches[j].center;
+            if (hypot(c.x, c.y) > 1.5)
+                continue; /* grazing: see point_light_above_floor */
+            lit++;
+            CHECK_REL(H[j], mean_irradiance(x0, x1, y0, y1, 2.0, 1.0, 0, 0, 0), 0.01);
+        }
+    }
+    CHECK(umbra == 36);
+    CHECK(lit > 20);
+    /* The box's top face faces the light: it receives I × its solid angle
+     * (0.7 × 0.7 m at 1 m: 4 asin(ab/√((1+a²)(1+b²))), a = b = 0.35). */
+    double top = 0.0;
+    for (uint32_t j = 0; j < sol->mesh->patch_count; j++)
+        if (sol->mesh->patches[j].object == 1 && sol->mesh->patches[j].normal.z > 0.5)
+            top += H[j] * sol->mesh->patches[j].area;
+    CHECK_REL(top, 4.0 * asin(0.35 * 0.35 / (1 + 0.35 * 0.35)), 0.01);
+    free(H);
+    rad_solution_destroy(sol);
+}
+
+/* A spot 1 m above the floor pointing down, inner 30°, outer 50°: patches
+ * wholly inside the inner cone (r < tan 30°) within 1 % of a point light;
+ * wholly outside the outer cone (r > tan 50°) exactly 0; the patches the
+ * falloff crosses within 5 % of the quadrature of I t² cosθ / r². */
+TEST(spot_light_cone)
+{
+    const double inner = 30.0 * M_PI / 180.0, outer = 50.0 * M_PI / 180.0;
+    rad_scene *s = new_scene();
+    uint32_t m = material(s, "grey", 0.5);
+    floor_square(s, "floor", 2.0, 0.0, 20, m);
+    light(s, "spot", RAD_LIGHT_SPOT, 2.0, rad_v3(0, 0, 1), rad_v3(0, 0, -1), inner, outer);
+    rad_solution *sol = solve(s, LIGHT_R);
+    if (!sol)
+        return;
+    double *H = direct(sol);
+    int in = 0, out = 0, edge = 0;
+    double worst_edge = 0.0;
+    for (uint32_t j = 0; j < sol->mesh->patch_count; j++) {
+        double x0, x1, y0, y1;
+        extent(sol, j, &x0, &x1, &y0, &y1);
+        /* nearest and farthest distance of the patch from the axis */
+        double nx = x0 > 0 ? x0 : x1 < 0 ? -x1 : 0, ny = y0 > 0 ? y0 : y1 < 0 ? -y1 : 0;
+        double fx = fmax(fabs(x0), fabs(x1)), fy = fmax(fabs(y0), fabs(y1));
+        double rmin = hypot(nx, ny), rmax = hypot(fx, fy);
+        if (rmax < tan(inner)) {
+            in++;
+            CHECK_REL(H[j], mean_irradiance(x0, x1, y0, y1, 1.0, 2.0, 0, 0, 0), 0.01);
+        } else if (rmin > tan(outer)) {
+            out++;
+            CHECK(H[j] == 0.0);
+        } else {
+            double want = mean_irradiance(x0, x1, y0, y1, 1.0, 2.0, 1, inner, outer);
+            if (want < 0.02 * 2.0)
+                continue; /* a sliver of the falloff's tail: relative error is meaningless */
+            edge++;
+            worst_edge = fmax(worst_edge, fabs(H[j] / want - 1.0));
+            CHECK_REL(H[j], want, 0.05);
+        }
+    }
+    printf("     spot: %d inside, %d outside, %d in the falloff (worst %.2e)\n", in, out, edge,
+           worst_edge);
+    CHECK(in >= 4 && out > 100 && edge > 8);
+    rad_light_stats st;
+    CHECK(rad_solution_light_stats(sol, &st, NULL) == RAD_OK);
+    /* 2π I [(1 − cos i) + (cos i − cos o)/3]: the closed form of the cone's
+     * falloff integral; the floor (to 63° off axis) catches the whole cone */
+    double emitted = 2 * M_PI * 2.0 * ((1 - cos(inner)) + (cos(inner) - cos(outer)) / 3);
+    CHECK_REL(st.emitted[0], emitted, 1e-12);
+    CHECK_REL(st.delivered[0], emitted, 0.01);
+    free(H);
+    rad_solution_destroy(sol);
+}
+
+/* A directional light straight down, E⊥ = 2 W/m², on a 1×1 m plane tilted
+ * 30° about x: H = E⊥ cos 30° on every patch.  The plane's total within
+ * 1e-3 (pixel counting errors cancel along shared edges, leaving the
+ * outline's); each patch within 1 %. */
+TEST(directional_light_tilted_plane)
+{
+    const double a = 30.0 * M_PI / 180.0;
+    rad_scene *s = new_scene();
+    uint32_t m = material(s, "grey", 0.5), o;
+    CHECK(rad_scene_add_object(s, "plane", NULL, &o, NULL) == RAD_OK);
+    rad_vec3 p[4] = {{-0.5, -0.5 * cos(a), -0.5 * sin(a)},
+                     {0.5, -0.5 * cos(a), -0.5 * sin(a)},
+                     {0.5, 0.5 * cos(a), 0.5 * sin(a)},
+                     {-0.5, 0.5 * cos(a), 0.5 * sin(a)}};
+    rad_error e;
+    CHECK_MSG(rad_scene_add_polygon(s, "plane", o, m, p, 4, 4, 4, NULL, NULL, &e) == RAD_OK, "%s",
+              e.message);
+    light(s, "sun", RAD_LIGHT_DIRECTIONAL, 2.0, rad_v3(0, 0, 0), rad_v3(0, 0, -1), 0, 0);
+    rad_solution *sol = solve(s, LIGHT_R);
+    if (!sol)
+        return;
+    double *H = direct(sol);
+    double sum = 0.0, area = 0.0, worst = 0.0;
+    for (uint32_t j = 0; j < sol->mesh->patch_count; j++) {
+        sum += H[j] * sol->mesh->patches[j].area;
+        area += sol->mesh->patches[j].area;
+        worst = fmax(worst, fabs(H[j] / (2.0 * cos(a)) - 1.0));
+        CHECK_REL(H[j], 2.0 * cos(a), 0.01);
+    }
+    printf("     directional: plane mean error %.2e, worst patch %.2e\n",
+           sum / area / (2.0 * cos(a)) - 1.0, worst);
+    CHECK_REL(sum / area, 2.0 * cos(a), 1e-3);
+    rad_light_stats st;
+    CHECK(rad_solution_light_stats(sol, &st, NULL) == RAD_OK);
+    CHECK_REL(st.emitted[0], st.delivered[0], 1e-12); /* stated: delivered, for directional */
+    CHECK_REL(st.delivered[0], sum, 1e-6);
+    free(H);
+    rad_solution_destroy(sol);
+}
+
+/* A directional light along (0.5, 0, −1) and a 0.6×0.6 m black square at
+ * z = 0.5 above a 2×2 m floor (10×10 patches): the shadow is the square
+ * moved by 0.25 in x, [−0.05, 0.55]×[−0.3, 0.3].  The four patches wholly
+ * inside it are dark; patches clear of it by a patch get E⊥ cosθ within 1 %. */
+TEST(directional_light_shadow)
+{
+    rad_scene *s = new_scene();
+    uint32_t grey = material(s, "grey", 0.5), black = material(s, "black", 0.0);
+    floor_square(s, "floor", 1.0, 0.0, 10, grey);
+    floor_square(s, "blocker", 0.3, 0.5, 1, black);
+    rad_vec3 d = rad_normalize(rad_v3(0.5, 0, -1));
+    light(s, "sun", RAD_LIGHT_DIRECTIONAL, 1.0, rad_v3(0, 0, 0), d, 0, 0);
+    rad_solution *sol = solve(s, LIGHT_R);
+    if (!sol)
+        return;
+    double *H = direct(sol);
+    int dark = 0, lit = 0;
+    for (uint32_t j = 0; j < sol->mesh->patch_count; j++) {
+        if (sol->mesh->patches[j].object != 0)
+            continue;
+        double x0, x1, y0, y1;
+        extent(sol, j, &x0, &x1, &y0, &y1);
+        if (x0 >= -0.05 && x1 <= 0.55 && y0 >= -0.3 && y1 <= 0.3) {
+            dark++;
+            CHECK(H[j] == 0.0);
+        } else if (x1 <= -0.2 || x0 >= 0.7 || y1 <= -0.45 || y0 >= 0.45) {
+            lit++;
+            CHECK_REL(H[j], -d.z, 0.01);
+        }
+    }
+    CHECK(dark == 4);
+    CHECK(lit > 60);
+    free(H);
+    rad_solution_destroy(sol);
+}
+
+/* --------------------------------------------------------------- relight */
+
+/* A lone floor lit only by a point light: "off" gives B = 0; 2 doubles B;
+ * "on" restores it; none of these renders a light or computes a row.  The
+ * solution survives a file round trip bit for bit, lights included. */
+TEST(relight_punctual_light)
+{
+    rad_scene *s = new_scene();
+    uint32_t m = material(s, "grey", 0.5);
+    floor_square(s, "floor", 1.0, 0.0, 6, m);
+    light(s, "bulb", RAD_LIGHT_POINT, 1.0, rad_v3(0.2, 0.1, 0.8), rad_v3(0, 0, -1), 0, 0);
+    rad_solution *sol = solve(s, 0) /* the default resolution */;
+    if (!sol)
+        return;
+    CHECK(sol->lights_computed == 1);
+    uint32_t n = sol->mesh->patch_count;
+    double *B0 = malloc(n * sizeof *B0);
+    memcpy(B0, sol->B, n * sizeof *B0);
+
+    char dir[] = "/tmp/test_lights_XXXXXX", path[300];
+    CHECK(mkdtemp(dir) != NULL);
+    snprintf(path, sizeof path, "%s/floor.sol", dir);
+    rad_error e;
+    CHECK_MSG(rad_solution_write(sol, path, &e) == RAD_OK, "%s", e.message);
+    rad_solution *r = NULL;
+    CHECK_MSG(rad_solution_read(path, &r, &e) == RAD_OK, "%s", e.message);
+    if (!r) {
+        free(B0);
+        rad_solution_destroy(sol);
+        return;
+    }
+    /* lights bit-exact */
+    CHECK(r->scene->light_count == 1);
+    const rad_light *a = &sol->scene->lights[0], *b = &r->scene->lights[0];
+    CHECK(strcmp(a->name, b->name) == 0 && a->kind == b->kind);
+    CHECK(memcmp(&a->position, &b->position, sizeof a->position) == 0);
+    CHECK(memcmp(&a->direction, &b->direction, sizeof a->direction) == 0);
+    CHECK(memcmp(a->intensity, b->intensity, sizeof(double)) == 0);
+    const rad_light_power *pa = &sol->light_power[0], *pb = &r->light_power[0];
+    CHECK(pb->present && pa->count == pb->count && pa->count > 0);
+    CHECK(pa->count == pb->count && memcmp(pa->patch, pb->patch, pa->count * 4) == 0 &&
+          memcmp(pa->power, pb->power, pa->count * 4) == 0);
+    CHECK(memcmp(r->B, sol->B, n * sizeof *B0) == 0);
+    CHECK(r->lights_computed == 1);
+
+    const char *args[3] = {"bulb=off", "bulb=2", "bulb=on"};
+    const double factor[3] = {0.0, 2.0, 1.0};
+    for (int k = 0; k < 3; k++) {
+        rad_edit ed;
+        CHECK(rad_edit_parse(RAD_EDIT_LIGHT, args[k], &ed, NULL) == RAD_OK);
+        CHECK_MSG(rad_solution_apply_edits(r, &ed, 1, &e) == RAD_OK, "%s", e.message);
+        CHECK(r->light_intensity[0] == factor[k]);
+        rad_solve_options opt = {0};
+        CHECK_MSG(rad_resolve(r, &opt, &e) == RAD_OK, "%s", e.message);
+        CHECK(r->rows_computed == 0);
+        CHECK(r->lights_computed == 0);
+        /* linear in the source: 1e-9 covers the solver's rounding */
+        for (uint32_t j = 0; j < n; j++)
+            CHECK_NEAR(r->B[j], factor[k] * B0[j], 1e-9 * B0[j] + 1e-300);
+    }
+    /* a light is reached by name before materials; reflectance is refused */
+    rad_edit bad;
+    CHECK(rad_edit_parse(RAD_EDIT_REFLECTANCE, "bulb=0.3", &bad, NULL) == RAD_OK);
+    CHECK(rad_solution_apply_edits(r, &bad, 1, &e) == RAD_ERR_USAGE);
+    CHECK(strstr(e.message, "punctual light") != NULL);
+    rad_edit em;
+    CHECK(rad_edit_parse(RAD_EDIT_EMISSION, "bulb=0.25", &em, NULL) == RAD_OK);
+    CHECK(rad_solution_apply_edits(r, &em, 1, &e) == RAD_OK && r->light_intensity[0] == 0.25);
+    /* an unknown name lists the light among the candidates */
+    rad_edit unk;
+    CHECK(rad_edit_parse(RAD_EDIT_LIGHT, "nothing=off", &unk, NULL) == RAD_OK);
+    CHECK(rad_solution_apply_edits(r, &unk, 1, &e) == RAD_ERR_NOTFOUND);
+    CHECK(strstr(e.message, "light 'bulb'") != NULL);
+
+    unlink(path);
+    rmdir(dir);
+    free(B0);
+    rad_solution_destroy(r);
+    rad_solution_destroy(sol);
+}
+
+/* ------------------------------------------------------------------ glTF */
+
+static void b64(char *out, const unsigned char *d, size_t n)
+{
+    static const char al[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    size_t o = 0;
+    for (size_t i = 0; i < n; i += 3) {
+        uint32_t v = (uint32_t)d[i] << 16 | (i + 1 < n ? (uint32_t)d[i + 1] << 8 : 0) |
+                     (i + 2 < n ? d[i + 2] : 0);
+        out[o++] = al[v >> 18 & 63];
+        out[o++] = al[v >> 12 & 63];
+        out[o++] = i + 1 < n ? al[v >> 6 & 63] : '=';
+        out[o++] = i + 2 < n ? al[v & 63] : '=';
+    }
+    out[o] = '\0';
+}
+
+/* A glTF document: one floor quad (two triangles, node "floor") and the
+ * given lights and extra nodes. */
+static char *gltf_doc(const char *lights, const char *nodes, const char *scene_nodes,
+                      const char *required)
+{
+    const float pos[18] = {-1, 0, 1, 1, 0, 1, 1, 0, -1, -1, 0, 1, 1, 0, -1, -1, 0, -1};
+    unsigned char bytes[72];
+    memcpy(bytes, pos, sizeof bytes); /* little-endian hosts only, as the project assumes */
+    char data[200];
+    b64(data, bytes, sizeof bytes);
+    char *doc = malloc(8192);
+    snprintf(doc, 8192,
+             "{\"asset\":{\"version\":\"2.0\"},%s"
+             "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[%s]}},"
+             "\"scene\":0,\"scenes\":[{\"nodes\":[0%s]}],"
+             "\"nodes\":[{\"name\":\"floor\",\"mesh\":0}%s],"
+             "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"material\":0}]}],"
+             "\"materials\":[{\"name\":\"m\",\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,"
+             "0.5,0.5,1]}}],"
+             "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":6,\"type\":"
+             "\"VEC3\",\"min\":[-1,0,-1],\"max\":[1,0,1]}],"
+             "\"bufferViews\":[{\"buffer\":0,\"byteLength\":72}],"
+             "\"buffers\":[{\"byteLength\":72,\"uri\":\"data:application/"
+             "octet-stream;base64,%s\"}]}",
+             required, lights, scene_nodes, nodes, data);
+    return doc;
+}
+
+static int parse_doc(const char *doc, rad_scene **s, rad_error *e)
+{
+    return rad_scene_parse_gltf(doc, strlen(doc), NULL, NULL, s, e);
+}
+
+/* Units: I = color × intensity / 683.  Transforms: position = the node's
+ * world origin (parent × child), direction = its world −Z. */
+TEST(gltf_lights_punctual)
+{
+    const char *lights =
+        "{\"name\":\"bulb\",\"type\":\"point\",\"color\":[1,0.5,0.25],\"intensity\":1366,"
+        "\"range\":3},"
+        "{\"type\":\"spot\",\"intensity\":683,\"spot\":{\"innerConeAngle\":0.2,"
+        "\"outerConeAngle\":0.6}},"
+        "{\"name\":\"sun\",\"type\":\"directional\",\"color\":[0.2,0.4,1],\"intensity\":6830},"
+        "{\"name\":\"unused\",\"type\":\"point\"}";
+    /* node 1: translation; node 2 (child of 3): a 90° turn about x maps −Z
+     * to +Y; node 3 translates; node 4 directional turned 180° about y
+     * (−Z -> +Z); node 5 carries a light but is not in the scene. */
+    const char *nodes =
+        ",{\"name\":\"lamp\",\"translation\":[1,2,3],"
+        "\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}"
+        ",{\"name\":\"spotnode\",\"rotation\":[0.70710678118654752,0,0,0.70710678118654752],"
+        "\"extensions\":{\"KHR_lights_punctual\":{\"light\":1}}}"
+        ",{\"name\":\"arm\",\"translation\":[0,5,0],\"children\":[2]}"
+        ",{\"rotation\":[0,1,0,0],\"extensions\":{\"KHR_lights_punctual\":{\"light\":2}}}"
+        ",{\"extensions\":{\"KHR_lights_punctual\":{\"light\":3}}}";
+    char *doc = gltf_doc(lights, nodes, ",1,3,4",
+                         "\"extensionsUsed\":[\"KHR_lights_punctual\"],"
+                         "\"extensionsRequired\":[\"KHR_lights_punctual\"],");
+    rad_scene *s = NULL;
+    rad_error e = {0};
+    int rc = parse_doc(doc, &s, &e);
+    CHECK_MSG(rc == RAD_OK, "%s", e.message);
+    free(doc);
+    if (!s)
+        return;
+    CHECK(s->light_count == 3);
+    uint32_t k = rad_scene_find_light(s, "bulb");
+    CHECK(k != RAD_NONE);
+    if (k != RAD_NONE) {
+        const rad_light *L = &s->lights[k];
+        CHECK(L->kind == RAD_LIGHT_POINT);
+        /* 1366 cd × (1, 0.5, 0.25) / 683 lm/W = (2, 1, 0.5) W/sr */
+        CHECK_NEAR(L->intensity[0], 2.0, 1e-12);
+        CHECK_NEAR(L->intensity[1], 1.0, 1e-12);
+        CHECK_NEAR(L->intensity[2], 0.5, 1e-12);
+        CHECK(L->position.x == 1 && L->position.y == 2 && L->position.z == 3);
+    }
+    /* the unnamed spot takes its node's name */
+    k = rad_scene_find_light(s, "spotnode");
+    CHECK(k != RAD_NONE);
+    if (k != RAD_NONE) {
+        const rad_light *L = &s->lights[k];
+        CHECK(L->kind == RAD_LIGHT_SPOT);
+        for (int b = 0; b < 3; b++)
+            CHECK_NEAR(L->intensity[b], 1.0, 1e-12); /* 683 cd white */
+        CHECK_NEAR(L->position.y, 5.0, 1e-12);
+        CHECK_NEAR(L->direction.x, 0.0, 1e-12);
+        CHECK_NEAR(L->direction.y, 1.0, 1e-12);
+        CHECK_NEAR(L->direction.z, 0.0, 1e-12);
+        CHECK(L->inner_cone == 0.2 && L->outer_cone == 0.6);
+    }
+    k = rad_scene_find_light(s, "sun");
+    CHECK(k != RAD_NONE);
+    if (k != RAD_NONE) {
+        const rad_light *L = &s->lights[k];
+        CHECK(L->kind == RAD_LIGHT_DIRECTIONAL);
+        CHECK_NEAR(L->intensity[0], 2.0, 1e-12); /* 6830 lx × 0.2 / 683 W/m² */
+        CHECK_NEAR(L->intensity[2], 10.0, 1e-12);
+        CHECK_NEAR(L->direction.z, 1.0, 1e-12);
+    }
+    CHECK(rad_scene_find_light(s, "unused") == RAD_NONE);
+    rad_scene_destroy(s);
+
+    /* a scene lit only by a punctual light passes the emitter rule */
+    doc = gltf_doc("{\"type\":\"point\"}",
+                   ",{\"translation\":[0,1,0],\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}",
+                   ",1", "");
+    CHECK(parse_doc(doc, &s, &e) == RAD_OK);
+    CHECK(s && s->light_count == 1 && rad_scene_validate(s, NULL) == RAD_OK);
+    CHECK(s && strcmp(s->lights[0].name, "light0") == 0);
+    rad_scene_destroy(s);
+    free(doc);
+
+    /* refusals: a bad index, a bad type, a bad cone, a negative colour */
+    struct {
+        const char *lights, *nodes;
+        int code;
+        const char *needle;
+    } bad[] = {
+        {"{\"type\":\"point\"}", ",{\"extensions\":{\"KHR_lights_punctual\":{\"light\":1}}}",
+         RAD_ERR_PARSE, "light 1 does not exist"},
+        {"{\"type\":\"area\"}", ",{\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}",
+         RAD_ERR_PARSE, "not point, spot or directional"},
+        {"{\"name\":\"s\",\"type\":\"spot\",\"spot\":{\"innerConeAngle\":0.5,\"outerConeAngle\":0.5}}",
+         ",{\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}", RAD_ERR_INVALID,
+         "light 's'"},
+        {"{\"type\":\"point\",\"color\":[1,-1,1]}",
+         ",{\"name\":\"n\",\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}",
+         RAD_ERR_INVALID, "light 'n'"},
+        {"{\"type\":\"point\",\"intensity\":\"bright\"}",
+         ",{\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}", RAD_ERR_PARSE,
+         "intensity is not a number"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        doc = gltf_doc(bad[i].lights, bad[i].nodes, ",1", "");
+        s = NULL;
+        rc = parse_doc(doc, &s, &e);
+        CHECK_MSG(rc == bad[i].code && s == NULL, "case %zu: rc %d: %s", i, rc, e.message);
+        CHECK_MSG(strstr(e.message, bad[i].needle) != NULL, "case %zu: %s", i, e.message);
+        free(doc);
+    }
+}
+
+/* --------------------------------------------------------------- scene */
+
+TEST(scene_light_rules)
+{
+    rad_scene *s = new_scene();
+    double one = 1.0, neg = -1.0, nan_ = NAN;
+    rad_error e;
+    rad_vec3 o = rad_v3(0, 0, 0), down = rad_v3(0, 0, -2);
+    CHECK(rad_scene_add_light(s, "a", RAD_LIGHT_SPOT, &one, o, down, 0.1, 0.5, NULL, NULL, &e) ==
+          RAD_OK);
+    CHECK(s->lights[0].direction.z == -1.0); /* normalised */
+    CHECK(rad_scene_add_light(s, "a", RAD_LIGHT_POINT, &one, o, down, 0, 0, NULL, NULL, &e) ==
+          RAD_ERR_INVALID);
+    CHECK(strstr(e.message, "already exists") != NULL);
+    CHECK(rad_scene_add_light(s, "b", RAD_LIGHT_POINT, &neg, o, down, 0, 0, NULL, NULL, &e) ==
+          RAD_ERR_INVALID);
+    CHECK(rad_scene_add_light(s, "b", RAD_LIGHT_POINT, &nan_, o, down, 0, 0, NULL, NULL, &e) ==
+          RAD_ERR_INVALID);
+    CHECK(rad_scene_add_light(s, "b", RAD_LIGHT_POINT, &one, rad_v3(INFINITY, 0, 0), down, 0, 0,
+                              NULL, NULL, &e) == RAD_ERR_INVALID);
+    CHECK(rad_scene_add_light(s, "b", RAD_LIGHT_DIRECTIONAL, &one, o, o, 0, 0, NULL, NULL, &e) ==
+          RAD_ERR_INVALID);
+    const double cones[4][2] = {{-0.1, 0.5}, {0.5, 0.5}, {0.6, 0.5}, {0.1, 1.6}};
+    for (int k = 0; k < 4; k++)
+        CHECK(rad_scene_add_light(s, "b", RAD_LIGHT_SPOT, &one, o, down, cones[k][0], cones[k][1],
+                                  NULL, NULL, &e) == RAD_ERR_INVALID);
+    CHECK(rad_scene_add_light(s, "b", RAD_LIGHT_SPOT, &one, o, down, 0.0, M_PI / 2, NULL, NULL,
+                              &e) == RAD_OK);
+    CHECK(rad_scene_find_light(s, "b") == 1 && rad_scene_find_light(s, "c") == RAD_NONE);
+    /* lights of intensity 0 are no emitters */
+    rad_scene *z = new_scene();
+    uint32_t m = material(z, "grey", 0.5);
+    floor_square(z, "floor", 1.0, 0.0, 1, m);
+    double zero = 0.0;
+    CHECK(rad_scene_add_light(z, "dark", RAD_LIGHT_POINT, &zero, o, down, 0, 0, NULL, NULL, &e) ==
+          RAD_OK);
+    CHECK(rad_scene_validate(z, &e) == RAD_ERR_INVALID);
+    CHECK(strstr(e.message, "no emitter") != NULL);
+    rad_scene_destroy(z);
+    rad_scene_destroy(s);
+}
+
+/* The polygon file's light statement: radiometric values as written (no
+ * 683), degrees for the cones, errors with the line. */
+TEST(polyfile_lights)
+{
+    const char *text = "bands 3\n"
+                       "material m reflectance 0.5\n"
+                       "polygon floor m 0 0 0 1 0 0 1 1 0 0 1 0 end\n"
+                       "light bulb point 0.5 0.5 1 intensity 2 1 0.5\n"
+                       "light cone spot 0 0 2 direction 0 0 -4 inner 20 outer 40 intensity 3\n"
+                       "light sun directional direction 1 0 -1 irradiance 100\n";
+    rad_scene *s = NULL;
+    rad_error e = {0};
+    int rc = rad_scene_parse_polyfile(text, strlen(text), "lit.rad", NULL, &s, &e);
+    CHECK_MSG(rc == RAD_OK, "%s", e.message);
+    if (!s)
+        return;
+    CHECK(s->light_count == 3 && rad_scene_validate(s, NULL) == RAD_OK);
+    const rad_light *b = &s->lights[0], *c = &s->lights[1], *d = &s->lights[2];
+    CHECK(b->kind == RAD_LIGHT_POINT && b->intensity[0] == 2 && b->intensity[2] == 0.5);
+    CHECK(b->position.x == 0.5 && b->position.z == 1);
+    CHECK(c->kind == RAD_LIGHT_SPOT && c->intensity[1] == 3 && c->direction.z == -1.0);
+    CHECK_NEAR(c->inner_cone, 20 * M_PI / 180, 1e-15);
+    CHECK_NEAR(c->outer_cone, 40 * M_PI / 180, 1e-15);
+    CHECK(d->kind == RAD_LIGHT_DIRECTIONAL && d->intensity[0] == 100);
+    CHECK_NEAR(d->direction.x, sqrt(0.5), 1e-15);
+    rad_scene_destroy(s);
+
+    const char *bad[][2] = {
+        {"light x area 0 0 0 intensity 1\n", "line 4: light 'x': expected point, spot or"},
+        {"light x spot 0 0 1 direction 0 0 -1 inner 50 outer 40 intensity 1\n",
+         "line 4: light 'x': cone angles"},
+        {"light x point 0 0 1 intensity -1\n", "line 4: light 'x': intensity -1"},
+        {"light x point 0 0 1 irradiance 1\n", "expected 'intensity'"},
+        {"light x point 0 0 1 intensity 1\nlight x point 0 0 2 intensity 1\n",
+         "line 5: light 'x': a light of this name already exists"},
+    };
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+        char t[512];
+        snprintf(t, sizeof t, "bands 1\nmaterial m reflectance 0.5\n"
+                              "polygon floor m 0 0 0 1 0 0 1 1 0 0 1 0 end\n%s", bad[k][0]);
+        s = NULL;
+        rc = rad_scene_parse_polyfile(t, strlen(t), "lit.rad", NULL, &s, &e);
+        CHECK_MSG(rc != RAD_OK && s == NULL && strstr(e.message, bad[k][1]), "case %zu: %s", k,
+                  e.message);
+    }
+}
+
+int main(void)
+{
+    RUN(polyfile_lights);
+    RUN(scene_light_rules);
+    RUN(gltf_lights_punctual);
+    RUN(point_light_above_floor);
+    RUN(point_light_shadow_of_a_box);
+    RUN(spot_light_cone);
+    RUN(directional_light_tilted_plane);
+    RUN(directional_light_shadow);
+    RUN(relight_punctual_light);
+    return test_finish("test_lights");
+}
