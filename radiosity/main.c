@@ -217,7 +217,7 @@ static const char usage[] =
     "      --size WxH               image size (default 512x512)\n"
     "  report SOLUTION [--json]     per-object power balance, solver and stage times\n"
     "  relight SOLUTION -o OUT      re-solve with changed lights or colours, no new hemi-cubes\n"
-    "      --light NAME=off|on|S    switch or scale an emitting object or material\n"
+    "      --light NAME=off|on|S    switch or scale an emitting object, punctual light or material\n"
     "      --emission NAME=V[,V..]  set emission (one value per band, or one for all)\n"
     "      --reflectance NAME=V[,V..] set reflectance\n"
     "      --variations FILE        run each variant of FILE; OUT is a directory\n"

@@ -304,6 +304,20 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
         opt = &defaults;
     *out = NULL;
 
+    /* Transmittance is read and stored, but the back hemi-cube that would
+     * carry it is not built yet: refuse rather than lose that light. */
+    for (uint32_t m = 0; m < scene->material_count; m++)
+        for (uint32_t b = 0; b < scene->band_count; b++)
+            if (scene->materials[m].transmit[b] > 0.0) {
+                int code = rad_fail(err, RAD_ERR_INVALID,
+                                    "%s: material '%s': transmittance %g: diffuse transmission "
+                                    "is not simulated yet (set it to 0)",
+                                    scene->source, scene->materials[m].name,
+                                    scene->materials[m].transmit[b]);
+                rad_scene_destroy(scene);
+                return code;
+            }
+
     /* Mesh: polygons -> conforming patches. */
     double t0 = rad_seconds();
     rad_mesh *mesh = NULL;

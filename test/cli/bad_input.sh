@@ -98,6 +98,9 @@ expect "unknown material" "$dir/unknown.rad" "unknown material|marble"
 room | sed 's/emission 10 10 10/emission 0/' > "$dir/dark.rad"
 expect "no emitter" "$dir/dark.rad" "emitter|emission"
 
+room | sed 's/material white reflectance 0.5 0.5 0.5/material white reflectance 0.5 transmittance 0.2/' > "$dir/glass.rad"
+expect "transmittance (not simulated yet)" "$dir/glass.rad" "transmittance.*not simulated"
+
 # a good file still works and leaves exactly the output
 room > "$dir/good.rad"
 if "$BIN" solve "$dir/good.rad" -o "$dir/good.sol" > /dev/null 2>&1 && [ -s "$dir/good.sol" ] &&
