@@ -321,6 +321,56 @@ TEST(solution_file_round_trip)
     rad_solution_destroy(s);
 }
 
+/* Economy (issue 6): a grey scene in three bands is solved as one band and
+ * gives the same B as the one-band scene (1e-12 relative: the same
+ * arithmetic on the same matrix); a black object that does not emit
+ * computes no hemi-cube row for its patches. */
+TEST(economy_grey_and_black)
+{
+    char grey3[8192], grey1[8192];
+    box_text(grey3, sizeof grey3, 1.0, "material m reflectance 0.6 emission 1", 4);
+    box_text(grey1, sizeof grey1, 1.0, "material m reflectance 0.6 emission 1", 4);
+    memcpy(grey1, "bands 1", 7);
+    rad_solve_options opt = {0};
+    rad_solution *a = solve_text(grey3, &opt), *b = solve_text(grey1, &opt);
+    CHECK(a && b);
+    if (a && b) {
+        CHECK(rad_solution_is_grey(a) == 1);
+        CHECK(rad_solution_is_grey(b) == 0); /* one band: nothing to save */
+        double worst = 0;
+        for (uint32_t i = 0; i < a->mesh->patch_count; i++)
+            for (int c = 0; c < 3; c++)
+                worst = fmax(worst, fabs(a->B[i * 3 + c] / b->B[i] - 1));
+        CHECK_MSG(worst <= 1e-12, "grey 3-band vs 1-band: %.3g", worst);
+    }
+    rad_solution_destroy(a);
+    rad_solution_destroy(b);
+
+    const char *text = "bands 3\n"
+                       "material white reflectance 0.5\n"
+                       "material black reflectance 0\n"
+                       "material lamp emission 5\n"
+                       "polygon floor white subdivide 4 4\n 0 0 0  0 0 1  1 0 1  1 0 0\nend\n"
+                       "polygon rug black subdivide 2 2\n 0.3 0.01 0.3  0.3 0.01 0.7  0.7 0.01 0.7  0.7 0.01 0.3\nend\n"
+                       "polygon lamp lamp\n 0.4 1 0.4  0.6 1 0.4  0.6 1 0.6  0.4 1 0.6\nend\n";
+    rad_solution *s = solve_text(text, &opt);
+    CHECK(s != NULL);
+    if (!s)
+        return;
+    uint32_t rug = rad_scene_find_object(s->scene, "rug"), black_rows = 0, reflecting = 0;
+    for (uint32_t i = 0; i < s->mesh->patch_count; i++) {
+        const rad_patch *p = &s->mesh->patches[i];
+        if (p->object == rug)
+            black_rows += s->F->row_done[i];
+        reflecting += s->rho[(size_t)i * 3] > 0;
+    }
+    CHECK(black_rows == 0);
+    CHECK(s->rows_computed == reflecting); /* 16 floor rows; the rug and the (black) lamp none */
+    printf("  economy: grey scene solved as 1 band; %llu rows for %u patches (rug and lamp skipped)\n",
+           (unsigned long long)s->rows_computed, s->mesh->patch_count);
+    rad_solution_destroy(s);
+}
+
 int main(void)
 {
     RUN(furnace_cube);
@@ -329,5 +379,6 @@ int main(void)
     RUN(relight_cornell);
     RUN(three_solvers_agree);
     RUN(solution_file_round_trip);
+    RUN(economy_grey_and_black);
     return test_finish("test_pipeline");
 }
