@@ -7,6 +7,8 @@
  * (native-endian uint32 words, floats for F_ij):
  *   caller -> worker: count, i[count]            (count <= HC_MAX_CHUNK)
  *   worker -> caller: HC_MSG_BATCH, count, then per row i, m, j[m], F_ij[m]
+ *   caller -> worker: HC_REQ_POINTS, count, hc_point_req[count]
+ *   worker -> caller: HC_MSG_BATCH, count, then per point: index, m, j[m], F_ej[m]
  *   caller -> worker: HC_REQ_LIGHT, hc_light_req (one part of a light)
  *   worker -> caller: HC_MSG_LIGHT, m, j[m], Φ_j[m] (doubles)
  *   on failure:       HC_MSG_ERROR, length, text (then the worker exits)
@@ -79,6 +81,7 @@
 #define HC_MSG_BATCH 0xFFFFFFFEu  /* header of the answer to one request */
 #define HC_MSG_LIGHT 0xFFFFFFFDu  /* header of the answer to one light part */
 #define HC_REQ_LIGHT 0xFFFFFFF0u  /* request word of a light part (else: a row count) */
+#define HC_REQ_POINTS 0xFFFFFFF1u /* request word of a chunk of point receivers */
 #define HC_LIGHT_DEFAULT_R 512u   /* hc_light_power's resolution 0 */
 /* A candidate shows nothing nearer than this relative depth margin: a
  * coplanar neighbour (a light flush with its ceiling) never hides it. */
@@ -95,6 +98,14 @@
 #define HC_BLOCK 16u
 /* Six vertices per quad must fit GLint `first`. */
 #define HC_MAX_PATCHES (UINT32_C(1) << 28)
+
+/* One point receiver of a HC_REQ_POINTS chunk: the cube sits at `at`
+ * (relative to the scene origin) on patch `patch`; `index` is the caller's
+ * receiver number, echoed in the answer. */
+typedef struct hc_point_req {
+    uint32_t index, patch;
+    double at[3];
+} hc_point_req;
 
 typedef struct hc_worker {
     pid_t pid;
@@ -560,11 +571,11 @@ static int probe_visible(const hc_engine *e, const hc_gl *g, uint32_t j, rad_vec
 /* Replaces the pixel sums g->acc[j] of the ncand candidates in g->cand by
  * their exact entries F_exact · v_ij (see the top of the file).  Needs the
  * occluded pass's depth buffer; leaves the item buffer overwritten. */
-static void exact_entries(const hc_engine *e, hc_gl *g, uint32_t i, uint32_t ncand,
+static void exact_entries(const hc_engine *e, hc_gl *g, uint32_t i, rad_vec3 c, uint32_t ncand,
                           const rad_vec3 fr[5][3], const hc_faces *fs, double near)
 {
     const uint32_t R = e->R;
-    const rad_vec3 c = e->center[i], nn = e->mesh->patches[i].normal;
+    const rad_vec3 nn = e->mesh->patches[i].normal;
     rad_vec3 pi[4], pj[4];
     load_corners(e, i, pi);
     uint32_t per_residue[32] = {0}, passes = 0;
@@ -660,14 +671,18 @@ static void exact_entries(const hc_engine *e, hc_gl *g, uint32_t i, uint32_t nca
 }
 
 /* Computes row i into g->col/g->val; returns the entry count, or -1 with msg
- * set on a GL error. */
-static long compute_row(const hc_engine *e, hc_gl *g, uint32_t i, char *msg)
+ * set on a GL error.  `at` (relative to the origin) moves the cube from i's
+ * centre to a point of i: an element's row F_ej (hc_compute_points).  Such a
+ * receiver is a point, so exact entries are the point-to-polygon factor
+ * only (no near area averages over i). */
+static long compute_row(const hc_engine *e, hc_gl *g, uint32_t i, const rad_vec3 *at, char *msg)
 {
     const uint32_t n = e->n, R = e->R;
     const rad_patch *pi = &e->mesh->patches[i];
     rad_vec3 nn = pi->normal, u, v;
     basis(nn, &u, &v);
-    const rad_vec3 c = e->center[i];
+    const rad_vec3 c = at ? *at : e->center[i];
+    const int near_ok = e->opt.exact_near && !at;
     const double tol = e->tol;
     uint32_t nfront = 0, ncand = 0;
     GLsizei nr[5] = {0, 0, 0, 0, 0};
@@ -731,7 +746,7 @@ static long compute_row(const hc_engine *e, hc_gl *g, uint32_t i, char *msg)
         }
         if (e->any_exact) {
             int is_near = 0;
-            if (e->opt.exact_near) {
+            if (near_ok) {
                 rad_vec3 d = rad_sub(e->center[j], c);
                 double size = 2.0 * e->radius[j];
                 is_near = rad_dot(d, d) < size * size;
@@ -787,7 +802,7 @@ static long compute_row(const hc_engine *e, hc_gl *g, uint32_t i, char *msg)
         for (uint32_t k = 0; k < nfront; k++)
             total += acc[g->front[k]];
         total = total < 1.0 ? total : 1.0;
-        exact_entries(e, g, i, ncand, fr, &fs, near);
+        exact_entries(e, g, i, c, ncand, fr, &fs, near);
         if (gl_check("measuring exact form factors", msg))
             return -1;
         /* Renormalisation.  With far exact entries only (emitters), the
@@ -1139,15 +1154,23 @@ static void worker_main(const hc_engine *e, int fd)
                 _exit(1);
             continue;
         }
-        if (count == 0 || count > HC_MAX_CHUNK || recv_all(fd, rows, count * sizeof *rows) != 0)
+        /* Rows of patches, or rows of points on patches (elements). */
+        hc_point_req pts[HC_MAX_CHUNK];
+        int points = count == HC_REQ_POINTS;
+        if (points && recv_all(fd, &count, sizeof count) != 0)
+            _exit(1);
+        if (count == 0 || count > HC_MAX_CHUNK ||
+            (points ? recv_all(fd, pts, count * sizeof *pts) : recv_all(fd, rows, count * sizeof *rows)) != 0)
             _exit(1);
         uint32_t batch[2] = {HC_MSG_BATCH, count};
         memcpy(g.out, batch, sizeof batch);
         g.out_len = sizeof batch;
         for (uint32_t k = 0; k < count; k++) {
-            if (rows[k] >= n)
+            uint32_t i = points ? pts[k].patch : rows[k];
+            if (i >= n)
                 _exit(1);
-            long cnt = compute_row(e, &g, rows[k], msg);
+            rad_vec3 at = points ? rad_v3(pts[k].at[0], pts[k].at[1], pts[k].at[2]) : rad_v3(0, 0, 0);
+            long cnt = compute_row(e, &g, i, points ? &at : NULL, msg);
             if (cnt < 0) {
                 if (send_all(fd, g.out, g.out_len) == 0)
                     send_msg(fd, HC_MSG_ERROR, msg);
@@ -1159,7 +1182,7 @@ static void worker_main(const hc_engine *e, int fd)
                     _exit(1);
                 g.out_len = 0;
             }
-            uint32_t hdr[2] = {rows[k], (uint32_t)cnt};
+            uint32_t hdr[2] = {points ? pts[k].index : i, (uint32_t)cnt};
             unsigned char *o = g.out + g.out_len;
             memcpy(o, hdr, sizeof hdr);
             memcpy(o + sizeof hdr, g.col, (size_t)cnt * sizeof *g.col);
@@ -1449,12 +1472,37 @@ int hc_create(const rad_mesh *mesh, const hc_options *opt, hc_engine **out, rad_
     return RAD_OK;
 }
 
-static int send_chunk(hc_engine *e, uint32_t k, const uint32_t *rows, uint32_t count)
+/* One call's work and where its answers go: rows of patches into F, or
+ * rows of point receivers handed to the caller's store. */
+typedef struct hc_job {
+    const uint32_t *rows;       /* rows: patch indices */
+    rad_matrix *F;
+    const hc_receiver *recv;    /* points */
+    hc_row_store store;
+    void *user;
+    uint32_t count;
+} hc_job;
+
+static int send_chunk(hc_engine *e, uint32_t k, const hc_job *job, uint32_t first, uint32_t count)
 {
-    uint32_t buf[1 + HC_MAX_CHUNK];
-    buf[0] = count;
-    memcpy(buf + 1, rows, count * sizeof *rows);
-    if (send_all(e->w[k].fd, buf, (1 + count) * sizeof *buf) != 0)
+    int rc;
+    if (job->recv) {
+        uint32_t head[2] = {HC_REQ_POINTS, count};
+        hc_point_req pts[HC_MAX_CHUNK];
+        for (uint32_t q = 0; q < count; q++) {
+            const hc_receiver *r = &job->recv[first + q];
+            rad_vec3 at = rad_sub(r->center, e->origin);
+            pts[q] = (hc_point_req){first + q, r->patch, {at.x, at.y, at.z}};
+        }
+        rc = send_all(e->w[k].fd, head, sizeof head) ||
+             send_all(e->w[k].fd, pts, count * sizeof *pts);
+    } else {
+        uint32_t buf[1 + HC_MAX_CHUNK];
+        buf[0] = count;
+        memcpy(buf + 1, job->rows + first, count * sizeof *buf);
+        rc = send_all(e->w[k].fd, buf, (1 + count) * sizeof *buf);
+    }
+    if (rc != 0)
         return -1;
     e->w[k].in_flight += count;
     return 0;
@@ -1491,8 +1539,8 @@ static void keep_first(int *rc, int code)
 /* Reads one answer of worker k (a batch of rows) and stores its rows in F
  * while *rc is RAD_OK; the first failure lands in *rc and err.  After a
  * failure to store, the rest is still read so the stream stays in step. */
-static void receive_batch(hc_engine *e, uint32_t k, rad_matrix *F, int *rc, uint32_t *done,
-                          uint32_t total, rad_error *err)
+static void receive_batch(hc_engine *e, uint32_t k, const hc_job *job, int *rc, uint32_t *done,
+                          rad_error *err)
 {
     int fd = e->w[k].fd;
     rad_error *first = *rc == RAD_OK ? err : NULL;
@@ -1520,8 +1568,9 @@ static void receive_batch(hc_engine *e, uint32_t k, rad_matrix *F, int *rc, uint
             keep_first(rc, worker_error(e, k, rh[1], first));
             return;
         }
+        /* i: the patch of a row, or the receiver number of a point. */
         uint32_t i = rh[0], cnt = rh[1];
-        if (i >= e->n || cnt > e->n ||
+        if (i >= (job->recv ? job->count : e->n) || cnt > e->n ||
             recv_all(fd, e->rx_col, (size_t)cnt * sizeof *e->rx_col) != 0 ||
             recv_all(fd, e->rx_val, (size_t)cnt * sizeof *e->rx_val) != 0) {
             keep_first(rc, worker_gone(e, k, first));
@@ -1530,23 +1579,27 @@ static void receive_batch(hc_engine *e, uint32_t k, rad_matrix *F, int *rc, uint
         e->w[k].in_flight--;
         if (*rc != RAD_OK)
             continue;
+        uint32_t self = job->recv ? job->recv[i].patch : i;
         for (uint32_t q = 0; q < cnt; q++)
-            if (e->rx_col[q] >= e->n || e->rx_col[q] == i ||
+            if (e->rx_col[q] >= e->n || e->rx_col[q] == self ||
                 (q && e->rx_col[q] <= e->rx_col[q - 1]) || !(e->rx_val[q] > 0.0f) ||
                 !isfinite(e->rx_val[q])) {
                 keep_first(rc, worker_gone(e, k, err));
                 return;
             }
-        int s = rad_matrix_set_row(F, i, cnt, e->rx_col, e->rx_val, err);
+        int s = job->recv ? job->store(job->user, i, cnt, e->rx_col, e->rx_val, err)
+                          : rad_matrix_set_row(job->F, i, cnt, e->rx_col, e->rx_val, err);
         if (s != RAD_OK) {
             keep_first(rc, s);
             continue;
         }
         (*done)++;
         if (e->opt.progress)
-            e->opt.progress(e->opt.progress_user, *done, total);
+            e->opt.progress(e->opt.progress_user, *done, job->count);
     }
 }
+
+static int run_job(hc_engine *e, const hc_job *job, rad_error *err);
 
 int hc_compute_rows(hc_engine *e, const uint32_t *rows, uint32_t count, rad_matrix *F,
                     rad_error *err)
@@ -1560,6 +1613,27 @@ int hc_compute_rows(hc_engine *e, const uint32_t *rows, uint32_t count, rad_matr
         if (rows[k] >= e->n)
             return rad_fail(err, RAD_ERR_USAGE, "hc_compute_rows: row %u: no such patch (%u patches)",
                             rows[k], e->n);
+    hc_job job = {.rows = rows, .F = F, .count = count};
+    return run_job(e, &job, err);
+}
+
+int hc_compute_points(hc_engine *e, const hc_receiver *recv, uint32_t count, hc_row_store store,
+                      void *user, rad_error *err)
+{
+    if (!e || !store || (count && !recv))
+        return rad_fail(err, RAD_ERR_USAGE, "hc_compute_points: engine, receivers and store must be given");
+    for (uint32_t k = 0; k < count; k++)
+        if (recv[k].patch >= e->n || !rad_finite3(recv[k].center))
+            return rad_fail(err, RAD_ERR_USAGE, "hc_compute_points: receiver %u: patch %u of %u, or a "
+                            "non-finite point", k, recv[k].patch, e->n);
+    hc_job job = {.recv = recv, .store = store, .user = user, .count = count};
+    return run_job(e, &job, err);
+}
+
+/* Hands the job out in chunks and collects every answer. */
+static int run_job(hc_engine *e, const hc_job *job, rad_error *err)
+{
+    const uint32_t count = job->count;
     if (e->broken)
         return rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
     if (count == 0)
@@ -1576,13 +1650,13 @@ int hc_compute_rows(hc_engine *e, const uint32_t *rows, uint32_t count, rad_matr
     if (!pf || !who) {
         free(pf);
         free(who);
-        return rad_fail(err, RAD_ERR_NOMEM, "hc_compute_rows: out of memory");
+        return rad_fail(err, RAD_ERR_NOMEM, "hemi-cube: out of memory");
     }
     for (;;) {
         for (uint32_t k = 0; rc == RAD_OK && k < e->nproc; k++)
             while (rc == RAD_OK && next < count && e->w[k].in_flight <= chunk) {
                 uint32_t c = count - next < chunk ? count - next : chunk;
-                if (send_chunk(e, k, rows + next, c) != 0)
+                if (send_chunk(e, k, job, next, c) != 0)
                     rc = worker_gone(e, k, err);
                 else
                     next += c;
@@ -1601,7 +1675,7 @@ int hc_compute_rows(hc_engine *e, const uint32_t *rows, uint32_t count, rad_matr
             if (errno == EINTR)
                 continue;
             if (rc == RAD_OK)
-                rc = rad_fail(err, RAD_ERR_GL, "hc_compute_rows: poll: %s", strerror(errno));
+                rc = rad_fail(err, RAD_ERR_GL, "hemi-cube: poll: %s", strerror(errno));
             /* Replies cannot be drained: the protocol is out of step. */
             e->broken = 1;
             snprintf(e->broken_msg, sizeof e->broken_msg, "hemi-cube: workers out of step");
@@ -1611,7 +1685,7 @@ int hc_compute_rows(hc_engine *e, const uint32_t *rows, uint32_t count, rad_matr
          * workers stay in step for the next call. */
         for (nfds_t q = 0; q < np; q++)
             if (pf[q].revents)
-                receive_batch(e, who[q], F, &rc, &done, count, err);
+                receive_batch(e, who[q], job, &rc, &done, err);
     }
     free(pf);
     free(who);

@@ -50,6 +50,27 @@ int hc_create(const rad_mesh *mesh, const hc_options *opt, hc_engine **out, rad_
 int hc_compute_rows(hc_engine *e, const uint32_t *rows, uint32_t count, rad_matrix *F,
                     rad_error *err);
 
+/* A point receiver: the hemi-cube of an element (Cohen, Greenberg, Immel &
+ * Brock 1986: patches shoot, elements receive) sits at `center`, a point of
+ * patch `patch` (on its plane, inside it), looking along the patch's normal.
+ * Its row F_ej holds the form factors from the element to every patch j
+ * (j != patch), with the same invariants as a patch row; exact entries
+ * (hc_options.exact) are the point-to-polygon factor. */
+typedef struct hc_receiver {
+    rad_vec3 center;
+    uint32_t patch;
+} hc_receiver;
+
+/* Receives one row: receiver k's count entries (j strictly increasing).
+ * Returns RAD_OK or an error code (filling err), which stops the call. */
+typedef int (*hc_row_store)(void *user, uint32_t k, uint32_t count, const uint32_t *col,
+                            const float *val, rad_error *err);
+
+/* Computes the rows of recv[0..count), spread over the workers, handing each
+ * to store (in the caller's process, in any order). */
+int hc_compute_points(hc_engine *e, const hc_receiver *recv, uint32_t count, hc_row_store store,
+                      void *user, rad_error *err);
+
 /* Stops the workers and frees everything.  NULL does nothing. */
 void hc_destroy(hc_engine *e);
 

@@ -173,6 +173,10 @@ int cli_solve(int argc, char **argv)
     printf("%s: %u patches, %u bands, %llu rows computed (R = %u), %s: %u iterations, residual %.3g\n",
            out, s->mesh->patch_count, s->band_count, (unsigned long long)s->rows_computed,
            s->resolution, s->solver, s->iterations, s->residual);
+    if (s->elements)
+        printf("elements: %u (from %u patches), %llu element hemi-cubes\n",
+               s->elements->mesh->patch_count, s->mesh->patch_count,
+               (unsigned long long)s->elements->rows_computed);
     printf("time: load %.3f s, mesh %.3f s, form factors %.3f s, solve %.3f s, store %.3f s\n",
            s->stages[RAD_STAGE_LOAD].seconds, s->stages[RAD_STAGE_MESH].seconds,
            s->stages[RAD_STAGE_FORM_FACTORS].seconds, s->stages[RAD_STAGE_SOLVE].seconds, store);
@@ -353,6 +357,10 @@ int cli_report(int argc, char **argv)
                 s->resolution, s->patch_size, (unsigned long long)s->rows_computed, eco.rows_present);
         fprintf(f, " \"bands_solved\": %u, \"skipped\": {\"black_patch_rows\": %u, \"reason\": \"a patch with reflectance 0 in every band has B = E and needs no hemi-cube\"},\n",
                 rad_solution_is_grey(s) ? 1 : nb, eco.black_without_row);
+        if (s->elements)
+            fprintf(f, " \"elements\": {\"count\": %u, \"threshold\": %.6g, \"rows_computed\": %llu},\n",
+                    s->elements->mesh->patch_count, s->elements->threshold,
+                    (unsigned long long)s->elements->rows_computed);
         fprintf(f, " \"stages\": {");
         for (int k = 0; k < RAD_STAGE_COUNT; k++)
             fprintf(f, "%s\"%s\": %.6f", k ? ", " : "", rad_stage_name(k), s->stages[k].seconds);
@@ -409,6 +417,11 @@ int cli_report(int argc, char **argv)
         if (eco.black_without_row)
             fprintf(f, "skipped: %u rows of patches with reflectance 0 (B = E, no hemi-cube needed)\n",
                     eco.black_without_row);
+        if (s->elements)
+            fprintf(f, "elements: %u receive from %u patches (refine threshold %g), %llu element "
+                    "hemi-cubes in the last run\n", s->elements->mesh->patch_count,
+                    s->mesh->patch_count, s->elements->threshold,
+                    (unsigned long long)s->elements->rows_computed);
         fprintf(f, "stages:");
         for (int k = 0; k < RAD_STAGE_COUNT; k++)
             fprintf(f, "  %s %.3f s%s", rad_stage_name(k), s->stages[k].seconds,

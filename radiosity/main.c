@@ -143,6 +143,12 @@ int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt)
         TAKE(cli_parse_u32(a, v, 1, 100000000, &opt->solver.max_iterations));
     if (!strcmp(a, "--max-memory"))
         TAKE(cli_parse_bytes(a, v, &opt->max_memory));
+    if (!strcmp(a, "--refine-threshold"))
+        TAKE(cli_parse_double(a, v, 0.0, 1e6, &opt->refine_threshold));
+    if (!strcmp(a, "--min-element-size"))
+        TAKE(cli_parse_double(a, v, 1e-12, 1e12, &opt->min_element_size));
+    if (!strcmp(a, "--element-levels"))
+        TAKE(cli_parse_u32(a, v, 0, RAD_MAX_ELEMENT_LEVEL, &opt->element_levels));
     if (!strcmp(a, "--pixel-emitters")) {
         opt->pixel_emitters = 1;
         return 1;
@@ -207,6 +213,10 @@ static const char usage[] =
     "      --max-memory SIZE        limit for the form-factor matrix (e.g. 4G)\n"
     "      --pixel-emitters         form factors to emitters by pixel counts, not exactly\n"
     "      --exact-near             near patches (closer than their size) exactly too\n"
+    "      --refine-threshold T     elements: split where neighbours' B differ by more than\n"
+    "                               T × the brightest reflecting patch's B (e.g. 0.02)\n"
+    "      --min-element-size S     smallest element edge (default: 1/8 of its patch)\n"
+    "      --element-levels L       uniform elements: split every patch L times\n"
     "      --preview-every K        progressive: write a preview image every K shots\n"
     "      --preview-dir DIR        where previews go (default: the solution's directory)\n"
     "  render SOLUTION -o IMAGE.exr draw a view (radiance, linear OpenEXR)\n"

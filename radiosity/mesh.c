@@ -278,14 +278,30 @@ static uint32_t add_vertex(builder *b, rad_vec3 p, int boundary)
     return k;
 }
 
+int rad_cell_geometry(const rad_vec3 *V, const uint32_t v[4], rad_vec3 n, rad_vec3 *center,
+                      double *area)
+{
+    double a1 = 0.5 * rad_dot(rad_cross(rad_sub(V[v[1]], V[v[0]]), rad_sub(V[v[2]], V[v[0]])), n);
+    rad_vec3 c = rad_scale(rad_add(rad_add(V[v[0]], V[v[1]]), V[v[2]]), a1 / 3.0);
+    double a = a1;
+    if (v[3] != RAD_NONE) {
+        double a2 = 0.5 * rad_dot(rad_cross(rad_sub(V[v[2]], V[v[0]]), rad_sub(V[v[3]], V[v[0]])), n);
+        c = rad_add(c, rad_scale(rad_add(rad_add(V[v[0]], V[v[2]]), V[v[3]]), a2 / 3.0));
+        a += a2;
+    }
+    if (!(a > 0.0) || !isfinite(a))
+        return -1;
+    *area = a;
+    *center = rad_scale(c, 1.0 / a);
+    return 0;
+}
+
 /* Appends a patch; area and centre from its corners projected on the
  * polygon normal (so a polygon within the planarity tolerance still tiles
  * exactly its Newell area). */
 static int add_patch(builder *b, uint32_t v0, uint32_t v1, uint32_t v2, uint32_t v3)
 {
     const rad_polygon *pg = &b->s->polygons[b->polygon];
-    const rad_vec3 *V = b->m->vertices;
-    rad_vec3 n = pg->normal;
     rad_patch *p = &b->m->patches[b->np];
     p->v[0] = v0;
     p->v[1] = v1;
@@ -294,19 +310,9 @@ static int add_patch(builder *b, uint32_t v0, uint32_t v1, uint32_t v2, uint32_t
     p->polygon = b->polygon;
     p->object = pg->object;
     p->material = pg->material;
-    p->normal = n;
-    double a1 = 0.5 * rad_dot(rad_cross(rad_sub(V[v1], V[v0]), rad_sub(V[v2], V[v0])), n);
-    rad_vec3 c = rad_scale(rad_add(rad_add(V[v0], V[v1]), V[v2]), a1 / 3.0);
-    double area = a1;
-    if (v3 != RAD_NONE) {
-        double a2 = 0.5 * rad_dot(rad_cross(rad_sub(V[v2], V[v0]), rad_sub(V[v3], V[v0])), n);
-        c = rad_add(c, rad_scale(rad_add(rad_add(V[v0], V[v2]), V[v3]), a2 / 3.0));
-        area += a2;
-    }
-    if (!(area > 0.0) || !isfinite(area))
+    p->normal = pg->normal;
+    if (rad_cell_geometry(b->m->vertices, p->v, pg->normal, &p->center, &p->area) != 0)
         return -1;
-    p->area = area;
-    p->center = rad_scale(c, 1.0 / area);
     b->np++;
     return 0;
 }

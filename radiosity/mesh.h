@@ -37,6 +37,12 @@ uint64_t rad_mesh_count(const rad_scene *scene, const rad_mesh_options *opt);
 /* The patch edge length used when neither the option nor a polygon sets one. */
 double rad_mesh_default_patch_size(const rad_scene *scene);
 
+/* Centre (area centroid) and area of the cell with corners V[v[0..3]]
+ * (v[3] == RAD_NONE: a triangle), measured projected on the unit normal n.
+ * 0, or -1 when the area is not positive and finite. */
+int rad_cell_geometry(const rad_vec3 *V, const uint32_t v[4], rad_vec3 n, rad_vec3 *center,
+                      double *area);
+
 /* An empty mesh for the solution reader to fill; NULL on OOM. Caller owns. */
 rad_mesh *rad_mesh_alloc(uint32_t vertex_count, uint32_t patch_count);
 void rad_mesh_destroy(rad_mesh *m); /* NULL does nothing */

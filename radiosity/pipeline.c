@@ -277,6 +277,15 @@ int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err)
         }
     }
 
+    /* Elements: a stored element mesh is gathered again from the new patch
+     * solution through its stored rows (no hemi-cube). */
+    if (!rc && s->elements) {
+        double t0 = rad_seconds();
+        rc = rad_elements_gather(s, s->elements, err);
+        s->elements->rows_computed = 0;
+        s->stages[RAD_STAGE_SOLVE].seconds += rad_seconds() - t0;
+    }
+
     free(src);
     s->rows_computed = c.rows_computed;
     s->lights_computed = c.lights_computed;
@@ -338,6 +347,14 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
 
     /* Form factors and solve. */
     rc = rad_resolve(s, opt, err);
+
+    /* Elements: split where neighbours' radiosities differ, gather from the
+     * patch solution (hemi-cubes at the new elements' centres). */
+    if (!rc && (opt->refine_threshold > 0.0 || opt->element_levels)) {
+        double t1 = rad_seconds();
+        rc = rad_solution_refine(s, opt, err);
+        s->stages[RAD_STAGE_FORM_FACTORS].seconds += rad_seconds() - t1;
+    }
     if (rc) {
         rad_solution_destroy(s);
         return rc;
@@ -373,14 +390,51 @@ int rad_render_solution(const rad_solution *s, const rn_camera *cam, rn_image **
                         rad_error *err)
 {
     *out = NULL;
-    size_t count = (size_t)s->mesh->vertex_count * s->band_count;
+    const rad_mesh *mesh = s->mesh;
+    const double *B = s->B;
+    rad_mesh *cells = NULL;
+    uint32_t *cell_element = NULL;
+    double *cell_B = NULL;
+    const uint32_t nb = s->band_count;
+    if (s->elements) {
+        /* Elements: the crack-free mesh of their cells, each carrying its
+         * element's B. */
+        int rc = rad_elements_render_mesh(s->elements, &cells, &cell_element, err);
+        if (rc != RAD_OK)
+            return rc;
+        cell_B = malloc(((size_t)cells->patch_count * nb + 1) * sizeof *cell_B);
+        if (!cell_B) {
+            rad_mesh_destroy(cells);
+            free(cell_element);
+            return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory");
+        }
+        for (uint32_t k = 0; k < cells->patch_count; k++)
+            memcpy(cell_B + (size_t)k * nb, s->elements->B + (size_t)cell_element[k] * nb,
+                   nb * sizeof *cell_B);
+        mesh = cells;
+        B = cell_B;
+    }
+    size_t count = (size_t)mesh->vertex_count * nb;
     double *vertex_B = malloc((count ? count : 1) * sizeof *vertex_B);
-    if (!vertex_B)
-        return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory");
-    /* Patch radiosities to vertices, then the view. */
-    rn_vertex_radiosity(s->mesh, s->band_count, s->B, vertex_B);
-    int rc = rn_render(s->mesh, s->band_count, vertex_B, cam, out, err);
+    int rc = RAD_OK;
+    if (!vertex_B) {
+        rc = rad_fail(err, RAD_ERR_NOMEM, "render: out of memory");
+    } else {
+        /* Patch (or element) radiosities to vertices, then the view. */
+        rn_vertex_radiosity(mesh, nb, B, vertex_B);
+        rc = rn_render(mesh, nb, vertex_B, cam, out, err);
+    }
+    /* The image names patches, whatever was drawn. */
+    if (!rc && cells) {
+        uint32_t *id = (*out)->patch;
+        for (size_t q = 0; q < (size_t)(*out)->width * (*out)->height; q++)
+            if (id[q] != RAD_NONE)
+                id[q] = s->elements->patch[cell_element[id[q]]];
+    }
     free(vertex_B);
+    free(cell_B);
+    free(cell_element);
+    rad_mesh_destroy(cells);
     return rc;
 }
 

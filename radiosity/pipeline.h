@@ -36,6 +36,15 @@ typedef struct rad_solve_options {
     /* Punctual lights: R of the item-buffer cube rendered at each light
      * (hc_light_power); 0 = the larger of 512 and the hemi-cube resolution. */
     uint32_t light_resolution;
+    /* Elements (rad_elements in solution.h): > 0 splits elements, starting
+     * from the patches, wherever an element's B differs from a neighbour's
+     * by more than this fraction of the brightest non-emitting patch's B
+     * (any band), until none does or they reach min_element_size; 0 = no
+     * elements (render the patches). */
+    double refine_threshold;
+    double min_element_size; /* smallest element edge, scene units; 0 = 1/8 of its patch's */
+    uint32_t element_levels; /* with refine_threshold 0: split every reflecting patch this
+                              * many times (uniform elements: references, benchmarks) */
 } rad_solve_options;
 
 /* The whole computation for a scene file: load, mesh, form factors, solve.
@@ -54,6 +63,12 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
  * E_j + ρ_j H_d,j.  What a relight calls after changing ρ, E or a light's
  * intensity: no row and no light present is computed again. */
 int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err);
+
+/* Builds s->elements (replacing any) from the patch solution s->B, as
+ * opt->refine_threshold, min_element_size and element_levels say (none:
+ * removes them).  Renders one hemi-cube per new element, with the options'
+ * hemi-cube settings; emitters get exact factors unless pixel_emitters. */
+int rad_solution_refine(rad_solution *s, const rad_solve_options *opt, rad_error *err);
 
 /* 1 when the solution has several bands but equal ρ, E and light
  * intensities in all of them:

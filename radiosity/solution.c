@@ -95,6 +95,7 @@ void rad_solution_destroy(rad_solution *s)
     }
     free(s->light_power);
     free(s->light_intensity);
+    rad_elements_destroy(s->elements);
     free(s);
 }
 

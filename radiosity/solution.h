@@ -48,6 +48,44 @@ typedef struct rad_light_power {
     float *power;    /* Φ_j > 0 and finite (owned) */
 } rad_light_power;
 
+/* Elements (substructuring: Cohen, Greenberg, Immel & Brock 1986).  Coarse
+ * patches carry the form-factor rows and the solve; fine elements receive.
+ * An element e lies in one patch p and is that patch split k times (level
+ * k, quadtree: a quad into four by its edge midpoints and centre, a
+ * triangle into four by its edge midpoints).  Its radiosity is gathered
+ * from the patch solution through element-to-patch form factors, hemi-cubes
+ * at the element's centre:
+ *   B_e = E_p + ρ_p (Σ_j F_ej B_j + H_d,p)
+ * (a level-0 element is its patch: B_e = B_p, no row of its own).
+ * Elements are split where their radiosity differs from a neighbour's, so
+ * neighbours may differ in level: a vertex of the finer one may lie on an
+ * edge of the coarser one (a T-vertex); rendering triangulates the coarse
+ * side (rad_elements_render_mesh), so there are no cracks.
+ *
+ * Invariants: mesh->patches[e] carries the polygon, object, material and
+ * normal of patch[e]; cells of one polygon share vertices; every element of
+ * level > 0 has its row, with the invariants of a form-factor row (columns
+ * strictly increasing, F_ej > 0, Σ_j F_ej <= 1 + 1e-3, column != patch[e]);
+ * B >= 0 and finite. */
+#define RAD_MAX_ELEMENT_LEVEL 12
+
+typedef struct rad_elements {
+    rad_mesh *mesh;        /* leaf elements as cells; vertex_boundary = on the polygon's outline (owned) */
+    uint32_t *patch;       /* mesh->patch_count: the patch each element lies in (owned) */
+    uint8_t *level;        /* splits below its patch, 0..RAD_MAX_ELEMENT_LEVEL (owned) */
+    double *B;             /* mesh->patch_count × bands (owned) */
+    uint64_t *row_start;   /* F_ej by rows, columns are patches: row e is entries */
+    uint32_t *row_count;   /*   [row_start[e], row_start[e] + row_count[e]) (owned) */
+    uint32_t *col;         /* patch j (owned) */
+    float *val;            /* F_ej (owned) */
+    uint64_t nnz;          /* entries used */
+    uint64_t capacity;     /* entries allocated */
+    /* provenance */
+    double threshold;      /* the refinement threshold used (0: uniform levels) */
+    double min_size;       /* smallest element edge allowed, scene units */
+    uint64_t rows_computed; /* element hemi-cubes rendered in the run that made them */
+} rad_elements;
+
 typedef struct rad_solution {
     rad_scene *scene;        /* owned */
     rad_mesh *mesh;          /* owned */
@@ -76,6 +114,8 @@ typedef struct rad_solution {
     rad_light_power *light_power;  /* light_count entries (owned) */
     uint64_t lights_computed;      /* light item buffers rendered in the run that wrote this */
     uint32_t light_slots_;         /* entries allocated (private to solution.c) */
+
+    rad_elements *elements;        /* NULL when the solution has none (owned) */
 } rad_solution;
 
 /* A new solution taking ownership of scene and mesh (on failure they are
@@ -97,6 +137,34 @@ int rad_solution_read(const char *path, rad_solution **out, rad_error *err);
  * checksum (the fuzzer uses that to reach the structure checks). */
 int rad_solution_parse(const void *data, size_t size, const char *name, int check_sum,
                        rad_solution **out, rad_error *err);
+
+/* ------------------------------------------------------- elements (elements.c) */
+
+/* Empty elements: a mesh of vertex_count vertices and count cells, every
+ * per-element array of count entries (B of count × bands), room for
+ * `entries` row entries; row counts zero.  NULL on OOM.  Caller owns. */
+rad_elements *rad_elements_alloc(uint32_t vertex_count, uint32_t count, uint32_t bands,
+                                 uint64_t entries);
+void rad_elements_destroy(rad_elements *el); /* NULL does nothing */
+
+/* Completes the cells of el->mesh from their corners and el->patch (the
+ * patch's polygon, object, material and normal; centre and area from the
+ * corners) and checks every invariant above against s's mesh (B included).
+ * RAD_OK or RAD_ERR_CORRUPT naming `name` and the first bad element. */
+int rad_elements_complete(rad_elements *el, const rad_solution *s, const char *name,
+                          rad_error *err);
+
+/* B_e of every element from the patch solution s->B (and the punctual
+ * lights' direct irradiance), by the gather above.  What a relight calls:
+ * no hemi-cube. */
+int rad_elements_gather(const rad_solution *s, rad_elements *el, rad_error *err);
+
+/* The mesh to draw: every leaf element whose edges carry vertices of finer
+ * neighbours is split into a fan about its centre through those vertices,
+ * the others are drawn as they are.  *cells_of gets, per cell of *out, its
+ * element.  Caller owns both. */
+int rad_elements_render_mesh(const rad_elements *el, rad_mesh **out, uint32_t **cells_of,
+                             rad_error *err);
 
 /* ------------------------------------------------ reading a solution (analysis.c) */
 

@@ -1,0 +1,894 @@
+/* elements.c - substructuring: patches shoot, elements receive (Cohen,
+ * Greenberg, Immel & Brock 1986).
+ *
+ * Owns the rad_elements store (solution.h), the gather
+ *   B_e = E_p + ρ_p (Σ_j F_ej B_j + H_d,p),
+ * adaptive refinement (rad_solution_refine, pipeline.h) and the crack-free
+ * mesh the renderer draws.  An element is its patch split `level` times as a
+ * quadtree; vertices are found again by their exact position within their
+ * polygon (a midpoint is computed as (a + b)/2 from the two ends, which is
+ * the same double whichever side computes it), so neighbours share them and
+ * a vertex of a finer neighbour that lies on an element's edge (a T-vertex)
+ * is found by looking up the edge's midpoints recursively.
+ *
+ * Invariant: a leaf element of level k > 0 has its own row F_ej from a
+ * hemi-cube at its centre; level-0 elements are their patches (B_e = B_p,
+ * exactly the patch's own equation).
+ */
+#include "pipeline.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ------------------------------------------------------------ storage */
+
+rad_elements *rad_elements_alloc(uint32_t vertex_count, uint32_t count, uint32_t bands,
+                                 uint64_t entries)
+{
+    rad_elements *el = calloc(1, sizeof *el);
+    if (!el)
+        return NULL;
+    size_t n = count ? count : 1, ne = entries ? (size_t)entries : 1;
+    el->mesh = rad_mesh_alloc(vertex_count, count);
+    el->patch = calloc(n, sizeof *el->patch);
+    el->level = calloc(n, sizeof *el->level);
+    el->B = calloc(n * (bands ? bands : 1), sizeof *el->B);
+    el->row_start = calloc(n, sizeof *el->row_start);
+    el->row_count = calloc(n, sizeof *el->row_count);
+    el->col = malloc(ne * sizeof *el->col);
+    el->val = malloc(ne * sizeof *el->val);
+    if (!el->mesh || !el->patch || !el->level || !el->B || !el->row_start || !el->row_count ||
+        !el->col || !el->val) {
+        rad_elements_destroy(el);
+        return NULL;
+    }
+    el->capacity = entries;
+    return el;
+}
+
+void rad_elements_destroy(rad_elements *el)
+{
+    if (!el)
+        return;
+    rad_mesh_destroy(el->mesh);
+    free(el->patch);
+    free(el->level);
+    free(el->B);
+    free(el->row_start);
+    free(el->row_count);
+    free(el->col);
+    free(el->val);
+    free(el);
+}
+
+int rad_elements_complete(rad_elements *el, const rad_solution *s, const char *name,
+                          rad_error *err)
+{
+    const rad_mesh *pm = s->mesh;
+    rad_mesh *m = el->mesh;
+    const uint32_t bands = s->band_count;
+    for (uint32_t e = 0; e < m->patch_count; e++) {
+        rad_patch *c = &m->patches[e];
+        uint32_t p = el->patch[e];
+        if (p >= pm->patch_count)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: patch %u out of range (%u patches)",
+                            name, e, p, pm->patch_count);
+        if (el->level[e] > RAD_MAX_ELEMENT_LEVEL)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: level %u above %u", name, e,
+                            el->level[e], RAD_MAX_ELEMENT_LEVEL);
+        const rad_patch *pp = &pm->patches[p];
+        c->polygon = pp->polygon;
+        c->object = pp->object;
+        c->material = pp->material;
+        c->normal = pp->normal;
+        int corners = rad_patch_corners(c);
+        for (int k = 0; k < corners; k++)
+            if (c->v[k] >= m->vertex_count)
+                return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: vertex %u out of range", name,
+                                e, c->v[k]);
+        if (rad_cell_geometry(m->vertices, c->v, c->normal, &c->center, &c->area) != 0)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: area is not positive", name, e);
+        /* The element lies in its patch: its area is at most the patch's. */
+        if (!(c->area <= pp->area * (1.0 + 1e-9)))
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: larger than its patch", name, e);
+        uint32_t cnt = el->row_count[e];
+        if (el->row_start[e] > el->nnz || cnt > el->nnz - el->row_start[e])
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: row outside the entries", name, e);
+        if (el->level[e] == 0 && cnt != 0)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: level 0 with a row", name, e);
+        double sum = 0.0;
+        for (uint32_t q = 0; q < cnt; q++) {
+            uint64_t k = el->row_start[e] + q;
+            uint32_t j = el->col[k];
+            if (j >= pm->patch_count || j == p || (q && j <= el->col[k - 1]) ||
+                !(el->val[k] > 0.0f) || !isfinite(el->val[k]))
+                return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: bad row entry %u", name, e, q);
+            sum += el->val[k];
+        }
+        if (!(sum <= 1.0 + 1e-3))
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: row sum %g above 1", name, e, sum);
+        for (uint32_t b = 0; b < bands; b++) {
+            double v = el->B[(size_t)e * bands + b];
+            if (!(v >= 0.0) || !isfinite(v))
+                return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: radiosity %g", name, e, v);
+        }
+    }
+    return rad_mesh_check(m, s->scene->polygon_count, s->scene->object_count,
+                          s->scene->material_count, err);
+}
+
+/* ------------------------------------------------------------- gather */
+
+/* B_e of one element from its row (see the top of the file). */
+static void gather_one(const rad_solution *s, const double *Hd, uint32_t p, uint32_t level,
+                       const uint32_t *col, const float *val, uint32_t cnt, double *Be)
+{
+    const uint32_t bands = s->band_count;
+    const size_t pb = (size_t)p * bands;
+    if (level == 0) {
+        memcpy(Be, s->B + pb, bands * sizeof *Be);
+        return;
+    }
+    for (uint32_t b = 0; b < bands; b++) {
+        double h = Hd ? Hd[pb + b] : 0.0;
+        for (uint32_t q = 0; q < cnt; q++)
+            h += (double)val[q] * s->B[(size_t)col[q] * bands + b];
+        double v = s->emission[pb + b] + s->rho[pb + b] * h;
+        Be[b] = v > 0.0 ? v : 0.0;
+    }
+}
+
+/* H_d of every patch when the scene has punctual lights, else NULL (no
+ * direct term).  *hd_out NULL with RAD_OK means none. */
+static int direct_irradiance(const rad_solution *s, double **hd_out, rad_error *err)
+{
+    *hd_out = NULL;
+    if (!s->scene->light_count)
+        return RAD_OK;
+    double *Hd = malloc((size_t)s->mesh->patch_count * s->band_count * sizeof *Hd + 1);
+    if (!Hd)
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    int rc = rad_solution_direct_irradiance(s, Hd, err);
+    if (rc != RAD_OK) {
+        free(Hd);
+        return rc;
+    }
+    *hd_out = Hd;
+    return RAD_OK;
+}
+
+int rad_elements_gather(const rad_solution *s, rad_elements *el, rad_error *err)
+{
+    if (!s || !el)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_elements_gather: solution and elements must be given");
+    double *Hd;
+    int rc = direct_irradiance(s, &Hd, err);
+    if (rc != RAD_OK)
+        return rc;
+    const uint32_t bands = s->band_count;
+    for (uint32_t e = 0; e < el->mesh->patch_count; e++)
+        gather_one(s, Hd, el->patch[e], el->level[e], el->col + el->row_start[e],
+                   el->val + el->row_start[e], el->row_count[e], el->B + (size_t)e * bands);
+    free(Hd);
+    return RAD_OK;
+}
+
+/* -------------------------------------------------- vertices by position */
+
+/* Open-addressing table of vertex indices keyed by (polygon, exact
+ * position).  The vertex arrays live with the caller; the table keeps a
+ * pointer to them, refreshed after each growth. */
+typedef struct vtable {
+    uint32_t *slot;          /* vertex + 1, 0 = empty */
+    size_t cap;              /* power of two */
+    uint32_t count;
+    const rad_vec3 *V;       /* positions */
+    const uint32_t *Vpoly;   /* polygon of each vertex */
+} vtable;
+
+static uint64_t vhash(uint32_t poly, rad_vec3 p)
+{
+    uint64_t w[3], h = 0x9E3779B97F4A7C15ull ^ poly;
+    /* +0.0 makes -0 and 0 the same key. */
+    double c[3] = {p.x + 0.0, p.y + 0.0, p.z + 0.0};
+    memcpy(w, c, sizeof w);
+    for (int k = 0; k < 3; k++) {
+        h ^= w[k];
+        h *= 0xff51afd7ed558ccdull;
+        h ^= h >> 33;
+    }
+    return h;
+}
+
+static int same(rad_vec3 a, rad_vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
+
+static uint32_t vt_find(const vtable *t, uint32_t poly, rad_vec3 p)
+{
+    size_t mask = t->cap - 1;
+    for (size_t h = vhash(poly, p) & mask;; h = (h + 1) & mask) {
+        uint32_t s = t->slot[h];
+        if (!s)
+            return RAD_NONE;
+        if (t->Vpoly[s - 1] == poly && same(t->V[s - 1], p))
+            return s - 1;
+    }
+}
+
+/* Inserts vertex v (already in the caller's arrays); doubles the table
+ * when half full.  -1 on OOM. */
+static int vt_insert(vtable *t, uint32_t v)
+{
+    if (2 * ((size_t)t->count + 1) > t->cap) {
+        size_t cap = t->cap ? 2 * t->cap : 1024;
+        uint32_t *slot = calloc(cap, sizeof *slot);
+        if (!slot)
+            return -1;
+        for (size_t k = 0; k < t->cap; k++)
+            if (t->slot[k]) {
+                uint32_t w = t->slot[k] - 1;
+                size_t h = vhash(t->Vpoly[w], t->V[w]) & (cap - 1);
+                while (slot[h])
+                    h = (h + 1) & (cap - 1);
+                slot[h] = t->slot[k];
+            }
+        free(t->slot);
+        t->slot = slot;
+        t->cap = cap;
+    }
+    size_t mask = t->cap - 1, h = vhash(t->Vpoly[v], t->V[v]) & mask;
+    while (t->slot[h])
+        h = (h + 1) & mask;
+    t->slot[h] = v + 1;
+    t->count++;
+    return 0;
+}
+
+static rad_vec3 midpoint(rad_vec3 a, rad_vec3 b)
+{
+    return rad_v3((a.x + b.x) * 0.5, (a.y + b.y) * 0.5, (a.z + b.z) * 0.5);
+}
+
+/* A growing list of vertex indices. */
+typedef struct ulist {
+    uint32_t *v;
+    size_t n, cap;
+    int failed;
+} ulist;
+
+static void ul_push(ulist *l, uint32_t v)
+{
+    if (l->n == l->cap) {
+        size_t cap = l->cap ? 2 * l->cap : 64;
+        uint32_t *p = realloc(l->v, cap * sizeof *p);
+        if (!p) {
+            l->failed = 1;
+            return;
+        }
+        l->v = p;
+        l->cap = cap;
+    }
+    l->v[l->n++] = v;
+}
+
+/* Pushes the vertices strictly inside edge a→b, in order from a: the
+ * corners of finer neighbours, found as existing midpoints. */
+static void edge_inner(const vtable *t, uint32_t poly, uint32_t a, uint32_t b, int depth, ulist *out)
+{
+    if (depth > RAD_MAX_ELEMENT_LEVEL)
+        return;
+    uint32_t m = vt_find(t, poly, midpoint(t->V[a], t->V[b]));
+    if (m == RAD_NONE)
+        return;
+    edge_inner(t, poly, a, m, depth + 1, out);
+    ul_push(out, m);
+    edge_inner(t, poly, m, b, depth + 1, out);
+}
+
+/* The outline of a cell: its corners and every vertex on its edges, in
+ * counter-clockwise order, into out (cleared first). */
+static void cell_outline(const vtable *t, const rad_patch *c, ulist *out)
+{
+    out->n = 0;
+    int corners = rad_patch_corners(c);
+    for (int k = 0; k < corners; k++) {
+        ul_push(out, c->v[k]);
+        edge_inner(t, c->polygon, c->v[k], c->v[(k + 1) % corners], 0, out);
+    }
+}
+
+/* ------------------------------------------------------- render mesh */
+
+int rad_elements_render_mesh(const rad_elements *el, rad_mesh **out, uint32_t **cells_of,
+                             rad_error *err)
+{
+    *out = NULL;
+    *cells_of = NULL;
+    const rad_mesh *m = el->mesh;
+    uint32_t nv = m->vertex_count, ne = m->patch_count;
+    uint32_t *Vpoly = malloc((nv ? nv : 1) * sizeof *Vpoly);
+    vtable t = {0};
+    ulist ol = {0};
+    rad_mesh *rm = NULL;
+    uint32_t *of = NULL;
+    int rc = RAD_ERR_NOMEM;
+    if (!Vpoly)
+        goto done;
+    for (uint32_t e = 0; e < ne; e++)
+        for (int k = 0; k < rad_patch_corners(&m->patches[e]); k++)
+            Vpoly[m->patches[e].v[k]] = m->patches[e].polygon;
+    t.V = m->vertices;
+    t.Vpoly = Vpoly;
+    for (uint32_t v = 0; v < nv; v++)
+        if (vt_insert(&t, v) != 0)
+            goto done;
+    /* Count first: a cell with k outline vertices beyond its corners becomes
+     * a fan of (corners + k) triangles about one new centre vertex. */
+    uint64_t cells = 0, extra = 0;
+    for (uint32_t e = 0; e < ne; e++) {
+        cell_outline(&t, &m->patches[e], &ol);
+        if (ol.failed)
+            goto done;
+        int corners = rad_patch_corners(&m->patches[e]);
+        if (ol.n == (size_t)corners) {
+            cells++;
+        } else {
+            cells += ol.n;
+            extra++;
+        }
+    }
+    if (cells > UINT32_MAX / 2 || nv + extra > UINT32_MAX / 2) {
+        rc = rad_fail(err, RAD_ERR_LIMIT, "elements: %llu cells to draw: too many",
+                      (unsigned long long)cells);
+        goto done;
+    }
+    rm = rad_mesh_alloc((uint32_t)(nv + extra), (uint32_t)cells);
+    of = malloc((size_t)(cells ? cells : 1) * sizeof *of);
+    if (!rm || !of)
+        goto done;
+    memcpy(rm->vertices, m->vertices, (size_t)nv * sizeof *rm->vertices);
+    memcpy(rm->vertex_boundary, m->vertex_boundary, (size_t)nv * sizeof *rm->vertex_boundary);
+    uint32_t nc = 0, vc = nv;
+    for (uint32_t e = 0; e < ne; e++) {
+        const rad_patch *c = &m->patches[e];
+        cell_outline(&t, c, &ol);
+        if (ol.failed)
+            goto done;
+        if (ol.n == (size_t)rad_patch_corners(c)) {
+            rm->patches[nc] = *c;
+            of[nc++] = e;
+            continue;
+        }
+        uint32_t centre = vc++;
+        rm->vertices[centre] = c->center;
+        for (size_t k = 0; k < ol.n; k++) {
+            rad_patch *f = &rm->patches[nc];
+            *f = *c;
+            f->v[0] = centre;
+            f->v[1] = ol.v[k];
+            f->v[2] = ol.v[(k + 1) % ol.n];
+            f->v[3] = RAD_NONE;
+            if (rad_cell_geometry(rm->vertices, f->v, f->normal, &f->center, &f->area) != 0) {
+                rc = rad_fail(err, RAD_ERR_CORRUPT, "elements: element %u: degenerate fan", e);
+                goto done;
+            }
+            of[nc++] = e;
+        }
+    }
+    RAD_ASSERT(nc == cells && vc == rm->vertex_count);
+    *out = rm;
+    *cells_of = of;
+    rm = NULL;
+    of = NULL;
+    rc = RAD_OK;
+done:
+    if (rc == RAD_ERR_NOMEM)
+        rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for the render mesh");
+    rad_mesh_destroy(rm);
+    free(of);
+    free(Vpoly);
+    free(t.slot);
+    free(ol.v);
+    return rc;
+}
+
+/* ---------------------------------------------------------- refinement */
+
+/* Every element made so far (leaves and split parents) while refining. */
+typedef struct enode {
+    uint32_t v[4];     /* corners; v[3] == RAD_NONE for a triangle */
+    uint32_t patch;
+    uint8_t level;
+    uint8_t leaf;
+    uint32_t cnt;      /* row entries */
+    uint64_t start;    /* first row entry */
+} enode;
+
+typedef struct builder {
+    rad_solution *s;
+    const double *Hd;
+    uint32_t bands;
+    /* vertices */
+    rad_vec3 *V;
+    uint8_t *Vb;
+    uint32_t *Vpoly;
+    uint32_t nv, cap_v;
+    vtable t;
+    /* elements */
+    enode *E;
+    double *B;         /* ne × bands */
+    uint32_t ne, cap_e;
+    /* rows */
+    uint32_t *col;
+    float *val;
+    uint64_t nnz, cap_r;
+    /* the first element of the batch being computed (receivers k -> first + k) */
+    uint32_t batch_first;
+    uint64_t rows_computed;
+} builder;
+
+/* Is p on an edge of polygon poly's outline?  Decides the boundary flag of
+ * a new vertex (the renderer extrapolates outline vertices). */
+static int on_outline(const rad_scene *sc, uint32_t poly, rad_vec3 p)
+{
+    const rad_polygon *pg = &sc->polygons[poly];
+    const rad_vec3 *P = sc->points + pg->first_point;
+    for (uint32_t k = 0; k < pg->point_count; k++) {
+        rad_vec3 a = P[k], b = P[(k + 1) % pg->point_count], ab = rad_sub(b, a);
+        double len2 = rad_dot(ab, ab);
+        if (!(len2 > 0.0))
+            continue;
+        double u = rad_dot(rad_sub(p, a), ab) / len2;
+        if (u < -1e-9 || u > 1.0 + 1e-9)
+            continue;
+        rad_vec3 d = rad_sub(p, rad_add(a, rad_scale(ab, u)));
+        if (rad_dot(d, d) <= 1e-18 * len2)
+            return 1;
+    }
+    return 0;
+}
+
+/* The vertex at p in polygon poly, made when missing; RAD_NONE on OOM. */
+static uint32_t vertex_at(builder *b, uint32_t poly, rad_vec3 p, int maybe_outline)
+{
+    uint32_t v = b->nv ? vt_find(&b->t, poly, p) : RAD_NONE;
+    if (v != RAD_NONE)
+        return v;
+    if (b->nv == b->cap_v) {
+        uint32_t cap = b->cap_v ? 2 * b->cap_v : 1024;
+        rad_vec3 *V = realloc(b->V, (size_t)cap * sizeof *V);
+        if (V)
+            b->V = V;
+        uint8_t *Vb = realloc(b->Vb, cap);
+        if (Vb)
+            b->Vb = Vb;
+        uint32_t *Vp = realloc(b->Vpoly, (size_t)cap * sizeof *Vp);
+        if (Vp)
+            b->Vpoly = Vp;
+        if (!V || !Vb || !Vp)
+            return RAD_NONE;
+        b->cap_v = cap;
+        b->t.V = b->V;
+        b->t.Vpoly = b->Vpoly;
+    }
+    v = b->nv++;
+    b->V[v] = p;
+    b->Vpoly[v] = poly;
+    b->Vb[v] = maybe_outline && on_outline(b->s->scene, poly, p);
+    if (vt_insert(&b->t, v) != 0)
+        return RAD_NONE;
+    return v;
+}
+
+static int add_element(builder *b, const uint32_t v[4], uint32_t patch, uint32_t level)
+{
+    if (b->ne == b->cap_e) {
+        uint32_t cap = b->cap_e ? 2 * b->cap_e : 1024;
+        enode *E = realloc(b->E, (size_t)cap * sizeof *E);
+        if (E)
+            b->E = E;
+        double *B = realloc(b->B, (size_t)cap * b->bands * sizeof *B);
+        if (B)
+            b->B = B;
+        if (!E || !B)
+            return -1;
+        b->cap_e = cap;
+    }
+    enode *n = &b->E[b->ne];
+    memcpy(n->v, v, sizeof n->v);
+    n->patch = patch;
+    n->level = (uint8_t)level;
+    n->leaf = 1;
+    n->cnt = 0;
+    n->start = 0;
+    memcpy(b->B + (size_t)b->ne * b->bands, b->s->B + (size_t)patch * b->bands,
+           b->bands * sizeof *b->B);
+    b->ne++;
+    return 0;
+}
+
+/* Splits leaf e into four children (appended).  -1 on OOM. */
+static int split(builder *b, uint32_t e)
+{
+    enode n = b->E[e];
+    uint32_t poly = b->s->mesh->patches[n.patch].polygon;
+    uint32_t c[4];
+    memcpy(c, n.v, sizeof c);
+    int corners = c[3] == RAD_NONE ? 3 : 4;
+    uint32_t m[4];
+    for (int k = 0; k < corners; k++) {
+        uint32_t a = c[k], z = c[(k + 1) % corners];
+        /* Only a midpoint between two outline vertices can be on the outline. */
+        m[k] = vertex_at(b, poly, midpoint(b->V[a], b->V[z]), b->Vb[a] && b->Vb[z]);
+        if (m[k] == RAD_NONE)
+            return -1;
+    }
+    uint32_t kids[4][4];
+    if (corners == 4) {
+        rad_vec3 mid = rad_scale(rad_add(rad_add(b->V[c[0]], b->V[c[1]]), rad_add(b->V[c[2]], b->V[c[3]])), 0.25);
+        uint32_t ctr = vertex_at(b, poly, mid, 0);
+        if (ctr == RAD_NONE)
+            return -1;
+        uint32_t q[4][4] = {{c[0], m[0], ctr, m[3]}, {m[0], c[1], m[1], ctr},
+                            {ctr, m[1], c[2], m[2]}, {m[3], ctr, m[2], c[3]}};
+        memcpy(kids, q, sizeof kids);
+    } else {
+        uint32_t q[4][4] = {{c[0], m[0], m[2], RAD_NONE}, {m[0], c[1], m[1], RAD_NONE},
+                            {m[2], m[1], c[2], RAD_NONE}, {m[0], m[1], m[2], RAD_NONE}};
+        memcpy(kids, q, sizeof kids);
+    }
+    for (int k = 0; k < 4; k++)
+        if (add_element(b, kids[k], n.patch, n.level + 1u) != 0)
+            return -1;
+    b->E[e].leaf = 0;
+    return 0;
+}
+
+static int store_row(void *user, uint32_t k, uint32_t count, const uint32_t *col, const float *val,
+                     rad_error *err)
+{
+    builder *b = user;
+    if (b->nnz + count > b->cap_r) {
+        uint64_t cap = b->cap_r ? b->cap_r : 4096;
+        while (cap < b->nnz + count)
+            cap *= 2;
+        uint32_t *c = realloc(b->col, cap * sizeof *c);
+        if (c)
+            b->col = c;
+        float *v = realloc(b->val, cap * sizeof *v);
+        if (v)
+            b->val = v;
+        if (!c || !v)
+            return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for element rows");
+        b->cap_r = cap;
+    }
+    enode *n = &b->E[b->batch_first + k];
+    n->start = b->nnz;
+    n->cnt = count;
+    memcpy(b->col + b->nnz, col, count * sizeof *col);
+    memcpy(b->val + b->nnz, val, count * sizeof *val);
+    b->nnz += count;
+    gather_one(b->s, b->Hd, n->patch, n->level, col, val, count,
+               b->B + (size_t)(b->batch_first + k) * b->bands);
+    return RAD_OK;
+}
+
+/* Rows and radiosities of the elements [first, b->ne), made by the last splits. */
+static int compute_new(builder *b, hc_engine *hc, uint32_t first, rad_error *err)
+{
+    uint32_t count = b->ne - first;
+    if (!count)
+        return RAD_OK;
+    hc_receiver *r = malloc((size_t)count * sizeof *r);
+    if (!r)
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    for (uint32_t k = 0; k < count; k++) {
+        const enode *n = &b->E[first + k];
+        double area;
+        rad_vec3 ctr;
+        if (rad_cell_geometry(b->V, n->v, b->s->mesh->patches[n->patch].normal, &ctr, &area) != 0) {
+            free(r);
+            return rad_fail(err, RAD_ERR_INVALID, "elements: element %u has no area", first + k);
+        }
+        r[k].center = ctr;
+        r[k].patch = n->patch;
+    }
+    b->batch_first = first;
+    int rc = hc_compute_points(hc, r, count, store_row, b, err);
+    b->rows_computed += count;
+    free(r);
+    return rc;
+}
+
+/* Longest edge of element n. */
+static double longest_edge(const builder *b, const enode *n)
+{
+    int corners = n->v[3] == RAD_NONE ? 3 : 4;
+    double l = 0.0;
+    for (int k = 0; k < corners; k++)
+        l = fmax(l, rad_length(rad_sub(b->V[n->v[(k + 1) % corners]], b->V[n->v[k]])));
+    return l;
+}
+
+/* Marks the leaves to split in this pass into mark[]; returns how many. */
+static uint32_t mark_splits(builder *b, const rad_solve_options *opt, const double *scale,
+                            const double *min_edge, uint8_t *mark, int *oom)
+{
+    const rad_solution *s = b->s;
+    const uint32_t bands = b->bands, ne = b->ne;
+    uint32_t marked = 0;
+    /* Which leaves may split at all: reflecting patch, above the size floor. */
+    for (uint32_t e = 0; e < ne; e++) {
+        const enode *n = &b->E[e];
+        mark[e] = 0;
+        if (!n->leaf || n->level >= RAD_MAX_ELEMENT_LEVEL)
+            continue;
+        int reflects = 0;
+        for (uint32_t c = 0; c < bands; c++)
+            reflects |= s->rho[(size_t)n->patch * bands + c] > 0.0;
+        if (!reflects || 0.5 * longest_edge(b, n) < min_edge[n->patch] * (1.0 - 1e-9))
+            continue;
+        mark[e] = 2; /* may split */
+    }
+    if (opt->element_levels && !(opt->refine_threshold > 0.0)) {
+        for (uint32_t e = 0; e < ne; e++)
+            if (mark[e] == 2 && b->E[e].level < opt->element_levels) {
+                mark[e] = 1;
+                marked++;
+            } else {
+                mark[e] = 0;
+            }
+        return marked;
+    }
+    /* Neighbours share an outline vertex (a corner or a T-vertex): vertex ->
+     * leaves, compressed rows. */
+    ulist ol = {0};
+    uint64_t *start = calloc((size_t)b->nv + 1, sizeof *start);
+    uint32_t *adj = NULL;
+    uint64_t *fill = NULL;
+    if (!start)
+        goto oom;
+    for (int pass = 0; pass < 2; pass++) {
+        for (uint32_t e = 0; e < ne; e++) {
+            if (!b->E[e].leaf)
+                continue;
+            rad_patch cell = {.polygon = s->mesh->patches[b->E[e].patch].polygon};
+            memcpy(cell.v, b->E[e].v, sizeof cell.v);
+            cell_outline(&b->t, &cell, &ol);
+            if (ol.failed)
+                goto oom;
+            for (size_t k = 0; k < ol.n; k++) {
+                if (pass == 0)
+                    start[ol.v[k] + 1]++;
+                else
+                    adj[fill[ol.v[k]]++] = e;
+            }
+        }
+        if (pass == 0) {
+            for (uint32_t v = 0; v < b->nv; v++)
+                start[v + 1] += start[v];
+            adj = malloc((size_t)(start[b->nv] ? start[b->nv] : 1) * sizeof *adj);
+            fill = malloc(((size_t)b->nv + 1) * sizeof *fill);
+            if (!adj || !fill)
+                goto oom;
+            memcpy(fill, start, ((size_t)b->nv + 1) * sizeof *fill);
+        }
+    }
+    for (uint32_t v = 0; v < b->nv; v++)
+        for (uint64_t x = start[v]; x < start[v + 1]; x++)
+            for (uint64_t y = x + 1; y < start[v + 1]; y++) {
+                uint32_t e = adj[x], f = adj[y];
+                if (e == f || (mark[e] != 2 && mark[f] != 2))
+                    continue;
+                double d = 0.0;
+                for (uint32_t c = 0; c < bands; c++)
+                    if (scale[c] > 0.0)
+                        d = fmax(d, fabs(b->B[(size_t)e * bands + c] - b->B[(size_t)f * bands + c]) /
+                                        scale[c]);
+                if (d > opt->refine_threshold) {
+                    if (mark[e] == 2)
+                        mark[e] = 1;
+                    if (mark[f] == 2)
+                        mark[f] = 1;
+                }
+            }
+    for (uint32_t e = 0; e < ne; e++) {
+        if (mark[e] == 1)
+            marked++;
+        else
+            mark[e] = 0;
+    }
+    free(start);
+    free(adj);
+    free(fill);
+    free(ol.v);
+    return marked;
+oom:
+    free(start);
+    free(adj);
+    free(fill);
+    free(ol.v);
+    *oom = 1;
+    return 0;
+}
+
+/* The builder's leaves as a rad_elements. */
+static int finish(builder *b, const rad_solve_options *opt, rad_elements **out, rad_error *err)
+{
+    uint32_t leaves = 0;
+    uint64_t entries = 0;
+    for (uint32_t e = 0; e < b->ne; e++)
+        if (b->E[e].leaf) {
+            leaves++;
+            entries += b->E[e].cnt;
+        }
+    rad_elements *el = rad_elements_alloc(b->nv, leaves, b->bands, entries);
+    if (!el)
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    memcpy(el->mesh->vertices, b->V, (size_t)b->nv * sizeof *b->V);
+    memcpy(el->mesh->vertex_boundary, b->Vb, b->nv);
+    uint32_t k = 0;
+    for (uint32_t e = 0; e < b->ne; e++) {
+        const enode *n = &b->E[e];
+        if (!n->leaf)
+            continue;
+        memcpy(el->mesh->patches[k].v, n->v, sizeof n->v);
+        el->patch[k] = n->patch;
+        el->level[k] = n->level;
+        el->row_start[k] = el->nnz;
+        el->row_count[k] = n->cnt;
+        memcpy(el->col + el->nnz, b->col + n->start, (size_t)n->cnt * sizeof *el->col);
+        memcpy(el->val + el->nnz, b->val + n->start, (size_t)n->cnt * sizeof *el->val);
+        el->nnz += n->cnt;
+        memcpy(el->B + (size_t)k * b->bands, b->B + (size_t)e * b->bands, b->bands * sizeof *el->B);
+        k++;
+    }
+    el->threshold = opt->refine_threshold > 0.0 ? opt->refine_threshold : 0.0;
+    el->rows_computed = b->rows_computed;
+    int rc = rad_elements_complete(el, b->s, "elements", err);
+    if (rc != RAD_OK) {
+        rad_elements_destroy(el);
+        return rc;
+    }
+    *out = el;
+    return RAD_OK;
+}
+
+int rad_solution_refine(rad_solution *s, const rad_solve_options *options, rad_error *err)
+{
+    if (!s)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_solution_refine: no solution");
+    rad_solve_options opt = {0};
+    if (options)
+        opt = *options;
+    if (!(opt.refine_threshold >= 0.0) || !isfinite(opt.refine_threshold) ||
+        !(opt.min_element_size >= 0.0) || !isfinite(opt.min_element_size) ||
+        opt.element_levels > RAD_MAX_ELEMENT_LEVEL)
+        return rad_fail(err, RAD_ERR_USAGE,
+                        "refine: threshold and minimum element size must be finite and >= 0, "
+                        "levels at most %u", RAD_MAX_ELEMENT_LEVEL);
+    rad_elements_destroy(s->elements);
+    s->elements = NULL;
+    if (!(opt.refine_threshold > 0.0) && opt.element_levels == 0)
+        return RAD_OK;
+
+    const rad_mesh *pm = s->mesh;
+    const uint32_t np = pm->patch_count, bands = s->band_count;
+    builder b = {.s = s, .bands = bands};
+    double *Hd = NULL, *min_edge = NULL;
+    uint8_t *mark = NULL;
+    hc_engine *hc = NULL;
+    int rc = direct_irradiance(s, &Hd, err);
+    if (rc != RAD_OK)
+        return rc;
+    b.Hd = Hd;
+    min_edge = malloc((np ? np : 1) * sizeof *min_edge);
+    if (!min_edge) {
+        rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+        goto done;
+    }
+    /* Level 0: one element per patch, on the patch's own corners. */
+    for (uint32_t i = 0; i < np; i++) {
+        const rad_patch *p = &pm->patches[i];
+        uint32_t v[4] = {RAD_NONE, RAD_NONE, RAD_NONE, RAD_NONE};
+        for (int k = 0; k < rad_patch_corners(p); k++) {
+            v[k] = vertex_at(&b, p->polygon, pm->vertices[p->v[k]], 0);
+            if (v[k] == RAD_NONE) {
+                rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+                goto done;
+            }
+            b.Vb[v[k]] = pm->vertex_boundary[p->v[k]];
+        }
+        if (add_element(&b, v, i, 0) != 0) {
+            rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+            goto done;
+        }
+        /* Default floor: three splits below the patch (1/8 of its size). */
+        double own = longest_edge(&b, &b.E[i]);
+        min_edge[i] = opt.min_element_size > 0.0 ? opt.min_element_size : own / 8.0;
+    }
+    /* The threshold is relative to the brightest reflecting (non-emitting)
+     * patch per band: emitters would make any threshold meaningless. */
+    double scale[RAD_MAX_BANDS] = {0};
+    for (uint32_t i = 0; i < np; i++)
+        for (uint32_t c = 0; c < bands; c++)
+            if (s->emission[(size_t)i * bands + c] == 0.0)
+                scale[c] = fmax(scale[c], s->B[(size_t)i * bands + c]);
+    hc_options ho = opt.hemicube;
+    ho.progress = NULL;
+    uint8_t *exact = NULL;
+    if (!opt.pixel_emitters) {
+        /* The same exact marks the patch rows used: element-to-emitter
+         * factors by the contour integral. */
+        exact = calloc(np ? np : 1, 1);
+        if (!exact) {
+            rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+            goto done;
+        }
+        for (uint32_t i = 0; i < np; i++)
+            for (uint32_t c = 0; c < bands; c++)
+                exact[i] |= s->emission[(size_t)i * bands + c] > 0.0;
+        ho.exact = exact;
+    }
+    ho.exact_near = 0;
+    rc = hc_create(pm, &ho, &hc, err);
+    free(exact);
+    if (rc != RAD_OK)
+        goto done;
+    for (uint32_t pass = 0; pass < RAD_MAX_ELEMENT_LEVEL; pass++) {
+        free(mark);
+        mark = malloc(b.ne ? b.ne : 1);
+        if (!mark) {
+            rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+            goto done;
+        }
+        int oom = 0;
+        uint32_t marked = mark_splits(&b, &opt, scale, min_edge, mark, &oom);
+        if (oom) {
+            rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+            goto done;
+        }
+        if (!marked)
+            break;
+        uint64_t after = (uint64_t)b.ne + 4ull * marked;
+        uint32_t limit = opt.mesh.max_patches ? opt.mesh.max_patches : 2000000u;
+        if (after > limit) {
+            rc = rad_fail(err, RAD_ERR_LIMIT,
+                          "elements: refinement would make %llu elements, above the limit of %u "
+                          "(raise --min-element-size or --refine-threshold)",
+                          (unsigned long long)after, limit);
+            goto done;
+        }
+        uint32_t first = b.ne, ne = b.ne;
+        for (uint32_t e = 0; e < ne; e++)
+            if (mark[e] && split(&b, e) != 0) {
+                rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+                goto done;
+            }
+        rc = compute_new(&b, hc, first, err);
+        if (rc != RAD_OK)
+            goto done;
+    }
+    {
+        rad_elements *el = NULL;
+        rc = finish(&b, &opt, &el, err);
+        if (rc == RAD_OK) {
+            el->min_size = opt.min_element_size;
+            s->elements = el;
+        }
+    }
+done:
+    hc_destroy(hc);
+    free(mark);
+    free(min_edge);
+    free(Hd);
+    free(b.V);
+    free(b.Vb);
+    free(b.Vpoly);
+    free(b.t.slot);
+    free(b.E);
+    free(b.B);
+    free(b.col);
+    free(b.val);
+    return rc;
+}
