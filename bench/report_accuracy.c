@@ -8,8 +8,9 @@
  * subdivision at near, unit and far spacing, radiosity error against total
  * time (a Pareto front over R, patch size and solver tolerance), time per
  * stage as the patch count grows, and the cases where the hemi-cube breaks
- * (proximity, the common-edge resonance, small bright sources).  Files are
- * written to a temporary name and renamed.
+ * (proximity, the common-edge resonance, small bright sources) with what
+ * the exact factor to emitters changes there.  Files are written to a
+ * temporary name and renamed.
  */
 #include "../hemicube/hemicube.h"
 #include "../radiosity/mesh.h"
@@ -27,6 +28,7 @@
 #endif
 
 static const char *out_dir;
+static int plots_written; /* counted, so the closing line never goes stale */
 
 /* Measured facts the summary quotes (filled by the sections). */
 static struct {
@@ -34,6 +36,13 @@ static struct {
     double alias_lt5, alias_ge20, alias_mean_ge5; /* worst patch below 5 px, from 20 px; floor mean from 5 px */
     double resonance_max, resonance_other;
     int perp_min_n;
+    /* 6.4: unoccluded lamp, worst exact patch, worst pixel-counted patch
+     * below 5 px, extra form-factor time; occluded lamp, exact entries'
+     * worst lit error and largest umbra F, worst penumbra error at R = 128
+     * and 256 (pixels, exact). */
+    double exact_worst, exact_px_lt5, exact_cost;
+    double occ_lit_ex, occ_umbra_ex, occ_pen_px[2], occ_pen_ex[2];
+    double occ_mean_px, occ_mean_ex; /* floor mean's relative error at R = 128 */
 } fact;
 
 /* --------------------------------------------------------------- output */
@@ -293,6 +302,7 @@ static void svg_plot(const char *name, const char *title, const char *xlabel, co
     sb_printf(&b, "</svg>\n");
     write_file(name, &b);
     free(b.p);
+    plots_written++;
 }
 
 /* ------------------------------------------------------------ helpers */
@@ -865,6 +875,151 @@ static void section_proximity(void)
        100 * fact.resonance_max, 100 * fact.resonance_other, fact.perp_min_n);
 }
 
+/* The small-lamp scene of 6.3 and 6.4: a unit floor of n×n patches (n = 17
+ * puts their centres at every sub-pixel offset from the lamp's image) under
+ * a square lamp of side s at height 1, centred and facing down; with a > 0
+ * also an occluder square of side a at height ½, centred and facing the
+ * floor.  One quad occludes from both sides: in the item buffer a back side
+ * still hides what lies beyond it and only counts for no patch (hemicube.c,
+ * fs_src). */
+enum { LAMP_FLOOR_N = 17 }; /* the floor's patches an edge in 6.3 and 6.4 */
+
+typedef struct lamp_scene {
+    rad_scene *sc;
+    rad_mesh *m;
+    rad_vec3 lamp[4], occ[4];
+    uint32_t lamp_obj;
+    uint32_t *rows, nrow; /* the floor's patches: the only rows computed */
+    uint8_t *exact;       /* patch_count bytes: 1 on the lamp's patch */
+} lamp_scene;
+
+static void lamp_scene_build(lamp_scene *ls, double s, double a, uint32_t n)
+{
+    rad_error err = {0};
+    memset(ls, 0, sizeof *ls);
+    ls->sc = rad_scene_create(1, "small lamp");
+    if (!ls->sc)
+        die("out of memory");
+    double rho[RAD_MAX_BANDS] = {0.5}, e0[RAD_MAX_BANDS] = {0}, e1[RAD_MAX_BANDS] = {1},
+           r0[RAD_MAX_BANDS] = {0};
+    uint32_t mw, ml, of, oo;
+    double lo = 0.5 - s / 2, hi = 0.5 + s / 2, olo = 0.5 - a / 2, ohi = 0.5 + a / 2;
+    const rad_vec3 fl[4] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+    const rad_vec3 lp[4] = {{lo, lo, 1}, {lo, hi, 1}, {hi, hi, 1}, {hi, lo, 1}};
+    const rad_vec3 op[4] = {{olo, olo, 0.5}, {olo, ohi, 0.5}, {ohi, ohi, 0.5}, {ohi, olo, 0.5}};
+    memcpy(ls->lamp, lp, sizeof lp);
+    memcpy(ls->occ, op, sizeof op);
+    if (rad_scene_add_material(ls->sc, "white", rho, e0, NULL, "floor", &mw, &err) ||
+        rad_scene_add_material(ls->sc, "lamp", r0, e1, NULL, "lamp", &ml, &err) ||
+        rad_scene_add_object(ls->sc, "floor", "floor", &of, &err) ||
+        rad_scene_add_object(ls->sc, "lamp", "lamp", &ls->lamp_obj, &err) ||
+        rad_scene_add_polygon(ls->sc, "floor", of, mw, fl, 4, n, n, "floor", NULL, &err) ||
+        rad_scene_add_polygon(ls->sc, "lamp", ls->lamp_obj, ml, lp, 4, 1, 1, "lamp", NULL, &err))
+        die("%s", err.message);
+    if (a > 0 && (rad_scene_add_object(ls->sc, "occluder", "occluder", &oo, &err) ||
+                  rad_scene_add_polygon(ls->sc, "occluder", oo, mw, op, 4, 1, 1, "occluder",
+                                        NULL, &err)))
+        die("%s", err.message);
+    if (rad_mesh_build(ls->sc, NULL, &ls->m, &err))
+        die("%s", err.message);
+    uint32_t np = ls->m->patch_count;
+    ls->rows = malloc(np * sizeof *ls->rows);
+    ls->exact = calloc(np, 1);
+    if (!ls->rows || !ls->exact)
+        die("out of memory");
+    for (uint32_t i = 0; i < np; i++) {
+        ls->exact[i] = ls->m->patches[i].object == ls->lamp_obj;
+        if (ls->m->patches[i].object == of)
+            ls->rows[ls->nrow++] = i;
+    }
+}
+
+static void lamp_scene_free(lamp_scene *ls)
+{
+    free(ls->rows);
+    free(ls->exact);
+    rad_mesh_destroy(ls->m);
+    rad_scene_destroy(ls->sc);
+}
+
+/* F_i,lamp of every floor row into f[nrow] by the hemi-cube at R: the lamp's
+ * pixels counted, or (exact) its contour integral times its visible
+ * fraction.  Returns the seconds hc_compute_rows took: the workers' start-up
+ * is the same either way and is left out. */
+static double lamp_factors(const lamp_scene *ls, uint32_t R, int exact, double *f)
+{
+    rad_error err = {0};
+    const rad_mesh *m = ls->m;
+    rad_matrix *F = rad_matrix_create(m->patch_count);
+    hc_engine *hc = NULL;
+    hc_options ho = {.resolution = R, .exact = exact ? ls->exact : NULL};
+    if (!F || hc_create(m, &ho, &hc, &err))
+        die("%s", err.message);
+    double t = rad_seconds();
+    if (hc_compute_rows(hc, ls->rows, ls->nrow, F, &err))
+        die("%s", err.message);
+    t = rad_seconds() - t;
+    hc_destroy(hc);
+    for (uint32_t k = 0; k < ls->nrow; k++) {
+        uint32_t i = ls->rows[k];
+        f[k] = 0;
+        for (uint32_t q = 0; q < F->row_count[i]; q++)
+            if (m->patches[F->col[F->row_start[i] + q]].object == ls->lamp_obj)
+                f[k] += F->val[F->row_start[i] + q];
+    }
+    rad_matrix_destroy(F);
+    return t;
+}
+
+/* f[nrow] against the exact unoccluded factor from each floor patch's
+ * centre: the worst and RMS relative error per patch, and the relative
+ * error of the floor's area-weighted mean F_floor→lamp. */
+static void lamp_errors(const lamp_scene *ls, const double *f, double *worst, double *rms,
+                        double *mean)
+{
+    double sq = 0, num = 0, numx = 0;
+    *worst = 0;
+    for (uint32_t k = 0; k < ls->nrow; k++) {
+        const rad_patch *p = &ls->m->patches[ls->rows[k]];
+        double ex = hc_ff_point_polygon(p->center, p->normal, ls->lamp, 4);
+        double e = f[k] / ex - 1;
+        *worst = fmax(*worst, fabs(e));
+        sq += e * e;
+        num += p->area * f[k];
+        numx += p->area * ex;
+    }
+    *rms = sqrt(sq / ls->nrow);
+    *mean = num / numx - 1;
+}
+
+static double *alloc_doubles(size_t n)
+{
+    double *p = malloc(n * sizeof *p);
+    if (!p)
+        die("out of memory");
+    return p;
+}
+
+/* The plots of 6.3 and 6.4: per resolution a solid and a dashed series over
+ * the lamp's width in pixels. */
+typedef struct lamp_plot {
+    char labels[8][48];
+    series s[8];
+    int ns;
+} lamp_plot;
+
+static void lamp_plot_pair(lamp_plot *lp, uint32_t R, const double *x, int n, const char *solid,
+                           const double *ys, const char *dashed, const double *yd)
+{
+    if (lp->ns + 2 > 8)
+        die("lamp_plot: too many series");
+    snprintf(lp->labels[lp->ns], sizeof lp->labels[0], "%s, R = %u", solid, R);
+    snprintf(lp->labels[lp->ns + 1], sizeof lp->labels[0], "%s, R = %u", dashed, R);
+    lp->s[lp->ns] = (series){lp->labels[lp->ns], x, ys, n, ST_LINE};
+    lp->s[lp->ns + 1] = (series){lp->labels[lp->ns + 1], x, yd, n, ST_DASHED};
+    lp->ns += 2;
+}
+
 static void section_aliasing(void)
 {
     progress("aliasing of small bright sources");
@@ -872,70 +1027,24 @@ static void section_aliasing(void)
     static const uint32_t Rs[] = {64, 128, 256, 512};
     enum { NS = 5, NR = 4 };
     double px[NR][NS], pmax[NR][NS], pobj[NR][NS];
-    char labels[2 * NR][48];
-    series s[2 * NR];
-    rad_error err = {0};
+    lamp_plot plot = {0};
     MD("### 6.3 Aliasing of small bright sources\n\n"
-       "A unit floor (17×17 patches, so their centres sit at every sub-pixel offset) under a square lamp of side s at height 1, centred.  For "
+       "A unit floor (%d×%d patches, so their centres sit at every sub-pixel offset) under a square lamp of side s at height 1, centred.  For "
        "each floor patch the hemi-cube's F_i,lamp is compared with the exact factor from its "
        "centre (Lambert's contour integral); \"per patch\" is the worst patch, \"floor\" the "
        "area-weighted mean F_floor→lamp.  The lamp spans about s·R/2 pixels of the top face.\n\n"
        "| lamp side s | R | pixels across | worst patch | RMS over patches | floor F |\n"
-       "|--:|--:|--:|--:|--:|--:|\n");
+       "|--:|--:|--:|--:|--:|--:|\n",
+       LAMP_FLOOR_N, LAMP_FLOOR_N);
     for (int a = 0; a < NS; a++) {
         double sz = sizes[a];
-        rad_scene *sc = rad_scene_create(1, "aliasing");
-        if (!sc)
-            die("out of memory");
-        double rho[RAD_MAX_BANDS] = {0.5}, e0[RAD_MAX_BANDS] = {0}, e1[RAD_MAX_BANDS] = {1},
-               r0[RAD_MAX_BANDS] = {0};
-        uint32_t mw, ml, of, ol;
-        double lo = 0.5 - sz / 2, hi = 0.5 + sz / 2;
-        rad_vec3 fl[4] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
-        rad_vec3 lp[4] = {{lo, lo, 1}, {lo, hi, 1}, {hi, hi, 1}, {hi, lo, 1}};
-        if (rad_scene_add_material(sc, "white", rho, e0, NULL, "floor", &mw, &err) ||
-            rad_scene_add_material(sc, "lamp", r0, e1, NULL, "lamp", &ml, &err) ||
-            rad_scene_add_object(sc, "floor", "floor", &of, &err) ||
-            rad_scene_add_object(sc, "lamp", "lamp", &ol, &err) ||
-            rad_scene_add_polygon(sc, "floor", of, mw, fl, 4, 17, 17, "floor", NULL, &err) ||
-            rad_scene_add_polygon(sc, "lamp", ol, ml, lp, 4, 1, 1, "lamp", NULL, &err))
-            die("%s", err.message);
-        rad_mesh *m = NULL;
-        if (rad_mesh_build(sc, NULL, &m, &err))
-            die("%s", err.message);
-        uint32_t n = m->patch_count, nrow = 0;
-        uint32_t *rows = malloc(n * sizeof *rows);
-        if (!rows)
-            die("out of memory");
-        for (uint32_t i = 0; i < n; i++)
-            if (m->patches[i].object == of)
-                rows[nrow++] = i;
+        lamp_scene ls;
+        lamp_scene_build(&ls, sz, 0, LAMP_FLOOR_N);
+        double *f = alloc_doubles(ls.nrow);
         for (int b = 0; b < NR; b++) {
-            rad_matrix *F = rad_matrix_create(n);
-            hc_engine *hc = NULL;
-            hc_options ho = {.resolution = Rs[b]};
-            if (!F || hc_create(m, &ho, &hc, &err) || hc_compute_rows(hc, rows, nrow, F, &err))
-                die("%s", err.message);
-            hc_destroy(hc);
-            double worst = 0, sq = 0, num = 0, numx = 0, den = 0;
-            for (uint32_t k = 0; k < nrow; k++) {
-                uint32_t i = rows[k];
-                const rad_patch *p = &m->patches[i];
-                double f = 0;
-                for (uint32_t q = 0; q < F->row_count[i]; q++) {
-                    uint32_t j = F->col[F->row_start[i] + q];
-                    if (m->patches[j].object == ol)
-                        f += F->val[F->row_start[i] + q];
-                }
-                double ex = hc_ff_point_polygon(p->center, p->normal, lp, 4);
-                double e = f / ex - 1;
-                worst = fmax(worst, fabs(e));
-                sq += e * e;
-                num += p->area * f;
-                numx += p->area * ex;
-                den += p->area;
-            }
-            double rms = sqrt(sq / nrow), fe = num / numx - 1;
+            double worst, rms, fe;
+            lamp_factors(&ls, Rs[b], 0, f);
+            lamp_errors(&ls, f, &worst, &rms, &fe);
             px[b][a] = sz * Rs[b] / 2;
             pmax[b][a] = worst;
             pobj[b][a] = fabs(fe);
@@ -946,21 +1055,14 @@ static void section_aliasing(void)
                 fact.alias_ge20 = fmax(fact.alias_ge20, worst);
             if (px[b][a] >= 5)
                 fact.alias_mean_ge5 = fmax(fact.alias_mean_ge5, fabs(fe));
-            (void)den;
-            rad_matrix_destroy(F);
         }
-        free(rows);
-        rad_mesh_destroy(m);
-        rad_scene_destroy(sc);
+        free(f);
+        lamp_scene_free(&ls);
     }
-    for (int b = 0; b < NR; b++) {
-        snprintf(labels[2 * b], sizeof labels[0], "worst patch, R = %u", Rs[b]);
-        snprintf(labels[2 * b + 1], sizeof labels[0], "floor mean, R = %u", Rs[b]);
-        s[2 * b] = (series){labels[2 * b], px[b], pmax[b], NS, ST_LINE};
-        s[2 * b + 1] = (series){labels[2 * b + 1], px[b], pobj[b], NS, ST_DASHED};
-    }
+    for (int b = 0; b < NR; b++)
+        lamp_plot_pair(&plot, Rs[b], px[b], NS, "worst patch", pmax[b], "floor mean", pobj[b]);
     svg_plot("aliasing.svg", "Small sources: error vs lamp size in pixels", "lamp width in top-face pixels (s·R/2)",
-             "|relative error| of F to the lamp", 1, 1, s, 2 * NR);
+             "|relative error| of F to the lamp", 1, 1, plot.s, plot.ns);
     MD("\n![aliasing](aliasing.svg)\n\n"
        "The curves collapse onto the lamp's size in pixels.  A source under 5 pixels wide is "
        "quantised to whole pixels and a patch may see it up to %.0f %% too bright or too dim "
@@ -971,8 +1073,222 @@ static void section_aliasing(void)
        "patch still has its own quantised view).  The fixes: a resolution at which the "
        "source spans ≥ 20 pixels from every receiver, R ≥ 40·distance/size; or, for "
        "emitters, the exact point-to-polygon factor (hc_ff_point_polygon) instead of the "
-       "hemi-cube's row entry.\n\n",
+       "hemi-cube's row entry, which the pipeline uses by default (section 6.4).\n\n",
        100 * fact.alias_lt5, 100 * fact.alias_ge20, 100 * fact.alias_mean_ge5);
+}
+
+/* Sutherland-Hodgman: the part of the convex polygon p (np points) inside
+ * the convex polygon c (nc points, in p's plane) into out[np + nc]; returns
+ * its point count, below 3 when they do not overlap.  Each of c's edges
+ * keeps one half-plane, and cutting a convex polygon by a line adds at most
+ * one point, hence the bound. */
+static int clip_convex(const rad_vec3 *p, int np, const rad_vec3 *c, int nc, rad_vec3 *out)
+{
+    enum { CLIP_MAX = 16 };
+    rad_vec3 in[CLIP_MAX];
+    if (np + nc > CLIP_MAX)
+        die("clip_convex: %d + %d points", np, nc);
+    /* c's own orientation decides which side of an edge is inside. */
+    const rad_vec3 N = rad_cross(rad_sub(c[1], c[0]), rad_sub(c[2], c[0]));
+    int n = np;
+    memcpy(out, p, (size_t)np * sizeof *p);
+    for (int k = 0; k < nc && n > 0; k++) {
+        const rad_vec3 a = c[k], e = rad_sub(c[(k + 1) % nc], a);
+        memcpy(in, out, (size_t)n * sizeof *out);
+        int m = 0;
+        for (int i = 0; i < n; i++) {
+            const rad_vec3 cur = in[i], prev = in[(i + n - 1) % n];
+            double dc = rad_dot(rad_cross(e, rad_sub(cur, a)), N);
+            double dp = rad_dot(rad_cross(e, rad_sub(prev, a)), N);
+            if ((dc >= 0) != (dp >= 0))
+                out[m++] = rad_lerp(prev, cur, dp / (dp - dc));
+            if (dc >= 0)
+                out[m++] = cur;
+        }
+        n = m;
+    }
+    return n;
+}
+
+static double polygon_area(const rad_vec3 *p, int n)
+{
+    rad_vec3 s = {0, 0, 0};
+    for (int i = 0; i < n; i++)
+        s = rad_add(s, rad_cross(p[i], p[(i + 1) % n]));
+    return 0.5 * rad_length(s);
+}
+
+/* The exact factor from floor patch p's centre to the part of the lamp it
+ * sees past the occluder, independent of the hemi-cube: the occluder
+ * projected from c_p onto the lamp's plane, clipped to the lamp, is the
+ * hidden part H (convex, being the intersection of two convex polygons),
+ * and the visible part, lamp − H, may not be, so F_vis = F(lamp) − F(H).
+ * *hidden gets H's share of the lamp's area: 0 fully lit, 1 in the umbra. */
+static double lamp_visible(const lamp_scene *ls, const rad_patch *p, double *hidden)
+{
+    const rad_vec3 c = p->center, nl = rad_cross(rad_sub(ls->lamp[1], ls->lamp[0]),
+                                                 rad_sub(ls->lamp[2], ls->lamp[0]));
+    rad_vec3 shadow[4], h[8];
+    for (int k = 0; k < 4; k++) {
+        rad_vec3 d = rad_sub(ls->occ[k], c);
+        shadow[k] = rad_add(c, rad_scale(d, rad_dot(rad_sub(ls->lamp[0], c), nl) / rad_dot(d, nl)));
+    }
+    int nh = clip_convex(ls->lamp, 4, shadow, 4, h);
+    double f = hc_ff_point_polygon(c, p->normal, ls->lamp, 4);
+    *hidden = nh >= 3 ? polygon_area(h, nh) / polygon_area(ls->lamp, 4) : 0;
+    return nh >= 3 ? f - hc_ff_point_polygon(c, p->normal, h, (uint32_t)nh) : f;
+}
+
+static void section_exact_emitters(void)
+{
+    progress("exact form factors to emitters");
+    static const double sizes[] = {0.025, 0.05, 0.1, 0.4};
+    static const uint32_t Rs[] = {64, 128, 256};
+    enum { NS = 4, NR = 3 };
+    double px[NR][NS], wpx[NR][NS], wex[NR][NS], t_px = 0, t_ex = 0;
+    lamp_plot plot = {0};
+    MD("### 6.4 Exact form factors to emitters\n\n"
+       "The pipeline marks its emitters (hc_options.exact, unless `pixel_emitters` is set): "
+       "a marked patch j gets F_ij = F_exact · v_ij, Lambert's contour integral from i's "
+       "centre (hc_ff_point_polygon) times the fraction of j's pixels the hemi-cube sees "
+       "unoccluded, and the row's other entries are rescaled to keep the cube's pixel total.  "
+       "First the scene of 6.3 with the lamp's patch marked: nothing occludes, so v_ij = 1.  "
+       "Errors are per floor patch against the exact factor from its centre, as in 6.3; "
+       "times are hc_compute_rows for the %u floor rows (all CPUs; the workers' start-up, "
+       "the same for both, left out).\n\n"
+       "| lamp side s | R | pixels across | pixels: worst | pixels: RMS | exact: worst | "
+       "exact: RMS | pixels: ms | exact: ms |\n"
+       "|--:|--:|--:|--:|--:|--:|--:|--:|--:|\n",
+       (unsigned)(LAMP_FLOOR_N * LAMP_FLOOR_N));
+    for (int a = 0; a < NS; a++) {
+        lamp_scene ls;
+        lamp_scene_build(&ls, sizes[a], 0, LAMP_FLOOR_N);
+        double *f = alloc_doubles(ls.nrow);
+        for (int b = 0; b < NR; b++) {
+            double rms_px, rms_ex, mean;
+            double tp = lamp_factors(&ls, Rs[b], 0, f);
+            lamp_errors(&ls, f, &wpx[b][a], &rms_px, &mean);
+            double te = lamp_factors(&ls, Rs[b], 1, f);
+            lamp_errors(&ls, f, &wex[b][a], &rms_ex, &mean);
+            px[b][a] = sizes[a] * Rs[b] / 2;
+            t_px += tp;
+            t_ex += te;
+            MD("| %g | %u | %.1f | %.2e | %.2e | %.2e | %.2e | %.0f | %.0f |\n", sizes[a], Rs[b],
+               px[b][a], wpx[b][a], rms_px, wex[b][a], rms_ex, 1e3 * tp, 1e3 * te);
+            if (px[b][a] < 5)
+                fact.exact_px_lt5 = fmax(fact.exact_px_lt5, wpx[b][a]);
+            fact.exact_worst = fmax(fact.exact_worst, wex[b][a]);
+        }
+        free(f);
+        lamp_scene_free(&ls);
+    }
+    fact.exact_cost = t_ex / t_px - 1;
+    for (int b = 0; b < NR; b++)
+        lamp_plot_pair(&plot, Rs[b], px[b], NS, "pixels", wpx[b], "exact", wex[b]);
+    svg_plot("exact_emitters.svg", "Exact factor to the lamp: worst patch vs lamp size in pixels",
+             "lamp width in top-face pixels (s·R/2)", "worst |relative error| of F to the lamp", 1,
+             1, plot.s, plot.ns);
+
+    progress("exact form factors to an occluded emitter");
+    /* A pixel shows the lamp when its centre lies in the lamp's image and
+     * not in the occluder's, so a patch whose shadow misses the lamp (or
+     * covers it) gets v_ij = 1 (or 0) exactly, however near the edge: the
+     * pixels err only in the penumbra.  All of a column of patches shares
+     * one offset of the shadow's edge to the pixel grid; 53 patches an edge,
+     * prime to R/2, give the penumbra (0.1 wide each side) five columns at
+     * offsets spread over a pixel, where 17 would give it one. */
+    const double lamp_s = 0.1, occ_a = 0.3;
+    const uint32_t occ_n = 53;
+    static const uint32_t oR[] = {128, 256};
+    enum { NOR = 2, LIT = 0, PENUMBRA, UMBRA };
+    lamp_scene ls;
+    lamp_scene_build(&ls, lamp_s, occ_a, occ_n);
+    double *fvis = alloc_doubles(ls.nrow), *flamp = alloc_doubles(ls.nrow),
+           *f = alloc_doubles(ls.nrow);
+    int *region = malloc(ls.nrow * sizeof *region), count[3] = {0, 0, 0};
+    if (!region)
+        die("out of memory");
+    double ref_mean = 0;
+    for (uint32_t k = 0; k < ls.nrow; k++) {
+        const rad_patch *p = &ls.m->patches[ls.rows[k]];
+        double hidden;
+        fvis[k] = lamp_visible(&ls, p, &hidden);
+        flamp[k] = hc_ff_point_polygon(p->center, p->normal, ls.lamp, 4);
+        region[k] = hidden <= 1e-12 ? LIT : hidden >= 1 - 1e-12 ? UMBRA : PENUMBRA;
+        count[region[k]]++;
+        ref_mean += p->area * fvis[k];
+    }
+    MD("\n![exact factor to the lamp](exact_emitters.svg)\n\n"
+       "Then an occluder: a square of side %g at height %g, centred between the floor "
+       "(%u×%u patches here, so that the penumbra's patch centres fall at many offsets "
+       "to the pixel grid) and a lamp of side %g.  The occluder is one quad facing the floor: "
+       "in the item buffer a back side hides as well.  Its shadow splits the floor's "
+       "patches into %d fully lit, %d in the penumbra and %d in the umbra.  The reference "
+       "for each patch is the exact factor of the part of the lamp its centre sees: the "
+       "occluder projected from the centre onto the lamp's "
+       "plane and clipped to the lamp (Sutherland-Hodgman) is the hidden part H, and "
+       "F_vis = F(lamp) − F(H).  Lit patches are compared as above (relative to F_vis); "
+       "in the umbra F_vis = 0 and the table gives the largest F_i,lamp found; a penumbra "
+       "patch's error is |F − F_vis| / F(lamp), the error in the visible fraction of its "
+       "lamp.  \"floor\" is the relative error of the area-weighted mean F_floor→lamp.\n\n"
+       "| R | F to the lamp | floor | lit: worst | lit: RMS | umbra: largest F | "
+       "penumbra: worst | penumbra: RMS |\n"
+       "|--:|---|--:|--:|--:|--:|--:|--:|\n",
+       occ_a, 0.5, occ_n, occ_n, lamp_s, count[LIT], count[PENUMBRA], count[UMBRA]);
+    for (int b = 0; b < NOR; b++)
+        for (int ex = 0; ex < 2; ex++) {
+            lamp_factors(&ls, oR[b], ex, f);
+            double worst[3] = {0, 0, 0}, sq[3] = {0, 0, 0}, mean = 0;
+            for (uint32_t k = 0; k < ls.nrow; k++) {
+                int r = region[k];
+                double e = r == LIT ? f[k] / fvis[k] - 1
+                           : r == UMBRA ? f[k]
+                                        : (f[k] - fvis[k]) / flamp[k];
+                worst[r] = fmax(worst[r], fabs(e));
+                sq[r] += e * e;
+                mean += ls.m->patches[ls.rows[k]].area * f[k];
+            }
+            MD("| %u | %s | %+.2e | %.2e | %.2e | %.2e | %.2e | %.2e |\n", oR[b],
+               ex ? "exact · v" : "pixels", mean / ref_mean - 1, worst[LIT],
+               sqrt(sq[LIT] / count[LIT]), worst[UMBRA], worst[PENUMBRA],
+               sqrt(sq[PENUMBRA] / count[PENUMBRA]));
+            if (ex) {
+                fact.occ_lit_ex = fmax(fact.occ_lit_ex, worst[LIT]);
+                fact.occ_umbra_ex = fmax(fact.occ_umbra_ex, worst[UMBRA]);
+                fact.occ_pen_ex[b] = worst[PENUMBRA];
+                if (b == 0)
+                    fact.occ_mean_ex = mean / ref_mean - 1;
+            } else {
+                fact.occ_pen_px[b] = worst[PENUMBRA];
+                if (b == 0)
+                    fact.occ_mean_px = mean / ref_mean - 1;
+            }
+        }
+    MD("\nWhat the exact factor buys: with nothing in the way every patch's F_i,lamp is the "
+       "contour integral to %.0e (the row's float storage) whatever the lamp's size in "
+       "pixels, where counting pixels is off by up to %.0f %% under 5 pixels: the blotches "
+       "of 6.3 are gone without raising R, for %.0f %% more form-factor time here (the "
+       "second rendering of the lamp alone, which measures v_ij).  Behind an occluder the "
+       "fully lit patches stay exact (%.0e) and the umbra gets %g, as with pixels.  What "
+       "remains is the penumbra: v_ij is a ratio of pixel counts, so a patch's visible "
+       "fraction of the lamp is quantised to the pixel columns the shadow's edge crosses.  "
+       "The ratio drops the lamp outline's own quantisation: the worst penumbra patch is "
+       "off by %.1f %% of its unoccluded factor at R = %u and %.1f %% at R = %u (counting "
+       "pixels: %.1f %% and %.1f %%).  Only R brings it down (%.1f× from R = %u to %u); "
+       "subdividing the receiver does not (each patch still has its own quantised view).  "
+       "The floor's mean changes little (%+.2f %% counting pixels, %+.2f %% exact, at "
+       "R = %u): the lit patches' "
+       "pixel errors, which the exact factor removes, largely cancelled in it already, as "
+       "in 6.3.\n\n",
+       fact.exact_worst, 100 * fact.exact_px_lt5, 100 * fact.exact_cost, fact.occ_lit_ex,
+       fact.occ_umbra_ex, 100 * fact.occ_pen_ex[0], oR[0], 100 * fact.occ_pen_ex[1], oR[1],
+       100 * fact.occ_pen_px[0], 100 * fact.occ_pen_px[1], fact.occ_pen_ex[0] / fact.occ_pen_ex[1],
+       oR[0], oR[1], 100 * fact.occ_mean_px, 100 * fact.occ_mean_ex, oR[0]);
+    free(fvis);
+    free(flamp);
+    free(f);
+    free(region);
+    lamp_scene_free(&ls);
 }
 
 /* ------------------------------------------------------------------ main */
@@ -995,6 +1311,7 @@ int main(int argc, char **argv)
     section_stages(&rows_per_s);
     section_proximity();
     section_aliasing();
+    section_exact_emitters();
     sbuf body = md;
     md = head;
     MD("# Accuracy of the hemi-cube: report\n\n"
@@ -1013,18 +1330,24 @@ int main(int argc, char **argv)
        "measured in section 6: surfaces closer than a patch is wide (%.1f %% at h = g; fix: "
        "subdivide to h ≤ g/4, %.2f %%), and sources a few pixels wide (a single hemi-cube to a "
        "far unit square, 6 pixels across, is off by %+.0f %% at R = 128; fix: R ≥ "
-       "40·distance/size or the exact factor).  "
+       "40·distance/size or the exact factor).  The exact factor to emitters, the "
+       "pipeline's default, takes a floor patch's F to a small lamp from up to %.0f %% off "
+       "(lamp under 5 pixels) to %.0e, for %.0f %% more form-factor time; behind an "
+       "occluder the penumbra stays pixel-counted (visible fraction off by up to %.1f %% "
+       "at R = 128; section 6.4).  "
        "Form factors run at about %.0f hemi-cube rows per second at N = 6,144 patches "
        "(R = 128, all CPUs); the whole report took %.0f s.\n\n",
        100 * sm.err_unit, 100 * sm.err_near, 100 * sm.err_far, 100 * sm.err_perp,
        sm.err_closed > 0 ? sm.err_closed : 1e-9, 100 * sm.err_cube_lamp, sm.t_lamp,
-       100 * fact.prox_h1, 100 * fact.prox_h4, 100 * sm.element_far, rows_per_s,
+       100 * fact.prox_h1, 100 * fact.prox_h4, 100 * sm.element_far,
+       100 * fact.exact_px_lt5, fact.exact_worst, 100 * fact.exact_cost, 100 * fact.occ_pen_ex[0],
+       rows_per_s,
        rad_seconds() - t0);
     MD("%.*s", (int)body.len, body.p);
     write_file("accuracy.md", &md);
     free(md.p);
     free(body.p);
-    fprintf(stderr, "report_accuracy: wrote %s/accuracy.md and 6 plots in %.0f s\n", out_dir,
-            rad_seconds() - t0);
+    fprintf(stderr, "report_accuracy: wrote %s/accuracy.md and %d plots in %.0f s\n", out_dir,
+            plots_written, rad_seconds() - t0);
     return 0;
 }
