@@ -67,28 +67,51 @@ int rad_elements_complete(rad_elements *el, const rad_solution *s, const char *n
 {
     const rad_mesh *pm = s->mesh;
     rad_mesh *m = el->mesh;
-    const uint32_t bands = s->band_count;
     for (uint32_t e = 0; e < m->patch_count; e++) {
         rad_patch *c = &m->patches[e];
         uint32_t p = el->patch[e];
         if (p >= pm->patch_count)
             return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: patch %u out of range (%u patches)",
                             name, e, p, pm->patch_count);
-        if (el->level[e] > RAD_MAX_ELEMENT_LEVEL)
-            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: level %u above %u", name, e,
-                            el->level[e], RAD_MAX_ELEMENT_LEVEL);
         const rad_patch *pp = &pm->patches[p];
         c->polygon = pp->polygon;
         c->object = pp->object;
         c->material = pp->material;
         c->normal = pp->normal;
-        int corners = rad_patch_corners(c);
-        for (int k = 0; k < corners; k++)
+        for (int k = 0; k < rad_patch_corners(c); k++)
             if (c->v[k] >= m->vertex_count)
                 return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: vertex %u out of range", name,
                                 e, c->v[k]);
         if (rad_cell_geometry(m->vertices, c->v, c->normal, &c->center, &c->area) != 0)
             return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: area is not positive", name, e);
+    }
+    return rad_elements_check(el, s, name, err);
+}
+
+int rad_elements_check(const rad_elements *el, const rad_solution *s, const char *name,
+                       rad_error *err)
+{
+    const rad_mesh *pm = s->mesh, *m = el->mesh;
+    const uint32_t bands = s->band_count;
+    if (!m || !el->patch || !el->level || !el->B || !el->row_start || !el->row_count ||
+        (el->nnz && (!el->col || !el->val)) || el->nnz > el->capacity)
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: elements: missing arrays", name);
+    int rc = rad_mesh_check(m, s->scene->polygon_count, s->scene->object_count,
+                            s->scene->material_count, err);
+    if (rc != RAD_OK)
+        return rc;
+    for (uint32_t e = 0; e < m->patch_count; e++) {
+        const rad_patch *c = &m->patches[e];
+        uint32_t p = el->patch[e];
+        if (p >= pm->patch_count)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: patch %u out of range (%u patches)",
+                            name, e, p, pm->patch_count);
+        const rad_patch *pp = &pm->patches[p];
+        if (c->polygon != pp->polygon || c->object != pp->object || c->material != pp->material)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: not in its patch's polygon", name, e);
+        if (el->level[e] > RAD_MAX_ELEMENT_LEVEL)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: level %u above %u", name, e,
+                            el->level[e], RAD_MAX_ELEMENT_LEVEL);
         /* The element lies in its patch: its area is at most the patch's. */
         if (!(c->area <= pp->area * (1.0 + 1e-9)))
             return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: larger than its patch", name, e);
@@ -114,8 +137,10 @@ int rad_elements_complete(rad_elements *el, const rad_solution *s, const char *n
                 return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: radiosity %g", name, e, v);
         }
     }
-    return rad_mesh_check(m, s->scene->polygon_count, s->scene->object_count,
-                          s->scene->material_count, err);
+    if (!(el->threshold >= 0.0) || !isfinite(el->threshold) || !(el->min_size >= 0.0) ||
+        !isfinite(el->min_size))
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: elements: bad threshold or minimum size", name);
+    return RAD_OK;
 }
 
 /* ------------------------------------------------------------- gather */

@@ -25,12 +25,13 @@
 #include <unistd.h>
 
 #define SOL_MAGIC "RADSOL\r\n"  /* 8 bytes; the CR LF catches text-mode mangling */
-/* Version 2 = version 1 + the LIGHTS section.  A file is written as version 1
- * when the scene has no punctual lights, so older programs still read it;
- * with lights it is version 2, because an older reader skipping LIGHTS would
- * lose the lights without a word and a relight would solve without them. */
-#define SOL_VERSION 2u
-#define SOL_VERSION_PLAIN 1u
+/* Version 2 = version 1 + the LIGHTS section; version 3 = + the ELEMENTS
+ * section.  A file is written with the lowest version that holds what it
+ * has (1 without punctual lights or elements, 2 with lights, 3 with
+ * elements), so older programs still read what they understand, and a file
+ * they would misread - skipping LIGHTS or ELEMENTS without a word - carries a
+ * version they refuse. */
+#define SOL_VERSION 3u
 #define SOL_HEADER_BYTES 32u
 #define SOL_SECTION_HEADER 12u  /* u32 tag + u64 length */
 #define SOL_MAX_STRING 4096u
@@ -41,15 +42,18 @@
  * hemi-cube's discretisation error. */
 #define SOL_ROW_SUM_MAX (1.0 + 1e-3)
 
-/* The first SEC_REQUIRED sections appear in every file; LIGHTS only when the
- * scene has punctual lights. */
-enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_COUNT };
-#define SEC_REQUIRED SEC_LIGHTS
+/* The first five sections appear in every file; LIGHTS only when the scene
+ * has punctual lights, ELEMENTS only when the solution has elements. */
+enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_ELEMENTS,
+       SEC_COUNT };
 static const char sec_tag[SEC_COUNT][4] = {
-    {'I', 'N', 'F', 'O'}, {'S', 'C', 'E', 'N'}, {'M', 'E', 'S', 'H'},
-    {'M', 'T', 'R', 'X'}, {'P', 'D', 'A', 'T'}, {'L', 'G', 'H', 'T'}};
-static const char *const sec_name[SEC_COUNT] = {"INFO",   "SCENE",     "MESH",
-                                                "MATRIX", "PATCHDATA", "LIGHTS"};
+    {'I', 'N', 'F', 'O'}, {'S', 'C', 'E', 'N'}, {'M', 'E', 'S', 'H'}, {'M', 'T', 'R', 'X'},
+    {'P', 'D', 'A', 'T'}, {'L', 'G', 'H', 'T'}, {'E', 'L', 'E', 'M'}};
+static const char *const sec_name[SEC_COUNT] = {"INFO",      "SCENE",  "MESH",    "MATRIX",
+                                                "PATCHDATA", "LIGHTS", "ELEMENTS"};
+/* Sections each version may hold: 1 the first five, 2 + LIGHTS, 3 +
+ * ELEMENTS (where LIGHTS is there exactly when the scene has lights). */
+static const int version_sections[SOL_VERSION + 1] = {0, SEC_LIGHTS, SEC_ELEMENTS, SEC_COUNT};
 
 /* Minimum encoded sizes of one element, used to bound counts before
  * allocating: a count of k elements needs at least k × this many bytes. */
@@ -62,6 +66,9 @@ static const char *const sec_name[SEC_COUNT] = {"INFO",   "SCENE",     "MESH",
 #define MIN_ENTRY (1u + 4u) /* one varint byte + a float32 */
 /* name, kind, position, direction, cones, present flag, count; + 16 per band */
 #define MIN_LIGHT (MIN_STRING + 1u + 48u + 16u + 1u + 4u)
+#define ELEMENT_VERTEX_BYTES (3u * 8u + 1u)
+/* patch, level, four corners, row count; + 8 per band */
+#define MIN_ELEMENT (4u + 1u + 16u + 4u)
 
 const char *rad_stage_name(rad_stage s)
 {
@@ -502,6 +509,16 @@ static void emit_mesh(sink *k, const rad_solution *s)
     }
 }
 
+/* A row's entries: the columns as a first value then gaps (>= 1), then the
+ * values. */
+static void put_row(sink *k, uint32_t cnt, const uint32_t *col, const float *val)
+{
+    for (uint32_t j = 0; j < cnt; j++)
+        put_varint(k, j ? col[j] - col[j - 1] : col[0]);
+    for (uint32_t j = 0; j < cnt; j++)
+        put_f32(k, val[j]);
+}
+
 /* Row i: index, count, the columns as a first value then gaps (each >= 1,
  * as columns strictly increase), then the values: gaps between visible
  * patches are small, so most columns take one byte instead of four. */
@@ -518,12 +535,37 @@ static void emit_matrix(sink *k, const rad_solution *s)
         put_u32(k, cnt);
         if (cnt == 0)
             continue; /* the pool may not exist yet: no pointer into it */
-        const uint32_t *col = F->col + F->row_start[i];
-        const float *val = F->val + F->row_start[i];
-        for (uint32_t j = 0; j < cnt; j++)
-            put_varint(k, j ? col[j] - col[j - 1] : col[0]);
-        for (uint32_t j = 0; j < cnt; j++)
-            put_f32(k, val[j]);
+        put_row(k, cnt, F->col + F->row_start[i], F->val + F->row_start[i]);
+    }
+}
+
+/* Elements: provenance, vertices, then per element its patch, level,
+ * corners, B and row (rows encoded like the matrix's). */
+static void emit_elements(sink *k, const rad_solution *s)
+{
+    const rad_elements *el = s->elements;
+    const rad_mesh *m = el->mesh;
+    uint32_t nb = s->band_count;
+    put_f64(k, el->threshold);
+    put_f64(k, el->min_size);
+    put_u64(k, el->rows_computed);
+    put_u32(k, m->vertex_count);
+    put_u32(k, m->patch_count);
+    put_u32(k, nb);
+    for (uint32_t v = 0; v < m->vertex_count; v++) {
+        put_vec3(k, m->vertices[v]);
+        put_u8(k, m->vertex_boundary[v]);
+    }
+    for (uint32_t e = 0; e < m->patch_count; e++) {
+        put_u32(k, el->patch[e]);
+        put_u8(k, el->level[e]);
+        for (int c = 0; c < 4; c++)
+            put_u32(k, m->patches[e].v[c]);
+        for (uint32_t b = 0; b < nb; b++)
+            put_f64(k, el->B[(size_t)e * nb + b]);
+        put_u32(k, el->row_count[e]);
+        if (el->row_count[e])
+            put_row(k, el->row_count[e], el->col + el->row_start[e], el->val + el->row_start[e]);
     }
 }
 
@@ -574,13 +616,22 @@ static void emit_lights(sink *k, const rad_solution *s)
 }
 
 typedef void (*emit_fn)(sink *, const rad_solution *);
-static const emit_fn sec_emit[SEC_COUNT] = {emit_info,   emit_scene,     emit_mesh,
-                                            emit_matrix, emit_patchdata, emit_lights};
+static const emit_fn sec_emit[SEC_COUNT] = {emit_info,      emit_scene,  emit_mesh,    emit_matrix,
+                                            emit_patchdata, emit_lights, emit_elements};
 
-/* LIGHTS is written only when there are lights. */
+/* LIGHTS is written only when there are lights, ELEMENTS when there are elements. */
 static int section_written(const rad_solution *s, int i)
 {
-    return i != SEC_LIGHTS || s->scene->light_count > 0;
+    if (i == SEC_LIGHTS)
+        return s->scene->light_count > 0;
+    if (i == SEC_ELEMENTS)
+        return s->elements != NULL;
+    return 1;
+}
+
+static uint32_t version_of(const rad_solution *s)
+{
+    return s->elements ? 3u : s->scene->light_count ? 2u : 1u;
 }
 
 /* The light rules; `where` as for check_patch_values. */
@@ -687,6 +738,8 @@ static int validate_for_write(const rad_solution *s, const char *path, rad_error
      * check (rad_matrix_check would form NULL + 0). */
     if (s->F->col && rad_matrix_check(s->F, &sub))
         return rad_fail(err, RAD_ERR_INVALID, "%s: cannot write: %s", path, sub.message);
+    if (s->elements && rad_elements_check(s->elements, s, "elements", &sub))
+        return rad_fail(err, RAD_ERR_INVALID, "%s: cannot write: %s", path, sub.message);
     return check_patch_values(s, path, "cannot write", RAD_ERR_INVALID, err);
 }
 
@@ -787,7 +840,7 @@ int rad_solution_write(const rad_solution *s, const char *path, rad_error *err)
 
     uint8_t head[SOL_HEADER_BYTES] = {0};
     memcpy(head, SOL_MAGIC, 8);
-    store_le(head + 8, s->scene->light_count ? SOL_VERSION : SOL_VERSION_PLAIN, 4);
+    store_le(head + 8, version_of(s), 4);
     store_le(head + 12, 0, 4);
     store_le(head + 16, payload, 8);
     /* bytes 24..31, the checksum, are written once the payload is through */
@@ -1296,6 +1349,41 @@ static void presize_matrix(rad_matrix *F, cursor c, uint32_t rows)
     F->capacity = total;
 }
 
+/* A row's cnt entries (see put_row) into col/val, checked: columns
+ * strictly increasing below n and never `self`, values positive and
+ * finite, sum <= 1 + 1e-3.  `what` and `i` name the row in messages. */
+static int get_row(reader *r, const char *what, uint32_t i, uint32_t cnt, uint32_t n, uint32_t self,
+                   uint32_t *col, float *val)
+{
+    cursor *c = &r->c;
+    uint64_t j = 0;
+    for (uint32_t e = 0; e < cnt; e++) {
+        uint32_t d;
+        if (!get_varint(c, &d))
+            return TRUNC("%s %u: entry %u: truncated or malformed column", what, i, e);
+        if (e > 0 && d == 0)
+            return TRUNC("%s %u: column %llu repeated", what, i, (unsigned long long)j);
+        j = e ? j + d : d;
+        if (j >= n)
+            return TRUNC("%s %u: column %llu out of range (n = %u)", what, i, (unsigned long long)j, n);
+        if (j == self)
+            return TRUNC("%s %u: entry on its own patch (F of a planar patch to itself is 0)", what, i);
+        col[e] = (uint32_t)j;
+    }
+    double sum = 0.0;
+    for (uint32_t e = 0; e < cnt; e++) {
+        if (!get_f32(c, &val[e]))
+            return TRUNC("%s %u: values truncated", what, i);
+        if (!(val[e] > 0.0f) || !isfinite(val[e]))
+            return TRUNC("%s %u: F_%u,%u = %g is not positive and finite", what, i, i, col[e],
+                         (double)val[e]);
+        sum += val[e];
+    }
+    if (sum > SOL_ROW_SUM_MAX)
+        return TRUNC("%s %u: Σ_j F_ij = %.6f exceeds 1", what, i, sum);
+    return RAD_OK;
+}
+
 static int parse_matrix(reader *r, rad_solution *s)
 {
     cursor *c = &r->c;
@@ -1348,46 +1436,8 @@ static int parse_matrix(reader *r, rad_solution *s)
             }
             cap = cnt;
         }
-        uint64_t j = 0;
-        for (uint32_t e = 0; e < cnt; e++) {
-            uint32_t d;
-            if (!get_varint(c, &d)) {
-                rc = TRUNC("row %u: entry %u: truncated or malformed column", i, e);
-                goto done;
-            }
-            if (e > 0 && d == 0) {
-                rc = TRUNC("row %u: column %llu repeated", i, (unsigned long long)j);
-                goto done;
-            }
-            j = e ? j + d : d;
-            if (j >= n) {
-                rc = TRUNC("row %u: column %llu out of range (n = %u)", i, (unsigned long long)j,
-                           n);
-                goto done;
-            }
-            if (j == i) {
-                rc = TRUNC("row %u: entry on the diagonal (F_ii of a planar patch is 0)", i);
-                goto done;
-            }
-            col[e] = (uint32_t)j;
-        }
-        double sum = 0.0;
-        for (uint32_t e = 0; e < cnt; e++) {
-            if (!get_f32(c, &val[e])) {
-                rc = TRUNC("row %u: values truncated", i);
-                goto done;
-            }
-            if (!(val[e] > 0.0f) || !isfinite(val[e])) {
-                rc = TRUNC("row %u: F_%u,%u = %g is not positive and finite", i, i, col[e],
-                           (double)val[e]);
-                goto done;
-            }
-            sum += val[e];
-        }
-        if (sum > SOL_ROW_SUM_MAX) {
-            rc = TRUNC("row %u: Σ_j F_ij = %.6f exceeds 1", i, sum);
+        if ((rc = get_row(r, "row", i, cnt, n, i, col, val)))
             goto done;
-        }
         rad_error sub;
         if ((rc = rad_matrix_set_row(F, i, cnt, col, val, &sub))) {
             rc = rfail(r, rc, "row %u: %s", i, sub.message);
@@ -1523,9 +1573,72 @@ static int parse_lights(reader *r, rad_solution *s)
     return check_lights(s, r->name, "section LIGHTS", RAD_ERR_CORRUPT, r->err);
 }
 
+/* ELEMENTS: every count is bounded by the bytes left before allocating;
+ * rad_elements_complete then derives each cell from its patch and checks
+ * the whole (solution.h). */
+static int parse_elements(reader *r, rad_solution *s)
+{
+    cursor *c = &r->c;
+    double threshold, min_size;
+    uint64_t computed;
+    uint32_t nv, ne, nb;
+    if (!get_f64(c, &threshold) || !get_f64(c, &min_size) || !get_u64(c, &computed) ||
+        !get_u32(c, &nv) || !get_u32(c, &ne) || !get_u32(c, &nb))
+        return TRUNC("truncated");
+    if (nb != s->band_count)
+        return TRUNC("%u bands but the solution has %u", nb, s->band_count);
+    int rc;
+    /* The vertices and the elements' fixed parts must fit what is left;
+     * the row entries get the rest, at MIN_ENTRY each. */
+    uint64_t fixed = (uint64_t)nv * ELEMENT_VERTEX_BYTES + (uint64_t)ne * (MIN_ELEMENT + 8u * nb);
+    if (fixed > c->left)
+        return TRUNC("%u vertices and %u elements need %llu bytes, %zu left", nv, ne,
+                     (unsigned long long)fixed, c->left);
+    uint64_t max_entries = c->left > fixed ? (c->left - fixed) / MIN_ENTRY : 0;
+    rad_elements *el = s->elements = rad_elements_alloc(nv, ne, nb, max_entries);
+    if (!el)
+        return rfail(r, RAD_ERR_NOMEM, "out of memory for %u elements", ne);
+    el->threshold = threshold;
+    el->min_size = min_size;
+    el->rows_computed = computed;
+    rad_mesh *m = el->mesh;
+    for (uint32_t v = 0; v < nv; v++)
+        if (!get_vec3(c, &m->vertices[v]) || !get_u8(c, &m->vertex_boundary[v]))
+            return TRUNC("vertex %u: truncated", v);
+    for (uint32_t e = 0; e < ne; e++) {
+        uint32_t cnt;
+        if (!get_u32(c, &el->patch[e]) || !get_u8(c, &el->level[e]))
+            return TRUNC("element %u: truncated", e);
+        for (int k = 0; k < 4; k++)
+            if (!get_u32(c, &m->patches[e].v[k]))
+                return TRUNC("element %u: truncated", e);
+        for (uint32_t b = 0; b < nb; b++)
+            if (!get_f64(c, &el->B[(size_t)e * nb + b]))
+                return TRUNC("element %u: truncated", e);
+        if (!get_u32(c, &cnt))
+            return TRUNC("element %u: truncated", e);
+        if (el->patch[e] >= s->mesh->patch_count)
+            return TRUNC("element %u: patch %u out of range (%u patches)", e, el->patch[e],
+                          s->mesh->patch_count);
+        if (cnt > max_entries - el->nnz)
+            return TRUNC("element %u: %u entries: more than the section holds", e, cnt);
+        el->row_start[e] = el->nnz;
+        el->row_count[e] = cnt;
+        if ((rc = get_row(r, "element", e, cnt, s->mesh->patch_count, el->patch[e],
+                          el->col + el->nnz, el->val + el->nnz)))
+            return rc;
+        el->nnz += cnt;
+    }
+    rad_error sub;
+    if (rad_elements_complete(el, s, "elements", &sub))
+        return rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
+    return RAD_OK;
+}
+
 typedef int (*parse_fn)(reader *, rad_solution *);
-static const parse_fn sec_parse[SEC_COUNT] = {parse_info,   parse_scene,     parse_mesh,
-                                              parse_matrix, parse_patchdata, parse_lights};
+static const parse_fn sec_parse[SEC_COUNT] = {parse_info,      parse_scene,  parse_mesh,
+                                              parse_matrix,    parse_patchdata, parse_lights,
+                                              parse_elements};
 
 static int known_section(const uint8_t tag[4])
 {
@@ -1595,8 +1708,10 @@ int rad_solution_parse(const void *data, size_t size, const char *name, int chec
     if (rc)
         return rc;
     /* Version 2 is exactly the files with lights: LIGHTS is required there
-     * and has no place in version 1 (a cut at its start must not pass). */
-    int required = version >= 2 ? SEC_COUNT : SEC_REQUIRED;
+     * and has no place in version 1 (a cut at its start must not pass).
+     * Version 3 is the files with elements: ELEMENTS is required, LIGHTS
+     * there exactly when the scene has lights. */
+    int required = version_sections[version];
 
     reader *r = malloc(sizeof *r);
     rad_solution *s = calloc(1, sizeof *s);
@@ -1638,6 +1753,10 @@ int rad_solution_parse(const void *data, size_t size, const char *name, int chec
             all.left -= (size_t)len;
             continue;
         }
+        /* Version 3 without lights goes from PATCHDATA to ELEMENTS. */
+        if (k == SEC_ELEMENTS && next == SEC_LIGHTS && version >= 3 && s->scene &&
+            s->scene->light_count == 0)
+            next = SEC_ELEMENTS;
         if (k != next) {
             if (k < next)
                 rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: byte %zu: section %s appears twice", name,

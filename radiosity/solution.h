@@ -154,6 +154,11 @@ void rad_elements_destroy(rad_elements *el); /* NULL does nothing */
 int rad_elements_complete(rad_elements *el, const rad_solution *s, const char *name,
                           rad_error *err);
 
+/* The same checks without completing (the derived fields must already
+ * agree): what the writer runs before it creates a file. */
+int rad_elements_check(const rad_elements *el, const rad_solution *s, const char *name,
+                       rad_error *err);
+
 /* B_e of every element from the patch solution s->B (and the punctual
  * lights' direct irradiance), by the gather above.  What a relight calls:
  * no hemi-cube. */

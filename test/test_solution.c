@@ -7,6 +7,7 @@
  * corpus (three small valid solution files) into DIR instead.
  */
 #include "../radiosity/mesh.h"
+#include "../radiosity/pipeline.h"
 #include "../radiosity/scene.h"
 #include "../radiosity/solution.h"
 #include "test.h"
@@ -906,7 +907,7 @@ TEST(newer_version_and_foreign_files)
     rad_solution *s = NULL;
     rad_error e;
     CHECK(rad_solution_parse(buf, golden_size, "new.sol", 1, &s, &e) == RAD_ERR_PARSE);
-    CHECK_MSG(strcmp(e.message, "new.sol: format version 7 is newer than this program (2)") == 0,
+    CHECK_MSG(strcmp(e.message, "new.sol: format version 7 is newer than this program (3)") == 0,
               "%s", e.message);
     CHECK(s == NULL);
     free(buf);
@@ -1304,11 +1305,126 @@ TEST(writer_refuses_what_reader_would)
 }
 
 /* The fuzzer's seeds: the three fixtures. */
+/* The rgb room with elements one split deep (hemi-cubes at their centres). */
+static rad_solution *make_elements(void)
+{
+    rad_solution *s = make_rgb();
+    rad_solve_options opt = {0};
+    opt.element_levels = 1;
+    opt.hemicube.resolution = 32;
+    rad_error e;
+    if (s && rad_solution_refine(s, &opt, &e) != RAD_OK) {
+        fprintf(stderr, "  refine: %s\n", e.message);
+        rad_solution_destroy(s);
+        return NULL;
+    }
+    return s;
+}
+
+/* ELEMENTS (format version 3): a round trip keeps every element bit for
+ * bit; every cut of the file is refused, with and without the header made
+ * to agree; every flipped byte of the section is refused by the checksum,
+ * and without it either refused or read back with every invariant. */
+TEST(elements_round_trip_and_damage)
+{
+    rad_solution *a = make_elements();
+    CHECK(a && a->elements);
+    if (!a || !a->elements) {
+        rad_solution_destroy(a);
+        return;
+    }
+    char path[600];
+    path_in(path, sizeof path, "elements.sol");
+    rad_error e = {0};
+    CHECK(rad_solution_write(a, path, &e) == RAD_OK);
+    size_t size = 0;
+    uint8_t *buf = slurp(path, &size);
+    CHECK(buf && rd32(buf + 8) == 3);
+    rad_solution *b = NULL;
+    CHECK(rad_solution_read(path, &b, &e) == RAD_OK);
+    if (b) {
+        const rad_elements *x = a->elements, *y = b->elements;
+        CHECK(y != NULL);
+        if (y) {
+            uint32_t ne = x->mesh->patch_count, nb = a->band_count;
+            CHECK(y->mesh->patch_count == ne && y->mesh->vertex_count == x->mesh->vertex_count &&
+                  y->nnz == x->nnz);
+            if (y->mesh->patch_count == ne && y->mesh->vertex_count == x->mesh->vertex_count &&
+                y->nnz == x->nnz) {
+                CHECK(same_bits(x->mesh->vertices, y->mesh->vertices,
+                                x->mesh->vertex_count * sizeof *x->mesh->vertices));
+                CHECK(same_bits(x->mesh->patches, y->mesh->patches, ne * sizeof *x->mesh->patches));
+                CHECK(same_bits(x->patch, y->patch, ne * sizeof *x->patch));
+                CHECK(same_bits(x->level, y->level, ne));
+                CHECK(same_bits(x->B, y->B, (size_t)ne * nb * sizeof *x->B));
+                CHECK(same_bits(x->row_count, y->row_count, ne * sizeof *x->row_count));
+                CHECK(same_bits(x->col, y->col, x->nnz * sizeof *x->col));
+                CHECK(same_bits(x->val, y->val, x->nnz * sizeof *x->val));
+            }
+        }
+    }
+    rad_solution_destroy(b);
+    uint64_t len = 0;
+    size_t at = buf ? find_section(buf, size, "ELEM", &len) : 0;
+    CHECK(at > 0 && len > 0);
+    size_t cut_ok = 0, flip_ok = 0, nosum_bad = 0;
+    for (size_t k = 0; buf && k < size; k++) {
+        rad_solution *s = NULL;
+        if (rad_solution_parse(buf, k, "cut", 1, &s, &e) == RAD_OK || s)
+            cut_ok++;
+        rad_solution_destroy(s);
+    }
+    /* consistent cuts inside the section: only its structure can notice */
+    uint8_t *cbuf = buf ? malloc(size) : NULL;
+    for (size_t k = at; cbuf && k < size; k++) {
+        memcpy(cbuf, buf, k);
+        fix_header(cbuf, k);
+        rad_solution *s = NULL;
+        if (rad_solution_parse(cbuf, k, "cut", 1, &s, &e) == RAD_OK || s)
+            cut_ok++;
+        rad_solution_destroy(s);
+    }
+    free(cbuf);
+    for (size_t k = at; buf && k < size; k++) {
+        buf[k] ^= 0xFF;
+        rad_solution *s = NULL;
+        if (rad_solution_parse(buf, size, "flip", 1, &s, &e) == RAD_OK || s)
+            flip_ok++;
+        rad_solution_destroy(s);
+        s = NULL;
+        int rc = rad_solution_parse(buf, size, "flip", 0, &s, &e);
+        if ((rc == RAD_OK && (!s || !invariants_hold(s) ||
+                              rad_elements_check(s->elements, s, "x", NULL) != RAD_OK)) ||
+            (rc != RAD_OK && s))
+            nosum_bad++;
+        rad_solution_destroy(s);
+        buf[k] ^= 0xFF;
+    }
+    printf("     %zu bytes (ELEMENTS %llu): %zu cuts and %zu flips accepted, %zu bad without the "
+           "checksum\n", size, (unsigned long long)len, cut_ok, flip_ok, nosum_bad);
+    CHECK(cut_ok == 0 && flip_ok == 0 && nosum_bad == 0);
+    /* An element on a patch that does not exist is named. */
+    if (buf && at) {
+        /* the first element's patch: after the provenance (24 bytes), the
+         * counts (12) and the vertices (25 each) */
+        size_t p0 = at + 24 + 12 + (size_t)a->elements->mesh->vertex_count * 25;
+        wr32(buf + p0, 1000000);
+        fix_header(buf, size);
+        rad_solution *s = NULL;
+        CHECK(rad_solution_parse(buf, size, "bad.sol", 1, &s, &e) == RAD_ERR_CORRUPT && !s);
+        CHECK_MSG(strstr(e.message, "ELEMENTS") && strstr(e.message, "element 0: patch 1000000"),
+                  "%s", e.message);
+        rad_solution_destroy(s);
+    }
+    free(buf);
+    rad_solution_destroy(a);
+}
+
 static int write_seeds(const char *dir)
 {
-    rad_solution *(*make[3])(void) = {make_rgb, make_grey, make_wide};
-    const char *names[3] = {"rgb-room", "grey-box", "wide-floor"};
-    for (int v = 0; v < 3; v++) {
+    rad_solution *(*make[4])(void) = {make_rgb, make_grey, make_wide, make_elements};
+    const char *names[4] = {"rgb-room", "grey-box", "wide-floor", "elements-room"};
+    for (int v = 0; v < 4; v++) {
         rad_solution *s = make[v]();
         char p[600];
         snprintf(p, sizeof p, "%s/%s", dir, names[v]);
@@ -1340,6 +1456,7 @@ int main(int argc, char **argv)
     RUN(layout_follows_the_format);
     RUN(every_truncation_is_refused);
     RUN(every_byte_flip_is_refused);
+    RUN(elements_round_trip_and_damage);
     RUN(newer_version_and_foreign_files);
     RUN(structure_errors_name_section_and_element);
     RUN(encoding_rules_are_enforced);
