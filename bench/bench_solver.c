@@ -48,7 +48,7 @@ static bsys bsys_alloc(uint32_t n, uint32_t nb)
     b.A = malloc(n * sizeof *b.A);
     b.rho = malloc((size_t)n * nb * sizeof *b.rho);
     b.E = calloc((size_t)n * nb, sizeof *b.E);
-    b.s = (sv_system){n, nb, rad_matrix_create(n), b.A, b.rho, b.E};
+    b.s = (sv_system){.n = n, .bands = nb, .F = rad_matrix_create(n), .area = b.A, .rho = b.rho, .emission = b.E};
     return b;
 }
 

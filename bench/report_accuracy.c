@@ -596,7 +596,7 @@ static void section_pareto(void)
             hc_destroy(hc);
             double t_ff = rad_seconds() - t1;
             for (int t = 0; t < NT; t++) {
-                sv_system sys = {N, 1, F, area, rho, E};
+                sv_system sys = {.n = N, .bands = 1, .F = F, .area = area, .rho = rho, .emission = E};
                 sv_options so = {.tolerance = tols[t]};
                 double t2 = rad_seconds();
                 if (sv_solve(&sys, &so, B, NULL, &err))
@@ -710,7 +710,7 @@ static void section_stages(double *rows_per_s)
             die("%s", err.message);
         double t3 = rad_seconds();
         hc_destroy(hc);
-        sv_system sys = {n, 1, F, area, rho, E};
+        sv_system sys = {.n = n, .bands = 1, .F = F, .area = area, .rho = rho, .emission = E};
         double t4 = rad_seconds();
         sv_stats st;
         if (sv_solve(&sys, NULL, B, &st, &err))

@@ -238,21 +238,30 @@ static void json_bands(FILE *f, const double *v, uint32_t nb)
     fputc(']', f);
 }
 
-/* Counts of what was skipped and why, for the report. */
+/* Counts of what was skipped and why, for the report.  A patch on one side
+ * of a transmitting sheet has its twin's row as its back hemi-cube; an
+ * opaque patch has none. */
 typedef struct economy {
     uint32_t rows_present, black_patches, black_without_row;
+    uint32_t sheet_patches, back_hemicubes;
 } economy;
 
 static economy count_economy(const rad_solution *s)
 {
     economy e = {0};
+    const uint32_t *twin = s->mesh->twin;
     for (uint32_t i = 0; i < s->mesh->patch_count; i++) {
         int black = 1;
         for (uint32_t b = 0; b < s->band_count; b++)
             black &= s->rho[(size_t)i * s->band_count + b] == 0.0;
+        int sheet = twin && twin[i] != RAD_NONE;
         e.rows_present += s->F->row_done[i] != 0;
         e.black_patches += black;
         e.black_without_row += black && !s->F->row_done[i];
+        e.sheet_patches += sheet;
+        e.back_hemicubes += sheet && s->F->row_done[twin[i]] &&
+                            rad_material_transmits(&s->scene->materials[s->mesh->patches[i].material],
+                                                   s->band_count);
     }
     return e;
 }
@@ -355,8 +364,12 @@ int cli_report(int argc, char **argv)
                 s->residual, s->tolerance);
         fprintf(f, " \"resolution\": %u, \"patch_size\": %.9g, \"rows_computed\": %llu, \"rows_present\": %u,\n",
                 s->resolution, s->patch_size, (unsigned long long)s->rows_computed, eco.rows_present);
-        fprintf(f, " \"bands_solved\": %u, \"skipped\": {\"black_patch_rows\": %u, \"reason\": \"a patch with reflectance 0 in every band has B = E and needs no hemi-cube\"},\n",
-                rad_solution_is_grey(s) ? 1 : nb, eco.black_without_row);
+        fprintf(f, " \"bands_solved\": %u, \"skipped\": {\"black_patch_rows\": %u, \"reason\": \"a patch with reflectance 0 in every band has B = E and needs no hemi-cube\", "
+                   "\"back_hemicubes\": %u, \"back_reason\": \"an opaque patch receives nothing through its back\"},\n",
+                rad_solution_is_grey(s) ? 1 : nb, eco.black_without_row,
+                s->mesh->patch_count - eco.sheet_patches);
+        fprintf(f, " \"transmission\": {\"sheet_patches\": %u, \"back_hemicubes\": %u},\n",
+                eco.sheet_patches, eco.back_hemicubes);
         if (s->elements)
             fprintf(f, " \"elements\": {\"count\": %u, \"threshold\": %.6g, \"rows_computed\": %llu},\n",
                     s->elements->mesh->patch_count, s->elements->threshold,
@@ -417,6 +430,13 @@ int cli_report(int argc, char **argv)
         if (eco.black_without_row)
             fprintf(f, "skipped: %u rows of patches with reflectance 0 (B = E, no hemi-cube needed)\n",
                     eco.black_without_row);
+        if (eco.sheet_patches)
+            fprintf(f, "transmission: %u patches on the two sides of transmitting sheets, %u back "
+                    "hemi-cubes (each side's row serves the other); none for the %u opaque patches\n",
+                    eco.sheet_patches, eco.back_hemicubes, s->mesh->patch_count - eco.sheet_patches);
+        else
+            fprintf(f, "skipped: back hemi-cubes of all %u patches (no material transmits diffusely)\n",
+                    s->mesh->patch_count);
         if (s->elements)
             fprintf(f, "elements: %u receive from %u patches (refine threshold %g), %llu element "
                     "hemi-cubes in the last run\n", s->elements->mesh->patch_count,

@@ -2,12 +2,14 @@
  * Greenberg, Immel & Brock 1986).
  *
  * Owns the rad_elements store (solution.h), the gather
- *   B_e = E_p + ρ_p (Σ_j F_ej B_j + H_d,p),
- * adaptive refinement (rad_solution_refine, pipeline.h) and the crack-free
- * mesh the renderer draws.  An element is its patch split `level` times as a
- * quadtree; vertices are found again by their exact position within their
- * polygon (a midpoint is computed as (a + b)/2 from the two ends, which is
- * the same double whichever side computes it), so neighbours share them and
+ *   B_e = E_p + ρ_p (Σ_j F_ej B_j + H_d,p) + τ_p H_twin(p),
+ * (the last term only on the sides of a transmitting sheet, from the other
+ * side's patch), adaptive refinement (rad_solution_refine, pipeline.h) and
+ * the crack-free mesh the renderer draws.  An element is its patch split
+ * `level` times as a quadtree; vertices are found again by their exact
+ * position within their surface (one side of a polygon; a midpoint is
+ * computed as (a + b)/2 from the two ends, which is the same double
+ * whichever side computes it), so neighbours share them and
  * a vertex of a finer neighbour that lies on an element's edge (a T-vertex)
  * is found by looking up the edge's midpoints recursively.
  *
@@ -145,9 +147,12 @@ int rad_elements_check(const rad_elements *el, const rad_solution *s, const char
 
 /* ------------------------------------------------------------- gather */
 
-/* B_e of one element from its row (see the top of the file). */
-static void gather_one(const rad_solution *s, const double *Hd, uint32_t p, uint32_t level,
-                       const uint32_t *col, const float *val, uint32_t cnt, double *Be)
+/* B_e of one element from its row (see the top of the file).  Tr, when not
+ * NULL, holds per patch the light a sheet lets through from its other side,
+ * τ_p H_twin(p), at the patch's resolution. */
+static void gather_one(const rad_solution *s, const double *Hd, const double *Tr, uint32_t p,
+                       uint32_t level, const uint32_t *col, const float *val, uint32_t cnt,
+                       double *Be)
 {
     const uint32_t bands = s->band_count;
     const size_t pb = (size_t)p * bands;
@@ -159,9 +164,37 @@ static void gather_one(const rad_solution *s, const double *Hd, uint32_t p, uint
         double h = Hd ? Hd[pb + b] : 0.0;
         for (uint32_t q = 0; q < cnt; q++)
             h += (double)val[q] * s->B[(size_t)col[q] * bands + b];
-        double v = s->emission[pb + b] + s->rho[pb + b] * h;
+        double v = s->emission[pb + b] + s->rho[pb + b] * h + (Tr ? Tr[pb + b] : 0.0);
         Be[b] = v > 0.0 ? v : 0.0;
     }
+}
+
+/* τ_p H_twin(p) of every patch when the mesh has two-sided sheets, else
+ * NULL: what reaches an element through its sheet, taken at the patch's
+ * resolution (the twin's irradiance from its own row). */
+static int transmitted(const rad_solution *s, double **out, rad_error *err)
+{
+    *out = NULL;
+    if (!s->mesh->twin)
+        return RAD_OK;
+    const uint32_t n = s->mesh->patch_count, bands = s->band_count;
+    double *H = malloc(((size_t)n * bands + 1) * sizeof *H);
+    double *T = malloc(((size_t)n * bands + 1) * sizeof *T);
+    int rc = H && T ? rad_solution_irradiance(s, H, err)
+                    : rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    for (uint32_t p = 0; rc == RAD_OK && p < n; p++) {
+        uint32_t t = s->mesh->twin[p];
+        const double *tau = s->scene->materials[s->mesh->patches[p].material].transmit;
+        for (uint32_t b = 0; b < bands; b++)
+            T[(size_t)p * bands + b] = t != RAD_NONE ? tau[b] * H[(size_t)t * bands + b] : 0.0;
+    }
+    free(H);
+    if (rc != RAD_OK) {
+        free(T);
+        return rc;
+    }
+    *out = T;
+    return RAD_OK;
 }
 
 /* H_d of every patch when the scene has punctual lights, else NULL (no
@@ -187,21 +220,38 @@ int rad_elements_gather(const rad_solution *s, rad_elements *el, rad_error *err)
 {
     if (!s || !el)
         return rad_fail(err, RAD_ERR_USAGE, "rad_elements_gather: solution and elements must be given");
-    double *Hd;
+    double *Hd, *Tr = NULL;
     int rc = direct_irradiance(s, &Hd, err);
-    if (rc != RAD_OK)
-        return rc;
+    if (rc == RAD_OK)
+        rc = transmitted(s, &Tr, err);
     const uint32_t bands = s->band_count;
-    for (uint32_t e = 0; e < el->mesh->patch_count; e++)
-        gather_one(s, Hd, el->patch[e], el->level[e], el->col + el->row_start[e],
+    for (uint32_t e = 0; rc == RAD_OK && e < el->mesh->patch_count; e++)
+        gather_one(s, Hd, Tr, el->patch[e], el->level[e], el->col + el->row_start[e],
                    el->val + el->row_start[e], el->row_count[e], el->B + (size_t)e * bands);
     free(Hd);
-    return RAD_OK;
+    free(Tr);
+    return rc;
 }
 
 /* -------------------------------------------------- vertices by position */
 
-/* Open-addressing table of vertex indices keyed by (polygon, exact
+/* A surface is one side of one polygon: 2·polygon, + 1 when the cell's
+ * normal has its largest component negative.  The two sides of a
+ * transmitting sheet have opposite normals, hence different surfaces, and
+ * never share a vertex (their radiosities differ); every cell of one side
+ * carries its polygon's normal, hence the same surface. */
+static uint32_t surface_of(const rad_patch *c)
+{
+    rad_vec3 n = c->normal;
+    double big = n.x;
+    if (fabs(n.y) > fabs(big))
+        big = n.y;
+    if (fabs(n.z) > fabs(big))
+        big = n.z;
+    return 2u * c->polygon + (big < 0.0);
+}
+
+/* Open-addressing table of vertex indices keyed by (surface, exact
  * position).  The vertex arrays live with the caller; the table keeps a
  * pointer to them, refreshed after each growth. */
 typedef struct vtable {
@@ -209,12 +259,12 @@ typedef struct vtable {
     size_t cap;              /* power of two */
     uint32_t count;
     const rad_vec3 *V;       /* positions */
-    const uint32_t *Vpoly;   /* polygon of each vertex */
+    const uint32_t *Vsurf;   /* surface of each vertex */
 } vtable;
 
-static uint64_t vhash(uint32_t poly, rad_vec3 p)
+static uint64_t vhash(uint32_t surf, rad_vec3 p)
 {
-    uint64_t w[3], h = 0x9E3779B97F4A7C15ull ^ poly;
+    uint64_t w[3], h = 0x9E3779B97F4A7C15ull ^ surf;
     /* +0.0 makes -0 and 0 the same key. */
     double c[3] = {p.x + 0.0, p.y + 0.0, p.z + 0.0};
     memcpy(w, c, sizeof w);
@@ -228,14 +278,14 @@ static uint64_t vhash(uint32_t poly, rad_vec3 p)
 
 static int same(rad_vec3 a, rad_vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
 
-static uint32_t vt_find(const vtable *t, uint32_t poly, rad_vec3 p)
+static uint32_t vt_find(const vtable *t, uint32_t surf, rad_vec3 p)
 {
     size_t mask = t->cap - 1;
-    for (size_t h = vhash(poly, p) & mask;; h = (h + 1) & mask) {
+    for (size_t h = vhash(surf, p) & mask;; h = (h + 1) & mask) {
         uint32_t s = t->slot[h];
         if (!s)
             return RAD_NONE;
-        if (t->Vpoly[s - 1] == poly && same(t->V[s - 1], p))
+        if (t->Vsurf[s - 1] == surf && same(t->V[s - 1], p))
             return s - 1;
     }
 }
@@ -252,7 +302,7 @@ static int vt_insert(vtable *t, uint32_t v)
         for (size_t k = 0; k < t->cap; k++)
             if (t->slot[k]) {
                 uint32_t w = t->slot[k] - 1;
-                size_t h = vhash(t->Vpoly[w], t->V[w]) & (cap - 1);
+                size_t h = vhash(t->Vsurf[w], t->V[w]) & (cap - 1);
                 while (slot[h])
                     h = (h + 1) & (cap - 1);
                 slot[h] = t->slot[k];
@@ -261,7 +311,7 @@ static int vt_insert(vtable *t, uint32_t v)
         t->slot = slot;
         t->cap = cap;
     }
-    size_t mask = t->cap - 1, h = vhash(t->Vpoly[v], t->V[v]) & mask;
+    size_t mask = t->cap - 1, h = vhash(t->Vsurf[v], t->V[v]) & mask;
     while (t->slot[h])
         h = (h + 1) & mask;
     t->slot[h] = v + 1;
@@ -298,27 +348,27 @@ static void ul_push(ulist *l, uint32_t v)
 
 /* Pushes the vertices strictly inside edge a→b, in order from a: the
  * corners of finer neighbours, found as existing midpoints. */
-static void edge_inner(const vtable *t, uint32_t poly, uint32_t a, uint32_t b, int depth, ulist *out)
+static void edge_inner(const vtable *t, uint32_t surf, uint32_t a, uint32_t b, int depth, ulist *out)
 {
     if (depth > RAD_MAX_ELEMENT_LEVEL)
         return;
-    uint32_t m = vt_find(t, poly, midpoint(t->V[a], t->V[b]));
+    uint32_t m = vt_find(t, surf, midpoint(t->V[a], t->V[b]));
     if (m == RAD_NONE)
         return;
-    edge_inner(t, poly, a, m, depth + 1, out);
+    edge_inner(t, surf, a, m, depth + 1, out);
     ul_push(out, m);
-    edge_inner(t, poly, m, b, depth + 1, out);
+    edge_inner(t, surf, m, b, depth + 1, out);
 }
 
-/* The outline of a cell: its corners and every vertex on its edges, in
- * counter-clockwise order, into out (cleared first). */
-static void cell_outline(const vtable *t, const rad_patch *c, ulist *out)
+/* The outline of a cell of surface `surf`: its corners and every vertex on
+ * its edges, in counter-clockwise order, into out (cleared first). */
+static void cell_outline(const vtable *t, const uint32_t v[4], uint32_t surf, ulist *out)
 {
     out->n = 0;
-    int corners = rad_patch_corners(c);
+    int corners = v[3] == RAD_NONE ? 3 : 4;
     for (int k = 0; k < corners; k++) {
-        ul_push(out, c->v[k]);
-        edge_inner(t, c->polygon, c->v[k], c->v[(k + 1) % corners], 0, out);
+        ul_push(out, v[k]);
+        edge_inner(t, surf, v[k], v[(k + 1) % corners], 0, out);
     }
 }
 
@@ -330,19 +380,19 @@ static int fan_mesh(const rad_mesh *m, rad_mesh **out, uint32_t **cells_of, rad_
     *out = NULL;
     *cells_of = NULL;
     uint32_t nv = m->vertex_count, ne = m->patch_count;
-    uint32_t *Vpoly = malloc((nv ? nv : 1) * sizeof *Vpoly);
+    uint32_t *Vsurf = malloc((nv ? nv : 1) * sizeof *Vsurf);
     vtable t = {0};
     ulist ol = {0};
     rad_mesh *rm = NULL;
     uint32_t *of = NULL;
     int rc = RAD_ERR_NOMEM;
-    if (!Vpoly)
+    if (!Vsurf)
         goto done;
     for (uint32_t e = 0; e < ne; e++)
         for (int k = 0; k < rad_patch_corners(&m->patches[e]); k++)
-            Vpoly[m->patches[e].v[k]] = m->patches[e].polygon;
+            Vsurf[m->patches[e].v[k]] = surface_of(&m->patches[e]);
     t.V = m->vertices;
-    t.Vpoly = Vpoly;
+    t.Vsurf = Vsurf;
     for (uint32_t v = 0; v < nv; v++)
         if (vt_insert(&t, v) != 0)
             goto done;
@@ -350,7 +400,7 @@ static int fan_mesh(const rad_mesh *m, rad_mesh **out, uint32_t **cells_of, rad_
      * a fan of (corners + k) triangles about one new centre vertex. */
     uint64_t cells = 0, extra = 0;
     for (uint32_t e = 0; e < ne; e++) {
-        cell_outline(&t, &m->patches[e], &ol);
+        cell_outline(&t, m->patches[e].v, surface_of(&m->patches[e]), &ol);
         if (ol.failed)
             goto done;
         int corners = rad_patch_corners(&m->patches[e]);
@@ -375,7 +425,7 @@ static int fan_mesh(const rad_mesh *m, rad_mesh **out, uint32_t **cells_of, rad_
     uint32_t nc = 0, vc = nv;
     for (uint32_t e = 0; e < ne; e++) {
         const rad_patch *c = &m->patches[e];
-        cell_outline(&t, c, &ol);
+        cell_outline(&t, c->v, surface_of(c), &ol);
         if (ol.failed)
             goto done;
         if (ol.n == (size_t)rad_patch_corners(c)) {
@@ -410,7 +460,7 @@ done:
         rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for the render mesh");
     rad_mesh_destroy(rm);
     free(of);
-    free(Vpoly);
+    free(Vsurf);
     free(t.slot);
     free(ol.v);
     return rc;
@@ -437,11 +487,12 @@ typedef struct enode {
 typedef struct builder {
     rad_solution *s;
     const double *Hd;
+    const double *Tr;  /* transmitted (τ_p H_twin(p)), or NULL */
     uint32_t bands;
     /* vertices */
     rad_vec3 *V;
     uint8_t *Vb;
-    uint32_t *Vpoly;
+    uint32_t *Vsurf;
     uint32_t nv, cap_v;
     vtable t;
     /* elements */
@@ -478,10 +529,10 @@ static int on_outline(const rad_scene *sc, uint32_t poly, rad_vec3 p)
     return 0;
 }
 
-/* The vertex at p in polygon poly, made when missing; RAD_NONE on OOM. */
-static uint32_t vertex_at(builder *b, uint32_t poly, rad_vec3 p, int maybe_outline)
+/* The vertex at p on surface surf, made when missing; RAD_NONE on OOM. */
+static uint32_t vertex_at(builder *b, uint32_t surf, rad_vec3 p, int maybe_outline)
 {
-    uint32_t v = b->nv ? vt_find(&b->t, poly, p) : RAD_NONE;
+    uint32_t v = b->nv ? vt_find(&b->t, surf, p) : RAD_NONE;
     if (v != RAD_NONE)
         return v;
     if (b->nv == b->cap_v) {
@@ -492,19 +543,19 @@ static uint32_t vertex_at(builder *b, uint32_t poly, rad_vec3 p, int maybe_outli
         uint8_t *Vb = realloc(b->Vb, cap);
         if (Vb)
             b->Vb = Vb;
-        uint32_t *Vp = realloc(b->Vpoly, (size_t)cap * sizeof *Vp);
+        uint32_t *Vp = realloc(b->Vsurf, (size_t)cap * sizeof *Vp);
         if (Vp)
-            b->Vpoly = Vp;
+            b->Vsurf = Vp;
         if (!V || !Vb || !Vp)
             return RAD_NONE;
         b->cap_v = cap;
         b->t.V = b->V;
-        b->t.Vpoly = b->Vpoly;
+        b->t.Vsurf = b->Vsurf;
     }
     v = b->nv++;
     b->V[v] = p;
-    b->Vpoly[v] = poly;
-    b->Vb[v] = maybe_outline && on_outline(b->s->scene, poly, p);
+    b->Vsurf[v] = surf;
+    b->Vb[v] = maybe_outline && on_outline(b->s->scene, surf / 2, p);
     if (vt_insert(&b->t, v) != 0)
         return RAD_NONE;
     return v;
@@ -541,7 +592,7 @@ static int add_element(builder *b, const uint32_t v[4], uint32_t patch, uint32_t
 static int split(builder *b, uint32_t e)
 {
     enode n = b->E[e];
-    uint32_t poly = b->s->mesh->patches[n.patch].polygon;
+    uint32_t surf = surface_of(&b->s->mesh->patches[n.patch]);
     uint32_t c[4];
     memcpy(c, n.v, sizeof c);
     int corners = c[3] == RAD_NONE ? 3 : 4;
@@ -549,14 +600,14 @@ static int split(builder *b, uint32_t e)
     for (int k = 0; k < corners; k++) {
         uint32_t a = c[k], z = c[(k + 1) % corners];
         /* Only a midpoint between two outline vertices can be on the outline. */
-        m[k] = vertex_at(b, poly, midpoint(b->V[a], b->V[z]), b->Vb[a] && b->Vb[z]);
+        m[k] = vertex_at(b, surf, midpoint(b->V[a], b->V[z]), b->Vb[a] && b->Vb[z]);
         if (m[k] == RAD_NONE)
             return -1;
     }
     uint32_t kids[4][4];
     if (corners == 4) {
         rad_vec3 mid = rad_scale(rad_add(rad_add(b->V[c[0]], b->V[c[1]]), rad_add(b->V[c[2]], b->V[c[3]])), 0.25);
-        uint32_t ctr = vertex_at(b, poly, mid, 0);
+        uint32_t ctr = vertex_at(b, surf, mid, 0);
         if (ctr == RAD_NONE)
             return -1;
         uint32_t q[4][4] = {{c[0], m[0], ctr, m[3]}, {m[0], c[1], m[1], ctr},
@@ -599,7 +650,7 @@ static int store_row(void *user, uint32_t k, uint32_t count, const uint32_t *col
     memcpy(b->col + b->nnz, col, count * sizeof *col);
     memcpy(b->val + b->nnz, val, count * sizeof *val);
     b->nnz += count;
-    gather_one(b->s, b->Hd, n->patch, n->level, col, val, count, b->B + (size_t)e * b->bands);
+    gather_one(b->s, b->Hd, b->Tr, n->patch, n->level, col, val, count, b->B + (size_t)e * b->bands);
     return RAD_OK;
 }
 
@@ -691,9 +742,7 @@ static uint32_t mark_neighbour(builder *b, const rad_solve_options *opt, const d
         for (uint32_t e = 0; e < ne; e++) {
             if (!b->E[e].leaf)
                 continue;
-            rad_patch cell = {.polygon = s->mesh->patches[b->E[e].patch].polygon};
-            memcpy(cell.v, b->E[e].v, sizeof cell.v);
-            cell_outline(&b->t, &cell, &ol);
+            cell_outline(&b->t, b->E[e].v, surface_of(&s->mesh->patches[b->E[e].patch]), &ol);
             if (ol.failed)
                 goto oom;
             for (size_t k = 0; k < ol.n; k++) {
@@ -850,13 +899,16 @@ int rad_solution_refine(rad_solution *s, const rad_solve_options *options, rad_e
     const uint32_t np = pm->patch_count, bands = s->band_count;
     const int uniform = opt.element_levels && !(opt.refine_threshold > 0.0);
     builder b = {.s = s, .bands = bands};
-    double *Hd = NULL, *min_edge = NULL;
+    double *Hd = NULL, *Tr = NULL, *min_edge = NULL;
     uint8_t *mark = NULL;
     hc_engine *hc = NULL;
     int rc = direct_irradiance(s, &Hd, err);
     if (rc != RAD_OK)
         return rc;
     b.Hd = Hd;
+    if ((rc = transmitted(s, &Tr, err)) != RAD_OK)
+        goto done;
+    b.Tr = Tr;
     min_edge = malloc((np ? np : 1) * sizeof *min_edge);
     if (!min_edge) {
         rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
@@ -867,7 +919,7 @@ int rad_solution_refine(rad_solution *s, const rad_solve_options *options, rad_e
         const rad_patch *p = &pm->patches[i];
         uint32_t v[4] = {RAD_NONE, RAD_NONE, RAD_NONE, RAD_NONE};
         for (int k = 0; k < rad_patch_corners(p); k++) {
-            v[k] = vertex_at(&b, p->polygon, pm->vertices[p->v[k]], 0);
+            v[k] = vertex_at(&b, surface_of(p), pm->vertices[p->v[k]], 0);
             if (v[k] == RAD_NONE) {
                 rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
                 goto done;
@@ -961,9 +1013,10 @@ done:
     free(mark);
     free(min_edge);
     free(Hd);
+    free(Tr);
     free(b.V);
     free(b.Vb);
-    free(b.Vpoly);
+    free(b.Vsurf);
     free(b.t.slot);
     free(b.E);
     free(b.B);

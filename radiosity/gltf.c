@@ -15,8 +15,14 @@
  *     strength, default 1).  glTF's emissive value is a radiance L_e; a
  *     Lambertian emitter's exitance is π L_e, so an emitter seen directly
  *     renders with pixel value emissiveFactor × strength.
+ *   - KHR_materials_diffuse_transmission (factor t, colour c, default 0
+ *     and white; textures ignored) splits the diffuse lobe as the extension
+ *     does: ρ = (1 − t)·baseColor, τ = t·c per band.  A transmitting
+ *     material makes thin two-sided sheets (mesh twins), whatever
+ *     doubleSided says; ρ + τ must stay below 1 in every band.
  *   - Only TRIANGLES primitives; extensionsRequired may only name
- *     KHR_materials_emissive_strength and KHR_lights_punctual.  Other
+ *     KHR_materials_emissive_strength, KHR_materials_diffuse_transmission
+ *     and KHR_lights_punctual.  Other
  *     extensions in extensionsUsed (Blender writes KHR_materials_specular,
  *     KHR_materials_ior) are ignored.
  *   - KHR_lights_punctual lights placed by nodes of the scene become scene
@@ -54,9 +60,9 @@
  *     of both triangles (the diagonal a quad was cut along), then across any
  *     edge, longest first, partner with the lowest index first: the result
  *     is deterministic.
- *   - A doubleSided material gives each polygon a second, reversed copy in
- *     the same object, right after it, so that both faces take part in the
- *     exchange; a single-sided polygon has only its front face.
+ *   - A doubleSided opaque material gives each polygon a second, reversed
+ *     copy in the same object, right after it, so that both faces take part
+ *     in the exchange; a single-sided polygon has only its front face.
  *   - Perspective cameras become scene cameras (eye at the node's world
  *     origin, looking along its -Z, up its +Y, yfov in degrees, aspectRatio
  *     or 0); orthographic ones are skipped (a hemi-cube renderer has no use
@@ -465,13 +471,17 @@ done:
 
 static int add_material(gltf_ctx *c, const rad_gltf_raw_material *m, uint32_t *index)
 {
-    double rho[3], e[3];
+    double rho[3], e[3], tau[3];
     const char *band[3] = {"R", "G", "B"};
-    double st = m->emissive_strength;
+    double st = m->emissive_strength, t = m->diffuse_transmission;
     if (!isfinite(st) || st < 0.0)
         return rad_fail(c->err, RAD_ERR_INVALID,
                         "%s: material '%s': emissiveStrength %g must be finite and >= 0", c->src,
                         m->name, st);
+    if (!(t >= 0.0 && t <= 1.0))
+        return rad_fail(c->err, RAD_ERR_INVALID,
+                        "%s: material '%s': diffuseTransmissionFactor %g is not in [0, 1]", c->src,
+                        m->name, t);
     for (int b = 0; b < 3; b++) {
         double r = m->base_color[b];
         if (!isfinite(r) || r < 0.0)
@@ -490,7 +500,16 @@ static int add_material(gltf_ctx *c, const rad_gltf_raw_material *m, uint32_t *i
                             "%s: material '%s': emissiveFactor %g must be finite and >= 0 "
                             "(band %s)",
                             c->src, m->name, f, band[b]);
-        rho[b] = r;
+        double tc = m->diffuse_transmission_color[b];
+        if (!(tc >= 0.0 && tc <= 1.0))
+            return rad_fail(c->err, RAD_ERR_INVALID,
+                            "%s: material '%s': diffuseTransmissionColorFactor %g is not in "
+                            "[0, 1] (band %s)",
+                            c->src, m->name, tc, band[b]);
+        /* KHR_materials_diffuse_transmission mixes the diffuse lobe: a share
+         * t of it is transmitted (colour tc), the rest reflected. */
+        rho[b] = (1.0 - t) * r;
+        tau[b] = t * tc;
         e[b] = M_PI * f * st;
     }
     /* glTF names need not be unique; ours must be. */
@@ -498,7 +517,7 @@ static int add_material(gltf_ctx *c, const rad_gltf_raw_material *m, uint32_t *i
     if (!name)
         return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
     snprintf(where, sizeof where, "material '%.200s'", name);
-    int rc = rad_scene_add_material(c->s, name, rho, e, NULL, where, index, c->err);
+    int rc = rad_scene_add_material(c->s, name, rho, e, tau, where, index, c->err);
     free(name);
     return rc;
 }
@@ -551,6 +570,7 @@ static int convert(gltf_ctx *c, const rad_gltf_raw *raw)
 {
     for (uint32_t k = 0; k < raw->extensions_required_count; k++)
         if (strcmp(raw->extensions_required[k], "KHR_materials_emissive_strength") != 0 &&
+            strcmp(raw->extensions_required[k], "KHR_materials_diffuse_transmission") != 0 &&
             strcmp(raw->extensions_required[k], "KHR_lights_punctual") != 0)
             return rad_fail(c->err, RAD_ERR_INVALID,
                             "%s: extension '%s' is required but not supported", c->src,
@@ -651,9 +671,11 @@ static int convert(gltf_ctx *c, const rad_gltf_raw *raw)
         const rad_gltf_raw_mesh *me = &raw->meshes[nd->mesh];
         for (uint32_t p = 0; p < me->primitive_count && rc == RAD_OK; p++) {
             const rad_gltf_raw_primitive *pr = &me->primitives[p];
-            rc = convert_primitive(c, me, p, nd->world, oname, &object,
-                                   mat_index[pr->material],
-                                   raw->materials[pr->material].double_sided);
+            uint32_t mat = mat_index[pr->material];
+            /* a transmitting sheet has both sides already (mesh twins) */
+            int two = raw->materials[pr->material].double_sided &&
+                      !rad_material_transmits(&c->s->materials[mat], c->s->band_count);
+            rc = convert_primitive(c, me, p, nd->world, oname, &object, mat, two);
         }
         free(oname);
     }

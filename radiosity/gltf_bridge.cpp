@@ -747,6 +747,31 @@ void convert(const tinygltf::Model &m, const std::vector<light_def> &lights,
                 fail(RAD_ERR_PARSE, where + ": emissiveStrength is not a number");
             dst.emissive_strength = s.GetNumberAsDouble();
         }
+        dst.diffuse_transmission = 0.0;
+        for (int c = 0; c < 3; c++)
+            dst.diffuse_transmission_color[c] = 1.0;
+        ext = src.extensions.find("KHR_materials_diffuse_transmission");
+        if (ext != src.extensions.end() && ext->second.IsObject()) {
+            const tinygltf::Value &dt = ext->second;
+            if (dt.Has("diffuseTransmissionFactor")) {
+                const tinygltf::Value &f = dt.Get("diffuseTransmissionFactor");
+                if (!f.IsNumber())
+                    fail(RAD_ERR_PARSE, where + ": diffuseTransmissionFactor is not a number");
+                dst.diffuse_transmission = f.GetNumberAsDouble();
+            }
+            if (dt.Has("diffuseTransmissionColorFactor")) {
+                const tinygltf::Value &col = dt.Get("diffuseTransmissionColorFactor");
+                if (!col.IsArray() || col.ArrayLen() != 3)
+                    fail(RAD_ERR_PARSE,
+                         where + ": diffuseTransmissionColorFactor is not an array of 3 numbers");
+                for (int c = 0; c < 3; c++) {
+                    if (!col.Get(c).IsNumber())
+                        fail(RAD_ERR_PARSE,
+                             where + ": diffuseTransmissionColorFactor is not an array of 3 numbers");
+                    dst.diffuse_transmission_color[c] = col.Get(c).GetNumberAsDouble();
+                }
+            }
+        }
         dst.double_sided = src.doubleSided ? 1 : 0;
     }
 

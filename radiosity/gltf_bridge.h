@@ -49,6 +49,10 @@ typedef struct rad_gltf_raw_material {
     double base_color[3];     /* pbrMetallicRoughness.baseColorFactor RGB (default 1) */
     double emissive[3];       /* emissiveFactor (default 0) */
     double emissive_strength; /* KHR_materials_emissive_strength (default 1) */
+    /* KHR_materials_diffuse_transmission: diffuseTransmissionFactor (default
+     * 0) and diffuseTransmissionColorFactor (default 1); textures ignored */
+    double diffuse_transmission;
+    double diffuse_transmission_color[3];
     int double_sided;
 } rad_gltf_raw_material;
 

@@ -7,6 +7,10 @@
  * convex with positive area A_i, corners counter-clockwise about the polygon
  * normal, centre = area centroid; vertices are shared within a polygon and
  * never across polygons (the paper averages vertex radiosities per polygon).
+ * A polygon whose material transmits is a thin sheet: its cells are
+ * followed by their back twins (the same cells reversed, on vertices of
+ * their own, so the two sides never average together), and mesh->twin pairs
+ * them (rad_mesh_link_twins, which the solution reader calls too).
  * The patch count is computed and checked against the limit before anything
  * is allocated.
  */
@@ -44,6 +48,7 @@ void rad_mesh_destroy(rad_mesh *m)
     free(m->vertices);
     free(m->vertex_boundary);
     free(m->patches);
+    free(m->twin);
     free(m);
 }
 
@@ -245,8 +250,14 @@ static void mesh_totals(const rad_scene *scene, const rad_mesh_options *opt, uin
         if (!polygon_ok(scene, pg))
             continue;
         split sp = polygon_split(scene, pg, opt_size, def_size);
-        tp = add_sat(tp, sp.patches);
-        tv = add_sat(tv, sp.vertices);
+        /* a transmitting sheet has a back side of as many cells again */
+        uint64_t sides = pg->material < scene->material_count &&
+                                 rad_material_transmits(&scene->materials[pg->material],
+                                                        scene->band_count)
+                             ? 2
+                             : 1;
+        tp = add_sat(tp, mul_sat(sides, sp.patches));
+        tv = add_sat(tv, mul_sat(sides, sp.vertices));
     }
     *patches = tp;
     *vertices = tv;
@@ -415,6 +426,81 @@ static void build_fan(builder *b, const rad_vec3 *p, uint32_t n, uint32_t k, uin
     }
 }
 
+/* The back side of the cells [first_patch, b->np), made on copies of the
+ * vertices [first_vertex, b->nv): each cell again, in the same order, with
+ * its corners reversed so that they run counter-clockwise about -n. */
+static void build_back_side(builder *b, uint32_t first_patch, uint32_t first_vertex, int *bad)
+{
+    const uint32_t cells = b->np - first_patch, nverts = b->nv - first_vertex;
+    for (uint32_t k = 0; k < nverts; k++)
+        add_vertex(b, b->m->vertices[first_vertex + k], b->m->vertex_boundary[first_vertex + k]);
+    for (uint32_t c = 0; c < cells; c++) {
+        const rad_patch *f = &b->m->patches[first_patch + c];
+        uint32_t v[4], shift = nverts;
+        int n = rad_patch_corners(f);
+        for (int k = 0; k < n; k++)
+            v[k] = f->v[(n - k) % n] + shift; /* v0, v(n-1), ..., v1 */
+        rad_patch *p = &b->m->patches[b->np];
+        *p = *f;
+        memcpy(p->v, v, (size_t)n * sizeof *v);
+        p->normal = rad_scale(f->normal, -1.0);
+        if (rad_cell_geometry(b->m->vertices, p->v, p->normal, &p->center, &p->area) != 0)
+            *bad = 1;
+        b->np++;
+    }
+}
+
+int rad_mesh_link_twins(rad_mesh *m, const rad_scene *scene, rad_error *err)
+{
+    const char *src = scene->source ? scene->source : "<memory>";
+    free(m->twin);
+    m->twin = NULL;
+    int any = 0;
+    for (uint32_t i = 0; i < m->patch_count && !any; i++)
+        any = m->patches[i].material < scene->material_count &&
+              rad_material_transmits(&scene->materials[m->patches[i].material], scene->band_count);
+    if (!any)
+        return RAD_OK;
+    uint32_t *twin = malloc((size_t)m->patch_count * sizeof *twin);
+    if (!twin)
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: mesh: out of memory", src);
+    for (uint32_t i = 0; i < m->patch_count; i++)
+        twin[i] = RAD_NONE;
+    /* Runs of consecutive patches of one polygon: a transmitting one holds
+     * its front cells, then their back twins in the same order. */
+    for (uint32_t a = 0, z; a < m->patch_count; a = z) {
+        const rad_patch *p = &m->patches[a];
+        for (z = a + 1; z < m->patch_count && m->patches[z].polygon == p->polygon; z++)
+            ;
+        if (p->material >= scene->material_count || p->polygon >= scene->polygon_count ||
+            !rad_material_transmits(&scene->materials[p->material], scene->band_count))
+            continue;
+        const rad_polygon *pg = &scene->polygons[p->polygon];
+        uint32_t half = (z - a) / 2;
+        int ok = (z - a) % 2 == 0;
+        for (uint32_t k = 0; k < half && ok; k++) {
+            const rad_patch *f = &m->patches[a + k], *r = &m->patches[a + half + k];
+            double size = sqrt(f->area);
+            ok = f->material == r->material && f->object == r->object &&
+                 rad_patch_corners(f) == rad_patch_corners(r) &&
+                 rad_dot(f->normal, pg->normal) > 0.0 && rad_dot(r->normal, pg->normal) < 0.0 &&
+                 rad_length(rad_sub(f->center, r->center)) <= 1e-9 * size &&
+                 fabs(f->area - r->area) <= 1e-9 * f->area;
+            twin[a + k] = a + half + k;
+            twin[a + half + k] = a + k;
+        }
+        if (!ok) {
+            free(twin);
+            return rad_fail(err, RAD_ERR_CORRUPT,
+                            "%s: mesh: polygon '%s' transmits but its patches are not front "
+                            "cells followed by their back twins",
+                            src, pg->name ? pg->name : "");
+        }
+    }
+    m->twin = twin;
+    return RAD_OK;
+}
+
 int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh **out,
                    rad_error *err)
 {
@@ -488,6 +574,7 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
         const rad_polygon *pg = &scene->polygons[i];
         const rad_vec3 *p = scene->points + pg->first_point;
         split sp = polygon_split(scene, pg, opt_size, def_size);
+        uint32_t first_patch = b.np, first_vertex = b.nv;
         b.polygon = i;
         if (pg->point_count == 4)
             build_quad(&b, p, (uint32_t)sp.nu, (uint32_t)sp.nv, &bad);
@@ -495,6 +582,8 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
             build_triangle(&b, p, (uint32_t)sp.nu, g, &bad);
         else
             build_fan(&b, p, pg->point_count, (uint32_t)sp.nu, g, pg->normal, &bad);
+        if (!bad && rad_material_transmits(&scene->materials[pg->material], scene->band_count))
+            build_back_side(&b, first_patch, first_vertex, &bad);
         if (bad) {
             free(g);
             rad_mesh_destroy(m);
@@ -506,6 +595,11 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
     }
     free(g);
     RAD_ASSERT(b.nv == nv && b.np == np);
+    int rc = rad_mesh_link_twins(m, scene, err);
+    if (rc != RAD_OK) {
+        rad_mesh_destroy(m);
+        return rc;
+    }
     *out = m;
     return RAD_OK;
 }

@@ -4,6 +4,7 @@
  * subdivision into k² triangles; convex polygons with more corners a fan of
  * triangles about the centroid, each subdivided and sharing the fan's edge
  * vertices.  Vertices are shared by neighbouring patches of one polygon.
+ * A transmitting polygon gets a back side: the same cells facing -n.
  * Density comes from the polygon's own subdivision parameter, else from the
  * target patch size.
  */
@@ -29,6 +30,13 @@ typedef struct rad_mesh_options {
  * allocating when the count exceeds max_patches.  Caller owns *out. */
 int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh **out,
                    rad_error *err);
+
+/* Pairs the two sides of every transmitting polygon's cells into m->twin
+ * (rad.h), from the layout rad_mesh_build makes: a transmitting polygon's
+ * patches are consecutive, its front cells and then their back twins in the
+ * same order.  NULL twin when nothing transmits.  RAD_ERR_CORRUPT when the
+ * layout is not that (a damaged solution file); RAD_ERR_NOMEM. */
+int rad_mesh_link_twins(rad_mesh *m, const rad_scene *scene, rad_error *err);
 
 /* Number of patches rad_mesh_build would make, without allocating them;
  * UINT64_MAX if it overflows. */

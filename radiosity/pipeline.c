@@ -9,8 +9,11 @@
  *
  * Which rows are needed: gathering solvers (Gauss-Seidel, Jacobi) need row i
  * for every patch that reflects (ρ_i > 0 in some band): a patch with ρ = 0
- * has B = E whatever it sees, so its row would be wasted work.  The
- * progressive solver asks for the rows of the patches it shoots from.
+ * has B = E whatever it sees, so its row would be wasted work.  A sheet that
+ * transmits diffusely (τ > 0) is two patches back to back (mesh twins), and
+ * B_i = E_i + ρ_i H_i + τ_i H_twin(i): the twin's row is i's back hemi-cube,
+ * computed only there (sv_row_needed).  The progressive solver asks for the
+ * rows of the patches it shoots from.
  *
  * Punctual lights have no patches: each is rendered once as an item-buffer
  * cube at the light (hc_light_power), which gives the power Φ_lj patch j
@@ -107,12 +110,22 @@ static int on_preview(void *user, uint32_t shots, const double *B_display)
     return c->opt->on_preview(c->opt->preview_user, c->s, shots, B_display);
 }
 
-static int reflects(const rad_solution *s, uint32_t i)
+/* τ_i of every patch from its material, n × bands, when the mesh has
+ * two-sided sheets (else *out = NULL). */
+static int patch_tau(const rad_solution *s, double **out, rad_error *err)
 {
-    for (uint32_t b = 0; b < s->band_count; b++)
-        if (s->rho[(size_t)i * s->band_count + b] > 0.0)
-            return 1;
-    return 0;
+    *out = NULL;
+    if (!s->mesh->twin)
+        return RAD_OK;
+    const uint32_t n = s->mesh->patch_count, nb = s->band_count;
+    double *tau = malloc(((size_t)n * nb + 1) * sizeof *tau);
+    if (!tau)
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
+    for (uint32_t i = 0; i < n; i++)
+        memcpy(tau + (size_t)i * nb, s->scene->materials[s->mesh->patches[i].material].transmit,
+               nb * sizeof *tau);
+    *out = tau;
+    return RAD_OK;
 }
 
 /* Refuses, before allocating, a matrix that would not fit: the estimate
@@ -138,8 +151,9 @@ int rad_solution_is_grey(const rad_solution *s)
     uint32_t nb = s->band_count;
     for (size_t i = 0; nb > 1 && i < s->mesh->patch_count; i++) {
         const double *rho = s->rho + i * nb, *e = s->emission + i * nb;
+        const double *tau = s->scene->materials[s->mesh->patches[i].material].transmit;
         for (uint32_t b = 1; b < nb; b++)
-            if (rho[b] != rho[0] || e[b] != e[0])
+            if (rho[b] != rho[0] || e[b] != e[0] || tau[b] != tau[0])
                 return 0;
     }
     for (size_t l = 0; nb > 1 && s->light_intensity && l < s->scene->light_count; l++)
@@ -198,16 +212,26 @@ int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err)
     if (!limit)
         limit = (uint64_t)(0.8 * (double)rad_available_memory());
     resolve_ctx c = {.s = s, .opt = opt, .max_memory = limit};
-    int rc = RAD_OK;
+    double *tau = NULL;
+    int rc = patch_tau(s, &tau, err);
+    if (rc)
+        return rc;
+    const uint32_t nbands = s->band_count;
+    const sv_system all = {.n = n, .bands = nbands, .F = s->F, .rho = s->rho,
+                           .emission = s->emission, .tau = tau, .twin = tau ? s->mesh->twin : NULL};
 
-    /* Form factors: the rows the gathering solvers need and do not have. */
+    /* Form factors: the rows the gathering solvers need and do not have
+     * (no row for a patch that neither reflects nor lets its twin's light
+     * through; a back hemi-cube only behind a transmitting patch). */
     if (opt->solver.method != SV_PROGRESSIVE || opt->all_rows) {
         uint32_t *missing = malloc(((size_t)n + 1) * sizeof *missing);
-        if (!missing)
+        if (!missing) {
+            free(tau);
             return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
+        }
         uint32_t count = 0;
         for (uint32_t i = 0; i < n; i++)
-            if (!s->F->row_done[i] && (opt->all_rows || reflects(s, i)))
+            if (!s->F->row_done[i] && (opt->all_rows || sv_row_needed(&all, i)))
                 missing[count++] = i;
         rc = check_memory(s, s->F->rows_done + count, limit, err);
         if (!rc)
@@ -220,33 +244,46 @@ int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err)
         rc = shoot_lights(&c, err);
 
     /* Solve: B for every band (one band when the scene is grey) with the
-     * source E + ρ H_d; the progressive solver pulls rows as it shoots. */
+     * source E + ρ H_d (+ τ H_d of the twin, through a sheet); the
+     * progressive solver pulls rows as it shoots. */
     double *src = NULL;
     if (!rc && s->scene->light_count) {
-        size_t count = (size_t)n * s->band_count;
+        size_t count = (size_t)n * nbands;
+        double *Hd = malloc((count + 1) * sizeof *Hd);
         src = malloc((count + 1) * sizeof *src);
-        if (!src)
+        if (!src || !Hd)
             rc = rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
         else
-            rc = rad_solution_direct_irradiance(s, src, err);
-        for (size_t k = 0; !rc && k < count; k++)
-            src[k] = s->emission[k] + s->rho[k] * src[k];
+            rc = rad_solution_direct_irradiance(s, Hd, err);
+        for (uint32_t i = 0; !rc && i < n; i++) {
+            uint32_t t = all.twin ? all.twin[i] : RAD_NONE;
+            for (uint32_t b = 0; b < nbands; b++) {
+                size_t k = (size_t)i * nbands + b;
+                src[k] = s->emission[k] + s->rho[k] * Hd[k] +
+                         (t != RAD_NONE ? tau[k] * Hd[(size_t)t * nbands + b] : 0.0);
+            }
+        }
+        free(Hd);
     }
     if (!rc) {
         const double *E = src ? src : s->emission;
-        uint32_t nb = rad_solution_is_grey(s) ? 1 : s->band_count;
-        sv_system sys = {.n = n, .bands = nb, .F = s->F, .rho = s->rho, .emission = E};
+        uint32_t nb = rad_solution_is_grey(s) ? 1 : nbands;
+        sv_system sys = all;
+        sys.bands = nb;
+        sys.emission = E;
         double *area = malloc(((size_t)n + 1) * sizeof *area);
-        double *grey = nb < s->band_count ? malloc(((size_t)n * 3 + 1) * sizeof *grey) : NULL;
-        if (grey) { /* band 0 of each patch, packed: ρ, E, then room for B */
+        double *grey = nb < nbands ? malloc(((size_t)n * 4 + 1) * sizeof *grey) : NULL;
+        if (grey) { /* band 0 of each patch, packed: ρ, E, τ, then room for B */
             for (uint32_t i = 0; i < n; i++) {
-                grey[i] = s->rho[(size_t)i * s->band_count];
-                grey[n + i] = E[(size_t)i * s->band_count];
+                grey[i] = s->rho[(size_t)i * nbands];
+                grey[n + i] = E[(size_t)i * nbands];
+                grey[2 * (size_t)n + i] = tau ? tau[(size_t)i * nbands] : 0.0;
             }
             sys.rho = grey;
             sys.emission = grey + n;
+            sys.tau = tau ? grey + 2 * (size_t)n : NULL;
         }
-        if (!area || (nb < s->band_count && !grey)) {
+        if (!area || (nb < nbands && !grey)) {
             rc = rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
         } else {
             for (uint32_t i = 0; i < n; i++)
@@ -258,7 +295,7 @@ int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err)
             so.user = &c;
             sv_stats st = {0};
             double t0 = rad_seconds();
-            double *B = grey ? grey + 2 * (size_t)n : s->B;
+            double *B = grey ? grey + 3 * (size_t)n : s->B;
             rc = sv_solve(&sys, &so, B, &st, err);
             for (uint32_t i = 0; grey && !rc && i < n; i++)
                 for (uint32_t b = 0; b < s->band_count; b++)
@@ -287,6 +324,7 @@ int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err)
     }
 
     free(src);
+    free(tau);
     s->rows_computed = c.rows_computed;
     s->lights_computed = c.lights_computed;
     s->stages[RAD_STAGE_FORM_FACTORS].seconds = c.ff_seconds;
@@ -313,21 +351,7 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
         opt = &defaults;
     *out = NULL;
 
-    /* Transmittance is read and stored, but the back hemi-cube that would
-     * carry it is not built yet: refuse rather than lose that light. */
-    for (uint32_t m = 0; m < scene->material_count; m++)
-        for (uint32_t b = 0; b < scene->band_count; b++)
-            if (scene->materials[m].transmit[b] > 0.0) {
-                int code = rad_fail(err, RAD_ERR_INVALID,
-                                    "%s: material '%s': transmittance %g: diffuse transmission "
-                                    "is not simulated yet (set it to 0)",
-                                    scene->source, scene->materials[m].name,
-                                    scene->materials[m].transmit[b]);
-                rad_scene_destroy(scene);
-                return code;
-            }
-
-    /* Mesh: polygons -> conforming patches. */
+    /* Mesh: polygons -> conforming patches (both sides of a transmitting sheet). */
     double t0 = rad_seconds();
     rad_mesh *mesh = NULL;
     int rc = rad_mesh_build(scene, &opt->mesh, &mesh, err);

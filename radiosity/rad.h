@@ -117,15 +117,25 @@ typedef struct rad_patch {
 } rad_patch;
 
 /* The conforming patch mesh.  Vertices are shared by the patches of one
- * polygon and never across polygons, because a vertex's radiosity is an
- * average within its polygon.  vertex_boundary[k] is 1 when vertex k lies on
- * its polygon's outline (its radiosity is extrapolated, not averaged). */
+ * side of one polygon and never across polygons, because a vertex's
+ * radiosity is an average within its polygon.  vertex_boundary[k] is 1 when
+ * vertex k lies on its polygon's outline (its radiosity is extrapolated, not
+ * averaged).
+ *
+ * Two-sided cells: a polygon whose material transmits diffusely is a thin
+ * sheet with two surfaces.  Its front cells are followed by their back
+ * twins, the same cells in the same order facing the other way (reversed
+ * corners, normal -n, vertices of their own).  twin[i] is the patch on the
+ * other side of patch i, RAD_NONE for a one-sided patch; twin is NULL when
+ * no patch has one.  Invariant: twin[twin[i]] == i, same centre and area,
+ * opposite normals. */
 typedef struct rad_mesh {
     rad_vec3 *vertices;
     uint8_t *vertex_boundary;
     uint32_t vertex_count;
     rad_patch *patches;
     uint32_t patch_count;
+    uint32_t *twin;          /* patch_count entries or NULL (owned) */
 } rad_mesh;
 
 /* Number of corners of a patch: 3 or 4. */

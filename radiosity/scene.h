@@ -22,6 +22,16 @@ typedef struct rad_material {
     double transmit[RAD_MAX_BANDS]; /* diffuse transmittance per band (0 = opaque) */
 } rad_material;
 
+/* 1 when the material transmits in some of the scene's bands: its polygons
+ * are thin sheets with two sides (rad_mesh twins). */
+static inline int rad_material_transmits(const rad_material *m, uint32_t bands)
+{
+    for (uint32_t b = 0; b < bands; b++)
+        if (m->transmit[b] > 0.0)
+            return 1;
+    return 0;
+}
+
 typedef struct rad_object {
     char *name; /* glTF: node name, else mesh name, else "node<index>"; polygon file: polygon or group name */
 } rad_object;

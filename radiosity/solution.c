@@ -1307,6 +1307,13 @@ static int parse_mesh(reader *r, rad_solution *s)
     if (rad_mesh_check(m, sc->polygon_count, sc->object_count, sc->material_count, &sub))
         return rfail(r, RAD_ERR_CORRUPT, "%s",
                      strncmp(sub.message, "mesh: ", 6) == 0 ? sub.message + 6 : sub.message);
+    /* The two sides of transmitting polygons are paired by their layout,
+     * not stored. */
+    int rc = rad_mesh_link_twins(m, sc, &sub);
+    if (rc != RAD_OK) {
+        const char *msg = strstr(sub.message, "mesh: ");
+        return rfail(r, rc, "%s", msg ? msg + 6 : sub.message);
+    }
     return RAD_OK;
 }
 

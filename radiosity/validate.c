@@ -703,7 +703,7 @@ int rad_validate_case(const rad_val_case *cin, rad_val_result *out, rad_error *e
             rho[i] = mt->rho[0];
             E[i] = mt->emission[0];
         }
-        sv_system sys = {n, 1, F, area, rho, E};
+        sv_system sys = {.n = n, .bands = 1, .F = F, .area = area, .rho = rho, .emission = E};
         sv_options so = {.method = SV_GAUSS_SEIDEL, .tolerance = c.tolerance};
         sv_stats st;
         rc = sv_solve(&sys, &so, Bv, &st, err);

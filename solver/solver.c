@@ -1,4 +1,5 @@
-/* solver.c - solves B_i = E_i + ρ_i Σ_j F_ij B_j, every band at once (solver.h).
+/* solver.c - solves B_i = E_i + ρ_i Σ_j F_ij B_j (+ τ_i Σ_j F_twin(i),j B_j
+ * where a sheet transmits), every band at once (solver.h).
  *
  * Owns the three methods (Gauss-Seidel gathering, the Jacobi/Neumann series,
  * progressive shooting), their common stopping rule and the Aitken
@@ -7,7 +8,7 @@
  *
  * Invariant: the B handed back always comes out of a full sweep or a shot,
  * never straight out of an extrapolation, so B_i >= E_i >= 0 holds exactly in
- * floating point (every update adds a non-negative ρ_i Σ F_ij B_j to E_i) and
+ * floating point (every update adds a non-negative ρ_i H_i + τ_i H_twin(i) to E_i) and
  * the stopping rule has looked at the result it returns.
  */
 #include "solver.h"
@@ -94,6 +95,23 @@ static int check_system(const sv_system *s, rad_error *err)
             if (e < 0.0)
                 return rad_fail(err, RAD_ERR_INVALID,
                                 "solver: patch %u band %u: emission %.9g is negative", i, b, e);
+        }
+    }
+    if (!s->tau != !s->twin)
+        return rad_fail(err, RAD_ERR_USAGE, "solver: transmittances and twins go together");
+    for (uint32_t i = 0; s->tau && i < s->n; i++) {
+        uint32_t t = s->twin[i];
+        if (t != RAD_NONE && (t >= s->n || t == i || s->twin[t] != i))
+            return rad_fail(err, RAD_ERR_USAGE, "solver: patch %u: twin %u is not its pair", i, t);
+        for (uint32_t b = 0; b < nb; b++) {
+            double tau = s->tau[(size_t)i * nb + b], r = s->rho[(size_t)i * nb + b];
+            if (!(tau >= 0.0) || !(r + tau < 1.0))
+                return rad_fail(err, RAD_ERR_INVALID,
+                                "solver: patch %u band %u: transmittance %.9g with reflectance "
+                                "%.9g is not in [0, 1 - ρ)", i, b, tau, r);
+            if (tau > 0.0 && t == RAD_NONE)
+                return rad_fail(err, RAD_ERR_INVALID,
+                                "solver: patch %u transmits but has no other side", i);
         }
     }
     return RAD_OK;
@@ -225,6 +243,44 @@ static int reflects(const double *rho_i, uint32_t nb)
     return 0;
 }
 
+/* The other side of patch i when light passes through it to i, else RAD_NONE. */
+static uint32_t transmits_from(const sv_system *s, uint32_t i)
+{
+    if (!s->tau || s->twin[i] == RAD_NONE)
+        return RAD_NONE;
+    return reflects(s->tau + (size_t)i * s->bands, s->bands) ? s->twin[i] : RAD_NONE;
+}
+
+/* solver.h: for i's own reflection, or for its twin's transmission. */
+int sv_row_needed(const sv_system *s, uint32_t i)
+{
+    if (reflects(s->rho + (size_t)i * s->bands, s->bands))
+        return 1;
+    return s->tau && s->twin[i] != RAD_NONE && transmits_from(s, s->twin[i]) != RAD_NONE;
+}
+
+/* B_i's new value per band into nv: E_i + ρ_i H_i + τ_i H_twin(i). */
+static void update(const sv_system *s, uint32_t i, const double *B, double *nv)
+{
+    const uint32_t nb = s->bands;
+    const size_t o = (size_t)i * nb;
+    const double *E = s->emission + o, *rho = s->rho + o;
+    double g[RAD_MAX_BANDS];
+    if (reflects(rho, nb)) {
+        gather(s->F, i, B, nb, g);
+        for (uint32_t b = 0; b < nb; b++)
+            nv[b] = E[b] + rho[b] * g[b];
+    } else {
+        memcpy(nv, E, nb * sizeof *nv);
+    }
+    uint32_t t = transmits_from(s, i);
+    if (t != RAD_NONE) {
+        gather(s->F, t, B, nb, g);
+        for (uint32_t b = 0; b < nb; b++)
+            nv[b] += s->tau[o + b] * g[b];
+    }
+}
+
 /* --------------------------------------------------------------- residual */
 
 /* max |E_i + ρ_i Σ F_ij B_j - B_i| / max B.  skip_missing leaves out patches
@@ -240,14 +296,16 @@ static double residual(const sv_system *s, const double *B, int skip_missing, in
         for (uint32_t b = 0; b < nb; b++)
             if (Bi[b] > bmax)
                 bmax = Bi[b];
-        if (!row_present(s->F, i) && skip_missing)
+        uint32_t t = transmits_from(s, i);
+        if ((!row_present(s->F, i) || (t != RAD_NONE && !row_present(s->F, t))) && skip_missing)
             continue;
-        if (check_rows && row_present(s->F, i) && check_row(s->F, i, NULL, NULL) != RAD_OK)
+        if (check_rows && ((row_present(s->F, i) && check_row(s->F, i, NULL, NULL) != RAD_OK) ||
+                           (t != RAD_NONE && row_present(s->F, t) &&
+                            check_row(s->F, t, NULL, NULL) != RAD_OK)))
             return NAN;
-        gather(s->F, i, B, nb, g);
-        const double *E = s->emission + (size_t)i * nb, *rho = s->rho + (size_t)i * nb;
+        update(s, i, B, g);
         for (uint32_t b = 0; b < nb; b++) {
-            double r = fabs(E[b] + rho[b] * g[b] - Bi[b]);
+            double r = fabs(g[b] - Bi[b]);
             if (!(r <= num)) /* also lets a NaN through */
                 num = r;
         }
@@ -326,14 +384,10 @@ static double sweep(const sv_system *s, const double *src, double *dst, double *
         dmax[b] = dot[b] = now[b] = before[b] = 0.0;
     for (uint32_t i = 0; i < s->n; i++) {
         const size_t o = (size_t)i * nb;
-        const double *E = s->emission + o, *rho = s->rho + o;
-        if (reflects(rho, nb))
-            gather(s->F, i, src, nb, g);
-        else
-            memset(g, 0, nb * sizeof g[0]);
+        update(s, i, src, g);
         for (uint32_t b = 0; b < nb; b++) {
             double old = src[o + b];
-            double nv = E[b] + rho[b] * g[b];
+            double nv = g[b];
             double d = nv - old, prev = D[o + b];
             dst[o + b] = nv;
             D[o + b] = d;
@@ -362,20 +416,31 @@ static int solve_sweeps(const sv_system *s, const sv_options *o, double tol, dou
     band_monitor mon[RAD_MAX_BANDS];
     for (uint32_t b = 0; b < nb; b++)
         mon[b] = (band_monitor){.d_prev = -1.0, .gamma = 0.0};
-    /* Every row the sweeps will read is checked once here, and gamma falls out. */
+    /* Every row the sweeps will read is checked once here, and gamma falls
+     * out: max_i ρ_i Σ_j F_ij + τ_i Σ_j F_twin(i),j. */
+    double *sum = malloc((size_t)n * sizeof *sum);
+    if (!sum)
+        return rad_fail(err, RAD_ERR_NOMEM, "solver: out of memory for %u patches", n);
     for (uint32_t i = 0; i < n; i++) {
+        sum[i] = 0.0;
         if (!row_present(s->F, i))
             continue;
-        double sum = 0.0;
-        int rc = check_row(s->F, i, &sum, err);
-        if (rc)
+        int rc = check_row(s->F, i, &sum[i], err);
+        if (rc) {
+            free(sum);
             return rc;
+        }
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t t = transmits_from(s, i);
         for (uint32_t b = 0; b < nb; b++) {
-            double gb = s->rho[(size_t)i * nb + b] * sum;
+            double gb = s->rho[(size_t)i * nb + b] * sum[i] +
+                        (t != RAD_NONE ? s->tau[(size_t)i * nb + b] * sum[t] : 0.0);
             if (gb > mon[b].gamma)
                 mon[b].gamma = gb;
         }
     }
+    free(sum);
 
     double *D = calloc(len, sizeof *D); /* ΔB_0 = 0: no direction yet */
     double *other = jacobi ? malloc(len * sizeof *other) : NULL;
@@ -608,7 +673,7 @@ static int solve_progressive(const sv_system *s, const sv_options *o, double tol
     }
     int gather_rows = 1;
     for (uint32_t i = 0; i < n && gather_rows; i++)
-        if (!row_present(F, i) && reflects(rho + (size_t)i * nb, nb))
+        if (!row_present(F, i) && sv_row_needed(s, i))
             gather_rows = 0;
     if (gather_rows && (rc = transpose_build(F, &T, err)) != RAD_OK)
         goto done;
@@ -621,8 +686,10 @@ static int solve_progressive(const sv_system *s, const sv_options *o, double tol
         area_sum += A[i];
         power[i] = 0.0;
         for (uint32_t b = 0; b < nb; b++) {
+            /* what a sheet passes on is re-emitted too, on its other side */
+            double albedo = rho[(size_t)i * nb + b] + (s->tau ? s->tau[(size_t)i * nb + b] : 0.0);
             emitted[b] += A[i] * E[(size_t)i * nb + b];
-            rho_avg[b] += A[i] * rho[(size_t)i * nb + b];
+            rho_avg[b] += A[i] * albedo;
             power[i] += E[(size_t)i * nb + b];
         }
         power[i] *= A[i];
@@ -721,18 +788,26 @@ static int solve_progressive(const sv_system *s, const sv_options *o, double tol
         for (uint32_t k = 0; k < count; k++) {
             const uint32_t j = c[k];
             const double f = gather_rows ? v[k] * A[j] * inv_area[best] : v[k];
-            const double inv = inv_area[j];
-            const size_t oj = (size_t)j * nb;
-            double pj = 0.0;
-            for (uint32_t b = 0; b < nb; b++) {
-                const double w = rho[oj + b] * shot[b] * f; /* A_j ΔB_j: power j re-emits */
-                const double d = w * inv;
-                B[oj + b] += d;
-                U[oj + b] += d;
-                landed[b] += w;
-                pj += w;
+            /* The irradiance ΔH_j = shot·f / A_j landing on j comes out of j
+             * (ρ_j ΔH_j) and, through a sheet, out of its other side t
+             * (τ_t ΔH_j). */
+            const uint32_t t = s->tau && s->twin[j] != RAD_NONE ? s->twin[j] : RAD_NONE;
+            for (int side = 0; side < (t == RAD_NONE ? 1 : 2); side++) {
+                const uint32_t r = side ? t : j;
+                const double *gain = side ? s->tau : rho;
+                const size_t o = (size_t)r * nb;
+                const double inv = inv_area[j];
+                double pr = 0.0;
+                for (uint32_t b = 0; b < nb; b++) {
+                    const double d = gain[o + b] * shot[b] * f * inv; /* ΔB_r */
+                    const double w = d * A[r];                       /* A_r ΔB_r: power r re-emits */
+                    B[o + b] += d;
+                    U[o + b] += d;
+                    landed[b] += w;
+                    pr += w;
+                }
+                power[r] += pr;
             }
-            power[j] += pj;
         }
         for (uint32_t b = 0; b < nb; b++)
             unshot[b] += landed[b];
@@ -796,7 +871,7 @@ int sv_solve(const sv_system *sys, const sv_options *opt, double *B, sv_stats *s
                             "solver: patch %zu band %zu: radiosity overflowed (emission too large)",
                             x / sys->bands, x % sys->bands);
 #if RAD_DEBUG
-    /* Every update adds ρ_i Σ F_ij B_j >= 0 to E_i: anything else is a bug. */
+    /* Every update adds ρ_i H_i + τ_i H_twin(i) >= 0 to E_i: anything else is a bug. */
     for (size_t x = 0; x < len; x++)
         RAD_ASSERT(B[x] >= sys->emission[x] && B[x] >= 0.0);
 #endif

@@ -1,4 +1,5 @@
-/* solver.h - solving the radiosity system B_i = E_i + ρ_i Σ_j F_ij B_j.
+/* solver.h - solving the radiosity system B_i = E_i + ρ_i Σ_j F_ij B_j
+ * (plus τ_i Σ_j F_twin(i),j B_j for the sides of transmitting sheets).
  *
  * Three methods on the same stored matrix:
  *   gauss-seidel  gathering, in place, all bands in one sweep over F;
@@ -22,6 +23,15 @@ typedef struct sv_system {
     const double *area;       /* A_i, n values */
     const double *rho;        /* ρ_i per band, n × bands, each in [0,1) */
     const double *emission;   /* E_i per band, n × bands, >= 0 */
+    /* Diffuse transmission; both NULL for opaque scenes.  A transmitting
+     * patch i is one side of a thin sheet whose other side is patch
+     * twin[i] (RAD_NONE: one-sided); what arrives there passes through:
+     *   B_i = E_i + ρ_i H_i + τ_i H_twin(i),   H_k = Σ_j F_kj B_j.
+     * Requires τ_i >= 0, ρ_i + τ_i < 1, τ_i > 0 only where twin[i] exists,
+     * twin[twin[i]] == i; row twin(i) is read wherever τ_i > 0 (the back
+     * hemi-cube of i). */
+    const double *tau;        /* τ_i per band, n × bands, or NULL */
+    const uint32_t *twin;     /* n values, or NULL */
 } sv_system;
 
 typedef enum sv_method {
@@ -73,6 +83,11 @@ typedef struct sv_stats {
  * [0,1), or whatever need_row returns. */
 int sv_solve(const sv_system *sys, const sv_options *opt, double *B, sv_stats *stats,
              rad_error *err);
+
+/* 1 when the gathering solvers read row i of F: patch i reflects (ρ_i > 0
+ * in some band), or its twin transmits (row i is then the twin's back
+ * hemi-cube).  A patch that does neither has B = E whatever it sees. */
+int sv_row_needed(const sv_system *sys, uint32_t i);
 
 /* Residual as defined in sv_stats for a given B (rows missing from F count
  * as zero rows). */

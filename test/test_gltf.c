@@ -6,6 +6,7 @@
  * by hand in the comments; tolerances are stated where they are used.
  * The last test holds models/cornell.gltf against models/cornell.rad.
  */
+#include "../radiosity/mesh.h"
 #include "../radiosity/scene.h"
 #include "test.h"
 
@@ -582,6 +583,82 @@ TEST(double_sided)
     rad_scene_destroy(s);
 }
 
+/* KHR_materials_diffuse_transmission splits the diffuse lobe: factor t =
+ * 0.4 of it is transmitted with colour (1, 0.5, 0.25), the rest reflected:
+ * ρ = 0.6 × 0.5 = 0.3, τ = (0.4, 0.2, 0.1).  doubleSided adds no reversed
+ * copy (the sheet's back side is a mesh twin), and the mesh has one.
+ * Relative 1e-12: one product each. */
+TEST(diffuse_transmission)
+{
+    spec sp = {.pos = unit_quad,
+               .nv = 4,
+               .idx = quad_idx,
+               .ni = 6,
+               .materials = "[{\"name\":\"paper\",\"doubleSided\":true,\"emissiveFactor\":[1,1,1],"
+                            "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.5,0.5,1]},"
+                            "\"extensions\":{\"KHR_materials_diffuse_transmission\":"
+                            "{\"diffuseTransmissionFactor\":0.4,"
+                            "\"diffuseTransmissionColorFactor\":[1,0.5,0.25]}}}]",
+               .extra = "\"extensionsUsed\":[\"KHR_materials_diffuse_transmission\"],"
+                        "\"extensionsRequired\":[\"KHR_materials_diffuse_transmission\"]"};
+    rad_scene *s;
+    rad_error err;
+    int rc = parse(&sp, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc)
+        return;
+    const double tau[3] = {0.4, 0.2, 0.1};
+    for (int b = 0; b < 3; b++) {
+        CHECK_REL(s->materials[0].rho[b], 0.3, 1e-12);
+        CHECK_REL(s->materials[0].transmit[b], tau[b], 1e-12);
+    }
+    CHECK(s->polygon_count == 1);
+    rad_mesh_options mo = {.patch_size = 0.5};
+    rad_mesh *m = NULL;
+    CHECK(rad_mesh_build(s, &mo, &m, &err) == RAD_OK);
+    if (m) {
+        CHECK(m->patch_count == 8 && m->twin != NULL);
+        for (uint32_t i = 0; m->twin && i < m->patch_count; i++)
+            CHECK(m->twin[i] == (i + 4) % 8);
+    }
+    rad_mesh_destroy(m);
+    rad_scene_destroy(s);
+
+    /* Without the extension nothing transmits and doubleSided copies. */
+    spec plain = sp;
+    plain.extra = NULL;
+    plain.materials = "[{\"doubleSided\":true,\"emissiveFactor\":[1,1,1],"
+                      "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.5,0.5,1]}}]";
+    rc = parse(&plain, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc == RAD_OK) {
+        CHECK(s->polygon_count == 2 && s->materials[0].transmit[0] == 0.0);
+        rad_scene_destroy(s);
+    }
+}
+
+TEST(error_diffuse_transmission)
+{
+    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6,
+               .materials = "[{\"name\":\"X\",\"pbrMetallicRoughness\":"
+                            "{\"baseColorFactor\":[0.5,0.5,0.5,1]},\"extensions\":"
+                            "{\"KHR_materials_diffuse_transmission\":{\"diffuseTransmissionFactor\":1.5}}}]"};
+    expect_error(&sp, RAD_ERR_INVALID, "material 'X': diffuseTransmissionFactor 1.5 is not in [0, 1]");
+    sp.materials = "[{\"name\":\"X\",\"pbrMetallicRoughness\":"
+                   "{\"baseColorFactor\":[0.5,0.5,0.5,1]},\"extensions\":"
+                   "{\"KHR_materials_diffuse_transmission\":{\"diffuseTransmissionFactor\":\"a\"}}}]";
+    expect_error(&sp, RAD_ERR_PARSE, "material 'X': diffuseTransmissionFactor is not a number");
+    sp.materials = "[{\"name\":\"X\",\"pbrMetallicRoughness\":"
+                   "{\"baseColorFactor\":[0.5,0.5,0.5,1]},\"extensions\":"
+                   "{\"KHR_materials_diffuse_transmission\":{\"diffuseTransmissionColorFactor\":[1,1]}}}]";
+    expect_error(&sp, RAD_ERR_PARSE, "diffuseTransmissionColorFactor is not an array of 3 numbers");
+    /* All of a white diffuse lobe transmitted: τ = 1 has no steady state. */
+    sp.materials = "[{\"name\":\"X\",\"pbrMetallicRoughness\":"
+                   "{\"baseColorFactor\":[0.5,0.5,0.5,1]},\"extensions\":"
+                   "{\"KHR_materials_diffuse_transmission\":{\"diffuseTransmissionFactor\":1}}}]";
+    expect_error(&sp, RAD_ERR_INVALID, "material 'X': transmittance 1 outside [0, 1)");
+}
+
 /* Zero-area triangles (a repeated index; a sliver of area 3.5e-21 in a
  * scene 1.4 across) are dropped without failing; the square still merges. */
 TEST(degenerate_triangles_dropped)
@@ -963,6 +1040,8 @@ int main(void)
     RUN(glb_container);
     RUN(camera_conversion);
     RUN(double_sided);
+    RUN(diffuse_transmission);
+    RUN(error_diffuse_transmission);
     RUN(degenerate_triangles_dropped);
     RUN(ignored_extension);
     RUN(error_malformed_json);

@@ -9,6 +9,7 @@
  */
 #include "../radiosity/pipeline.h"
 #include "test.h"
+#include "util.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -51,18 +52,7 @@ static void box_text(char *buf, size_t size, double side, const char *material_l
 
 static rad_solution *solve_text(const char *text, rad_solve_options *opt)
 {
-    rad_scene *scene = NULL;
-    rad_error err = {0};
-    if (rad_scene_parse_polyfile(text, strlen(text), "test.rad", NULL, &scene, &err)) {
-        fprintf(stderr, "  parse: %s\n", err.message);
-        return NULL;
-    }
-    rad_solution *s = NULL;
-    if (rad_solve_scene(scene, opt, &s, &err)) {
-        fprintf(stderr, "  solve: %s\n", err.message);
-        return NULL;
-    }
-    return s;
+    return test_solve_text(text, "test.rad", opt);
 }
 
 /* Furnace: every patch of a closed cube with E = 1 and ρ = 0.5 has B = 2.

@@ -394,6 +394,10 @@ static void check_same(const rad_solution *a, const rad_solution *b)
         CHECK(same_bits(&p->center, &q->center, sizeof p->center));
         CHECK(same_bits(&p->normal, &q->normal, sizeof p->normal));
         CHECK(same_bits(&p->area, &q->area, sizeof p->area));
+        /* the two sides of sheets are paired again from the layout */
+        CHECK(!m->twin == !n->twin);
+        if (m->twin && n->twin)
+            CHECK(m->twin[i] == n->twin[i]);
     }
 
     const rad_matrix *F = a->F, *G = b->F;
@@ -609,8 +613,10 @@ TEST(create_copies_materials)
         return;
     CHECK(s->band_count == 3);
     CHECK(s->F->n == s->mesh->patch_count);
-    /* floor 3×2 + wall 2×2 + triangle 2² + pentagon fan 5 + lamp 1 */
-    CHECK(s->mesh->patch_count == 6 + 4 + 4 + 5 + 1);
+    /* floor 3×2 + wall 2×2 + triangle 2² + pentagon fan 5 + lamp 1, the
+     * wall and the pentagon twice (red paint transmits: two-sided sheets) */
+    CHECK(s->mesh->patch_count == 6 + 2 * 4 + 4 + 2 * 5 + 1);
+    CHECK(s->mesh->twin && s->mesh->twin[6] == 10 && s->mesh->twin[10] == 6);
     rad_solution_destroy(s);
 
     /* Fresh: ρ and E from each patch's material, B = E, no rows. */

@@ -10,6 +10,7 @@
  */
 #include "../solver/solver.h"
 #include "test.h"
+#include "util.h"
 
 #include <stdint.h>
 
@@ -76,7 +77,7 @@ static rad_matrix *store_rows(const tsys *t, uint32_t skip)
 
 static sv_system sys_of(const tsys *t)
 {
-    sv_system s = {t->n, t->nb, t->F, t->A, t->rho, t->E};
+    sv_system s = {.n = t->n, .bands = t->nb, .F = t->F, .area = t->A, .rho = t->rho, .emission = t->E};
     return s;
 }
 
@@ -100,36 +101,7 @@ static void dense_solve(const tsys *t, double *B)
                 M[(size_t)i * n + t->F->col[e]] -= t->rho[(size_t)i * t->nb + b] * t->F->val[e];
             }
         }
-        for (uint32_t c = 0; c < n; c++) {
-            uint32_t p = c;
-            for (uint32_t r = c + 1; r < n; r++)
-                if (fabs(M[(size_t)r * n + c]) > fabs(M[(size_t)p * n + c]))
-                    p = r;
-            if (p != c) {
-                for (uint32_t k = 0; k < n; k++) {
-                    double tmp = M[(size_t)c * n + k];
-                    M[(size_t)c * n + k] = M[(size_t)p * n + k];
-                    M[(size_t)p * n + k] = tmp;
-                }
-                double tmp = x[c];
-                x[c] = x[p];
-                x[p] = tmp;
-            }
-            for (uint32_t r = c + 1; r < n; r++) {
-                double f = M[(size_t)r * n + c] / M[(size_t)c * n + c];
-                if (f == 0.0)
-                    continue;
-                for (uint32_t k = c; k < n; k++)
-                    M[(size_t)r * n + k] -= f * M[(size_t)c * n + k];
-                x[r] -= f * x[c];
-            }
-        }
-        for (uint32_t c = n; c-- > 0;) {
-            double s = x[c];
-            for (uint32_t k = c + 1; k < n; k++)
-                s -= M[(size_t)c * n + k] * x[k];
-            x[c] = s / M[(size_t)c * n + c];
-        }
+        test_dense_solve(M, x, n);
         for (uint32_t i = 0; i < n; i++)
             B[(size_t)i * t->nb + b] = x[i];
     }
@@ -306,7 +278,7 @@ TEST(methods_agree_with_dense)
                   e);
         /* residual is max|E + ρFB - B|/max B; at an error e it is at most (1+γ)e <= 2e */
         CHECK(st.residual <= 20 * tol);
-        CHECK_NEAR(st.residual, sv_residual(&(sv_system){t.n, t.nb, t.F, t.A, t.rho, t.E}, B[k]),
+        CHECK_NEAR(st.residual, sv_residual(&(sv_system){.n = t.n, .bands = t.nb, .F = t.F, .area = t.A, .rho = t.rho, .emission = t.E}, B[k]),
                    1e-15);
         printf("     random n=60 %-12s %-5s %5u iterations, error %.2e, estimate %.2e\n",
                sv_method_name(m[k]), plain[k] ? "plain" : "", st.iterations, e,
@@ -588,7 +560,7 @@ TEST(progressive_rows_on_demand)
     rad_matrix *empty = rad_matrix_create(t.n);
     uint32_t calls[60] = {0};
     rowsrc src = {t.F, empty, calls, -1, 0, 0};
-    sv_system s = {t.n, t.nb, empty, t.A, t.rho, t.E};
+    sv_system s = {.n = t.n, .bands = t.nb, .F = empty, .area = t.A, .rho = t.rho, .emission = t.E};
     sv_options o = {.method = SV_PROGRESSIVE, .tolerance = tol, .need_row = copy_row, .user = &src};
     sv_stats st;
     rad_error err = {0};
@@ -669,7 +641,7 @@ TEST(progressive_ties)
     for (int run = 0; run < 2; run++) { /* and the same order twice */
         rad_matrix *empty = rad_matrix_create(4);
         order_log l = {t.F, empty, {0}, 0};
-        sv_system s = {4, 2, empty, t.A, t.rho, t.E};
+        sv_system s = {.n = 4, .bands = 2, .F = empty, .area = t.A, .rho = t.rho, .emission = t.E};
         sv_options o = {.method = SV_PROGRESSIVE, .need_row = log_order, .user = &l};
         double B[8];
         CHECK(sv_solve(&s, &o, B, NULL, NULL) == RAD_OK);

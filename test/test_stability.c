@@ -12,6 +12,7 @@
  */
 #include "../radiosity/pipeline.h"
 #include "test.h"
+#include "util.h"
 
 #include <stdarg.h>
 #include <stdint.h>
@@ -163,36 +164,7 @@ static double *direct_solve(const rad_solution *s, uint32_t band)
             A[(size_t)i * n + F->col[e]] -= rho * F->val[e];
         }
     }
-    for (uint32_t c = 0; c < n; c++) {
-        uint32_t piv = c;
-        for (uint32_t r = c + 1; r < n; r++)
-            if (fabs(A[(size_t)r * n + c]) > fabs(A[(size_t)piv * n + c]))
-                piv = r;
-        if (piv != c) {
-            for (uint32_t k = 0; k < n; k++) {
-                double tmp = A[(size_t)c * n + k];
-                A[(size_t)c * n + k] = A[(size_t)piv * n + k];
-                A[(size_t)piv * n + k] = tmp;
-            }
-            double tmp = x[c];
-            x[c] = x[piv];
-            x[piv] = tmp;
-        }
-        for (uint32_t r = c + 1; r < n; r++) {
-            double f = A[(size_t)r * n + c] / A[(size_t)c * n + c];
-            if (f == 0.0)
-                continue;
-            for (uint32_t k = c; k < n; k++)
-                A[(size_t)r * n + k] -= f * A[(size_t)c * n + k];
-            x[r] -= f * x[c];
-        }
-    }
-    for (uint32_t c = n; c-- > 0;) {
-        double v = x[c];
-        for (uint32_t k = c + 1; k < n; k++)
-            v -= A[(size_t)c * n + k] * x[k];
-        x[c] = v / A[(size_t)c * n + c];
-    }
+    test_dense_solve(A, x, n);
     free(A);
     return x;
 }

@@ -7,6 +7,7 @@ BIN=${RADIOSITY_BIN:-build/release/radiosity}
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
 passed=0; failed=0
+. "$(dirname "$0")/lib.bash"
 
 # expect NAME FILE PATTERN: solve FILE must fail with status 2, a single
 # stderr line that names FILE and matches PATTERN (extended regex, any case),
@@ -30,19 +31,6 @@ expect() {
     fi
 }
 
-room() { # a closed-ish valid polygon file with one line of material replaced
-cat <<'R'
-bands 3
-material white reflectance 0.5 0.5 0.5
-material lamp reflectance 0 emission 10 10 10
-polygon floor white
-  0 0 0   0 0 1   1 0 1   1 0 0
-end
-polygon lamp lamp
-  0.4 1 0.4   0.6 1 0.4   0.6 1 0.6   0.4 1 0.6
-end
-R
-}
 
 expect "missing file" "$dir/nope.rad" "cannot open|no such file"
 mkdir -p "$dir/adir.rad"
@@ -98,8 +86,11 @@ expect "unknown material" "$dir/unknown.rad" "unknown material|marble"
 room | sed 's/emission 10 10 10/emission 0/' > "$dir/dark.rad"
 expect "no emitter" "$dir/dark.rad" "emitter|emission"
 
-room | sed 's/material white reflectance 0.5 0.5 0.5/material white reflectance 0.5 transmittance 0.2/' > "$dir/glass.rad"
-expect "transmittance (not simulated yet)" "$dir/glass.rad" "transmittance.*not simulated"
+room | sed 's/material white reflectance 0.5 0.5 0.5/material white reflectance 0.6 transmittance 0.4/' > "$dir/glass.rad"
+expect "reflectance + transmittance = 1" "$dir/glass.rad" "reflectance \\+ transmittance = 1 must be < 1"
+
+sed 's/"emissiveFactor":\[1,1,1\]}/"emissiveFactor":[1,1,1],"extensions":{"KHR_materials_diffuse_transmission":{"diffuseTransmissionFactor":-0.5}}}/; s/"mode":1/"mode":4/' "$dir/lines.gltf" > "$dir/dt.gltf"
+expect "diffuseTransmissionFactor out of range" "$dir/dt.gltf" "material 'glow': diffuseTransmissionFactor -0.5 is not in \\[0, 1\\]"
 
 # a good file still works and leaves exactly the output
 room > "$dir/good.rad"
