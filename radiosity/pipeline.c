@@ -149,6 +149,25 @@ int rad_solution_is_grey(const rad_solution *s)
     return nb > 1;
 }
 
+uint32_t rad_light_resolution(const rad_solve_options *opt)
+{
+    if (opt->light_resolution)
+        return opt->light_resolution;
+    return opt->hemicube.resolution > 512 ? opt->hemicube.resolution : 512;
+}
+
+hc_light rad_light_for_hemicube(const rad_light *L)
+{
+    hc_light hl = {.kind = L->kind == RAD_LIGHT_POINT  ? HC_LIGHT_POINT
+                           : L->kind == RAD_LIGHT_SPOT ? HC_LIGHT_SPOT
+                                                       : HC_LIGHT_DIRECTIONAL,
+                   .position = L->position,
+                   .direction = L->direction,
+                   .inner_cone = L->inner_cone,
+                   .outer_cone = L->outer_cone};
+    return hl;
+}
+
 /* The stage "direct light": renders every punctual light whose per-patch
  * power the solution does not hold yet, on the same engine as the rows. */
 static int shoot_lights(resolve_ctx *c, rad_error *err)
@@ -156,9 +175,7 @@ static int shoot_lights(resolve_ctx *c, rad_error *err)
     rad_solution *s = c->s;
     const rad_scene *sc = s->scene;
     uint32_t n = s->mesh->patch_count;
-    uint32_t R = c->opt->light_resolution;
-    if (!R)
-        R = c->opt->hemicube.resolution > 512 ? c->opt->hemicube.resolution : 512;
+    uint32_t R = rad_light_resolution(c->opt);
     double *power = NULL;
     int rc = RAD_OK;
     for (uint32_t l = 0; l < sc->light_count && !rc; l++) {
@@ -167,14 +184,7 @@ static int shoot_lights(resolve_ctx *c, rad_error *err)
         double t0 = rad_seconds();
         if (!power && !(power = malloc(((size_t)n + 1) * sizeof *power)))
             return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", sc->source);
-        const rad_light *L = &sc->lights[l];
-        hc_light hl = {.kind = L->kind == RAD_LIGHT_POINT  ? HC_LIGHT_POINT
-                               : L->kind == RAD_LIGHT_SPOT ? HC_LIGHT_SPOT
-                                                           : HC_LIGHT_DIRECTIONAL,
-                       .position = L->position,
-                       .direction = L->direction,
-                       .inner_cone = L->inner_cone,
-                       .outer_cone = L->outer_cone};
+        hc_light hl = rad_light_for_hemicube(&sc->lights[l]);
         rc = start_hemicube(c, err);
         if (!rc)
             rc = hc_light_power(c->hc, &hl, R, power, err);

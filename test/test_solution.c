@@ -907,7 +907,7 @@ TEST(newer_version_and_foreign_files)
     rad_solution *s = NULL;
     rad_error e;
     CHECK(rad_solution_parse(buf, golden_size, "new.sol", 1, &s, &e) == RAD_ERR_PARSE);
-    CHECK_MSG(strcmp(e.message, "new.sol: format version 7 is newer than this program (3)") == 0,
+    CHECK_MSG(strcmp(e.message, "new.sol: format version 7 is newer than this program (4)") == 0,
               "%s", e.message);
     CHECK(s == NULL);
     free(buf);
@@ -1321,10 +1321,12 @@ static rad_solution *make_elements(void)
     return s;
 }
 
-/* ELEMENTS (format version 3): a round trip keeps every element bit for
- * bit; every cut of the file is refused, with and without the header made
- * to agree; every flipped byte of the section is refused by the checksum,
- * and without it either refused or read back with every invariant. */
+/* ELEMENTS and ELEMENTLIGHTS (format version 4: the fixture has punctual
+ * lights, so its elements carry their own direct light): a round trip keeps
+ * every element bit for bit, h_le included; every cut of the file is
+ * refused, with and without the header made to agree; every flipped byte of
+ * both sections is refused by the checksum, and without it either refused
+ * or read back with every invariant. */
 TEST(elements_round_trip_and_damage)
 {
     rad_solution *a = make_elements();
@@ -1339,7 +1341,8 @@ TEST(elements_round_trip_and_damage)
     CHECK(rad_solution_write(a, path, &e) == RAD_OK);
     size_t size = 0;
     uint8_t *buf = slurp(path, &size);
-    CHECK(buf && rd32(buf + 8) == 3);
+    CHECK(buf && rd32(buf + 8) == 4);
+    CHECK(a->elements->light_h && a->elements->light_count == 2);
     rad_solution *b = NULL;
     CHECK(rad_solution_read(path, &b, &e) == RAD_OK);
     if (b) {
@@ -1360,13 +1363,18 @@ TEST(elements_round_trip_and_damage)
                 CHECK(same_bits(x->row_count, y->row_count, ne * sizeof *x->row_count));
                 CHECK(same_bits(x->col, y->col, x->nnz * sizeof *x->col));
                 CHECK(same_bits(x->val, y->val, x->nnz * sizeof *x->val));
+                CHECK(y->light_count == x->light_count && y->light_h &&
+                      same_bits(x->light_h, y->light_h,
+                                (size_t)ne * x->light_count * sizeof *x->light_h));
             }
         }
     }
     rad_solution_destroy(b);
-    uint64_t len = 0;
+    uint64_t len = 0, llen = 0;
     size_t at = buf ? find_section(buf, size, "ELEM", &len) : 0;
+    size_t lat = buf ? find_section(buf, size, "ELGT", &llen) : 0;
     CHECK(at > 0 && len > 0);
+    CHECK(lat > at && lat + llen == size && llen == 8 + 4ull * a->elements->mesh->patch_count * 2);
     size_t cut_ok = 0, flip_ok = 0, nosum_bad = 0;
     for (size_t k = 0; buf && k < size; k++) {
         rad_solution *s = NULL;
@@ -1400,8 +1408,9 @@ TEST(elements_round_trip_and_damage)
         rad_solution_destroy(s);
         buf[k] ^= 0xFF;
     }
-    printf("     %zu bytes (ELEMENTS %llu): %zu cuts and %zu flips accepted, %zu bad without the "
-           "checksum\n", size, (unsigned long long)len, cut_ok, flip_ok, nosum_bad);
+    printf("     %zu bytes (ELEMENTS %llu, ELEMENTLIGHTS %llu): %zu cuts and %zu flips accepted, "
+           "%zu bad without the checksum\n", size, (unsigned long long)len,
+           (unsigned long long)llen, cut_ok, flip_ok, nosum_bad);
     CHECK(cut_ok == 0 && flip_ok == 0 && nosum_bad == 0);
     /* An element on a patch that does not exist is named. */
     if (buf && at) {
@@ -1415,9 +1424,84 @@ TEST(elements_round_trip_and_damage)
         CHECK_MSG(strstr(e.message, "ELEMENTS") && strstr(e.message, "element 0: patch 1000000"),
                   "%s", e.message);
         rad_solution_destroy(s);
+        wr32(buf + p0, a->elements->patch[0]);
     }
+    /* A negative h_le is named; so is an element count that is not the
+     * elements'. */
+    if (buf && lat) {
+        uint8_t *c = malloc(size);
+        memcpy(c, buf, size);
+        float neg = -1.0f;
+        memcpy(c + lat + 8 + 4, &neg, 4); /* element 0, light 1 */
+        fix_header(c, size);
+        rad_solution *s = NULL;
+        CHECK(rad_solution_parse(c, size, "bad.sol", 1, &s, &e) == RAD_ERR_CORRUPT && !s);
+        CHECK_MSG(strstr(e.message, "ELEMENTLIGHTS") && strstr(e.message, "element 0: direct light -1 from light 1"),
+                  "%s", e.message);
+        memcpy(c, buf, size);
+        wr32(c + lat, a->elements->mesh->patch_count + 1);
+        fix_header(c, size);
+        CHECK(rad_solution_parse(c, size, "bad.sol", 1, &s, &e) == RAD_ERR_CORRUPT && !s);
+        CHECK_MSG(strstr(e.message, "ELEMENTLIGHTS") && strstr(e.message, "elements and 2 lights"), "%s",
+                  e.message);
+        /* the same section in a version 3 file has no place */
+        memcpy(c, buf, size);
+        wr32(c + 8, 3);
+        fix_header(c, size);
+        CHECK(rad_solution_parse(c, size, "v3.sol", 1, &s, &e) == RAD_ERR_CORRUPT && !s);
+        CHECK_MSG(strstr(e.message, "section ELEMENTLIGHTS in a version 3 file"), "%s", e.message);
+        /* and a version 4 file needs it */
+        memcpy(c, buf, size);
+        fix_header(c, lat - 12);
+        CHECK(rad_solution_parse(c, lat - 12, "v4.sol", 1, &s, &e) == RAD_ERR_CORRUPT && !s);
+        CHECK_MSG(strstr(e.message, "section ELEMENTLIGHTS missing"), "%s", e.message);
+        free(c);
+    }
+    /* Without their own direct light (a version 3 file) elements take
+     * their patch's H_d,p, as that version did, and write version 3 again. */
+    float *h = a->elements->light_h;
+    a->elements->light_h = NULL;
+    a->elements->light_count = 0;
+    path_in(path, sizeof path, "elements-v3.sol");
+    CHECK_MSG(rad_solution_write(a, path, &e) == RAD_OK, "%s", e.message);
+    a->elements->light_h = h;
+    a->elements->light_count = 2;
+    size_t size3 = 0;
+    uint8_t *buf3 = slurp(path, &size3);
+    CHECK(buf3 && rd32(buf3 + 8) == 3 && size3 == size - 12 - llen);
+    rad_solution *v3 = NULL;
+    CHECK_MSG(rad_solution_read(path, &v3, &e) == RAD_OK, "%s", e.message);
+    if (v3) {
+        CHECK(v3->elements && !v3->elements->light_h);
+        uint32_t ne = v3->elements->mesh->patch_count, nb = v3->band_count, n = v3->mesh->patch_count;
+        double *He = malloc((size_t)ne * nb * sizeof *He), *Hp = malloc((size_t)n * nb * sizeof *Hp);
+        CHECK(rad_elements_direct_irradiance(v3, v3->elements, He, NULL) == RAD_OK);
+        CHECK(rad_solution_direct_irradiance(v3, Hp, NULL) == RAD_OK);
+        for (uint32_t q = 0; q < ne; q++)
+            for (uint32_t c = 0; c < nb; c++)
+                CHECK(He[(size_t)q * nb + c] == Hp[(size_t)v3->elements->patch[q] * nb + c]);
+        free(He);
+        free(Hp);
+    }
+    rad_solution_destroy(v3);
+    free(buf3);
     free(buf);
     rad_solution_destroy(a);
+}
+
+/* The fuzz corpus keeps the elements fixture as version 3 wrote it (before
+ * elements had their own direct light): this program still reads it. */
+TEST(version_3_elements_file_still_reads)
+{
+    rad_solution *s = NULL;
+    rad_error e = {0};
+    int rc = rad_solution_read("test/fuzz/corpus/solution/elements-room-v3", &s, &e);
+    CHECK_MSG(rc == RAD_OK, "%s", e.message);
+    if (s) {
+        CHECK(s->elements && !s->elements->light_h && s->scene->light_count == 2);
+        CHECK(s->elements && rad_elements_gather(s, s->elements, &e) == RAD_OK);
+    }
+    rad_solution_destroy(s);
 }
 
 static int write_seeds(const char *dir)
@@ -1457,6 +1541,7 @@ int main(int argc, char **argv)
     RUN(every_truncation_is_refused);
     RUN(every_byte_flip_is_refused);
     RUN(elements_round_trip_and_damage);
+    RUN(version_3_elements_file_still_reads);
     RUN(newer_version_and_foreign_files);
     RUN(structure_errors_name_section_and_element);
     RUN(encoding_rules_are_enforced);
