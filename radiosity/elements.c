@@ -5,8 +5,9 @@
  *   B_e = E_p + ρ_p (Σ_j F_ej B_j + H_d,e),   H_d,e = Σ_l I_l h_le,
  * the direct light of the punctual lights at each element (h_le: unit
  * strength, at the element's centre, visibility from the light's item
- * buffer: hc_light_direct × hc_light_visibility), adaptive refinement (rad_solution_refine, pipeline.h) and the crack-free
- * mesh the renderer draws.  An element is its patch split `level` times as a
+ * buffer: hc_light_direct × hc_light_visibility), adaptive refinement
+ * (rad_solution_refine, pipeline.h) and the crack-free mesh the renderer
+ * draws.  An element is its patch split `level` times as a
  * quadtree; vertices are found again by their exact position within their
  * polygon (a midpoint is computed as (a + b)/2 from the two ends, which is
  * the same double whichever side computes it), so neighbours share them and
@@ -672,8 +673,10 @@ static int store_row(void *user, uint32_t k, uint32_t count, const uint32_t *col
     enode *n = &b->E[e];
     n->start = b->nnz;
     n->cnt = count;
-    memcpy(b->col + b->nnz, col, count * sizeof *col);
-    memcpy(b->val + b->nnz, val, count * sizeof *val);
+    if (count) { /* an element that sees nothing: the pool may not exist yet */
+        memcpy(b->col + b->nnz, col, count * sizeof *col);
+        memcpy(b->val + b->nnz, val, count * sizeof *val);
+    }
     b->nnz += count;
     double hd[RAD_MAX_BANDS];
     element_direct(b->s, NULL, b->nl ? b->h + (size_t)e * b->nl : NULL, n->patch, n->level, hd);
@@ -942,8 +945,10 @@ static int finish(builder *b, const rad_solve_options *opt, rad_elements **out, 
         el->level[k] = n->level;
         el->row_start[k] = el->nnz;
         el->row_count[k] = n->cnt;
-        memcpy(el->col + el->nnz, b->col + n->start, (size_t)n->cnt * sizeof *el->col);
-        memcpy(el->val + el->nnz, b->val + n->start, (size_t)n->cnt * sizeof *el->val);
+        if (n->cnt) {
+            memcpy(el->col + el->nnz, b->col + n->start, (size_t)n->cnt * sizeof *el->col);
+            memcpy(el->val + el->nnz, b->val + n->start, (size_t)n->cnt * sizeof *el->val);
+        }
         el->nnz += n->cnt;
         memcpy(el->B + (size_t)k * b->bands, b->B + (size_t)e * b->bands, b->bands * sizeof *el->B);
         if (b->nl)

@@ -123,7 +123,9 @@ typedef struct rad_solution {
     double *light_intensity;       /* light_count × bands: I (or E⊥) solved with; a relight
                                     * scales it, the scene keeps the nominal value (owned) */
     rad_light_power *light_power;  /* light_count entries (owned) */
-    uint64_t lights_computed;      /* light item buffers rendered in the run that wrote this */
+    uint64_t lights_computed;      /* light item buffers rendered in the run that wrote this:
+                                    * one per light shot onto the patches, and one per light
+                                    * and refinement pass for the elements' visibility */
     uint32_t light_slots_;         /* entries allocated (private to solution.c) */
 
     rad_elements *elements;        /* NULL when the solution has none (owned) */
