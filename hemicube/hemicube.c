@@ -11,6 +11,8 @@
  *   worker -> caller: HC_MSG_BATCH, count, then per point: index, m, j[m], F_ej[m]
  *   caller -> worker: HC_REQ_LIGHT, hc_light_req (one part of a light)
  *   worker -> caller: HC_MSG_LIGHT, m, j[m], Φ_j[m] (doubles)
+ *   caller -> worker: HC_REQ_VIS, hc_light_req, m, hc_point_req[m] (m <= HC_VIS_CHUNK)
+ *   worker -> caller: HC_MSG_VIS, m, V[m] (doubles in [0, 1], in the order asked)
  *   on failure:       HC_MSG_ERROR, length, text (then the worker exits)
  *   at start:         0, 0 (ready) or HC_MSG_ERROR, length, text
  * The caller hands out small chunks, at most about two per worker at a time,
@@ -54,6 +56,12 @@
  * workers: one request per cube face (the directional light's single view
  * is part 0), answered with Φ_j of that part; the caller adds the parts in
  * part order, so the result never depends on which worker drew what.
+ * Visibility of points (hc_light_visibility) is a third: points are grouped
+ * by the part their direction falls in, and a worker renders a part's item
+ * buffer once (light_render keeps the last part drawn: same request, same
+ * pixels) and looks each point up in it (point_visibility).  Both read the
+ * one rendering code, so a point and the patch power agree on what the light
+ * sees.
  */
 #define GL_GLEXT_PROTOTYPES 1
 #include "hemicube.h"
@@ -82,6 +90,9 @@
 #define HC_MSG_LIGHT 0xFFFFFFFDu  /* header of the answer to one light part */
 #define HC_REQ_LIGHT 0xFFFFFFF0u  /* request word of a light part (else: a row count) */
 #define HC_REQ_POINTS 0xFFFFFFF1u /* request word of a chunk of point receivers */
+#define HC_REQ_VIS 0xFFFFFFF2u    /* request word of a chunk of points seen from a light part */
+#define HC_MSG_VIS 0xFFFFFFFCu    /* header of the answer to one visibility chunk */
+#define HC_VIS_CHUNK 4096u        /* points per visibility request */
 #define HC_LIGHT_DEFAULT_R 512u   /* hc_light_power's resolution 0 */
 /* A candidate shows nothing nearer than this relative depth margin: a
  * coplanar neighbour (a light flush with its ceiling) never hides it. */
@@ -106,6 +117,13 @@ typedef struct hc_point_req {
     uint32_t index, patch;
     double at[3];
 } hc_point_req;
+
+/* One part of a light request.  pos is relative to the scene origin. */
+typedef struct hc_light_req {
+    uint32_t resolution, kind, part, pad;
+    double pos[3], dir[3];
+    double cos_inner, cos_outer;
+} hc_light_req;
 
 typedef struct hc_worker {
     pid_t pid;
@@ -240,9 +258,13 @@ typedef struct hc_gl {
     /* Light target, R×R, made on the first light request of that size. */
     GLuint lfbo, lrb[2];
     uint32_t lR;
+    hc_light_req lkey; /* the part whose item buffer lpixels holds, when lkey_valid */
+    int lkey_valid;
     uint32_t *lpixels; /* lR² */
     double *lweight;   /* lR²: pixel solid angle of a cube face, 6 faces sum to 4π */
     double *lval;      /* n: Φ_j of one answer */
+    hc_point_req *vpts; /* HC_VIS_CHUNK: the points of a visibility request */
+    double *vis;       /* HC_VIS_CHUNK: their visibilities */
     GLint *vfirst;     /* n: first vertex of patch j in the VBO */
     GLsizei *vcount;   /* n: 3 or 6 */
     uint32_t *pixels;  /* 3R² */
@@ -854,12 +876,6 @@ static long compute_row(const hc_engine *e, hc_gl *g, uint32_t i, const rad_vec3
 
 /* ------------------------------------------------------- worker: lights */
 
-/* One part of a light request.  pos is relative to the scene origin. */
-typedef struct hc_light_req {
-    uint32_t resolution, kind, part, pad;
-    double pos[3], dir[3];
-    double cos_inner, cos_outer;
-} hc_light_req;
 
 /* Makes (or keeps) the R×R light target current, with its table of pixel
  * solid angles: a cube-face pixel at (x, y) on the face at distance 1
@@ -931,28 +947,63 @@ static void cube_face(uint32_t f, rad_vec3 *right, rad_vec3 *up, rad_vec3 *fwd)
     *right = rad_cross(*fwd, *up);
 }
 
-/* Renders part q->part of a light and leaves Φ_j > 0 in g->col/g->lval;
- * returns the entry count or -1 with msg set. */
-static long light_part(const hc_engine *e, hc_gl *g, const hc_light_req *q, char *msg)
+/* glTF KHR_lights_punctual spot falloff for a direction whose cosine to the
+ * axis is cos_axis: t² with t = clamp(cos_axis·scale + offset, 0, 1),
+ * scale = 1/max(0.001, cos_inner − cos_outer), offset = −cos_outer·scale. */
+static double spot_falloff(double cos_axis, double cos_inner, double cos_outer)
+{
+    double scale = 1.0 / fmax(0.001, cos_inner - cos_outer);
+    double t = cos_axis * scale - cos_outer * scale;
+    t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+    return t * t;
+}
+
+/* The camera of one light part: a cube face (perspective, x and y in
+ * [-1, 1] at distance 1 along fwd) or the directional light's orthographic
+ * view (x and y in [-rw, rw] around the scene origin). */
+typedef struct hc_view {
+    rad_vec3 pos, right, up, fwd; /* pos relative to the scene origin */
+    double rw;                    /* orthographic half width (directional only) */
+    int ortho;
+} hc_view;
+
+static hc_view light_view(const hc_engine *e, const hc_light_req *q)
+{
+    hc_view v = {.pos = rad_v3(q->pos[0], q->pos[1], q->pos[2])};
+    if (q->kind == HC_LIGHT_DIRECTIONAL) {
+        rad_vec3 u, w;
+        v.fwd = rad_v3(q->dir[0], q->dir[1], q->dir[2]);
+        basis(v.fwd, &u, &w);
+        v.up = w;
+        v.right = rad_cross(v.fwd, v.up);
+        v.rw = e->bradius * (1.0 + 1e-9);
+        v.ortho = 1;
+    } else {
+        cube_face(q->part, &v.right, &v.up, &v.fwd);
+    }
+    return v;
+}
+
+/* Renders part q->part of a light into g->lpixels (R×R item buffer, pixel
+ * (x, y) at y·R + x), unless the last rendering was of the very same part:
+ * the pixels are then still there (hc_light_visibility sends a part's
+ * points in several chunks).  0, or -1 with msg set. */
+static int light_render(const hc_engine *e, hc_gl *g, const hc_light_req *q, const hc_view *v,
+                        char *msg)
 {
     const uint32_t n = e->n, R = q->resolution;
+    if (g->lkey_valid && g->lR == R && memcmp(&g->lkey, q, sizeof *q) == 0)
+        return 0;
+    g->lkey_valid = 0;
     if (light_target(g, R, msg) != 0)
         return -1;
-    const rad_vec3 pos = rad_v3(q->pos[0], q->pos[1], q->pos[2]);
-    const rad_vec3 sd = rad_v3(q->dir[0], q->dir[1], q->dir[2]);
-    const int directional = q->kind == HC_LIGHT_DIRECTIONAL, spot = q->kind == HC_LIGHT_SPOT;
-    rad_vec3 right, up, fwd;
+    const rad_vec3 pos = v->pos, right = v->right, up = v->up, fwd = v->fwd;
     double m[16];
     GLsizei nr = 0;
-    if (directional) {
+    if (v->ortho) {
         /* Orthographic along the light, x, y in [-rw, rw] around the origin,
          * reversed depth (r_z - p·fwd)/(2 r_z) in (0, 1) for every corner. */
-        rad_vec3 u, v;
-        basis(sd, &u, &v);
-        fwd = sd;
-        up = v;
-        right = rad_cross(fwd, up);
-        double rw = e->bradius * (1.0 + 1e-9), rz = e->bradius * 1.01 + 1e-300;
+        double rw = v->rw, rz = e->bradius * 1.01 + 1e-300;
         const double mm[16] = {right.x / rw, right.y / rw, right.z / rw, 0,
                                up.x / rw, up.y / rw, up.z / rw, 0,
                                -fwd.x / (2 * rz), -fwd.y / (2 * rz), -fwd.z / (2 * rz), 0.5,
@@ -962,7 +1013,6 @@ static long light_part(const hc_engine *e, hc_gl *g, const hc_light_req *q, char
         g->count[0][0] = (GLsizei)g->nvert;
         nr = g->nvert ? 1 : 0;
     } else {
-        cube_face(q->part, &right, &up, &fwd);
         /* Geometry nearer than this to the light is clipped; far below any
          * real distance, and reversed Z keeps full precision beyond. */
         double near = 1e-6 * (e->bradius + rad_length(pos)) + 1e-300;
@@ -1001,27 +1051,38 @@ static long light_part(const hc_engine *e, hc_gl *g, const hc_light_req *q, char
     glScissor(0, 0, (GLsizei)R, (GLsizei)R);
     glClearBufferuiv(GL_COLOR, 0, clear_id);
     glClearBufferfv(GL_DEPTH, 0, &clear_depth);
-    glUniform3f(g->loc_eye, (float)(directional ? 0.0 : pos.x), (float)(directional ? 0.0 : pos.y),
-                (float)(directional ? 0.0 : pos.z));
+    glUniform3f(g->loc_eye, (float)(v->ortho ? 0.0 : pos.x), (float)(v->ortho ? 0.0 : pos.y),
+                (float)(v->ortho ? 0.0 : pos.z));
     glUniformMatrix4fv(g->loc_m, 1, GL_TRUE, mf);
     if (nr)
         glMultiDrawArrays(GL_TRIANGLES, g->first[0], g->count[0], nr);
     glReadPixels(0, 0, (GLsizei)R, (GLsizei)R, GL_RED_INTEGER, GL_UNSIGNED_INT, g->lpixels);
     if (gl_check("rendering a light view", msg))
         return -1;
+    g->lkey = *q;
+    g->lkey_valid = 1;
+    return 0;
+}
 
+/* Renders part q->part of a light and leaves Φ_j > 0 in g->col/g->lval;
+ * returns the entry count or -1 with msg set. */
+static long light_part(const hc_engine *e, hc_gl *g, const hc_light_req *q, char *msg)
+{
+    const uint32_t n = e->n, R = q->resolution;
+    const hc_view v = light_view(e, q);
+    if (light_render(e, g, q, &v, msg) != 0)
+        return -1;
+    const rad_vec3 sd = rad_v3(q->dir[0], q->dir[1], q->dir[2]);
     double *acc = g->acc;
-    if (directional) {
-        double pa = 2.0 * e->bradius * (1.0 + 1e-9) / R;
+    if (v.ortho) {
+        double pa = 2.0 * v.rw / R;
         pa *= pa;
         for (size_t k = 0; k < (size_t)R * R; k++)
             if (g->lpixels[k] < n)
                 acc[g->lpixels[k]] += pa;
     } else {
-        /* glTF KHR_lights_punctual spot falloff, t² with
-         * t = clamp(cosθ·scale + offset, 0, 1). */
-        double scale = 1.0 / fmax(0.001, q->cos_inner - q->cos_outer);
-        double offset = -q->cos_outer * scale, d = 2.0 / R;
+        const int spot = q->kind == HC_LIGHT_SPOT;
+        double d = 2.0 / R;
         for (uint32_t y = 0; y < R; y++)
             for (uint32_t x = 0; x < R; x++) {
                 size_t k = (size_t)y * R + x;
@@ -1031,10 +1092,8 @@ static long light_part(const hc_engine *e, hc_gl *g, const hc_light_req *q, char
                 double w = g->lweight[k];
                 if (spot) {
                     double px = -1.0 + (x + 0.5) * d, py = -1.0 + (y + 0.5) * d;
-                    rad_vec3 dir = rad_add(fwd, rad_add(rad_scale(right, px), rad_scale(up, py)));
-                    double t = rad_dot(dir, sd) / rad_length(dir) * scale + offset;
-                    t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
-                    w *= t * t;
+                    rad_vec3 dir = rad_add(v.fwd, rad_add(rad_scale(v.right, px), rad_scale(v.up, py)));
+                    w *= spot_falloff(rad_dot(dir, sd) / rad_length(dir), q->cos_inner, q->cos_outer);
                 }
                 acc[id] += w;
             }
@@ -1050,6 +1109,58 @@ static long light_part(const hc_engine *e, hc_gl *g, const hc_light_req *q, char
             acc[j] = 0.0;
         }
     return cnt;
+}
+
+/* Does pixel id show the receiving surface of a point on patch p: p itself
+ * or, across a patch seam, a front side in p's plane (a coplanar neighbour
+ * of the same or another polygon)?  Anything else in front of the plane is
+ * an occluder; a back side or nothing is no light reaching the plane. */
+static int shows_plane(const hc_engine *e, uint32_t id, uint32_t p)
+{
+    if (id == p)
+        return 1;
+    if (id >= e->n)
+        return 0;
+    const rad_vec3 np = e->mesh->patches[p].normal, nk = e->mesh->patches[id].normal;
+    return rad_dot(np, nk) > 1.0 - 1e-6 &&
+           fabs(rad_dot(np, rad_sub(e->center[id], e->center[p]))) <= 1e-6 * e->bradius + e->tol;
+}
+
+/* Visibility of point `at` (relative to the origin) on patch p in the item
+ * buffer of view v: the bilinear weight of the four pixel centres around its
+ * projection that show p's plane (clamped at the face's border). */
+static double point_visibility(const hc_engine *e, const hc_gl *g, const hc_view *v, uint32_t R,
+                               rad_vec3 at, uint32_t p)
+{
+    double x, y;
+    if (v->ortho) {
+        x = rad_dot(at, v->right) / v->rw;
+        y = rad_dot(at, v->up) / v->rw;
+    } else {
+        rad_vec3 r = rad_sub(at, v->pos);
+        double w = rad_dot(r, v->fwd);
+        if (!(w > 0.0))
+            return 0.0;
+        x = rad_dot(r, v->right) / w;
+        y = rad_dot(r, v->up) / w;
+    }
+    /* Continuous pixel coordinates: pixel k's centre is at k. */
+    double X = (x + 1.0) * 0.5 * R - 0.5, Y = (y + 1.0) * 0.5 * R - 0.5;
+    if (!(X > -1.0 && X < (double)R && Y > -1.0 && Y < (double)R))
+        return 0.0; /* outside the view (an orthographic view covers the whole scene) */
+    double fx0 = floor(X), fy0 = floor(Y), fx = X - fx0, fy = Y - fy0;
+    long x0 = (long)fx0, y0 = (long)fy0;
+    double vis = 0.0;
+    for (int dy = 0; dy < 2; dy++)
+        for (int dx = 0; dx < 2; dx++) {
+            long px = x0 + dx, py = y0 + dy;
+            px = px < 0 ? 0 : px >= (long)R ? (long)R - 1 : px;
+            py = py < 0 ? 0 : py >= (long)R ? (long)R - 1 : py;
+            double w = (dx ? fx : 1.0 - fx) * (dy ? fy : 1.0 - fy);
+            if (w > 0.0 && shows_plane(e, g->lpixels[(size_t)py * R + (size_t)px], p))
+                vis += w;
+        }
+    return vis > 1.0 ? 1.0 : vis;
 }
 
 static void send_msg(int fd, uint32_t tag, const char *text)
@@ -1151,6 +1262,37 @@ static void worker_main(const hc_engine *e, int fd)
             if (send_all(fd, hdr, sizeof hdr) != 0 ||
                 send_all(fd, g.col, (size_t)cnt * sizeof *g.col) != 0 ||
                 send_all(fd, g.lval, (size_t)cnt * sizeof *g.lval) != 0)
+                _exit(1);
+            continue;
+        }
+        if (count == HC_REQ_VIS) {
+            hc_light_req q;
+            uint32_t m;
+            if (recv_all(fd, &q, sizeof q) != 0 || !resolution_ok(q.resolution) ||
+                q.kind > HC_LIGHT_DIRECTIONAL || q.part >= 6 || recv_all(fd, &m, sizeof m) != 0 ||
+                m == 0 || m > HC_VIS_CHUNK)
+                _exit(1);
+            if (!g.vpts && (!(g.vpts = worker_alloc(HC_VIS_CHUNK, sizeof *g.vpts, msg)) ||
+                            !(g.vis = worker_alloc(HC_VIS_CHUNK, sizeof *g.vis, msg)))) {
+                send_msg(fd, HC_MSG_ERROR, msg);
+                _exit(1);
+            }
+            if (recv_all(fd, g.vpts, m * sizeof *g.vpts) != 0)
+                _exit(1);
+            const hc_view v = light_view(e, &q);
+            if (light_render(e, &g, &q, &v, msg) != 0) {
+                send_msg(fd, HC_MSG_ERROR, msg);
+                _exit(1);
+            }
+            for (uint32_t k = 0; k < m; k++) {
+                const hc_point_req *pt = &g.vpts[k];
+                if (pt->patch >= n)
+                    _exit(1);
+                g.vis[k] = point_visibility(e, &g, &v, q.resolution,
+                                            rad_v3(pt->at[0], pt->at[1], pt->at[2]), pt->patch);
+            }
+            uint32_t hdr[2] = {HC_MSG_VIS, m};
+            if (send_all(fd, hdr, sizeof hdr) != 0 || send_all(fd, g.vis, m * sizeof *g.vis) != 0)
                 _exit(1);
             continue;
         }
@@ -1692,19 +1834,34 @@ static int run_job(hc_engine *e, const hc_job *job, rad_error *err)
     return rc;
 }
 
+/* Reads the header of worker k's answer to a light request: RAD_OK with
+ * its count in *m when the header is `tag`; else the engine is broken (a
+ * worker's error message, or a stream out of step). */
+static int receive_light_header(hc_engine *e, uint32_t k, uint32_t tag, uint32_t *m,
+                                rad_error *err)
+{
+    uint32_t hdr[2];
+    if (recv_all(e->w[k].fd, hdr, sizeof hdr) != 0)
+        return worker_gone(e, k, err);
+    if (hdr[0] == HC_MSG_ERROR)
+        return worker_error(e, k, hdr[1], err);
+    if (hdr[0] != tag)
+        return worker_gone(e, k, err);
+    *m = hdr[1];
+    return RAD_OK;
+}
+
 /* Reads worker k's answer to one light part and adds it to power (when
  * add); RAD_OK, or the engine is broken and the error is in err. */
 static int receive_light(hc_engine *e, uint32_t k, double *power, double *rx, int add,
                          rad_error *err)
 {
     int fd = e->w[k].fd;
-    uint32_t hdr[2];
-    if (recv_all(fd, hdr, sizeof hdr) != 0)
-        return worker_gone(e, k, err);
-    if (hdr[0] == HC_MSG_ERROR)
-        return worker_error(e, k, hdr[1], err);
-    uint32_t m = hdr[1];
-    if (hdr[0] != HC_MSG_LIGHT || m > e->n ||
+    uint32_t m;
+    int rc = receive_light_header(e, k, HC_MSG_LIGHT, &m, err);
+    if (rc != RAD_OK)
+        return rc;
+    if (m > e->n ||
         recv_all(fd, e->rx_col, (size_t)m * sizeof *e->rx_col) != 0 ||
         recv_all(fd, rx, (size_t)m * sizeof *rx) != 0)
         return worker_gone(e, k, err);
@@ -1718,54 +1875,66 @@ static int receive_light(hc_engine *e, uint32_t k, double *power, double *rx, in
     return RAD_OK;
 }
 
-int hc_light_power(hc_engine *e, const hc_light *light, uint32_t resolution, double *power,
-                   rad_error *err)
+/* Checks a light and fills the request of its parts (all but q->part);
+ * fn names the public function in messages. */
+static int light_request(const hc_engine *e, const hc_light *light, uint32_t resolution,
+                         const char *fn, hc_light_req *q, rad_error *err)
 {
-    if (!e || !light || (!power && e->n))
-        return rad_fail(err, RAD_ERR_USAGE, "hc_light_power: engine, light and power must be given");
     uint32_t R = resolution ? resolution : HC_LIGHT_DEFAULT_R;
     if (!resolution_ok(R))
-        return rad_fail(err, RAD_ERR_USAGE,
-                        "hc_light_power: resolution %u: must be even and within 8..4096", R);
-    hc_light_req q;
-    memset(&q, 0, sizeof q);
-    q.resolution = R;
-    q.kind = (uint32_t)light->kind;
+        return rad_fail(err, RAD_ERR_USAGE, "%s: resolution %u: must be even and within 8..4096",
+                        fn, R);
+    memset(q, 0, sizeof *q);
+    q->resolution = R;
+    q->kind = (uint32_t)light->kind;
     rad_vec3 dir = rad_v3(0, 0, 0);
     switch (light->kind) {
     case HC_LIGHT_SPOT:
         if (!isfinite(light->inner_cone) || !isfinite(light->outer_cone) || light->inner_cone < 0.0 ||
             light->inner_cone > light->outer_cone || light->outer_cone > M_PI / 2)
             return rad_fail(err, RAD_ERR_USAGE,
-                            "hc_light_power: spot cones %g, %g: need 0 <= inner <= outer <= pi/2",
+                            "%s: spot cones %g, %g: need 0 <= inner <= outer <= pi/2", fn,
                             light->inner_cone, light->outer_cone);
         /* fall through */
     case HC_LIGHT_DIRECTIONAL:
         dir = light->direction;
         if (!rad_finite3(dir) || !(rad_length(dir) > 0.0))
-            return rad_fail(err, RAD_ERR_USAGE, "hc_light_power: light direction must be finite and non-zero");
+            return rad_fail(err, RAD_ERR_USAGE, "%s: light direction must be finite and non-zero", fn);
         dir = rad_normalize(dir);
         if (light->kind == HC_LIGHT_DIRECTIONAL)
             break;
         /* fall through */
     case HC_LIGHT_POINT:
         if (!rad_finite3(light->position))
-            return rad_fail(err, RAD_ERR_USAGE, "hc_light_power: light position must be finite");
+            return rad_fail(err, RAD_ERR_USAGE, "%s: light position must be finite", fn);
         break;
     default:
-        return rad_fail(err, RAD_ERR_USAGE, "hc_light_power: unknown light kind %d", (int)light->kind);
+        return rad_fail(err, RAD_ERR_USAGE, "%s: unknown light kind %d", fn, (int)light->kind);
     }
     if (e->broken)
         return rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
+    rad_vec3 pos = light->kind == HC_LIGHT_DIRECTIONAL ? rad_v3(0, 0, 0) : rad_sub(light->position, e->origin);
+    q->pos[0] = pos.x, q->pos[1] = pos.y, q->pos[2] = pos.z;
+    q->dir[0] = dir.x, q->dir[1] = dir.y, q->dir[2] = dir.z;
+    q->cos_inner = cos(light->inner_cone);
+    q->cos_outer = cos(light->outer_cone);
+    return RAD_OK;
+}
+
+int hc_light_power(hc_engine *e, const hc_light *light, uint32_t resolution, double *power,
+                   rad_error *err)
+{
+    if (!e || !light || (!power && e->n))
+        return rad_fail(err, RAD_ERR_USAGE, "hc_light_power: engine, light and power must be given");
+    hc_light_req q;
+    int rc = light_request(e, light, resolution, "hc_light_power", &q, err);
+    if (rc != RAD_OK)
+        return rc;
     for (uint32_t j = 0; j < e->n; j++)
         power[j] = 0.0;
     if (e->n == 0)
         return RAD_OK;
-    rad_vec3 pos = rad_sub(light->position, e->origin);
-    q.pos[0] = pos.x, q.pos[1] = pos.y, q.pos[2] = pos.z;
-    q.dir[0] = dir.x, q.dir[1] = dir.y, q.dir[2] = dir.z;
-    q.cos_inner = cos(light->inner_cone);
-    q.cos_outer = cos(light->outer_cone);
+    const rad_vec3 dir = rad_v3(q.dir[0], q.dir[1], q.dir[2]);
 
     /* Parts: the cube faces (a spot's faces that its outer cone reaches: the
      * face's directions lie within acos(1/√3) of its axis), or the single
@@ -1788,7 +1957,6 @@ int hc_light_power(hc_engine *e, const hc_light *light, uint32_t resolution, dou
         return rad_fail(err, RAD_ERR_NOMEM, "hc_light_power: out of memory for %u patches", e->n);
     /* Part k goes to worker k mod nproc; each worker answers in the order
      * asked, so reading the parts in order reads every stream in order. */
-    int rc = RAD_OK;
     uint32_t sent = 0;
     for (; sent < np; sent++) {
         uint32_t k = sent % e->nproc;
@@ -1818,5 +1986,174 @@ int hc_light_power(hc_engine *e, const hc_light *light, uint32_t resolution, dou
     if (rc != RAD_OK)
         for (uint32_t j = 0; j < e->n; j++)
             power[j] = 0.0;
+    return rc;
+}
+
+double hc_light_direct(const hc_light *light, rad_vec3 p, rad_vec3 n)
+{
+    if (light->kind == HC_LIGHT_DIRECTIONAL) {
+        double c = -rad_dot(n, rad_normalize(light->direction));
+        return c > 0.0 ? c : 0.0;
+    }
+    rad_vec3 r = rad_sub(light->position, p);
+    double r2 = rad_dot(r, r);
+    if (!(r2 > 0.0))
+        return 0.0;
+    double len = sqrt(r2), c = rad_dot(n, r) / len;
+    if (!(c > 0.0))
+        return 0.0;
+    double f = 1.0;
+    if (light->kind == HC_LIGHT_SPOT)
+        f = spot_falloff(-rad_dot(r, rad_normalize(light->direction)) / len, cos(light->inner_cone),
+                         cos(light->outer_cone));
+    return f * c / r2;
+}
+
+/* The part (cube face, or the orthographic view) holding the direction from
+ * the light to `at` (relative to the origin): the face of the dominant axis,
+ * which projects it into [-1, 1]²; -1 for a point at the light. */
+static int vis_part(const hc_light_req *q, rad_vec3 at)
+{
+    if (q->kind == HC_LIGHT_DIRECTIONAL)
+        return 0;
+    double r[3] = {at.x - q->pos[0], at.y - q->pos[1], at.z - q->pos[2]};
+    int axis = 0;
+    for (int a = 1; a < 3; a++)
+        if (fabs(r[a]) > fabs(r[axis]))
+            axis = a;
+    if (!(fabs(r[axis]) > 0.0))
+        return -1;
+    return 2 * axis + (r[axis] < 0.0); /* cube_face's order: +x, -x, +y, -y, +z, -z */
+}
+
+/* Reads worker k's answer to one visibility chunk of m points into
+ * vis[idx[0..m)] (when store).  RAD_OK, or the engine is broken. */
+static int receive_vis(hc_engine *e, uint32_t k, const uint32_t *idx, uint32_t m, double *vis,
+                       double *rx, int store, rad_error *err)
+{
+    uint32_t got;
+    int rc = receive_light_header(e, k, HC_MSG_VIS, &got, err);
+    if (rc != RAD_OK)
+        return rc;
+    if (got != m || recv_all(e->w[k].fd, rx, (size_t)m * sizeof *rx) != 0)
+        return worker_gone(e, k, err);
+    for (uint32_t q = 0; q < m; q++)
+        if (!(rx[q] >= 0.0 && rx[q] <= 1.0))
+            return worker_gone(e, k, err);
+    if (store)
+        for (uint32_t q = 0; q < m; q++)
+            vis[idx[q]] = rx[q];
+    return RAD_OK;
+}
+
+int hc_light_visibility(hc_engine *e, const hc_light *light, uint32_t resolution,
+                        const hc_receiver *points, uint32_t count, double *vis, rad_error *err)
+{
+    if (!e || !light || (count && (!points || !vis)))
+        return rad_fail(err, RAD_ERR_USAGE,
+                        "hc_light_visibility: engine, light, points and vis must be given");
+    for (uint32_t k = 0; k < count; k++)
+        if (points[k].patch >= e->n || !rad_finite3(points[k].center))
+            return rad_fail(err, RAD_ERR_USAGE, "hc_light_visibility: point %u: patch %u of %u, or "
+                            "a non-finite point", k, points[k].patch, e->n);
+    hc_light_req q;
+    int rc = light_request(e, light, resolution, "hc_light_visibility", &q, err);
+    if (rc != RAD_OK)
+        return rc;
+    for (uint32_t k = 0; k < count; k++)
+        vis[k] = 0.0;
+    if (count == 0)
+        return RAD_OK;
+    /* The points by part (a counting sort, stable: each part's points in
+     * their given order), so a worker renders a part once for all of its
+     * chunks (light_render keeps the last part's pixels). */
+    uint32_t *part = malloc((size_t)count * sizeof *part), *order = malloc((size_t)count * sizeof *order);
+    double *rx = malloc(HC_VIS_CHUNK * sizeof *rx);
+    hc_point_req *buf = malloc(HC_VIS_CHUNK * sizeof *buf);
+    uint32_t start[8] = {0};
+    if (!part || !order || !rx || !buf) {
+        free(part), free(order), free(rx), free(buf);
+        return rad_fail(err, RAD_ERR_NOMEM, "hc_light_visibility: out of memory for %u points", count);
+    }
+    for (uint32_t k = 0; k < count; k++) {
+        int f = vis_part(&q, rad_sub(points[k].center, e->origin));
+        part[k] = f < 0 ? 6u : (uint32_t)f; /* 6: at the light, left at 0 */
+        start[part[k] + 1]++;
+    }
+    for (int f = 0; f < 7; f++)
+        start[f + 1] += start[f];
+    uint32_t fill[7];
+    memcpy(fill, start, sizeof fill);
+    for (uint32_t k = 0; k < count; k++)
+        order[fill[part[k]]++] = k;
+    /* Worker k takes the parts k, k + nproc, ... in turn; per round each
+     * worker has one chunk in flight, and every answer of a round is read
+     * before the next round is sent, so no socket fills in both directions.
+     * Results depend only on the part's pixels and the point, never on
+     * which worker drew them. */
+    uint32_t *wpart = calloc(e->nproc, sizeof *wpart), *wnext = calloc(e->nproc, sizeof *wnext);
+    uint32_t *wsent = calloc(e->nproc, sizeof *wsent), *wcnt = calloc(e->nproc, sizeof *wcnt);
+    if (!wpart || !wnext || !wsent || !wcnt) {
+        rc = rad_fail(err, RAD_ERR_NOMEM, "hc_light_visibility: out of memory");
+        goto done;
+    }
+    for (uint32_t k = 0; k < e->nproc; k++) {
+        wpart[k] = k;
+        wnext[k] = k < 6 ? start[k] : 0;
+    }
+    for (;;) {
+        int any = 0;
+        memset(wcnt, 0, e->nproc * sizeof *wcnt);
+        for (uint32_t k = 0; k < e->nproc; k++) {
+            while (rc == RAD_OK && wpart[k] < 6 && wnext[k] >= start[wpart[k] + 1]) {
+                wpart[k] += e->nproc;
+                if (wpart[k] < 6)
+                    wnext[k] = start[wpart[k]];
+            }
+            if (rc != RAD_OK || wpart[k] >= 6 || e->w[k].fd < 0)
+                continue;
+            uint32_t f = wpart[k], m = start[f + 1] - wnext[k];
+            m = m > HC_VIS_CHUNK ? HC_VIS_CHUNK : m;
+            for (uint32_t i = 0; i < m; i++) {
+                const hc_receiver *pt = &points[order[wnext[k] + i]];
+                rad_vec3 at = rad_sub(pt->center, e->origin);
+                buf[i] = (hc_point_req){order[wnext[k] + i], pt->patch, {at.x, at.y, at.z}};
+            }
+            q.part = f;
+            uint32_t word = HC_REQ_VIS;
+            if (send_all(e->w[k].fd, &word, sizeof word) != 0 || send_all(e->w[k].fd, &q, sizeof q) != 0 ||
+                send_all(e->w[k].fd, &m, sizeof m) != 0 ||
+                send_all(e->w[k].fd, buf, m * sizeof *buf) != 0) {
+                rc = worker_gone(e, k, err);
+                break;
+            }
+            wsent[k] = wnext[k];
+            wcnt[k] = m;
+            wnext[k] += m;
+            any = 1;
+        }
+        /* Answers already asked for are read even after a failure, while
+         * their workers live, so a later call finds the streams in step. */
+        for (uint32_t k = 0; k < e->nproc; k++) {
+            if (!wcnt[k] || e->w[k].fd < 0)
+                continue;
+            int s = receive_vis(e, k, order + wsent[k], wcnt[k], vis, rx, rc == RAD_OK,
+                                rc == RAD_OK ? err : NULL);
+            if (s != RAD_OK) {
+                if (rc == RAD_OK)
+                    rc = s;
+                close(e->w[k].fd);
+                e->w[k].fd = -1;
+            }
+        }
+        if (!any || rc != RAD_OK)
+            break;
+    }
+done:
+    if (rc != RAD_OK)
+        for (uint32_t k = 0; k < count; k++)
+            vis[k] = 0.0;
+    free(part), free(order), free(rx), free(buf);
+    free(wpart), free(wnext), free(wsent), free(wcnt);
     return rc;
 }

@@ -10,6 +10,10 @@
  * plane never appear, Σ_j F_ij <= 1 (the delta form factors are normalised to
  * sum to exactly 1 over the whole cube).
  *
+ * Punctual lights are rendered here too: hc_light_power (what each patch
+ * receives) and hc_light_visibility (whether a point sees the light), from
+ * the same item buffers.
+ *
  * This is the only module that sees OSMesa/GL.  Rows are computed by worker
  * processes, each with its own OSMesa context, so a caller never holds a GL
  * context and can fork freely.
@@ -102,6 +106,33 @@ typedef struct hc_light {
  * Patch irradiance is then H_j = Φ_j / A_j (I cos θ / r² for a small patch). */
 int hc_light_power(hc_engine *e, const hc_light *light, uint32_t resolution, double *power,
                    rad_error *err);
+
+/* Unoccluded direct irradiance at point p, on a surface with unit normal n,
+ * from `light` at unit strength (hc_light_power's units):
+ *   point, spot: max(0, n·ω) / r² × the spot's falloff (glTF's smooth t²
+ *     between the inner and outer cone, the one hc_light_power applies;
+ *     1 for a point light), ω the unit vector from p to the light;
+ *   directional: max(0, −n·d).
+ * 0 at the light itself.  The light is taken as hc_light_power checks it. */
+double hc_light_direct(const hc_light *light, rad_vec3 p, rad_vec3 n);
+
+/* Visibility from a light of points on patches (an element's centre, say):
+ * vis[k] in [0, 1] for points[k].center on patch points[k].patch (caller's
+ * buffer of count values).  Read from the same item buffers hc_light_power
+ * renders for that light and resolution (the cube face the direction to the
+ * point falls in, or the orthographic view): the bilinear weight of the four
+ * pixel centres around the point's projection that show the point's own
+ * surface (its patch, or a front side in its patch's plane: a coplanar
+ * neighbour across a patch seam).  Hence 1 where all four show it, 0 where
+ * something nearer the light covers all four, and in between a value that
+ * moves continuously across a shadow edge within one pixel: the edge is
+ * anti-aliased, not a staircase of pixels.  A point at the light gets 0.
+ * The engine's workers render each part once per call (the points are
+ * grouped by part); the result depends only on the light, the resolution and
+ * the point, never on the number of workers.  Multiply by hc_light_direct
+ * for the point's direct irradiance.  On failure vis is all 0. */
+int hc_light_visibility(hc_engine *e, const hc_light *light, uint32_t resolution,
+                        const hc_receiver *points, uint32_t count, double *vis, rad_error *err);
 
 /* The delta form factor of every pixel of a resolution-R hemi-cube, in the
  * layout the item buffer uses (top face R×R, then the four side faces R×R/2

@@ -2,20 +2,26 @@
  * Greenberg, Immel & Brock 1986).
  *
  * Owns the rad_elements store (solution.h), the gather
- *   B_e = E_p + ρ_p (Σ_j F_ej B_j + H_d,p) + τ_p H_twin(p),
- * (the last term only on the sides of a transmitting sheet, from the other
- * side's patch), adaptive refinement (rad_solution_refine, pipeline.h) and
- * the crack-free mesh the renderer draws.  An element is its patch split
- * `level` times as a quadtree; vertices are found again by their exact
- * position within their surface (one side of a polygon; a midpoint is
- * computed as (a + b)/2 from the two ends, which is the same double
- * whichever side computes it), so neighbours share them and
- * a vertex of a finer neighbour that lies on an element's edge (a T-vertex)
- * is found by looking up the edge's midpoints recursively.
+ *   B_e = E_p + ρ_p (Σ_j F_ej B_j + H_d,e) + τ_p H_twin(p),   H_d,e = Σ_l I_l h_le,
+ * the direct light of the punctual lights at each element (h_le: unit
+ * strength, at the element's centre, visibility from the light's item
+ * buffer: hc_light_direct × hc_light_visibility) and, on the sides of a
+ * transmitting sheet, what comes through from the other side's patch;
+ * adaptive refinement (rad_solution_refine, pipeline.h) and the crack-free
+ * mesh the renderer draws.  An element is its patch split `level` times as
+ * a quadtree; vertices are found again by their exact position within their
+ * surface (one side of a polygon; a midpoint is computed as (a + b)/2 from
+ * the two ends, which is the same double whichever side computes it), so
+ * neighbours share them and a vertex of a finer neighbour that lies on an
+ * element's edge (a T-vertex) is found by looking up the edge's midpoints
+ * recursively.
  *
  * Invariant: a leaf element of level k > 0 has its own row F_ej from a
- * hemi-cube at its centre; level-0 elements are their patches (B_e = B_p,
- * exactly the patch's own equation).
+ * hemi-cube at its centre, and (when the scene has punctual lights) its own
+ * h_le, computed before its B_e is gathered, so the refinement rule sees
+ * shadow edges finer than the patches; level-0 elements are their patches
+ * (B_e = B_p, exactly the patch's own equation, whose H_d,p is the patch
+ * average Φ_lp / A_p).
  */
 #include "pipeline.h"
 
@@ -61,6 +67,7 @@ void rad_elements_destroy(rad_elements *el)
     free(el->row_count);
     free(el->col);
     free(el->val);
+    free(el->light_h);
     free(el);
 }
 
@@ -139,6 +146,21 @@ int rad_elements_check(const rad_elements *el, const rad_solution *s, const char
                 return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: radiosity %g", name, e, v);
         }
     }
+    if (el->light_h) {
+        if (el->light_count == 0 || el->light_count != s->scene->light_count)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: elements: direct light of %u lights, the scene has %u",
+                            name, el->light_count, s->scene->light_count);
+        for (uint32_t e = 0; e < m->patch_count; e++)
+            for (uint32_t l = 0; l < el->light_count; l++) {
+                float h = el->light_h[(size_t)e * el->light_count + l];
+                if (!(h >= 0.0f) || !isfinite(h) || (el->level[e] == 0 && h != 0.0f))
+                    return rad_fail(err, RAD_ERR_CORRUPT,
+                                    "%s: element %u: direct light %g from light %u (level %u)", name,
+                                    e, (double)h, l, el->level[e]);
+            }
+    } else if (el->light_count) {
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: elements: light count without direct light", name);
+    }
     if (!(el->threshold >= 0.0) || !isfinite(el->threshold) || !(el->min_size >= 0.0) ||
         !isfinite(el->min_size))
         return rad_fail(err, RAD_ERR_CORRUPT, "%s: elements: bad threshold or minimum size", name);
@@ -147,10 +169,29 @@ int rad_elements_check(const rad_elements *el, const rad_solution *s, const char
 
 /* ------------------------------------------------------------- gather */
 
-/* B_e of one element from its row (see the top of the file).  Tr, when not
- * NULL, holds per patch the light a sheet lets through from its other side,
- * τ_p H_twin(p), at the patch's resolution. */
-static void gather_one(const rad_solution *s, const double *Hd, const double *Tr, uint32_t p,
+/* H_d,e of one element per band into hd: Σ_l I_l h_le from its own h[]
+ * (light_count values), or for a level-0 element and without them its
+ * patch's H_d,p from Hd (NULL: no direct light). */
+static void element_direct(const rad_solution *s, const double *Hd, const float *h, uint32_t p,
+                           uint32_t level, double *hd)
+{
+    const uint32_t bands = s->band_count, nl = s->scene->light_count;
+    for (uint32_t b = 0; b < bands; b++) {
+        double v = 0.0;
+        if (h && level > 0)
+            for (uint32_t l = 0; l < nl; l++)
+                v += s->light_intensity[(size_t)l * bands + b] * (double)h[l];
+        else if (Hd)
+            v = Hd[(size_t)p * bands + b];
+        hd[b] = v;
+    }
+}
+
+/* B_e of one element from its row and its direct irradiance hd (see the
+ * top of the file).  Tr, when not NULL, holds per patch the light a sheet
+ * lets through from its other side, τ_p H_twin(p), at the patch's
+ * resolution. */
+static void gather_one(const rad_solution *s, const double *hd, const double *Tr, uint32_t p,
                        uint32_t level, const uint32_t *col, const float *val, uint32_t cnt,
                        double *Be)
 {
@@ -161,7 +202,7 @@ static void gather_one(const rad_solution *s, const double *Hd, const double *Tr
         return;
     }
     for (uint32_t b = 0; b < bands; b++) {
-        double h = Hd ? Hd[pb + b] : 0.0;
+        double h = hd[b];
         for (uint32_t q = 0; q < cnt; q++)
             h += (double)val[q] * s->B[(size_t)col[q] * bands + b];
         double v = s->emission[pb + b] + s->rho[pb + b] * h + (Tr ? Tr[pb + b] : 0.0);
@@ -216,6 +257,30 @@ static int direct_irradiance(const rad_solution *s, double **hd_out, rad_error *
     return RAD_OK;
 }
 
+/* Element e's own h_le, or NULL. */
+static const float *own_light(const rad_elements *el, uint32_t e)
+{
+    return el->light_h ? el->light_h + (size_t)e * el->light_count : NULL;
+}
+
+int rad_elements_direct_irradiance(const rad_solution *s, const rad_elements *el, double *Hd,
+                                   rad_error *err)
+{
+    if (!s || !el || !Hd)
+        return rad_fail(err, RAD_ERR_USAGE,
+                        "rad_elements_direct_irradiance: solution, elements and Hd must be given");
+    double *patch_Hd;
+    int rc = direct_irradiance(s, &patch_Hd, err);
+    if (rc != RAD_OK)
+        return rc;
+    const uint32_t bands = s->band_count;
+    for (uint32_t e = 0; e < el->mesh->patch_count; e++)
+        element_direct(s, patch_Hd, own_light(el, e), el->patch[e], el->level[e],
+                       Hd + (size_t)e * bands);
+    free(patch_Hd);
+    return RAD_OK;
+}
+
 int rad_elements_gather(const rad_solution *s, rad_elements *el, rad_error *err)
 {
     if (!s || !el)
@@ -225,9 +290,12 @@ int rad_elements_gather(const rad_solution *s, rad_elements *el, rad_error *err)
     if (rc == RAD_OK)
         rc = transmitted(s, &Tr, err);
     const uint32_t bands = s->band_count;
-    for (uint32_t e = 0; rc == RAD_OK && e < el->mesh->patch_count; e++)
-        gather_one(s, Hd, Tr, el->patch[e], el->level[e], el->col + el->row_start[e],
+    double hd[RAD_MAX_BANDS];
+    for (uint32_t e = 0; rc == RAD_OK && e < el->mesh->patch_count; e++) {
+        element_direct(s, Hd, own_light(el, e), el->patch[e], el->level[e], hd);
+        gather_one(s, hd, Tr, el->patch[e], el->level[e], el->col + el->row_start[e],
                    el->val + el->row_start[e], el->row_count[e], el->B + (size_t)e * bands);
+    }
     free(Hd);
     free(Tr);
     return rc;
@@ -486,9 +554,13 @@ typedef struct enode {
 
 typedef struct builder {
     rad_solution *s;
-    const double *Hd;
     const double *Tr;  /* transmitted (τ_p H_twin(p)), or NULL */
     uint32_t bands;
+    /* punctual lights: h_le of every element, ne × nl (level 0: 0) */
+    uint32_t nl;
+    uint32_t light_R;  /* item-buffer resolution at the lights */
+    float *h;
+    uint64_t lights_rendered;
     /* vertices */
     rad_vec3 *V;
     uint8_t *Vb;
@@ -571,7 +643,10 @@ static int add_element(builder *b, const uint32_t v[4], uint32_t patch, uint32_t
         double *B = realloc(b->B, (size_t)cap * b->bands * sizeof *B);
         if (B)
             b->B = B;
-        if (!E || !B)
+        float *h = b->nl ? realloc(b->h, (size_t)cap * b->nl * sizeof *h) : NULL;
+        if (h)
+            b->h = h;
+        if (!E || !B || (b->nl && !h))
             return -1;
         b->cap_e = cap;
     }
@@ -584,6 +659,8 @@ static int add_element(builder *b, const uint32_t v[4], uint32_t patch, uint32_t
     n->start = 0;
     memcpy(b->B + (size_t)b->ne * b->bands, b->s->B + (size_t)patch * b->bands,
            b->bands * sizeof *b->B);
+    for (uint32_t l = 0; l < b->nl; l++)
+        b->h[(size_t)b->ne * b->nl + l] = 0.0f; /* set before a row is gathered (level > 0) */
     b->ne++;
     return 0;
 }
@@ -647,11 +724,57 @@ static int store_row(void *user, uint32_t k, uint32_t count, const uint32_t *col
     enode *n = &b->E[e];
     n->start = b->nnz;
     n->cnt = count;
-    memcpy(b->col + b->nnz, col, count * sizeof *col);
-    memcpy(b->val + b->nnz, val, count * sizeof *val);
+    if (count) { /* an element that sees nothing: the pool may not exist yet */
+        memcpy(b->col + b->nnz, col, count * sizeof *col);
+        memcpy(b->val + b->nnz, val, count * sizeof *val);
+    }
     b->nnz += count;
-    gather_one(b->s, b->Hd, b->Tr, n->patch, n->level, col, val, count, b->B + (size_t)e * b->bands);
+    double hd[RAD_MAX_BANDS];
+    element_direct(b->s, NULL, b->nl ? b->h + (size_t)e * b->nl : NULL, n->patch, n->level, hd);
+    gather_one(b->s, hd, b->Tr, n->patch, n->level, col, val, count, b->B + (size_t)e * b->bands);
     return RAD_OK;
+}
+
+/* h_le of the elements which[k] at the receivers r[k] (their centres), for
+ * every light: the unoccluded unit-strength irradiance there times the
+ * visibility from the light's item buffer.  Only points that face the light
+ * (and lie in a spot's cone) are looked up. */
+static int element_lights(builder *b, hc_engine *hc, const hc_receiver *r, const uint32_t *which,
+                          uint32_t count, rad_error *err)
+{
+    const uint32_t nl = b->nl;
+    if (!nl || !count)
+        return RAD_OK;
+    hc_receiver *lit = malloc((size_t)count * sizeof *lit);
+    uint32_t *at = malloc((size_t)count * sizeof *at);
+    double *direct = malloc((size_t)count * sizeof *direct), *vis = malloc((size_t)count * sizeof *vis);
+    int rc = RAD_OK;
+    if (!lit || !at || !direct || !vis)
+        rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    for (uint32_t l = 0; l < nl && rc == RAD_OK; l++) {
+        hc_light hl = rad_light_for_hemicube(&b->s->scene->lights[l]);
+        uint32_t m = 0;
+        for (uint32_t k = 0; k < count; k++) {
+            double d = hc_light_direct(&hl, r[k].center, b->s->mesh->patches[r[k].patch].normal);
+            b->h[(size_t)which[k] * nl + l] = 0.0f;
+            if (d > 0.0) {
+                lit[m] = r[k];
+                at[m] = which[k];
+                direct[m++] = d;
+            }
+        }
+        if (!m)
+            continue;
+        rc = hc_light_visibility(hc, &hl, b->light_R, lit, m, vis, err);
+        for (uint32_t k = 0; k < m && rc == RAD_OK; k++)
+            b->h[(size_t)at[k] * nl + l] = (float)(direct[k] * vis[k]);
+        b->lights_rendered++;
+    }
+    free(lit);
+    free(at);
+    free(direct);
+    free(vis);
+    return rc;
 }
 
 /* Rows and radiosities of the elements which[0..count). */
@@ -674,7 +797,10 @@ static int compute_rows_of(builder *b, hc_engine *hc, const uint32_t *which, uin
         r[k].patch = n->patch;
     }
     b->which = which;
-    int rc = hc_compute_points(hc, r, count, store_row, b, err);
+    /* The direct light first: store_row gathers B_e as each row arrives. */
+    int rc = element_lights(b, hc, r, which, count, err);
+    if (rc == RAD_OK)
+        rc = hc_compute_points(hc, r, count, store_row, b, err);
     b->rows_computed += count;
     free(r);
     return rc;
@@ -846,6 +972,14 @@ static int finish(builder *b, const rad_solve_options *opt, rad_elements **out, 
             entries += b->E[e].cnt;
         }
     rad_elements *el = rad_elements_alloc(b->nv, leaves, b->bands, entries);
+    if (el && b->nl) {
+        el->light_count = b->nl;
+        el->light_h = malloc((size_t)(leaves ? leaves : 1) * b->nl * sizeof *el->light_h);
+        if (!el->light_h) {
+            rad_elements_destroy(el);
+            el = NULL;
+        }
+    }
     if (!el)
         return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
     memcpy(el->mesh->vertices, b->V, (size_t)b->nv * sizeof *b->V);
@@ -860,10 +994,14 @@ static int finish(builder *b, const rad_solve_options *opt, rad_elements **out, 
         el->level[k] = n->level;
         el->row_start[k] = el->nnz;
         el->row_count[k] = n->cnt;
-        memcpy(el->col + el->nnz, b->col + n->start, (size_t)n->cnt * sizeof *el->col);
-        memcpy(el->val + el->nnz, b->val + n->start, (size_t)n->cnt * sizeof *el->val);
+        if (n->cnt) {
+            memcpy(el->col + el->nnz, b->col + n->start, (size_t)n->cnt * sizeof *el->col);
+            memcpy(el->val + el->nnz, b->val + n->start, (size_t)n->cnt * sizeof *el->val);
+        }
         el->nnz += n->cnt;
         memcpy(el->B + (size_t)k * b->bands, b->B + (size_t)e * b->bands, b->bands * sizeof *el->B);
+        if (b->nl)
+            memcpy(el->light_h + (size_t)k * b->nl, b->h + (size_t)e * b->nl, b->nl * sizeof *b->h);
         k++;
     }
     el->threshold = opt->refine_threshold > 0.0 ? opt->refine_threshold : 0.0;
@@ -898,16 +1036,14 @@ int rad_solution_refine(rad_solution *s, const rad_solve_options *options, rad_e
     const rad_mesh *pm = s->mesh;
     const uint32_t np = pm->patch_count, bands = s->band_count;
     const int uniform = opt.element_levels && !(opt.refine_threshold > 0.0);
-    builder b = {.s = s, .bands = bands};
-    double *Hd = NULL, *Tr = NULL, *min_edge = NULL;
+    builder b = {.s = s, .bands = bands, .nl = s->scene->light_count,
+                 .light_R = rad_light_resolution(&opt)};
+    double *Tr = NULL, *min_edge = NULL;
     uint8_t *mark = NULL;
     hc_engine *hc = NULL;
-    int rc = direct_irradiance(s, &Hd, err);
+    int rc = transmitted(s, &Tr, err);
     if (rc != RAD_OK)
         return rc;
-    b.Hd = Hd;
-    if ((rc = transmitted(s, &Tr, err)) != RAD_OK)
-        goto done;
     b.Tr = Tr;
     min_edge = malloc((np ? np : 1) * sizeof *min_edge);
     if (!min_edge) {
@@ -1006,14 +1142,15 @@ int rad_solution_refine(rad_solution *s, const rad_solve_options *options, rad_e
         if (rc == RAD_OK) {
             el->min_size = opt.min_element_size;
             s->elements = el;
+            s->lights_computed += b.lights_rendered;
         }
     }
 done:
     hc_destroy(hc);
     free(mark);
     free(min_edge);
-    free(Hd);
     free(Tr);
+    free(b.h);
     free(b.V);
     free(b.Vb);
     free(b.Vsurf);

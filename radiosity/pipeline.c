@@ -111,13 +111,25 @@ static int on_preview(void *user, uint32_t shots, const double *B_display)
 }
 
 /* τ_i of every patch from its material, n × bands, when the mesh has
- * two-sided sheets (else *out = NULL). */
+ * two-sided sheets (else *out = NULL).  A transmitting patch without its
+ * other side (a solution file from before transmission was simulated) is
+ * refused: solving it would drop the light it passes on. */
 static int patch_tau(const rad_solution *s, double **out, rad_error *err)
 {
     *out = NULL;
+    const uint32_t n = s->mesh->patch_count, nb = s->band_count;
+    for (uint32_t i = 0; i < n; i++) {
+        const rad_patch *p = &s->mesh->patches[i];
+        const rad_material *m = &s->scene->materials[p->material];
+        if (rad_material_transmits(m, nb) && (!s->mesh->twin || s->mesh->twin[i] == RAD_NONE))
+            return rad_fail(err, RAD_ERR_INVALID,
+                            "%s: object '%s': material '%s' transmits but its patches have no "
+                            "back side (a solution from before diffuse transmission was "
+                            "simulated); solve the scene again",
+                            s->scene->source, s->scene->objects[p->object].name, m->name);
+    }
     if (!s->mesh->twin)
         return RAD_OK;
-    const uint32_t n = s->mesh->patch_count, nb = s->band_count;
     double *tau = malloc(((size_t)n * nb + 1) * sizeof *tau);
     if (!tau)
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
@@ -163,6 +175,25 @@ int rad_solution_is_grey(const rad_solution *s)
     return nb > 1;
 }
 
+uint32_t rad_light_resolution(const rad_solve_options *opt)
+{
+    if (opt->light_resolution)
+        return opt->light_resolution;
+    return opt->hemicube.resolution > 512 ? opt->hemicube.resolution : 512;
+}
+
+hc_light rad_light_for_hemicube(const rad_light *L)
+{
+    hc_light hl = {.kind = L->kind == RAD_LIGHT_POINT  ? HC_LIGHT_POINT
+                           : L->kind == RAD_LIGHT_SPOT ? HC_LIGHT_SPOT
+                                                       : HC_LIGHT_DIRECTIONAL,
+                   .position = L->position,
+                   .direction = L->direction,
+                   .inner_cone = L->inner_cone,
+                   .outer_cone = L->outer_cone};
+    return hl;
+}
+
 /* The stage "direct light": renders every punctual light whose per-patch
  * power the solution does not hold yet, on the same engine as the rows. */
 static int shoot_lights(resolve_ctx *c, rad_error *err)
@@ -170,9 +201,7 @@ static int shoot_lights(resolve_ctx *c, rad_error *err)
     rad_solution *s = c->s;
     const rad_scene *sc = s->scene;
     uint32_t n = s->mesh->patch_count;
-    uint32_t R = c->opt->light_resolution;
-    if (!R)
-        R = c->opt->hemicube.resolution > 512 ? c->opt->hemicube.resolution : 512;
+    uint32_t R = rad_light_resolution(c->opt);
     double *power = NULL;
     int rc = RAD_OK;
     for (uint32_t l = 0; l < sc->light_count && !rc; l++) {
@@ -181,14 +210,7 @@ static int shoot_lights(resolve_ctx *c, rad_error *err)
         double t0 = rad_seconds();
         if (!power && !(power = malloc(((size_t)n + 1) * sizeof *power)))
             return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", sc->source);
-        const rad_light *L = &sc->lights[l];
-        hc_light hl = {.kind = L->kind == RAD_LIGHT_POINT  ? HC_LIGHT_POINT
-                               : L->kind == RAD_LIGHT_SPOT ? HC_LIGHT_SPOT
-                                                           : HC_LIGHT_DIRECTIONAL,
-                       .position = L->position,
-                       .direction = L->direction,
-                       .inner_cone = L->inner_cone,
-                       .outer_cone = L->outer_cone};
+        hc_light hl = rad_light_for_hemicube(&sc->lights[l]);
         rc = start_hemicube(c, err);
         if (!rc)
             rc = hc_light_power(c->hc, &hl, R, power, err);

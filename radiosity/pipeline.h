@@ -70,6 +70,14 @@ int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err);
  * hemi-cube settings; emitters get exact factors unless pixel_emitters. */
 int rad_solution_refine(rad_solution *s, const rad_solve_options *opt, rad_error *err);
 
+/* The resolution R of the item buffers rendered at punctual lights:
+ * opt->light_resolution, or by default the larger of 512 and the hemi-cube
+ * resolution.  The patch power and the elements' visibility use the same. */
+uint32_t rad_light_resolution(const rad_solve_options *opt);
+
+/* A scene light as the hemi-cube module takes it. */
+hc_light rad_light_for_hemicube(const rad_light *L);
+
 /* 1 when the solution has several bands but equal ρ, E and light
  * intensities in all of them:
  * rad_resolve then solves one band and copies it (the same answer at a

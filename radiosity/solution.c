@@ -1,8 +1,9 @@
 /* solution.c - the solution store: creating and destroying a rad_solution,
  * and writing and reading the binary solution file that
  * docs/solution-format.md specifies (header, CRC-64/XZ of the payload, tagged
- * sections INFO, SCENE, MESH, MATRIX, PATCHDATA, and LIGHTS when the scene has
- * punctual lights).
+ * sections INFO, SCENE, MESH, MATRIX, PATCHDATA, LIGHTS when the scene has
+ * punctual lights, ELEMENTS when the solution has elements, ELEMENTLIGHTS
+ * when it has both).
  *
  * Invariant: whatever bytes rad_solution_parse is given, it either fails with
  * a message naming the file, the section and the element, or returns a
@@ -26,12 +27,19 @@
 
 #define SOL_MAGIC "RADSOL\r\n"  /* 8 bytes; the CR LF catches text-mode mangling */
 /* Version 2 = version 1 + the LIGHTS section; version 3 = + the ELEMENTS
- * section.  A file is written with the lowest version that holds what it
- * has (1 without punctual lights or elements, 2 with lights, 3 with
- * elements), so older programs still read what they understand, and a file
- * they would misread - skipping LIGHTS or ELEMENTS without a word - carries a
- * version they refuse. */
-#define SOL_VERSION 3u
+ * section; version 4 = + the ELEMENTLIGHTS section (each element's own
+ * direct light); version 5 = MESH may hold two-sided sheets (a transmitting
+ * polygon's front cells followed by their back twins), with the sections of
+ * versions 1-4 as its content needs them.  A file is written with the lowest
+ * version that holds what it has (1 without punctual lights or elements, 2
+ * with lights, 3 with elements, 4 with elements that carry their own direct
+ * light, 5 with sheets), so older programs still read what they understand,
+ * and a file they would misread - skipping LIGHTS, ELEMENTS or ELEMENTLIGHTS
+ * without a word, which for the last would relight the elements from their
+ * patches' direct light, or taking a sheet's two sides for two unrelated
+ * opaque surfaces - carries a version they refuse. */
+#define SOL_VERSION 5u
+#define SOL_VERSION_SHEETS 5u
 #define SOL_HEADER_BYTES 32u
 #define SOL_SECTION_HEADER 12u  /* u32 tag + u64 length */
 #define SOL_MAX_STRING 4096u
@@ -45,15 +53,17 @@
 /* The first five sections appear in every file; LIGHTS only when the scene
  * has punctual lights, ELEMENTS only when the solution has elements. */
 enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_ELEMENTS,
-       SEC_COUNT };
+       SEC_ELEMENT_LIGHTS, SEC_COUNT };
 static const char sec_tag[SEC_COUNT][4] = {
     {'I', 'N', 'F', 'O'}, {'S', 'C', 'E', 'N'}, {'M', 'E', 'S', 'H'}, {'M', 'T', 'R', 'X'},
-    {'P', 'D', 'A', 'T'}, {'L', 'G', 'H', 'T'}, {'E', 'L', 'E', 'M'}};
-static const char *const sec_name[SEC_COUNT] = {"INFO",      "SCENE",  "MESH",    "MATRIX",
-                                                "PATCHDATA", "LIGHTS", "ELEMENTS"};
+    {'P', 'D', 'A', 'T'}, {'L', 'G', 'H', 'T'}, {'E', 'L', 'E', 'M'}, {'E', 'L', 'G', 'T'}};
+static const char *const sec_name[SEC_COUNT] = {"INFO",      "SCENE",  "MESH",     "MATRIX",
+                                                "PATCHDATA", "LIGHTS", "ELEMENTS", "ELEMENTLIGHTS"};
 /* Sections each version may hold: 1 the first five, 2 + LIGHTS, 3 +
- * ELEMENTS (where LIGHTS is there exactly when the scene has lights). */
-static const int version_sections[SOL_VERSION + 1] = {0, SEC_LIGHTS, SEC_ELEMENTS, SEC_COUNT};
+ * ELEMENTS (where LIGHTS is there exactly when the scene has lights), 4 +
+ * ELEMENTLIGHTS (LIGHTS always), 5 any of them as the content needs. */
+static const int version_sections[SOL_VERSION + 1] = {0, SEC_LIGHTS, SEC_ELEMENTS,
+                                                      SEC_ELEMENT_LIGHTS, SEC_COUNT, SEC_COUNT};
 
 /* Minimum encoded sizes of one element, used to bound counts before
  * allocating: a count of k elements needs at least k × this many bytes. */
@@ -422,6 +432,22 @@ static void put_str(sink *k, const char *s)
     put(k, s, n);
 }
 
+static uint32_t version_of(const rad_solution *s);
+static int section_written(const rad_solution *s, int i);
+
+/* Version 5's INFO ends with the optional sections the file holds, one bit
+ * each (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4): the reader then knows what
+ * must follow, and a file cut or stripped before one of them cannot pass
+ * for a file without it. */
+static uint8_t announced_sections(const rad_solution *s)
+{
+    uint8_t bits = 0;
+    for (int i = SEC_LIGHTS; i < SEC_COUNT; i++)
+        if (section_written(s, i))
+            bits |= (uint8_t)(1u << (i - SEC_LIGHTS));
+    return bits;
+}
+
 static void emit_info(sink *k, const rad_solution *s)
 {
     put_f64(k, s->patch_size);
@@ -436,6 +462,8 @@ static void emit_info(sink *k, const rad_solution *s)
         put_f64(k, s->stages[i].seconds);
         put_u8(k, (uint8_t)s->stages[i].reused);
     }
+    if (version_of(s) >= SOL_VERSION_SHEETS)
+        put_u8(k, announced_sections(s));
 }
 
 static void emit_scene(sink *k, const rad_solution *s)
@@ -569,6 +597,17 @@ static void emit_elements(sink *k, const rad_solution *s)
     }
 }
 
+/* Each element's h_le, element by element, dense: M × L floats. */
+static void emit_element_lights(sink *k, const rad_solution *s)
+{
+    const rad_elements *el = s->elements;
+    const size_t count = (size_t)el->mesh->patch_count * el->light_count;
+    put_u32(k, el->mesh->patch_count);
+    put_u32(k, el->light_count);
+    for (size_t q = 0; q < count; q++)
+        put_f32(k, el->light_h[q]);
+}
+
 static void emit_patchdata(sink *k, const rad_solution *s)
 {
     uint32_t n = s->mesh->patch_count, nb = s->band_count;
@@ -617,21 +656,29 @@ static void emit_lights(sink *k, const rad_solution *s)
 
 typedef void (*emit_fn)(sink *, const rad_solution *);
 static const emit_fn sec_emit[SEC_COUNT] = {emit_info,      emit_scene,  emit_mesh,    emit_matrix,
-                                            emit_patchdata, emit_lights, emit_elements};
+                                            emit_patchdata, emit_lights, emit_elements,
+                                            emit_element_lights};
 
-/* LIGHTS is written only when there are lights, ELEMENTS when there are elements. */
+/* LIGHTS is written only when there are lights, ELEMENTS when there are
+ * elements, ELEMENTLIGHTS when the elements carry their own direct light. */
 static int section_written(const rad_solution *s, int i)
 {
     if (i == SEC_LIGHTS)
         return s->scene->light_count > 0;
     if (i == SEC_ELEMENTS)
         return s->elements != NULL;
+    if (i == SEC_ELEMENT_LIGHTS)
+        return s->elements && s->elements->light_h;
     return 1;
 }
 
 static uint32_t version_of(const rad_solution *s)
 {
-    return s->elements ? 3u : s->scene->light_count ? 2u : 1u;
+    if (s->mesh->twin)
+        return SOL_VERSION_SHEETS;
+    if (s->elements)
+        return s->elements->light_h ? 4u : 3u;
+    return s->scene->light_count ? 2u : 1u;
 }
 
 /* The light rules; `where` as for check_patch_values. */
@@ -998,6 +1045,8 @@ static int get_varint(cursor *c, uint32_t *v)
 typedef struct reader {
     const char *name;    /* for messages */
     const char *section; /* for messages */
+    uint32_t version;    /* of the file */
+    uint8_t announced;   /* version 5: the optional sections INFO announces */
     rad_error *err;
     cursor c;
     char str[SOL_MAX_STRING + 1];
@@ -1074,6 +1123,12 @@ static int parse_info(reader *r, rad_solution *s)
         } else if (bad_nonneg(sec) || reused > 1) {
             return TRUNC("stage %u: bad values", i);
         }
+    }
+    if (r->version >= SOL_VERSION_SHEETS) {
+        if (!get_u8(c, &r->announced))
+            return TRUNC("truncated");
+        if (r->announced > 7)
+            return TRUNC("announced sections 0x%x: only bits 0-2 exist", r->announced);
     }
     return check_info(s, r->name, "section INFO", RAD_ERR_CORRUPT, r->err);
 }
@@ -1308,7 +1363,11 @@ static int parse_mesh(reader *r, rad_solution *s)
         return rfail(r, RAD_ERR_CORRUPT, "%s",
                      strncmp(sub.message, "mesh: ", 6) == 0 ? sub.message + 6 : sub.message);
     /* The two sides of transmitting polygons are paired by their layout,
-     * not stored. */
+     * not stored.  Before version 5 transmittance was stored but not
+     * simulated: such a mesh is one-sided (rad_resolve refuses to solve
+     * it again rather than drop the transmitted light). */
+    if (r->version < SOL_VERSION_SHEETS)
+        return RAD_OK;
     int rc = rad_mesh_link_twins(m, sc, &sub);
     if (rc != RAD_OK) {
         const char *msg = strstr(sub.message, "mesh: ");
@@ -1642,10 +1701,40 @@ static int parse_elements(reader *r, rad_solution *s)
     return RAD_OK;
 }
 
+/* ELEMENTLIGHTS: the counts must be the elements' and the lights', and the
+ * values exactly fill the body, before anything is allocated; then
+ * rad_elements_check applies the rules (finite, >= 0, 0 at level 0). */
+static int parse_element_lights(reader *r, rad_solution *s)
+{
+    cursor *c = &r->c;
+    rad_elements *el = s->elements;
+    uint32_t ne, nl;
+    if (!get_u32(c, &ne) || !get_u32(c, &nl))
+        return TRUNC("truncated");
+    if (ne != el->mesh->patch_count || nl != s->scene->light_count || nl == 0)
+        return TRUNC("%u elements and %u lights, but the solution has %u and %u", ne, nl,
+                     el->mesh->patch_count, s->scene->light_count);
+    uint64_t count = (uint64_t)ne * nl;
+    if (count != c->left / 4u || c->left % 4u)
+        return TRUNC("%llu values need %llu bytes, %zu left", (unsigned long long)count,
+                     (unsigned long long)count * 4u, c->left);
+    el->light_h = malloc((size_t)(count ? count : 1) * sizeof *el->light_h);
+    if (!el->light_h)
+        return rfail(r, RAD_ERR_NOMEM, "out of memory for %u elements × %u lights", ne, nl);
+    el->light_count = nl;
+    for (uint64_t q = 0; q < count; q++)
+        if (!get_f32(c, &el->light_h[q]))
+            return TRUNC("truncated");
+    rad_error sub;
+    if (rad_elements_check(el, s, "elements", &sub))
+        return rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
+    return RAD_OK;
+}
+
 typedef int (*parse_fn)(reader *, rad_solution *);
 static const parse_fn sec_parse[SEC_COUNT] = {parse_info,      parse_scene,  parse_mesh,
                                               parse_matrix,    parse_patchdata, parse_lights,
-                                              parse_elements};
+                                              parse_elements,  parse_element_lights};
 
 static int known_section(const uint8_t tag[4])
 {
@@ -1717,7 +1806,9 @@ int rad_solution_parse(const void *data, size_t size, const char *name, int chec
     /* Version 2 is exactly the files with lights: LIGHTS is required there
      * and has no place in version 1 (a cut at its start must not pass).
      * Version 3 is the files with elements: ELEMENTS is required, LIGHTS
-     * there exactly when the scene has lights. */
+     * there exactly when the scene has lights.  Version 4 is the files whose
+     * elements carry their own direct light: LIGHTS, ELEMENTS and
+     * ELEMENTLIGHTS are all required. */
     int required = version_sections[version];
 
     reader *r = malloc(sizeof *r);
@@ -1729,6 +1820,7 @@ int rad_solution_parse(const void *data, size_t size, const char *name, int chec
     }
     r->name = name;
     r->err = err;
+    r->version = version;
     cursor all = {d + SOL_HEADER_BYTES, size - SOL_HEADER_BYTES};
     int next = 0;
     while (all.left > 0) {
@@ -1761,9 +1853,19 @@ int rad_solution_parse(const void *data, size_t size, const char *name, int chec
             continue;
         }
         /* Version 3 without lights goes from PATCHDATA to ELEMENTS. */
-        if (k == SEC_ELEMENTS && next == SEC_LIGHTS && version >= 3 && s->scene &&
+        if (k == SEC_ELEMENTS && next == SEC_LIGHTS && version == 3 && s->scene &&
             s->scene->light_count == 0)
             next = SEC_ELEMENTS;
+        /* Version 5 skips the optional sections INFO did not announce. */
+        while (version >= SOL_VERSION_SHEETS && next >= SEC_LIGHTS && next < k &&
+               !(r->announced >> (next - SEC_LIGHTS) & 1u))
+            next++;
+        if (version >= SOL_VERSION_SHEETS && k >= SEC_LIGHTS &&
+            !(r->announced >> (k - SEC_LIGHTS) & 1u)) {
+            rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: byte %zu: section %s not announced in INFO",
+                          name, offset, sec_name[k]);
+            goto fail;
+        }
         if (k != next) {
             if (k < next)
                 rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: byte %zu: section %s appears twice", name,
@@ -1786,6 +1888,9 @@ int rad_solution_parse(const void *data, size_t size, const char *name, int chec
         all.left -= (size_t)len;
         next++;
     }
+    while (version >= SOL_VERSION_SHEETS && next >= SEC_LIGHTS && next < SEC_COUNT &&
+           !(r->announced >> (next - SEC_LIGHTS) & 1u))
+        next++;
     if (next < required) {
         rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: section %s missing", name, sec_name[next]);
         goto fail;

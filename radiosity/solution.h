@@ -54,9 +54,16 @@ typedef struct rad_light_power {
  * k, quadtree: a quad into four by its edge midpoints and centre, a
  * triangle into four by its edge midpoints).  Its radiosity is gathered
  * from the patch solution through element-to-patch form factors, hemi-cubes
- * at the element's centre:
- *   B_e = E_p + ρ_p (Σ_j F_ej B_j + H_d,p)
- * (a level-0 element is its patch: B_e = B_p, no row of its own).
+ * at the element's centre, and the punctual lights' direct irradiance at
+ * the element itself:
+ *   B_e = E_p + ρ_p (Σ_j F_ej B_j + H_d,e),   H_d,e = Σ_l I_l h_le,
+ * h_le the direct irradiance at the element's centre from light l at unit
+ * strength (1 W/sr, or 1 W/m² for a directional light), visibility from the
+ * light's item buffer: hc_light_direct × hc_light_visibility.  Stored, so a
+ * relight rescales it without rendering.  A level-0 element is its patch:
+ * B_e = B_p, no row of its own, h_le = 0 (its patch's H_d,p = Σ_l I_l Φ_lp
+ * / A_p is in B_p).  Elements read from a version 3 file have no h_le
+ * (light_h NULL) and take their patch's H_d,p, as that version did.
  * Elements are split where their radiosity differs from a neighbour's, so
  * neighbours may differ in level: a vertex of the finer one may lie on an
  * edge of the coarser one (a T-vertex); rendering triangulates the coarse
@@ -66,7 +73,8 @@ typedef struct rad_light_power {
  * normal of patch[e]; cells of one polygon share vertices; every element of
  * level > 0 has its row, with the invariants of a form-factor row (columns
  * strictly increasing, F_ej > 0, Σ_j F_ej <= 1 + 1e-3, column != patch[e]);
- * B >= 0 and finite. */
+ * B >= 0 and finite; light_h, when present, has light_count == the scene's
+ * light count > 0 and every h_le finite and >= 0, 0 at level 0. */
 #define RAD_MAX_ELEMENT_LEVEL 12
 
 typedef struct rad_elements {
@@ -74,6 +82,9 @@ typedef struct rad_elements {
     uint32_t *patch;       /* mesh->patch_count: the patch each element lies in (owned) */
     uint8_t *level;        /* splits below its patch, 0..RAD_MAX_ELEMENT_LEVEL (owned) */
     double *B;             /* mesh->patch_count × bands (owned) */
+    uint32_t light_count;  /* lights in light_h (0 when NULL) */
+    float *light_h;        /* mesh->patch_count × light_count: h_le at [e·light_count + l],
+                            * or NULL: no punctual lights, or a version 3 file (owned) */
     uint64_t *row_start;   /* F_ej by rows, columns are patches: row e is entries */
     uint32_t *row_count;   /*   [row_start[e], row_start[e] + row_count[e]) (owned) */
     uint32_t *col;         /* patch j (owned) */
@@ -112,7 +123,9 @@ typedef struct rad_solution {
     double *light_intensity;       /* light_count × bands: I (or E⊥) solved with; a relight
                                     * scales it, the scene keeps the nominal value (owned) */
     rad_light_power *light_power;  /* light_count entries (owned) */
-    uint64_t lights_computed;      /* light item buffers rendered in the run that wrote this */
+    uint64_t lights_computed;      /* light item buffers rendered in the run that wrote this:
+                                    * one per light shot onto the patches, and one per light
+                                    * and refinement pass for the elements' visibility */
     uint32_t light_slots_;         /* entries allocated (private to solution.c) */
 
     rad_elements *elements;        /* NULL when the solution has none (owned) */
@@ -161,8 +174,14 @@ int rad_elements_check(const rad_elements *el, const rad_solution *s, const char
 
 /* B_e of every element from the patch solution s->B (and the punctual
  * lights' direct irradiance), by the gather above.  What a relight calls:
- * no hemi-cube. */
+ * no hemi-cube, no item buffer. */
 int rad_elements_gather(const rad_solution *s, rad_elements *el, rad_error *err);
+
+/* H_d,e of every element per band, mesh->patch_count × bands into the
+ * caller's buffer: Σ_l I_l h_le with the intensities solved with, or its
+ * patch's H_d,p for a level-0 element and for elements without light_h. */
+int rad_elements_direct_irradiance(const rad_solution *s, const rad_elements *el, double *Hd,
+                                   rad_error *err);
 
 /* The mesh to draw: every leaf element whose edges carry vertices of finer
  * neighbours is split into a fan about its centre through those vertices,

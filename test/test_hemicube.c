@@ -1131,6 +1131,108 @@ TEST(directional_light)
     builder_free(&c);
 }
 
+/* hc_light_visibility: a floor of two coplanar polygons [0,1]×[0,1] and
+ * [1,2]×[0,1] (4×4 patches each) and a blocker [0.2,0.6]² at z = 0.5 under
+ * a point light at (1, 0.5, 2).  The blocker's shadow reaches x = 1 −
+ * 0.4·4/3 on the floor.  Along y = 0.25, x in [0.3, 0.9]: V = 0 more than 1.5 pixels (of the
+ * light's face, 1.6 cm on the floor at R = 256) inside the shadow, 1 more
+ * than that outside, never decreasing outwards, with values between 0 and
+ * 1 at the edge (anti-aliased); 1 exactly at patch and polygon seams in the
+ * open (the coplanar neighbour counts); the same bits with 1 and 2 workers;
+ * a directional light's shadow likewise. */
+TEST(light_visibility)
+{
+    builder b = {0};
+    add_rect(&b, rad_v3(0, 0, 0), rad_v3(1, 0, 0), rad_v3(0, 1, 0), 4, 4);
+    add_rect(&b, rad_v3(1, 0, 0), rad_v3(1, 0, 0), rad_v3(0, 1, 0), 4, 4);
+    add_rect(&b, rad_v3(0.2, 0.2, 0.5), rad_v3(0.4, 0, 0), rad_v3(0, 0.4, 0), 1, 1);
+    const uint32_t R = 256, N = 201;
+    const double edge = 1.0 - 0.4 * 4.0 / 3.0, px = 2.0 * 2.0 / R; /* a pixel on the floor */
+    hc_receiver pts[201 + 4];
+    for (uint32_t k = 0; k < N; k++) {
+        double x = 0.3 + 0.6 * k / (N - 1);
+        pts[k].center = rad_v3(x, 0.25, 0);
+        pts[k].patch = (uint32_t)(x * 4) + 4 * 1; /* row y in [0.25, 0.5) */
+    }
+    /* seams: between patches of one polygon, and between the polygons */
+    pts[N + 0] = (hc_receiver){rad_v3(0.75 - 1e-4, 0.75, 0), 4 * 3 + 2};
+    pts[N + 1] = (hc_receiver){rad_v3(0.75 + 1e-4, 0.75, 0), 4 * 3 + 3};
+    pts[N + 2] = (hc_receiver){rad_v3(1.0 - 1e-4, 0.75, 0), 4 * 3 + 3};
+    pts[N + 3] = (hc_receiver){rad_v3(1.0 + 1e-4, 0.75, 0), 16 + 4 * 3 + 0};
+    double vis[2][201 + 4];
+    hc_light point = {.kind = HC_LIGHT_POINT, .position = rad_v3(1, 0.5, 2)};
+    for (uint32_t w = 0; w < 2; w++) {
+        hc_options o = {.resolution = 16, .processes = w + 1};
+        hc_engine *e = NULL;
+        rad_error err = {0};
+        CHECK(hc_create(&b.m, &o, &e, &err) == RAD_OK);
+        CHECK_MSG(hc_light_visibility(e, &point, R, pts, N + 4, vis[w], &err) == RAD_OK, "%s",
+                  err.message);
+        hc_destroy(e);
+    }
+    CHECK(memcmp(vis[0], vis[1], sizeof vis[0]) == 0);
+    uint32_t dark = 0, lit = 0, between = 0, monotone = 1;
+    for (uint32_t k = 0; k < N; k++) {
+        double x = pts[k].center.x, v = vis[0][k];
+        if (x < edge - 1.5 * px) {
+            dark++;
+            CHECK(v == 0.0);
+        } else if (x > edge + 1.5 * px) {
+            lit++;
+            CHECK(v == 1.0);
+        } else {
+            between += v > 0.0 && v < 1.0;
+        }
+        if (k && v < vis[0][k - 1])
+            monotone = 0;
+    }
+    printf("     point light: %u dark, %u lit, %u between 0 and 1 at the edge; seams %g %g %g %g\n",
+           dark, lit, between, vis[0][N], vis[0][N + 1], vis[0][N + 2], vis[0][N + 3]);
+    CHECK(monotone);
+    CHECK(dark > 40 && lit > 100 && between >= 1);
+    for (int k = 0; k < 4; k++)
+        CHECK(vis[0][N + k] == 1.0);
+    /* the unoccluded irradiance it multiplies: cosθ / r² */
+    rad_vec3 q = rad_v3(0.3, 0.25, 0), r = rad_sub(point.position, q);
+    CHECK_REL(hc_light_direct(&point, q, rad_v3(0, 0, 1)), r.z / pow(rad_length(r), 3), 1e-15);
+    CHECK(hc_light_direct(&point, q, rad_v3(0, 0, -1)) == 0.0);
+    CHECK(hc_light_direct(&point, point.position, rad_v3(0, 0, 1)) == 0.0);
+
+    /* directional straight down: the blocker's shadow is [0.2, 0.6]² */
+    hc_light sun = {.kind = HC_LIGHT_DIRECTIONAL, .direction = rad_v3(0, 0, -1)};
+    hc_options o = {.resolution = 16, .processes = 2};
+    hc_engine *e = NULL;
+    rad_error err = {0};
+    CHECK(hc_create(&b.m, &o, &e, &err) == RAD_OK);
+    CHECK_MSG(hc_light_visibility(e, &sun, R, pts, N + 4, vis[0], &err) == RAD_OK, "%s",
+              err.message);
+    /* bad input: the light is checked as hc_light_power checks it */
+    hc_light bad = point;
+    bad.position.x = NAN;
+    CHECK(hc_light_visibility(e, &bad, R, pts, 1, vis[1], &err) == RAD_ERR_USAGE);
+    hc_receiver off = {rad_v3(0, 0, 0), 999};
+    CHECK(hc_light_visibility(e, &point, R, &off, 1, vis[1], &err) == RAD_ERR_USAGE);
+    CHECK(hc_light_visibility(e, &point, 7, pts, 1, vis[1], &err) == RAD_ERR_USAGE);
+    CHECK(hc_light_visibility(e, &point, R, pts, 0, NULL, &err) == RAD_OK);
+    hc_destroy(e);
+    const double opx = 2.0 * sqrt(2.0 * 2.0 + 1.0 + 0.25) / R; /* orthographic pixel: 2 r_bound / R */
+    dark = lit = 0;
+    for (uint32_t k = 0; k < N; k++) {
+        double x = pts[k].center.x, v = vis[0][k];
+        if (x < 0.6 - 1.5 * opx) {
+            dark++;
+            CHECK(v == 0.0);
+        } else if (x > 0.6 + 1.5 * opx) {
+            lit++;
+            CHECK(v == 1.0);
+        }
+    }
+    printf("     directional: %u dark, %u lit\n", dark, lit);
+    CHECK(dark > 40 && lit > 40);
+    CHECK_REL(hc_light_direct(&sun, q, rad_normalize(rad_v3(0, 1, 1))), sqrt(0.5), 1e-15);
+    builder_free(&b);
+}
+
 TEST(light_bad_input)
 {
     builder b = {0};
@@ -1304,6 +1406,7 @@ int main(void)
     RUN(point_light);
     RUN(spot_light);
     RUN(directional_light);
+    RUN(light_visibility);
     RUN(light_bad_input);
     RUN(bad_options);
     RUN(progress_reports);

@@ -9,7 +9,13 @@
  *   - a directional light: H = E⊥ cosθ on a tilted plane, and a blocker's
  *     shadow;
  *   - glTF parsing: 683 lm/W, node transforms, the required extension;
- *   - relight: off, scale 2, nothing rendered again; solution round trip.
+ *   - relight: off, scale 2, nothing rendered again; solution round trip;
+ *   - elements (substructuring) get their direct light at their own
+ *     centres, not their patch's: a point light's irradiance on uniform
+ *     elements, the edges of a box's shadow, a spot's cone and a
+ *     directional light's shadow placed within a fraction of an element,
+ *     adaptive refinement following a shadow edge, and a relight that
+ *     doubles every element's direct term with nothing rendered.
  */
 #include "../radiosity/pipeline.h"
 #include "test.h"
@@ -477,6 +483,374 @@ TEST(relight_punctual_light)
     rad_solution_destroy(sol);
 }
 
+/* -------------------------------------------------------------- elements */
+
+/* Light resolution of the element tests: a pixel of a 1024 face seen from
+ * 2 m covers 4 mm of floor below the light, so every shadow edge is placed
+ * to within EDGE_EPS (2.5 pixels), a fifth of the 5 cm elements and a
+ * twentieth of the 20 cm patches. */
+#define ELEM_LIGHT_R 1024u
+#define EDGE_EPS 0.01
+
+static rad_solution *solve_elements(rad_scene *s, uint32_t levels, double threshold,
+                                    double min_size)
+{
+    rad_solve_options opt = {0};
+    opt.light_resolution = ELEM_LIGHT_R;
+    opt.hemicube.resolution = 64; /* the element rows do not matter here: black or no surroundings */
+    opt.element_levels = levels;
+    opt.refine_threshold = threshold;
+    opt.min_element_size = min_size;
+    rad_solution *sol = NULL;
+    rad_error e = {0};
+    int rc = rad_solve_scene(s, &opt, &sol, &e);
+    CHECK_MSG(rc == RAD_OK, "%s", e.message);
+    CHECK(rc != RAD_OK || sol->elements != NULL);
+    if (rc == RAD_OK && !sol->elements) {
+        rad_solution_destroy(sol);
+        return NULL;
+    }
+    return rc ? NULL : sol;
+}
+
+static double *element_direct(const rad_solution *s)
+{
+    const rad_elements *el = s->elements;
+    double *H = malloc(((size_t)el->mesh->patch_count * s->band_count + 1) * sizeof *H);
+    CHECK(H && rad_elements_direct_irradiance(s, el, H, NULL) == RAD_OK);
+    return H;
+}
+
+/* I cosθ / r² (× the spot falloff) at floor point c from a light at height
+ * h above the origin pointing down. */
+static double point_value(rad_vec3 c, double h, double I, int spot, double inner, double outer)
+{
+    double r2 = c.x * c.x + c.y * c.y + h * h, cosang = h / sqrt(r2);
+    return I * (spot ? spot_falloff(cosang, inner, outer) : 1.0) * cosang / r2;
+}
+
+/* Signed distance of (x, y) outside the rectangle [x0,x1]×[y0,y1]
+ * (negative inside: the depth). */
+static double outside_rect(double x, double y, double x0, double x1, double y0, double y1)
+{
+    double dx = fmax(x0 - x, x - x1), dy = fmax(y0 - y, y - y1);
+    if (dx <= 0 && dy <= 0)
+        return fmax(dx, dy);
+    return hypot(fmax(dx, 0), fmax(dy, 0));
+}
+
+/* A 2×2 m floor at 10×10 patches split twice (elements 5 cm), a point light
+ * of 3 W/sr 1 m above its centre: every element's H_d,e within 1 % of
+ * I cosθ / r² at its centre (measured: rounding only, the floor is
+ * unoccluded and the visibility exactly 1), and B_e = ρ H_d,e. */
+TEST(elements_point_light_irradiance)
+{
+    rad_scene *s = new_scene();
+    uint32_t m = material(s, "grey", 0.5);
+    floor_square(s, "floor", 1.0, 0.0, 10, m);
+    light(s, "bulb", RAD_LIGHT_POINT, 3.0, rad_v3(0, 0, 1), rad_v3(0, 0, -1), 0, 0);
+    rad_solution *sol = solve_elements(s, 2, 0.0, 0.0);
+    if (!sol)
+        return;
+    const rad_elements *el = sol->elements;
+    double *H = element_direct(sol);
+    double worst = 0.0;
+    uint32_t lit = 0;
+    for (uint32_t e = 0; e < el->mesh->patch_count; e++) {
+        rad_vec3 c = el->mesh->patches[e].center;
+        CHECK(el->level[e] == 2);
+        double want = point_value(c, 1.0, 3.0, 0, 0, 0);
+        worst = fmax(worst, fabs(H[e] / want - 1.0));
+        CHECK_REL(H[e], want, 0.01);
+        CHECK_NEAR(el->B[e], 0.5 * H[e], 1e-12 * H[e]);
+        lit += H[e] > 0.0;
+    }
+    printf("     %u elements lit, worst |H_d,e / (I cos/r²) - 1| = %.2e\n", lit, worst);
+    CHECK(lit == 1600);
+    free(H);
+    rad_solution_destroy(sol);
+}
+
+/* A 2.8×2.8 m floor (14×14 patches of 20 cm), a black box of half side
+ * 0.33 from 0.5 to 1 m high, a 1 W/sr point light 2 m above the origin. */
+static rad_scene *box_shadow_scene(void)
+{
+    rad_scene *s = new_scene();
+    uint32_t grey = material(s, "grey", 0.5), black = material(s, "black", 0.0);
+    floor_square(s, "floor", 1.4, 0.0, 14, grey);
+    box(s, "box", rad_v3(-0.33, -0.33, 0.5), rad_v3(0.33, 0.33, 1.0), black);
+    light(s, "bulb", RAD_LIGHT_POINT, 1.0, rad_v3(0, 0, 2), rad_v3(0, 0, -1), 0, 0);
+    return s;
+}
+
+/* The box of point_light_shadow_of_a_box moved off the element grid: half
+ * side 0.33, top at 1 m, light 2 m above the origin: the umbra is
+ * [-0.66, 0.66]², mid-element and mid-patch.  Elements (5 cm, two splits of
+ * 20 cm patches) whose centre lies deeper than EDGE_EPS inside get exactly
+ * 0, those more than EDGE_EPS outside get I cosθ / r² within 1 %: the edge
+ * lies where geometry says to 1 cm, inside patches that straddle it (their
+ * own H_d,p is a blend of the two). */
+TEST(elements_point_light_shadow_edge)
+{
+    rad_scene *s = box_shadow_scene();
+    rad_solution *sol = solve_elements(s, 2, 0.0, 0.0);
+    if (!sol)
+        return;
+    const rad_elements *el = sol->elements;
+    double *H = element_direct(sol), *Hp = direct(sol);
+    uint32_t dark = 0, lit = 0, between = 0, straddling_patches = 0;
+    double worst = 0.0;
+    uint8_t *mixed = calloc(sol->mesh->patch_count, 1); /* bit 0: a dark element, bit 1: a lit one */
+    for (uint32_t e = 0; e < el->mesh->patch_count; e++) {
+        if (el->mesh->patches[e].object != 0)
+            continue;
+        rad_vec3 c = el->mesh->patches[e].center;
+        double d = outside_rect(c.x, c.y, -0.66, 0.66, -0.66, 0.66);
+        if (d < -EDGE_EPS) {
+            dark++;
+            CHECK(H[e] == 0.0);
+            CHECK(el->B[e] == 0.0);
+            mixed[el->patch[e]] |= 1;
+        } else if (d > EDGE_EPS) {
+            lit++;
+            double want = point_value(c, 2.0, 1.0, 0, 0, 0);
+            worst = fmax(worst, fabs(H[e] / want - 1.0));
+            CHECK_REL(H[e], want, 0.01);
+            mixed[el->patch[e]] |= 2;
+        } else {
+            between++;
+        }
+    }
+    for (uint32_t j = 0; j < sol->mesh->patch_count; j++)
+        if (mixed[j] == 3) {
+            straddling_patches++;
+            /* the patch's own average is neither: what elements fix */
+            CHECK(Hp[j] > 0.0 && Hp[j] < 0.9 * point_value(sol->mesh->patches[j].center, 2.0, 1.0, 0, 0, 0));
+        }
+    printf("     %u dark, %u lit (worst %.2e), %u within %g m of the edge; %u patches hold both\n",
+           dark, lit, worst, between, EDGE_EPS, straddling_patches);
+    /* umbra centres: 26 per side minus those near the edge */
+    CHECK(dark == 26 * 26);
+    CHECK(between == 0); /* centres are at 0.025 + 0.05 k: 1.5 cm from 0.66 at the nearest */
+    CHECK(straddling_patches == 4 * 6 + 4);
+    free(mixed);
+    free(H);
+    free(Hp);
+    rad_solution_destroy(sol);
+}
+
+/* A spot 1 m above a 3.2×3.2 m floor pointing down, inner 30°, outer 50°:
+ * elements whose centre is outside the outer cone by more than EDGE_EPS (on
+ * the floor) get exactly 0, inside it by more than EDGE_EPS the analytic
+ * I t² cosθ / r² within 1 % (the falloff evaluated at the centre). */
+TEST(elements_spot_cone_edge)
+{
+    const double inner = 30.0 * M_PI / 180.0, outer = 50.0 * M_PI / 180.0;
+    rad_scene *s = new_scene();
+    uint32_t m = material(s, "grey", 0.5);
+    floor_square(s, "floor", 1.6, 0.0, 16, m);
+    light(s, "spot", RAD_LIGHT_SPOT, 2.0, rad_v3(0, 0, 1), rad_v3(0, 0, -1), inner, outer);
+    rad_solution *sol = solve_elements(s, 2, 0.0, 0.0);
+    if (!sol)
+        return;
+    const rad_elements *el = sol->elements;
+    double *H = element_direct(sol);
+    uint32_t in = 0, out = 0, falloff = 0;
+    double worst = 0.0;
+    for (uint32_t e = 0; e < el->mesh->patch_count; e++) {
+        rad_vec3 c = el->mesh->patches[e].center;
+        double d = hypot(c.x, c.y) - tan(outer);
+        if (d > EDGE_EPS) {
+            out++;
+            CHECK(H[e] == 0.0);
+        } else if (d < -EDGE_EPS) {
+            double want = point_value(c, 1.0, 2.0, 1, inner, outer);
+            CHECK(want > 0.0);
+            in++;
+            falloff += hypot(c.x, c.y) > tan(inner);
+            worst = fmax(worst, fabs(H[e] / want - 1.0));
+            CHECK_REL(H[e], want, 0.01);
+        }
+    }
+    printf("     spot: %u elements inside the cone (%u in the falloff, worst %.2e), %u outside\n",
+           in, falloff, worst, out);
+    CHECK(in > 1500 && falloff > 800 && out > 2000);
+    free(H);
+    rad_solution_destroy(sol);
+}
+
+/* A directional light along (0.5, 0, −1) and a 0.6×0.6 m black square at
+ * z = 0.5 centred over (0.02, 0.013): its shadow on the 2×2 m floor is
+ * [−0.03, 0.57]×[−0.287, 0.313], off the element grid.  Elements deeper
+ * inside than EDGE_EPS are dark, further outside get E⊥ cosθ within 1 %. */
+TEST(elements_directional_shadow_edge)
+{
+    rad_scene *s = new_scene();
+    uint32_t grey = material(s, "grey", 0.5), black = material(s, "black", 0.0), o;
+    floor_square(s, "floor", 1.0, 0.0, 10, grey);
+    CHECK(rad_scene_add_object(s, "blocker", NULL, &o, NULL) == RAD_OK);
+    const double bx = 0.02, by = 0.013;
+    rad_vec3 p[4] = {{bx - 0.3, by - 0.3, 0.5}, {bx + 0.3, by - 0.3, 0.5},
+                     {bx + 0.3, by + 0.3, 0.5}, {bx - 0.3, by + 0.3, 0.5}};
+    CHECK(rad_scene_add_polygon(s, "blocker", o, black, p, 4, 1, 1, NULL, NULL, NULL) == RAD_OK);
+    rad_vec3 d = rad_normalize(rad_v3(0.5, 0, -1));
+    light(s, "sun", RAD_LIGHT_DIRECTIONAL, 1.0, rad_v3(0, 0, 0), d, 0, 0);
+    rad_solution *sol = solve_elements(s, 2, 0.0, 0.0);
+    if (!sol)
+        return;
+    const rad_elements *el = sol->elements;
+    double *H = element_direct(sol);
+    uint32_t dark = 0, lit = 0;
+    const double x0 = bx - 0.3 + 0.25, x1 = bx + 0.3 + 0.25, y0 = by - 0.3, y1 = by + 0.3;
+    for (uint32_t e = 0; e < el->mesh->patch_count; e++) {
+        if (el->mesh->patches[e].object != 0)
+            continue;
+        rad_vec3 c = el->mesh->patches[e].center;
+        double dist = outside_rect(c.x, c.y, x0, x1, y0, y1);
+        if (dist < -EDGE_EPS) {
+            dark++;
+            CHECK(H[e] == 0.0);
+        } else if (dist > EDGE_EPS) {
+            lit++;
+            CHECK_REL(H[e], -d.z, 0.01);
+        }
+    }
+    printf("     directional: %u dark, %u lit elements\n", dark, lit);
+    /* centres 0.025 + 0.05 k: 12 columns in x (0.025 .. 0.525 − 1 cm), 12
+     * rows in y (−0.275 .. 0.275) */
+    CHECK(dark == 11 * 12);
+    CHECK(lit > 1400);
+    free(H);
+    rad_solution_destroy(sol);
+}
+
+/* Adaptive refinement sees the shadow edge through the elements' own
+ * direct light: the point-light box shadow above, threshold 0.1, no uniform
+ * levels, elements down to 2.5 cm (three splits).  Every leaf that straddles
+ * the umbra's outline (corners on both sides) reached the floor size, every
+ * leaf of level > 0 carries I cosθ / r² × its visibility (0 or 1 away from
+ * the edge), and leaves far from the edge in the umbra stay coarse. */
+TEST(elements_refinement_follows_light_edge)
+{
+    rad_scene *s = box_shadow_scene();
+    rad_solution *sol = solve_elements(s, 0, 0.1, 0.025);
+    if (!sol)
+        return;
+    const rad_elements *el = sol->elements;
+    double *H = element_direct(sol);
+    uint32_t straddle = 0, fine = 0, coarse_umbra = 0, checked = 0;
+    for (uint32_t e = 0; e < el->mesh->patch_count; e++) {
+        const rad_patch *c = &el->mesh->patches[e];
+        if (c->object != 0)
+            continue;
+        int in = 0, outc = 0;
+        for (int k = 0; k < rad_patch_corners(c); k++) {
+            rad_vec3 v = el->mesh->vertices[c->v[k]];
+            double dd = outside_rect(v.x, v.y, -0.66, 0.66, -0.66, 0.66);
+            in += dd < 0;
+            outc += dd > 0;
+        }
+        if (in && outc) {
+            straddle++;
+            fine += el->level[e] == 3;
+            CHECK(el->level[e] == 3);
+        }
+        double dc = outside_rect(c->center.x, c->center.y, -0.66, 0.66, -0.66, 0.66);
+        if (el->level[e] > 0 && fabs(dc) > EDGE_EPS) {
+            checked++;
+            CHECK_REL(H[e], dc < 0 ? 0.0 : point_value(c->center, 2.0, 1.0, 0, 0, 0), 0.01);
+        }
+        if (dc < -0.2)
+            coarse_umbra += el->level[e] == 0;
+    }
+    printf("     %u elements: %u straddle the umbra's outline (%u at level 3), %u deep-umbra "
+           "leaves unsplit, %u split leaves checked\n",
+           el->mesh->patch_count, straddle, fine, coarse_umbra, checked);
+    CHECK(straddle > 0 && fine == straddle && coarse_umbra >= 4 && checked > 100);
+    free(H);
+    rad_solution_destroy(sol);
+}
+
+/* Relight ×2 of a light doubles every element's direct term exactly and
+ * renders nothing; a solution with element light data round-trips through
+ * the file bit for bit (version 4) and relights there identically. */
+TEST(elements_relight_and_round_trip)
+{
+    rad_scene *s = new_scene();
+    uint32_t grey = material(s, "grey", 0.5), black = material(s, "black", 0.0);
+    floor_square(s, "floor", 1.0, 0.0, 6, grey);
+    box(s, "box", rad_v3(-0.2, -0.2, 0.3), rad_v3(0.2, 0.2, 0.5), black);
+    light(s, "bulb", RAD_LIGHT_POINT, 1.0, rad_v3(0.2, 0.1, 1.5), rad_v3(0, 0, -1), 0, 0);
+    light(s, "sun", RAD_LIGHT_DIRECTIONAL, 0.5, rad_v3(0, 0, 0), rad_v3(0.3, 0.2, -1), 0, 0);
+    rad_solution *sol = solve_elements(s, 1, 0.0, 0.0);
+    if (!sol)
+        return;
+    const rad_elements *el = sol->elements;
+    const uint32_t ne = el->mesh->patch_count;
+    CHECK(el->light_h != NULL && el->light_count == 2);
+    CHECK(sol->lights_computed >= 4); /* 2 patch-power renders + 2 element visibility passes */
+    double *H0 = element_direct(sol);
+
+    char dir[] = "/tmp/test_lights_XXXXXX", path[300];
+    CHECK(mkdtemp(dir) != NULL);
+    snprintf(path, sizeof path, "%s/elements.sol", dir);
+    rad_error e;
+    CHECK_MSG(rad_solution_write(sol, path, &e) == RAD_OK, "%s", e.message);
+    FILE *f = fopen(path, "rb");
+    unsigned char head[12] = {0};
+    CHECK(f && fread(head, 1, 12, f) == 12);
+    if (f)
+        fclose(f);
+    CHECK(head[8] == 4 && head[9] == 0); /* format version 4: elements with their own direct light */
+    rad_solution *r = NULL;
+    CHECK_MSG(rad_solution_read(path, &r, &e) == RAD_OK, "%s", e.message);
+    if (r) {
+        const rad_elements *y = r->elements;
+        CHECK(y && y->light_count == 2 && y->mesh->patch_count == ne);
+        if (y && y->light_h && y->mesh->patch_count == ne) {
+            CHECK(memcmp(y->light_h, el->light_h, (size_t)ne * 2 * sizeof *y->light_h) == 0);
+            CHECK(memcmp(y->B, el->B, (size_t)ne * sizeof *y->B) == 0);
+        }
+    }
+    /* relight both copies: bulb ×2 */
+    rad_solution *both[2] = {sol, r};
+    double *H1[2] = {NULL, NULL};
+    for (int k = 0; k < 2 && r; k++) {
+        rad_edit ed;
+        CHECK(rad_edit_parse(RAD_EDIT_LIGHT, "bulb=2", &ed, NULL) == RAD_OK);
+        CHECK_MSG(rad_solution_apply_edits(both[k], &ed, 1, &e) == RAD_OK, "%s", e.message);
+        rad_solve_options opt = {0};
+        CHECK_MSG(rad_resolve(both[k], &opt, &e) == RAD_OK, "%s", e.message);
+        CHECK(both[k]->rows_computed == 0 && both[k]->lights_computed == 0);
+        CHECK(both[k]->elements->rows_computed == 0);
+        H1[k] = element_direct(both[k]);
+    }
+    /* the sun alone, from the stored h: H_d,e(bulb ×2) = H0 + I_bulb Σ h_bulb */
+    uint32_t doubled = 0;
+    for (uint32_t q = 0; q < ne && H1[0] && H1[1]; q++) {
+        if (el->level[q] == 0)
+            continue;
+        double bulb = 1.0 * (double)el->light_h[(size_t)q * 2 + 0];
+        double sun = 0.5 * (double)el->light_h[(size_t)q * 2 + 1];
+        CHECK(H0[q] == bulb + sun);
+        CHECK(H1[0][q] == 2.0 * bulb + sun); /* exact: scaling by 2 rounds nothing */
+        CHECK(memcmp(&H1[0][q], &H1[1][q], sizeof(double)) == 0);
+        doubled += bulb > 0.0;
+    }
+    for (uint32_t q = 0; r && q < ne; q++)
+        CHECK(memcmp(&sol->elements->B[q], &r->elements->B[q], sizeof(double)) == 0);
+    printf("     %u elements, %u lit by the bulb: its term doubled exactly, nothing rendered\n",
+           ne, doubled);
+    CHECK(doubled > ne / 2);
+    unlink(path);
+    rmdir(dir);
+    free(H0);
+    free(H1[0]);
+    free(H1[1]);
+    rad_solution_destroy(r);
+    rad_solution_destroy(sol);
+}
+
 /* ------------------------------------------------------------------ glTF */
 
 static void b64(char *out, const unsigned char *d, size_t n)
@@ -737,5 +1111,11 @@ int main(void)
     RUN(directional_light_tilted_plane);
     RUN(directional_light_shadow);
     RUN(relight_punctual_light);
+    RUN(elements_point_light_irradiance);
+    RUN(elements_point_light_shadow_edge);
+    RUN(elements_spot_cone_edge);
+    RUN(elements_directional_shadow_edge);
+    RUN(elements_refinement_follows_light_edge);
+    RUN(elements_relight_and_round_trip);
     return test_finish("test_lights");
 }

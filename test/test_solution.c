@@ -173,7 +173,13 @@ static int add_poly(rad_scene *sc, const char *name, uint32_t obj, uint32_t mat,
 
 /* Three bands with names; quads, a triangle, a pentagon (fan), two cameras,
  * meshed by rad_mesh_build from the polygons' subdivisions. */
-static rad_solution *make_rgb(void)
+static rad_solution *make_rgb_with(int sheets);
+static rad_solution *make_rgb(void) { return make_rgb_with(0); }
+/* The same room with the red paint transmitting: its wall and its window
+ * are two-sided sheets (mesh twins, format version 5). */
+static rad_solution *make_sheets(void) { return make_rgb_with(1); }
+
+static rad_solution *make_rgb_with(int sheets)
 {
     rad_scene *sc = rad_scene_create(3, "fixtures/rgb-room.rad");
     if (!sc)
@@ -183,7 +189,11 @@ static rad_solution *make_rgb(void)
         sc->band_names[b] = strdup(bn[b]); /* no builder exists for band names */
     uint32_t white, red, lamp, room, light;
     int rc = rad_scene_add_material(sc, "white", rho_white, NULL, NULL, NULL, &white, NULL);
-    rc |= rad_scene_add_material(sc, "red paint", rho_red, NULL, tr_red, NULL, &red, NULL);
+    rc |= rad_scene_add_material(sc, "red paint", rho_red, NULL, sheets ? tr_red : NULL, NULL,
+                                 &red, NULL);
+    /* transmittance is stored with the materials; no polygon uses this one,
+     * so the mesh stays one-sided (sheets have their own fixture) */
+    rc |= rad_scene_add_material(sc, "glass", rho_red, NULL, tr_red, NULL, NULL, NULL);
     rc |= rad_scene_add_material(sc, "lamp", rho_lamp, e_lamp, NULL, NULL, &lamp, NULL);
     rc |= rad_scene_add_object(sc, "room", NULL, &room, NULL);
     rc |= rad_scene_add_object(sc, "light", NULL, &light, NULL);
@@ -613,10 +623,9 @@ TEST(create_copies_materials)
         return;
     CHECK(s->band_count == 3);
     CHECK(s->F->n == s->mesh->patch_count);
-    /* floor 3×2 + wall 2×2 + triangle 2² + pentagon fan 5 + lamp 1, the
-     * wall and the pentagon twice (red paint transmits: two-sided sheets) */
-    CHECK(s->mesh->patch_count == 6 + 2 * 4 + 4 + 2 * 5 + 1);
-    CHECK(s->mesh->twin && s->mesh->twin[6] == 10 && s->mesh->twin[10] == 6);
+    /* floor 3×2 + wall 2×2 + triangle 2² + pentagon fan 5 + lamp 1 */
+    CHECK(s->mesh->patch_count == 6 + 4 + 4 + 5 + 1);
+    CHECK(s->mesh->twin == NULL);
     rad_solution_destroy(s);
 
     /* Fresh: ρ and E from each patch's material, B = E, no rows. */
@@ -786,11 +795,10 @@ TEST(layout_follows_the_format)
     rad_solution_destroy(s);
 }
 
-TEST(every_truncation_is_refused)
+/* Every cut of a file image refused, with and without a header made to
+ * agree (the shared body of the truncation tests). */
+static void cuts_refused(const uint8_t *golden, size_t golden_size)
 {
-    CHECK(load_golden());
-    if (!golden)
-        return;
     size_t bad = 0, first = SIZE_MAX;
     for (size_t k = 0; k < golden_size; k++) {
         for (int sum = 0; sum < 2; sum++) {
@@ -844,11 +852,17 @@ TEST(every_truncation_is_refused)
     CHECK_MSG(strcmp(e.message, want) == 0, "%s", e.message);
 }
 
-TEST(every_byte_flip_is_refused)
+TEST(every_truncation_is_refused)
 {
     CHECK(load_golden());
-    if (!golden)
-        return;
+    if (golden)
+        cuts_refused(golden, golden_size);
+}
+
+/* Every byte flip of a file image refused by the checksum, and what the
+ * structure checks alone let through keeps every invariant. */
+static void flips_refused(const uint8_t *golden, size_t golden_size)
+{
     uint8_t *buf = malloc(golden_size);
     memcpy(buf, golden, golden_size);
     size_t accepted = 0, unclean = 0, accepted_nosum = 0, bad_nosum = 0, first = SIZE_MAX;
@@ -902,6 +916,68 @@ TEST(every_byte_flip_is_refused)
     free(buf);
 }
 
+TEST(every_byte_flip_is_refused)
+{
+    CHECK(load_golden());
+    if (golden)
+        flips_refused(golden, golden_size);
+}
+
+/* Sheets: a mesh with two-sided transmitting polygons is written as
+ * version 5 (an older program would take the two sides for unrelated
+ * opaque surfaces), the sides are paired again on reading (bit-exact round
+ * trip), every cut and flip is refused, and the same bytes labelled as
+ * version 4 read as a one-sided mesh that rad_resolve refuses to solve
+ * again rather than drop the transmitted light. */
+TEST(sheets_are_version_5)
+{
+    rad_solution *s = make_sheets();
+    CHECK(s && s->mesh->twin);
+    if (!s)
+        return;
+    /* wall 2×2 and window fan 5, each twice */
+    CHECK(s->mesh->patch_count == 6 + 2 * 4 + 4 + 2 * 5 + 1);
+    CHECK(s->mesh->twin && s->mesh->twin[6] == 10 && s->mesh->twin[10] == 6);
+    char p[300];
+    path_in(p, sizeof p, "sheets.sol");
+    rad_error e;
+    CHECK_MSG(rad_solution_write(s, p, &e) == RAD_OK, "%s", e.message);
+    size_t n = 0;
+    uint8_t *img = slurp(p, &n);
+    CHECK(img && n > 32 && rd32(img + 8) == 5);
+    rad_solution *r = NULL;
+    CHECK_MSG(rad_solution_read(p, &r, &e) == RAD_OK, "%s", e.message);
+    check_same(s, r);
+    rad_solution_destroy(r);
+    if (img) {
+        cuts_refused(img, n);
+        flips_refused(img, n);
+        /* as version 2 (its sections without version 5's INFO byte): one-
+         * sided, readable, not solvable again */
+        uint64_t len;
+        size_t info = find_section(img, n, "INFO", &len);
+        CHECK(info && img[info + len - 1] == 1); /* announces LIGHTS only */
+        memmove(img + info + len - 1, img + info + len, n - (info + len));
+        n--;
+        wr64(img + info - 8, len - 1);
+        wr32(img + 8, 2);
+        fix_header(img, n);
+        r = NULL;
+        CHECK_MSG(rad_solution_parse(img, n, "old.sol", 1, &r, &e) == RAD_OK, "%s", e.message);
+        if (r) {
+            CHECK(r->mesh->twin == NULL);
+            rad_solve_options opt = {0};
+            CHECK(rad_resolve(r, &opt, &e) == RAD_ERR_INVALID);
+            CHECK_MSG(strstr(e.message, "object 'room': material 'red paint' transmits but its "
+                                        "patches have no back side") != NULL,
+                      "%s", e.message);
+        }
+        rad_solution_destroy(r);
+    }
+    free(img);
+    rad_solution_destroy(s);
+}
+
 TEST(newer_version_and_foreign_files)
 {
     CHECK(load_golden());
@@ -913,7 +989,7 @@ TEST(newer_version_and_foreign_files)
     rad_solution *s = NULL;
     rad_error e;
     CHECK(rad_solution_parse(buf, golden_size, "new.sol", 1, &s, &e) == RAD_ERR_PARSE);
-    CHECK_MSG(strcmp(e.message, "new.sol: format version 7 is newer than this program (3)") == 0,
+    CHECK_MSG(strcmp(e.message, "new.sol: format version 7 is newer than this program (5)") == 0,
               "%s", e.message);
     CHECK(s == NULL);
     free(buf);
@@ -1327,10 +1403,12 @@ static rad_solution *make_elements(void)
     return s;
 }
 
-/* ELEMENTS (format version 3): a round trip keeps every element bit for
- * bit; every cut of the file is refused, with and without the header made
- * to agree; every flipped byte of the section is refused by the checksum,
- * and without it either refused or read back with every invariant. */
+/* ELEMENTS and ELEMENTLIGHTS (format version 4: the fixture has punctual
+ * lights, so its elements carry their own direct light): a round trip keeps
+ * every element bit for bit, h_le included; every cut of the file is
+ * refused, with and without the header made to agree; every flipped byte of
+ * both sections is refused by the checksum, and without it either refused
+ * or read back with every invariant. */
 TEST(elements_round_trip_and_damage)
 {
     rad_solution *a = make_elements();
@@ -1345,7 +1423,8 @@ TEST(elements_round_trip_and_damage)
     CHECK(rad_solution_write(a, path, &e) == RAD_OK);
     size_t size = 0;
     uint8_t *buf = slurp(path, &size);
-    CHECK(buf && rd32(buf + 8) == 3);
+    CHECK(buf && rd32(buf + 8) == 4);
+    CHECK(a->elements->light_h && a->elements->light_count == 2);
     rad_solution *b = NULL;
     CHECK(rad_solution_read(path, &b, &e) == RAD_OK);
     if (b) {
@@ -1366,13 +1445,18 @@ TEST(elements_round_trip_and_damage)
                 CHECK(same_bits(x->row_count, y->row_count, ne * sizeof *x->row_count));
                 CHECK(same_bits(x->col, y->col, x->nnz * sizeof *x->col));
                 CHECK(same_bits(x->val, y->val, x->nnz * sizeof *x->val));
+                CHECK(y->light_count == x->light_count && y->light_h &&
+                      same_bits(x->light_h, y->light_h,
+                                (size_t)ne * x->light_count * sizeof *x->light_h));
             }
         }
     }
     rad_solution_destroy(b);
-    uint64_t len = 0;
+    uint64_t len = 0, llen = 0;
     size_t at = buf ? find_section(buf, size, "ELEM", &len) : 0;
+    size_t lat = buf ? find_section(buf, size, "ELGT", &llen) : 0;
     CHECK(at > 0 && len > 0);
+    CHECK(lat > at && lat + llen == size && llen == 8 + 4ull * a->elements->mesh->patch_count * 2);
     size_t cut_ok = 0, flip_ok = 0, nosum_bad = 0;
     for (size_t k = 0; buf && k < size; k++) {
         rad_solution *s = NULL;
@@ -1406,8 +1490,9 @@ TEST(elements_round_trip_and_damage)
         rad_solution_destroy(s);
         buf[k] ^= 0xFF;
     }
-    printf("     %zu bytes (ELEMENTS %llu): %zu cuts and %zu flips accepted, %zu bad without the "
-           "checksum\n", size, (unsigned long long)len, cut_ok, flip_ok, nosum_bad);
+    printf("     %zu bytes (ELEMENTS %llu, ELEMENTLIGHTS %llu): %zu cuts and %zu flips accepted, "
+           "%zu bad without the checksum\n", size, (unsigned long long)len,
+           (unsigned long long)llen, cut_ok, flip_ok, nosum_bad);
     CHECK(cut_ok == 0 && flip_ok == 0 && nosum_bad == 0);
     /* An element on a patch that does not exist is named. */
     if (buf && at) {
@@ -1421,16 +1506,96 @@ TEST(elements_round_trip_and_damage)
         CHECK_MSG(strstr(e.message, "ELEMENTS") && strstr(e.message, "element 0: patch 1000000"),
                   "%s", e.message);
         rad_solution_destroy(s);
+        wr32(buf + p0, a->elements->patch[0]);
     }
+    /* A negative h_le is named; so is an element count that is not the
+     * elements'. */
+    if (buf && lat) {
+        uint8_t *c = malloc(size);
+        memcpy(c, buf, size);
+        float neg = -1.0f;
+        memcpy(c + lat + 8 + 4, &neg, 4); /* element 0, light 1 */
+        fix_header(c, size);
+        rad_solution *s = NULL;
+        CHECK(rad_solution_parse(c, size, "bad.sol", 1, &s, &e) == RAD_ERR_CORRUPT && !s);
+        CHECK_MSG(strstr(e.message, "ELEMENTLIGHTS") && strstr(e.message, "element 0: direct light -1 from light 1"),
+                  "%s", e.message);
+        memcpy(c, buf, size);
+        wr32(c + lat, a->elements->mesh->patch_count + 1);
+        fix_header(c, size);
+        CHECK(rad_solution_parse(c, size, "bad.sol", 1, &s, &e) == RAD_ERR_CORRUPT && !s);
+        CHECK_MSG(strstr(e.message, "ELEMENTLIGHTS") && strstr(e.message, "elements and 2 lights"), "%s",
+                  e.message);
+        /* the same section in a version 3 file has no place */
+        memcpy(c, buf, size);
+        wr32(c + 8, 3);
+        fix_header(c, size);
+        CHECK(rad_solution_parse(c, size, "v3.sol", 1, &s, &e) == RAD_ERR_CORRUPT && !s);
+        CHECK_MSG(strstr(e.message, "section ELEMENTLIGHTS in a version 3 file"), "%s", e.message);
+        /* and a version 4 file needs it */
+        memcpy(c, buf, size);
+        fix_header(c, lat - 12);
+        CHECK(rad_solution_parse(c, lat - 12, "v4.sol", 1, &s, &e) == RAD_ERR_CORRUPT && !s);
+        CHECK_MSG(strstr(e.message, "section ELEMENTLIGHTS missing"), "%s", e.message);
+        free(c);
+    }
+    /* Without their own direct light (a version 3 file) elements take
+     * their patch's H_d,p, as that version did, and write version 3 again. */
+    float *h = a->elements->light_h;
+    a->elements->light_h = NULL;
+    a->elements->light_count = 0;
+    path_in(path, sizeof path, "elements-v3.sol");
+    CHECK_MSG(rad_solution_write(a, path, &e) == RAD_OK, "%s", e.message);
+    a->elements->light_h = h;
+    a->elements->light_count = 2;
+    size_t size3 = 0;
+    uint8_t *buf3 = slurp(path, &size3);
+    CHECK(buf3 && rd32(buf3 + 8) == 3 && size3 == size - 12 - llen);
+    rad_solution *v3 = NULL;
+    CHECK_MSG(rad_solution_read(path, &v3, &e) == RAD_OK, "%s", e.message);
+    if (v3) {
+        CHECK(v3->elements && !v3->elements->light_h);
+        uint32_t ne = v3->elements->mesh->patch_count, nb = v3->band_count, n = v3->mesh->patch_count;
+        double *He = malloc((size_t)ne * nb * sizeof *He), *Hp = malloc((size_t)n * nb * sizeof *Hp);
+        CHECK(rad_elements_direct_irradiance(v3, v3->elements, He, NULL) == RAD_OK);
+        CHECK(rad_solution_direct_irradiance(v3, Hp, NULL) == RAD_OK);
+        for (uint32_t q = 0; q < ne; q++)
+            for (uint32_t c = 0; c < nb; c++)
+                CHECK(He[(size_t)q * nb + c] == Hp[(size_t)v3->elements->patch[q] * nb + c]);
+        free(He);
+        free(Hp);
+    }
+    rad_solution_destroy(v3);
+    free(buf3);
     free(buf);
     rad_solution_destroy(a);
 }
 
+/* The fuzz corpus keeps the elements fixture as version 3 wrote it (before
+ * elements had their own direct light): this program still reads it. */
+TEST(version_3_elements_file_still_reads)
+{
+    rad_solution *s = NULL;
+    rad_error e = {0};
+    int rc = rad_solution_read("test/fuzz/corpus/solution/elements-room-v3", &s, &e);
+    CHECK_MSG(rc == RAD_OK, "%s", e.message);
+    if (s) {
+        CHECK(s->elements && !s->elements->light_h && s->scene->light_count == 2);
+        CHECK(s->elements && rad_elements_gather(s, s->elements, &e) == RAD_OK);
+        /* its red paint has a transmittance, which version 3 stored but did
+         * not simulate: solving again is refused, not done without it */
+        CHECK(s->mesh->twin == NULL);
+        CHECK(rad_resolve(s, NULL, &e) == RAD_ERR_INVALID);
+        CHECK_MSG(strstr(e.message, "material 'red paint' transmits") != NULL, "%s", e.message);
+    }
+    rad_solution_destroy(s);
+}
+
 static int write_seeds(const char *dir)
 {
-    rad_solution *(*make[4])(void) = {make_rgb, make_grey, make_wide, make_elements};
-    const char *names[4] = {"rgb-room", "grey-box", "wide-floor", "elements-room"};
-    for (int v = 0; v < 4; v++) {
+    rad_solution *(*make[5])(void) = {make_rgb, make_grey, make_wide, make_elements, make_sheets};
+    const char *names[5] = {"rgb-room", "grey-box", "wide-floor", "elements-room", "sheets-room"};
+    for (int v = 0; v < 5; v++) {
         rad_solution *s = make[v]();
         char p[600];
         snprintf(p, sizeof p, "%s/%s", dir, names[v]);
@@ -1463,6 +1628,8 @@ int main(int argc, char **argv)
     RUN(every_truncation_is_refused);
     RUN(every_byte_flip_is_refused);
     RUN(elements_round_trip_and_damage);
+    RUN(version_3_elements_file_still_reads);
+    RUN(sheets_are_version_5);
     RUN(newer_version_and_foreign_files);
     RUN(structure_errors_name_section_and_element);
     RUN(encoding_rules_are_enforced);
