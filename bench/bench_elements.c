@@ -1,19 +1,42 @@
 /* bench_elements.c - what adaptive elements save (issue 6).
  *
  * The bundled Cornell box is solved once on coarse patches (patch size
- * 0.1 m: the patch solution, which every element set below shares).  A
- * reference is gathered from it on uniform elements REF_LEVELS splits deep
- * (every patch 4^REF_LEVELS elements).  Each candidate element set - uniform
- * at 0..REF_LEVELS-1 splits, adaptive at several refinement thresholds with
- * the same depth limit as the finest uniform set - is scored by the mean
- * absolute error of its piecewise-constant B over the floor and the walls:
- *   MAE = Σ_r A_r |B_leaf(r) − B_r| / Σ_r A_r   (over reference elements r,
- *         all bands, relative to the area-weighted mean B of those surfaces)
- * where leaf(r) is the candidate element containing r's centre.  The
- * uniform error falls as a power of the element count; for each adaptive
- * set the table gives the uniform count that reaches the same MAE (log-log
- * interpolation between the uniform sets) and the ratio.  Times are
- * wall-clock, one run each; nothing here asserts anything.
+ * 0.08 m, 368 patches; BENCH_PATCH_SIZE changes it): the patch solution that
+ * every element set below gathers from.  Scores look at the floor and the
+ * three walls only.
+ *
+ * Reference: uniform elements REF_LEVELS = 6 splits deep (BENCH_REF_LEVELS)
+ * on those four surfaces, 4096 elements a patch, 1.3 mm.  The other patches
+ * stay unsplit while it is made (their ρ is set to 0 for the call: only a
+ * reflecting patch splits, and an element's gather reads the ρ of its own
+ * patch only, so the floor's and walls' elements are exactly those of a
+ * uniform set), because no score looks at them.
+ *
+ * Candidates: uniform at 0..REF_LEVELS-2 splits (every reflecting patch),
+ * and adaptive at several thresholds T, never deeper than the finest
+ * uniform set: every candidate stays two levels coarser than the reference.
+ * Uniform REF_LEVELS-1 on the four surfaces is scored too: how far the
+ * reference itself may be from converged.
+ *
+ * Three mean absolute errors over the floor and the walls, all bands,
+ * relative to the reference's mean there:
+ *   element MAE - the piecewise-constant B of the candidate element holding
+ *                 each reference element's centre, area-weighted: the
+ *                 solution itself, not what is drawn;
+ *   area MAE    - what the renderer draws (vertex interpolation), each
+ *                 surface drawn alone and head-on from far away (1024², as
+ *                 good as orthographic: every square metre of every surface
+ *                 weighs the same; the floor under the blocks, which nothing
+ *                 sees, is hidden by the blocks' tops);
+ *   image MAE   - what the renderer draws from the scene's camera, 512²,
+ *                 the pixels of those surfaces (the camera weighs the back
+ *                 wall about twice as much per square metre as the floor).
+ * Each uniform error falls as a power of the element count; for each
+ * adaptive set the tables give the uniform count that reaches the same MAE
+ * (log-log interpolation between the uniform sets) and the ratio.
+ * Hemi-cubes are the element rows rendered (adaptive refinement renders
+ * four per leaf it tests).  Times are wall-clock, one run each; nothing here
+ * asserts anything.
  */
 #include "../radiosity/pipeline.h"
 
@@ -21,13 +44,25 @@
 #include <stdlib.h>
 #include <string.h>
 
-static uint32_t REF_LEVELS = 3;
-static double PATCH_SIZE = 0.0; /* 0: the scene's own (the default mesh) */
+static uint32_t REF_LEVELS = 6;
+static double PATCH_SIZE = 0.08;
+enum { SURFACES = 4, SIDE = 1024 };
+static const char *const surface_name[SURFACES] = {"floor", "back_wall", "left_wall_red",
+                                                   "right_wall_green"};
 
 static void die(const char *what, const rad_error *err)
 {
     fprintf(stderr, "bench_elements: %s: %s\n", what, err ? err->message : "");
     exit(1);
+}
+
+/* The scored surface object o is, or -1. */
+static int surface_of(const rad_scene *sc, uint32_t object)
+{
+    for (int k = 0; k < SURFACES; k++)
+        if (!strcmp(sc->objects[object].name, surface_name[k]))
+            return k;
+    return -1;
 }
 
 /* Is p inside convex cell c (projected on its normal)? */
@@ -42,33 +77,26 @@ static int cell_contains(const rad_mesh *m, const rad_patch *c, rad_vec3 p)
     return 1;
 }
 
-static int surface_counts(const rad_scene *sc, uint32_t object)
+/* Element MAE of el against ref (see the top of the file). */
+static double element_score(const rad_solution *s, const rad_elements *el, const rad_elements *ref)
 {
-    const char *name = sc->objects[object].name;
-    return !strcmp(name, "floor") || !strcmp(name, "back_wall") || !strcmp(name, "left_wall_red") ||
-           !strcmp(name, "right_wall_green");
-}
-
-/* MAE of el against ref (see the top of the file), relative. */
-static double score(const rad_solution *s, const rad_elements *el, const rad_elements *ref)
-{
-    const uint32_t nb = s->band_count, np = s->mesh->patch_count;
+    const uint32_t nb = s->band_count, np = s->mesh->patch_count, ne = el->mesh->patch_count;
     /* Leaves of each patch, compressed rows. */
-    uint32_t *start = calloc((size_t)np + 1, sizeof *start), *list = malloc(el->mesh->patch_count * sizeof *list);
+    uint32_t *start = calloc((size_t)np + 1, sizeof *start), *list = malloc((size_t)ne * sizeof *list);
     uint32_t *fill = malloc(((size_t)np + 1) * sizeof *fill);
     if (!start || !list || !fill)
         die("out of memory", NULL);
-    for (uint32_t e = 0; e < el->mesh->patch_count; e++)
+    for (uint32_t e = 0; e < ne; e++)
         start[el->patch[e] + 1]++;
     for (uint32_t p = 0; p < np; p++)
         start[p + 1] += start[p];
     memcpy(fill, start, ((size_t)np + 1) * sizeof *fill);
-    for (uint32_t e = 0; e < el->mesh->patch_count; e++)
+    for (uint32_t e = 0; e < ne; e++)
         list[fill[el->patch[e]]++] = e;
-    double err = 0, area = 0, mean = 0;
+    double err = 0, mean = 0;
     for (uint32_t r = 0; r < ref->mesh->patch_count; r++) {
         const rad_patch *rc = &ref->mesh->patches[r];
-        if (!surface_counts(s->scene, rc->object))
+        if (surface_of(s->scene, rc->object) < 0)
             continue;
         uint32_t p = ref->patch[r], hit = RAD_NONE;
         for (uint32_t k = start[p]; k < start[p + 1] && hit == RAD_NONE; k++)
@@ -80,25 +108,104 @@ static double score(const rad_solution *s, const rad_elements *el, const rad_ele
             err += rc->area * fabs(el->B[(size_t)hit * nb + b] - ref->B[(size_t)r * nb + b]);
             mean += rc->area * ref->B[(size_t)r * nb + b];
         }
-        area += rc->area;
     }
     free(start);
     free(list);
     free(fill);
-    (void)area;
     return err / mean;
 }
 
-typedef struct run {
-    char name[48];
-    uint32_t elements;
-    uint64_t hemicubes;
-    double seconds, mae, img;
-} run;
+/* Each scored surface drawn alone, head-on from 100 m (see the top of the
+ * file): the cells of that surface, and for the floor the cells of
+ * everything but the walls (the blocks' tops hide the floor under them).
+ * Pixels of other objects are marked RAD_NONE.  out[k] are the caller's. */
+static void draw_surfaces(rad_solution *s, rad_elements *el, rn_image *out[SURFACES])
+{
+    rad_error err = {0};
+    const uint32_t nb = s->band_count, ne = el->mesh->patch_count;
+    rad_mesh *rm = NULL;
+    uint32_t *of = NULL;
+    if (rad_elements_render_mesh(el, &rm, &of, &err))
+        die("render mesh", &err);
+    double *drawn = malloc(((size_t)ne * nb + 1) * sizeof *drawn);
+    double *cell_B = malloc(((size_t)rm->patch_count * nb + 1) * sizeof *cell_B);
+    double *vB = malloc(((size_t)rm->vertex_count * nb + 1) * sizeof *vB);
+    rad_patch *sub = malloc(((size_t)rm->patch_count + 1) * sizeof *sub);
+    uint32_t *sub_object = malloc(((size_t)rm->patch_count + 1) * sizeof *sub_object);
+    if (!drawn || !cell_B || !vB || !sub || !sub_object)
+        die("out of memory", NULL);
+    if (rad_solution_drawn_radiosity(s, el, rm, of, drawn, &err))
+        die("drawn radiosity", &err);
+    for (uint32_t k = 0; k < rm->patch_count; k++)
+        memcpy(cell_B + (size_t)k * nb, drawn + (size_t)of[k] * nb, nb * sizeof *cell_B);
+    rn_vertex_radiosity(rm, nb, cell_B, vB);
+    for (int w = 0; w < SURFACES; w++) {
+        uint32_t n = 0;
+        rad_vec3 lo = {INFINITY, INFINITY, INFINITY}, hi = {-INFINITY, -INFINITY, -INFINITY}, normal = {0, 0, 0};
+        for (uint32_t k = 0; k < rm->patch_count; k++) {
+            const rad_patch *c = &rm->patches[k];
+            int mine = surface_of(s->scene, c->object);
+            if (mine != w && !(w == 0 && mine < 0))
+                continue;
+            sub_object[n] = c->object;
+            sub[n++] = *c;
+            if (mine != w)
+                continue;
+            normal = c->normal;
+            for (int q = 0; q < rad_patch_corners(c); q++) {
+                rad_vec3 v = rm->vertices[c->v[q]];
+                lo = rad_v3(fmin(lo.x, v.x), fmin(lo.y, v.y), fmin(lo.z, v.z));
+                hi = rad_v3(fmax(hi.x, v.x), fmax(hi.y, v.y), fmax(hi.z, v.z));
+            }
+        }
+        rad_mesh m = *rm;
+        m.patches = sub;
+        m.patch_count = n;
+        rad_vec3 centre = rad_scale(rad_add(lo, hi), 0.5);
+        const double D = 100.0, half = 0.3; /* every surface fits in 0.6 m */
+        rn_camera cam = {.eye = rad_add(centre, rad_scale(normal, D)), .target = centre,
+                         .up = fabs(normal.y) > 0.5 ? rad_v3(0, 0, 1) : rad_v3(0, 1, 0),
+                         .yfov_deg = 2.0 * atan(half / D) * 180.0 / M_PI, .width = SIDE, .height = SIDE};
+        if (rn_render(&m, nb, vB, &cam, &out[w], &err))
+            die("render a surface", &err);
+        for (size_t q = 0; q < (size_t)SIDE * SIDE; q++) {
+            uint32_t id = out[w]->patch[q];
+            if (id != RAD_NONE && surface_of(s->scene, sub_object[id]) != w)
+                out[w]->patch[q] = RAD_NONE;
+        }
+    }
+    free(drawn);
+    free(cell_B);
+    free(vB);
+    free(sub);
+    free(sub_object);
+    free(of);
+    rad_mesh_destroy(rm);
+}
+
+/* Σ|a − ref| / Σ ref over the pixels ref marks (all channels, n images). */
+static double pixel_score(rn_image *const *a, rn_image *const *ref, int n)
+{
+    double err = 0, sum = 0;
+    for (int k = 0; k < n; k++) {
+        size_t npx = (size_t)ref[k]->width * ref[k]->height;
+        uint32_t ch = ref[k]->channels;
+        for (size_t q = 0; q < npx; q++) {
+            if (ref[k]->patch[q] == RAD_NONE)
+                continue;
+            for (uint32_t c = 0; c < ch; c++) {
+                err += fabs(a[k]->pixels[q * ch + c] - ref[k]->pixels[q * ch + c]);
+                sum += ref[k]->pixels[q * ch + c];
+            }
+        }
+    }
+    return err / sum;
+}
 
 static rn_camera cam;
 
-static rn_image *draw(rad_solution *s, rad_elements *el)
+/* The scene camera's view; pixels not on a scored surface marked RAD_NONE. */
+static rn_image *draw_view(rad_solution *s, rad_elements *el)
 {
     rad_error err = {0};
     rn_image *img = NULL;
@@ -106,42 +213,71 @@ static rn_image *draw(rad_solution *s, rad_elements *el)
     if (rad_render_solution(s, &cam, &img, &err))
         die("render", &err);
     s->elements = NULL;
+    for (size_t q = 0; q < (size_t)img->width * img->height; q++)
+        if (img->patch[q] != RAD_NONE && surface_of(s->scene, s->mesh->patches[img->patch[q]].object) < 0)
+            img->patch[q] = RAD_NONE;
     return img;
 }
 
-/* Image MAE over the pixels showing the floor or a wall (relative). */
-static double image_score(const rad_solution *s, const rn_image *a, const rn_image *ref)
-{
-    double err = 0, sum = 0;
-    size_t npx = (size_t)ref->width * ref->height;
-    for (size_t q = 0; q < npx; q++) {
-        uint32_t id = ref->patch[q];
-        if (id == RAD_NONE || !surface_counts(s->scene, s->mesh->patches[id].object))
-            continue;
-        for (uint32_t c = 0; c < ref->channels; c++) {
-            err += fabs(a->pixels[q * ref->channels + c] - ref->pixels[q * ref->channels + c]);
-            sum += ref->pixels[q * ref->channels + c];
-        }
-    }
-    return err / sum;
-}
+enum { ELEMENT, AREA, IMAGE, METRICS };
 
+typedef struct run {
+    char name[64];
+    uint32_t elements;
+    uint64_t hemicubes;
+    double seconds, mae[METRICS];
+} run;
+
+/* Refines s as asked; the elements go to *keep (s keeps none).  With
+ * scored_only, patches off the scored surfaces do not split. */
 static run refine(rad_solution *s, const char *name, double threshold, uint32_t levels,
-                  double min_size, rad_elements **keep)
+                  double min_size, int scored_only, rad_elements **keep)
 {
     rad_solve_options o = {0};
     o.refine_threshold = threshold;
     o.element_levels = levels;
     o.min_element_size = min_size;
+    const size_t n = (size_t)s->mesh->patch_count * s->band_count;
+    double *rho = NULL;
+    if (scored_only) {
+        rho = malloc(n * sizeof *rho);
+        if (!rho)
+            die("out of memory", NULL);
+        memcpy(rho, s->rho, n * sizeof *rho);
+        for (uint32_t p = 0; p < s->mesh->patch_count; p++)
+            if (surface_of(s->scene, s->mesh->patches[p].object) < 0)
+                for (uint32_t b = 0; b < s->band_count; b++)
+                    s->rho[(size_t)p * s->band_count + b] = 0.0;
+    }
     rad_error err = {0};
     double t0 = rad_seconds();
-    if (rad_solution_refine(s, &o, &err))
+    int rc = rad_solution_refine(s, &o, &err);
+    if (rho) {
+        memcpy(s->rho, rho, n * sizeof *rho);
+        free(rho);
+    }
+    if (rc)
         die(name, &err);
-    run r = {{0}, s->elements->mesh->patch_count, s->elements->rows_computed, rad_seconds() - t0, 0, 0};
+    run r = {{0}, s->elements->mesh->patch_count, s->elements->rows_computed, rad_seconds() - t0, {0}};
     snprintf(r.name, sizeof r.name, "%s", name);
     *keep = s->elements;
     s->elements = NULL;
     return r;
+}
+
+/* Scores el on the three metrics against the reference's images. */
+static void score(rad_solution *s, rad_elements *el, const rad_elements *ref, rn_image *ref_view,
+                  rn_image *const *ref_surf, run *r)
+{
+    r->mae[ELEMENT] = element_score(s, el, ref);
+    rn_image *surf[SURFACES];
+    draw_surfaces(s, el, surf);
+    r->mae[AREA] = pixel_score(surf, ref_surf, SURFACES);
+    for (int k = 0; k < SURFACES; k++)
+        rn_image_destroy(surf[k]);
+    rn_image *view = draw_view(s, el);
+    r->mae[IMAGE] = pixel_score(&view, &ref_view, 1);
+    rn_image_destroy(view);
 }
 
 int main(void)
@@ -152,86 +288,101 @@ int main(void)
         PATCH_SIZE = atof(getenv("BENCH_PATCH_SIZE"));
     if (getenv("BENCH_REF_LEVELS"))
         REF_LEVELS = (uint32_t)atoi(getenv("BENCH_REF_LEVELS"));
+    if (REF_LEVELS < 3 || REF_LEVELS > RAD_MAX_ELEMENT_LEVEL)
+        die("BENCH_REF_LEVELS must be 3..12", NULL);
     opt.mesh.patch_size = PATCH_SIZE;
     rad_solution *s = NULL;
     double t0 = rad_seconds();
     if (rad_solve_scene_file("models/cornell.rad", &opt, &s, &err))
         die("solve", &err);
-    double t_solve = rad_seconds() - t0;
     printf("Cornell box, patch size %.2f m: %u patches, patch solution %.2f s (R = 128)\n",
-           PATCH_SIZE, s->mesh->patch_count, t_solve);
-
+           PATCH_SIZE, s->mesh->patch_count, rad_seconds() - t0);
     if (rad_camera_from_scene(s->scene, NULL, 512, 512, &cam, &err))
         die("camera", &err);
+
     rad_elements *ref = NULL;
-    run rr = refine(s, "reference", 0, REF_LEVELS, 0, &ref);
-    rn_image *ref_img = draw(s, ref);
-    /* Adaptive sets stop at the depth of the finest uniform candidate. */
-    double min_size = 1e300;
+    run rr = refine(s, "reference", 0, REF_LEVELS, 0, 1, &ref);
+    rn_image *ref_view = draw_view(s, ref), *ref_surf[SURFACES];
+    draw_surfaces(s, ref, ref_surf);
+    /* Adaptive sets stop at the depth of the finest uniform candidate: no
+     * element edge below four times the reference's. */
+    double min_size = INFINITY;
     for (uint32_t e = 0; e < ref->mesh->patch_count; e++) {
         const rad_patch *c = &ref->mesh->patches[e];
+        if (ref->level[e] != REF_LEVELS)
+            continue;
         for (int k = 0; k < rad_patch_corners(c); k++)
-            min_size = fmin(min_size, 2.0 * rad_length(rad_sub(ref->mesh->vertices[c->v[(k + 1) % rad_patch_corners(c)]],
-                                                                 ref->mesh->vertices[c->v[k]])));
+            min_size = fmin(min_size, rad_length(rad_sub(ref->mesh->vertices[c->v[(k + 1) % rad_patch_corners(c)]],
+                                                         ref->mesh->vertices[c->v[k]])));
     }
-    printf("reference: uniform, %u splits: %u elements, %.1f s\n\n", REF_LEVELS, rr.elements,
-           rr.seconds);
+    min_size *= 4.0;
+    printf("reference: uniform, %u splits on the floor and walls: %u elements, %.1f s\n\n", REF_LEVELS,
+           rr.elements, rr.seconds);
 
-    enum { NA = 6 };
-    const uint32_t NU = REF_LEVELS;
-    static const double thresholds[NA] = {0.2, 0.1, 0.05, 0.025, 0.0125, 0.006};
-    run uni[RAD_MAX_ELEMENT_LEVEL], ada[NA];
+    enum { NA = 5 };
+    const uint32_t NU = REF_LEVELS - 1; /* uniform 0..REF_LEVELS-2 */
+    static const double thresholds[NA] = {1e-3, 3e-4, 1e-4, 3e-5, 1e-5};
+    run uni[RAD_MAX_ELEMENT_LEVEL], ada[NA], conv;
     for (uint32_t l = 0; l < NU; l++) {
-        char name[48];
+        char name[64];
         snprintf(name, sizeof name, "uniform, %u splits", l);
         rad_elements *el = NULL;
-        /* 0 splits: a threshold nothing exceeds keeps the patches as elements. */
-        uni[l] = l ? refine(s, name, 0, l, 0, &el) : refine(s, name, 1e9, 0, 0, &el);
-        uni[l].mae = score(s, el, ref);
-        rn_image *img = draw(s, el);
-        uni[l].img = image_score(s, img, ref_img);
-        rn_image_destroy(img);
+        /* 0 splits: a size floor nothing passes keeps the patches as elements. */
+        uni[l] = l ? refine(s, name, 0, l, 0, 0, &el) : refine(s, name, 1.0, 0, 1e300, 0, &el);
+        score(s, el, ref, ref_view, ref_surf, &uni[l]);
+        rad_elements_destroy(el);
+    }
+    {
+        char name[64];
+        snprintf(name, sizeof name, "uniform, %u splits, floor and walls only", REF_LEVELS - 1);
+        rad_elements *el = NULL;
+        conv = refine(s, name, 0, REF_LEVELS - 1, 0, 1, &el);
+        score(s, el, ref, ref_view, ref_surf, &conv);
         rad_elements_destroy(el);
     }
     for (int a = 0; a < NA; a++) {
-        char name[48];
+        char name[64];
         snprintf(name, sizeof name, "adaptive, T = %g", thresholds[a]);
         rad_elements *el = NULL;
-        ada[a] = refine(s, name, thresholds[a], 0, min_size, &el);
-        ada[a].mae = score(s, el, ref);
-        rn_image *img = draw(s, el);
-        ada[a].img = image_score(s, img, ref_img);
-        rn_image_destroy(img);
+        ada[a] = refine(s, name, thresholds[a], 0, min_size, 0, &el);
+        score(s, el, ref, ref_view, ref_surf, &ada[a]);
         rad_elements_destroy(el);
     }
-    for (int metric = 0; metric < 2; metric++) {
-        printf("%s\n\n", metric ? "Image MAE (the rendered, interpolated radiance, 512² from the scene's camera)"
-                                 : "Element MAE (piecewise-constant B at the reference element centres)");
+    static const char *const title[METRICS] = {
+        "Element MAE (piecewise-constant B at the reference element centres)",
+        "Area MAE (what is drawn, interpolated; each surface head-on, every square metre alike)",
+        "Image MAE (what is drawn, interpolated, 512² from the scene's camera)"};
+    for (int m = 0; m < METRICS; m++) {
+        printf("%s\n\n", title[m]);
         printf("| set | elements | hemi-cubes | time s | MAE | uniform elements for this MAE | ratio |\n");
         printf("|:--|--:|--:|--:|--:|--:|--:|\n");
         for (uint32_t l = 0; l < NU; l++)
-            printf("| %s | %u | %llu | %.2f | %.4f | | |\n", uni[l].name, uni[l].elements,
-                   (unsigned long long)uni[l].hemicubes, uni[l].seconds, metric ? uni[l].img : uni[l].mae);
+            printf("| %s | %u | %llu | %.2f | %.5f | | |\n", uni[l].name, uni[l].elements,
+                   (unsigned long long)uni[l].hemicubes, uni[l].seconds, uni[l].mae[m]);
+        printf("| %s | %u | %llu | %.2f | %.5f | | |\n", conv.name, conv.elements,
+               (unsigned long long)conv.hemicubes, conv.seconds, conv.mae[m]);
         for (int a = 0; a < NA; a++) {
-            double e = metric ? ada[a].img : ada[a].mae, need = -1;
+            double e = ada[a].mae[m], need = -1;
             /* log-log interpolation of the uniform curve at this MAE */
             for (uint32_t l = 0; l + 1 < NU; l++) {
-                double e0 = metric ? uni[l].img : uni[l].mae, e1 = metric ? uni[l + 1].img : uni[l + 1].mae;
+                double e0 = uni[l].mae[m], e1 = uni[l + 1].mae[m];
                 if (e <= e0 && e >= e1 && e1 > 0) {
                     double t = log(e / e0) / log(e1 / e0);
                     need = exp(log(uni[l].elements) + t * (log(uni[l + 1].elements) - log(uni[l].elements)));
                 }
             }
             if (need > 0)
-                printf("| %s | %u | %llu | %.2f | %.4f | %.0f | %.2f |\n", ada[a].name, ada[a].elements,
+                printf("| %s | %u | %llu | %.2f | %.5f | %.0f | %.2f |\n", ada[a].name, ada[a].elements,
                        (unsigned long long)ada[a].hemicubes, ada[a].seconds, e, need, ada[a].elements / need);
             else
-                printf("| %s | %u | %llu | %.2f | %.4f | beyond the finest uniform set | |\n", ada[a].name,
+                printf("| %s | %u | %llu | %.2f | %.5f | outside the uniform sets | |\n", ada[a].name,
                        ada[a].elements, (unsigned long long)ada[a].hemicubes, ada[a].seconds, e);
         }
         printf("\n");
     }
-    rn_image_destroy(ref_img);
+    for (int k = 0; k < SURFACES; k++)
+        rn_image_destroy(ref_surf[k]);
+    rn_image_destroy(ref_view);
     rad_elements_destroy(ref);
     rad_solution_destroy(s);
     return 0;

@@ -7,14 +7,19 @@
  * strength, at the element's centre, visibility from the light's item
  * buffer: hc_light_direct × hc_light_visibility) and, on the sides of a
  * transmitting sheet, what comes through from the other side's patch;
- * adaptive refinement (rad_solution_refine, pipeline.h) and the crack-free
- * mesh the renderer draws.  An element is its patch split `level` times as
- * a quadtree; vertices are found again by their exact position within their
- * surface (one side of a polygon; a midpoint is computed as (a + b)/2 from
- * the two ends, which is the same double whichever side computes it), so
- * neighbours share them and a vertex of a finer neighbour that lies on an
- * element's edge (a T-vertex) is found by looking up the edge's midpoints
- * recursively.
+ * adaptive refinement (rad_solution_refine, pipeline.h), the crack-free
+ * mesh the renderer draws and the radiosity it draws on it (buried
+ * elements extrapolated from their seen neighbours).  Refinement splits
+ * where the drawn radiosity misses what a finer element gathers: each leaf
+ * is probed (its four children gathered) and split when the children's B
+ * differ from what the renderer draws at their centres by more than the
+ * threshold, weighted by the leaf's area (see estimate).  An element is its
+ * patch split `level` times as a quadtree; vertices are found again by
+ * their exact position within their surface (one side of a polygon; a
+ * midpoint is computed as (a + b)/2 from the two ends, which is the same
+ * double whichever side computes it), so neighbours share them and a vertex
+ * of a finer neighbour that lies on an element's edge (a T-vertex) is found
+ * by looking up the edge's midpoints recursively.
  *
  * Invariant: a leaf element of level k > 0 has its own row F_ej from a
  * hemi-cube at its centre, and (when the scene has punctual lights) its own
@@ -514,6 +519,10 @@ static int fan_mesh(const rad_mesh *m, rad_mesh **out, uint32_t **cells_of, rad_
                 rc = rad_fail(err, RAD_ERR_CORRUPT, "elements: element %u: degenerate fan", e);
                 goto done;
             }
+            /* The fan carries the element's B, which belongs to the
+             * element's centre (the fan's apex, a point of every triangle):
+             * the renderer's vertex fits sample B there. */
+            f->center = c->center;
             of[nc++] = e;
         }
     }
@@ -540,14 +549,164 @@ int rad_elements_render_mesh(const rad_elements *el, rad_mesh **out, uint32_t **
     return fan_mesh(el->mesh, out, cells_of, err);
 }
 
+/* ------------------------------------------------ what the renderer draws */
+
+/* Does an element see nothing?  Its hemi-cube found no front face of
+ * anything (an empty row: for a level-0 element its patch's row, when
+ * computed) and it receives nothing (B = E).  In a room that is an element
+ * buried under a block resting on it: its hemi-cube sees only the block's
+ * back faces. */
+static int sees_nothing(const rad_solution *s, uint32_t p, uint32_t level, uint32_t row_count,
+                        const double *Be)
+{
+    const uint32_t bands = s->band_count;
+    if (level == 0) {
+        if (!s->F || !s->F->row_done[p] || s->F->row_count[p] != 0)
+            return 0;
+    } else if (row_count != 0) {
+        return 0;
+    }
+    for (uint32_t c = 0; c < bands; c++)
+        if (Be[c] != s->emission[(size_t)p * bands + c])
+            return 0;
+    return 1;
+}
+
+int rad_solution_drawn_radiosity(const rad_solution *s, const rad_elements *el, const rad_mesh *rm,
+                                 const uint32_t *cells_of, double *out, rad_error *err)
+{
+    const uint32_t bands = s->band_count;
+    const rad_mesh *cells = el ? el->mesh : s->mesh;
+    const double *B = el ? el->B : s->B;
+    const uint32_t n = cells->patch_count, nv = rm->vertex_count, nc = rm->patch_count;
+    memcpy(out, B, (size_t)n * bands * sizeof *out);
+    uint8_t *buried = calloc(n ? n : 1, 1);
+    uint32_t nb = 0;
+    if (!buried)
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for the drawn radiosity");
+    for (uint32_t e = 0; e < n; e++) {
+        uint32_t p = el ? el->patch[e] : e;
+        buried[e] = (uint8_t)sees_nothing(s, p, el ? el->level[e] : 0, el ? el->row_count[e] : 0,
+                                          B + (size_t)e * bands);
+        nb += buried[e];
+    }
+    if (!nb) {
+        free(buried);
+        return RAD_OK;
+    }
+    /* Drawing vertex -> elements using it; element -> its first cell (the
+     * cells of one element are consecutive). */
+    uint64_t *start = calloc((size_t)nv + 1, sizeof *start);
+    uint32_t *first = malloc(((size_t)n + 1) * sizeof *first), *adj = NULL, *stamp = NULL;
+    double *x = NULL, *y = NULL, *w = NULL;
+    uint32_t *id = NULL;
+    int rc = RAD_ERR_NOMEM;
+    if (!start || !first)
+        goto done;
+    for (uint32_t k = 0; k < nc; k++)
+        for (int c = 0; c < rad_patch_corners(&rm->patches[k]); c++)
+            start[rm->patches[k].v[c] + 1]++;
+    for (uint32_t v = 0; v < nv; v++)
+        start[v + 1] += start[v];
+    adj = malloc((size_t)(start[nv] ? start[nv] : 1) * sizeof *adj);
+    stamp = calloc(n ? n : 1, sizeof *stamp);
+    if (!adj || !stamp)
+        goto done;
+    {
+        uint64_t *fill = malloc(((size_t)nv + 1) * sizeof *fill);
+        if (!fill)
+            goto done;
+        memcpy(fill, start, ((size_t)nv + 1) * sizeof *fill);
+        for (uint32_t k = nc; k-- > 0;) {
+            uint32_t e = cells_of ? cells_of[k] : k;
+            first[e] = k;
+            for (int c = 0; c < rad_patch_corners(&rm->patches[k]); c++)
+                adj[fill[rm->patches[k].v[c]]++] = e;
+        }
+        free(fill);
+    }
+    size_t cap = 64;
+    x = malloc(cap * sizeof *x);
+    y = malloc(cap * sizeof *y);
+    w = malloc(cap * sizeof *w);
+    id = malloc(cap * sizeof *id);
+    if (!x || !y || !w || !id)
+        goto done;
+    for (uint32_t h = 0; h < n; h++) {
+        if (!buried[h])
+            continue;
+        /* Plane coordinates along h's first edge and across it. */
+        const rad_patch *ph = &cells->patches[h];
+        rad_vec3 e1 = rad_normalize(rad_sub(cells->vertices[ph->v[1]], cells->vertices[ph->v[0]]));
+        rad_vec3 e2 = rad_cross(ph->normal, e1);
+        size_t ns = 0;
+        for (uint32_t k = first[h]; k < nc && (cells_of ? cells_of[k] : k) == h; k++)
+            for (int c = 0; c < rad_patch_corners(&rm->patches[k]); c++) {
+                uint32_t v = rm->patches[k].v[c];
+                for (uint64_t q = start[v]; q < start[v + 1]; q++) {
+                    uint32_t f = adj[q];
+                    if (buried[f] || stamp[f] == h + 1)
+                        continue;
+                    stamp[f] = h + 1;
+                    if (ns == cap) {
+                        cap *= 2;
+                        double *nx = realloc(x, cap * sizeof *x), *ny = realloc(y, cap * sizeof *y),
+                               *nw = realloc(w, cap * sizeof *w);
+                        uint32_t *ni = realloc(id, cap * sizeof *id);
+                        x = nx ? nx : x;
+                        y = ny ? ny : y;
+                        w = nw ? nw : w;
+                        id = ni ? ni : id;
+                        if (!nx || !ny || !nw || !ni)
+                            goto done;
+                    }
+                    rad_vec3 d = rad_sub(cells->patches[f].center, ph->center);
+                    x[ns] = rad_dot(d, e1);
+                    y[ns] = rad_dot(d, e2);
+                    id[ns++] = f;
+                }
+            }
+        if (!ns)
+            continue; /* far from anything seen: keeps its own B */
+        rn_affine_weights(x, y, ns, w);
+        for (uint32_t c = 0; c < bands; c++) {
+            double v = 0.0;
+            for (size_t k = 0; k < ns; k++)
+                v += w[k] * B[(size_t)id[k] * bands + c];
+            out[(size_t)h * bands + c] = v > 0.0 ? v : 0.0;
+        }
+    }
+    rc = RAD_OK;
+done:
+    if (rc != RAD_OK)
+        rad_fail(err, rc, "elements: out of memory for the drawn radiosity");
+    free(buried);
+    free(start);
+    free(first);
+    free(adj);
+    free(stamp);
+    free(x);
+    free(y);
+    free(w);
+    free(id);
+    return rc;
+}
+
 /* ---------------------------------------------------------- refinement */
 
-/* Every element made so far (leaves and split parents) while refining. */
+/* Every element made so far while refining: the leaves, the parents they
+ * were split from, and probes (the four children of a leaf, gathered to
+ * test whether the leaf should split; kept only if it does, and then they
+ * reuse their rows: a kept split costs no hemi-cube beyond its probes). */
+enum { NODE_LEAF = 0, NODE_SPLIT, NODE_PROBE };
+
 typedef struct enode {
     uint32_t v[4];     /* corners; v[3] == RAD_NONE for a triangle */
     uint32_t patch;
+    uint32_t kids;     /* first of its four children (probes or split), RAD_NONE: none */
     uint8_t level;
-    uint8_t leaf;
+    uint8_t state;     /* NODE_* */
+    uint8_t settled;   /* 1: not worth probing (see refine_adaptive) */
     uint32_t cnt;      /* row entries */
     uint64_t start;    /* first row entry */
 } enode;
@@ -633,7 +792,7 @@ static uint32_t vertex_at(builder *b, uint32_t surf, rad_vec3 p, int maybe_outli
     return v;
 }
 
-static int add_element(builder *b, const uint32_t v[4], uint32_t patch, uint32_t level)
+static int add_element(builder *b, const uint32_t v[4], uint32_t patch, uint32_t level, int state)
 {
     if (b->ne == b->cap_e) {
         uint32_t cap = b->cap_e ? 2 * b->cap_e : 1024;
@@ -653,8 +812,10 @@ static int add_element(builder *b, const uint32_t v[4], uint32_t patch, uint32_t
     enode *n = &b->E[b->ne];
     memcpy(n->v, v, sizeof n->v);
     n->patch = patch;
+    n->kids = RAD_NONE;
     n->level = (uint8_t)level;
-    n->leaf = 1;
+    n->state = (uint8_t)state;
+    n->settled = 0;
     n->cnt = 0;
     n->start = 0;
     memcpy(b->B + (size_t)b->ne * b->bands, b->s->B + (size_t)patch * b->bands,
@@ -665,8 +826,9 @@ static int add_element(builder *b, const uint32_t v[4], uint32_t patch, uint32_t
     return 0;
 }
 
-/* Splits leaf e into four children (appended).  -1 on OOM. */
-static int split(builder *b, uint32_t e)
+/* Makes the four children of leaf e (appended): leaves that replace it
+ * (kid_state NODE_LEAF), or probes beside it (NODE_PROBE).  -1 on OOM. */
+static int split(builder *b, uint32_t e, int kid_state)
 {
     enode n = b->E[e];
     uint32_t surf = surface_of(&b->s->mesh->patches[n.patch]);
@@ -695,11 +857,45 @@ static int split(builder *b, uint32_t e)
                             {m[2], m[1], c[2], RAD_NONE}, {m[0], m[1], m[2], RAD_NONE}};
         memcpy(kids, q, sizeof kids);
     }
+    uint32_t first = b->ne;
     for (int k = 0; k < 4; k++)
-        if (add_element(b, kids[k], n.patch, n.level + 1u) != 0)
+        if (add_element(b, kids[k], n.patch, n.level + 1u, kid_state) != 0)
             return -1;
-    b->E[e].leaf = 0;
+    b->E[e].kids = first;
+    if (kid_state == NODE_LEAF)
+        b->E[e].state = NODE_SPLIT;
     return 0;
+}
+
+/* Leaf e takes its probes as its children. */
+static void promote(builder *b, uint32_t e)
+{
+    enode *n = &b->E[e];
+    RAD_ASSERT(n->state == NODE_LEAF && n->kids != RAD_NONE);
+    n->state = NODE_SPLIT;
+    for (uint32_t k = 0; k < 4; k++)
+        b->E[n->kids + k].state = NODE_LEAF;
+}
+
+/* Where the centre of child k of a cell stands in the cell, as weights of
+ * the cell's corners (split's order): bilinear (u, v) = (¼ or ¾, ¼ or ¾)
+ * for a quad, barycentric for a triangle. */
+static void child_weights(int corners, uint32_t k, double w[4])
+{
+    if (corners == 4) {
+        static const double uv[4][2] = {{0.25, 0.25}, {0.75, 0.25}, {0.75, 0.75}, {0.25, 0.75}};
+        double u = uv[k][0], v = uv[k][1];
+        w[0] = (1 - u) * (1 - v);
+        w[1] = u * (1 - v);
+        w[2] = u * v;
+        w[3] = (1 - u) * v;
+        return;
+    }
+    static const double bw[4][3] = {{4 / 6., 1 / 6., 1 / 6.}, {1 / 6., 4 / 6., 1 / 6.},
+                                    {1 / 6., 1 / 6., 4 / 6.}, {1 / 3., 1 / 3., 1 / 3.}};
+    for (int c = 0; c < 3; c++)
+        w[c] = bw[k][c];
+    w[3] = 0.0;
 }
 
 static int store_row(void *user, uint32_t k, uint32_t count, const uint32_t *col, const float *val,
@@ -806,28 +1002,15 @@ static int compute_rows_of(builder *b, hc_engine *hc, const uint32_t *which, uin
     return rc;
 }
 
-/* The elements [first, b->ne), made by the last splits. */
-static int compute_new(builder *b, hc_engine *hc, uint32_t first, rad_error *err)
+/* Rows of the elements [first, b->ne), made by the last splits (uniform:
+ * only the leaves below level 0). */
+static int compute_from(builder *b, hc_engine *hc, uint32_t first, int leaves_only, rad_error *err)
 {
-    uint32_t count = b->ne - first;
-    uint32_t *which = malloc(((size_t)count + 1) * sizeof *which);
+    uint32_t *which = malloc(((size_t)b->ne - first + 1) * sizeof *which), count = 0;
     if (!which)
         return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
-    for (uint32_t k = 0; k < count; k++)
-        which[k] = first + k;
-    int rc = compute_rows_of(b, hc, which, count, err);
-    free(which);
-    return rc;
-}
-
-/* Every leaf below level 0 (uniform splitting). */
-static int compute_leaves(builder *b, hc_engine *hc, rad_error *err)
-{
-    uint32_t *which = malloc(((size_t)b->ne + 1) * sizeof *which), count = 0;
-    if (!which)
-        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
-    for (uint32_t e = 0; e < b->ne; e++)
-        if (b->E[e].leaf && b->E[e].level > 0)
+    for (uint32_t e = first; e < b->ne; e++)
+        if (!leaves_only || (b->E[e].state == NODE_LEAF && b->E[e].level > 0))
             which[count++] = e;
     int rc = compute_rows_of(b, hc, which, count, err);
     free(which);
@@ -844,134 +1027,48 @@ static double longest_edge(const builder *b, const enode *n)
     return l;
 }
 
-/* The refinement rule: leaves that share an outline vertex (a corner or a
- * T-vertex) are neighbours, and both split (when they may) when their B
- * differ by more than the threshold, relative to scale[], in any band.
- * (A second rule was measured and dropped: splitting where B_e differs from
- * the interpolation of its own vertices saved nothing on the Cornell box,
- * because the error there is spread over every surface.) */
-static uint32_t mark_neighbour(builder *b, const rad_solve_options *opt, const double *scale,
-                               uint8_t *mark, int *oom)
+/* May leaf n split: a reflecting patch (a black one's B is its emission
+ * whatever it receives), children not below the size floor. */
+static int may_split(const builder *b, const enode *n, const double *min_edge)
 {
-    const rad_solution *s = b->s;
-    const uint32_t bands = b->bands, ne = b->ne;
-    uint32_t marked = 0;
-    /* Neighbours share an outline vertex (a corner or a T-vertex): vertex ->
-     * leaves, compressed rows. */
-    ulist ol = {0};
-    uint64_t *start = calloc((size_t)b->nv + 1, sizeof *start);
-    uint32_t *adj = NULL;
-    uint64_t *fill = NULL;
-    if (!start)
-        goto oom;
-    for (int pass = 0; pass < 2; pass++) {
-        for (uint32_t e = 0; e < ne; e++) {
-            if (!b->E[e].leaf)
-                continue;
-            cell_outline(&b->t, b->E[e].v, surface_of(&s->mesh->patches[b->E[e].patch]), &ol);
-            if (ol.failed)
-                goto oom;
-            for (size_t k = 0; k < ol.n; k++) {
-                if (pass == 0)
-                    start[ol.v[k] + 1]++;
-                else
-                    adj[fill[ol.v[k]]++] = e;
-            }
-        }
-        if (pass == 0) {
-            for (uint32_t v = 0; v < b->nv; v++)
-                start[v + 1] += start[v];
-            adj = malloc((size_t)(start[b->nv] ? start[b->nv] : 1) * sizeof *adj);
-            fill = malloc(((size_t)b->nv + 1) * sizeof *fill);
-            if (!adj || !fill)
-                goto oom;
-            memcpy(fill, start, ((size_t)b->nv + 1) * sizeof *fill);
-        }
+    if (n->state != NODE_LEAF || n->level >= RAD_MAX_ELEMENT_LEVEL)
+        return 0;
+    int reflects = 0;
+    for (uint32_t c = 0; c < b->bands; c++)
+        reflects |= b->s->rho[(size_t)n->patch * b->bands + c] > 0.0;
+    return reflects &&
+           (!min_edge || 0.5 * longest_edge(b, n) >= min_edge[n->patch] * (1.0 - 1e-9));
+}
+
+/* The builder's leaves as a rad_elements, with their rows and only the
+ * vertices they use (a probe that was not kept leaves vertices no leaf
+ * uses); node_of[k] = the node of element k when node_of is not NULL. */
+static int leaves_to_elements(const builder *b, rad_elements **out, uint32_t **node_of,
+                              rad_error *err)
+{
+    *out = NULL;
+    uint32_t leaves = 0, used = 0;
+    uint64_t entries = 0;
+    uint32_t *remap = malloc(((size_t)b->nv + 1) * sizeof *remap);
+    uint32_t *of = malloc(((size_t)b->ne + 1) * sizeof *of);
+    if (!remap || !of) {
+        free(remap);
+        free(of);
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
     }
     for (uint32_t v = 0; v < b->nv; v++)
-        for (uint64_t x = start[v]; x < start[v + 1]; x++)
-            for (uint64_t y = x + 1; y < start[v + 1]; y++) {
-                uint32_t e = adj[x], f = adj[y];
-                if (e == f || (mark[e] != 2 && mark[f] != 2))
-                    continue;
-                double d = 0.0;
-                for (uint32_t c = 0; c < bands; c++)
-                    if (scale[c] > 0.0)
-                        d = fmax(d, fabs(b->B[(size_t)e * bands + c] - b->B[(size_t)f * bands + c]) /
-                                        scale[c]);
-                if (d > opt->refine_threshold) {
-                    if (mark[e] == 2)
-                        mark[e] = 1;
-                    if (mark[f] == 2)
-                        mark[f] = 1;
-                }
-            }
-    for (uint32_t e = 0; e < ne; e++) {
-        if (mark[e] == 1)
-            marked++;
-        else
-            mark[e] = 0;
-    }
-    free(start);
-    free(adj);
-    free(fill);
-    free(ol.v);
-    return marked;
-oom:
-    free(start);
-    free(adj);
-    free(fill);
-    free(ol.v);
-    *oom = 1;
-    return 0;
-}
-
-/* Marks the leaves to split in this pass into mark[]; returns how many. */
-static uint32_t mark_splits(builder *b, const rad_solve_options *opt, const double *scale,
-                            const double *min_edge, uint8_t *mark, int *oom)
-{
-    const rad_solution *s = b->s;
-    const uint32_t bands = b->bands, ne = b->ne;
-    uint32_t marked = 0;
-    const int uniform = opt->element_levels && !(opt->refine_threshold > 0.0);
-    /* Which leaves may split at all: reflecting patch, above the size floor. */
-    for (uint32_t e = 0; e < ne; e++) {
+        remap[v] = RAD_NONE;
+    for (uint32_t e = 0; e < b->ne; e++) {
         const enode *n = &b->E[e];
-        mark[e] = 0;
-        if (!n->leaf || n->level >= RAD_MAX_ELEMENT_LEVEL)
+        if (n->state != NODE_LEAF)
             continue;
-        int reflects = 0;
-        for (uint32_t c = 0; c < bands; c++)
-            reflects |= s->rho[(size_t)n->patch * bands + c] > 0.0;
-        /* Uniform levels are what the caller asked for: no size floor. */
-        if (!reflects || (!uniform && 0.5 * longest_edge(b, n) < min_edge[n->patch] * (1.0 - 1e-9)))
-            continue;
-        mark[e] = 2; /* may split */
+        of[leaves++] = e;
+        entries += n->cnt;
+        for (int k = 0; k < 4 && n->v[k] != RAD_NONE; k++)
+            if (remap[n->v[k]] == RAD_NONE)
+                remap[n->v[k]] = used++;
     }
-    if (uniform) {
-        for (uint32_t e = 0; e < ne; e++)
-            if (mark[e] == 2 && b->E[e].level < opt->element_levels) {
-                mark[e] = 1;
-                marked++;
-            } else {
-                mark[e] = 0;
-            }
-        return marked;
-    }
-    return mark_neighbour(b, opt, scale, mark, oom);
-}
-
-/* The builder's leaves as a rad_elements. */
-static int finish(builder *b, const rad_solve_options *opt, rad_elements **out, rad_error *err)
-{
-    uint32_t leaves = 0;
-    uint64_t entries = 0;
-    for (uint32_t e = 0; e < b->ne; e++)
-        if (b->E[e].leaf) {
-            leaves++;
-            entries += b->E[e].cnt;
-        }
-    rad_elements *el = rad_elements_alloc(b->nv, leaves, b->bands, entries);
+    rad_elements *el = rad_elements_alloc(used, leaves, b->bands, entries);
     if (el && b->nl) {
         el->light_count = b->nl;
         el->light_h = malloc((size_t)(leaves ? leaves : 1) * b->nl * sizeof *el->light_h);
@@ -980,16 +1077,20 @@ static int finish(builder *b, const rad_solve_options *opt, rad_elements **out, 
             el = NULL;
         }
     }
-    if (!el)
+    if (!el) {
+        free(remap);
+        free(of);
         return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
-    memcpy(el->mesh->vertices, b->V, (size_t)b->nv * sizeof *b->V);
-    memcpy(el->mesh->vertex_boundary, b->Vb, b->nv);
-    uint32_t k = 0;
-    for (uint32_t e = 0; e < b->ne; e++) {
-        const enode *n = &b->E[e];
-        if (!n->leaf)
-            continue;
-        memcpy(el->mesh->patches[k].v, n->v, sizeof n->v);
+    }
+    for (uint32_t v = 0; v < b->nv; v++)
+        if (remap[v] != RAD_NONE) {
+            el->mesh->vertices[remap[v]] = b->V[v];
+            el->mesh->vertex_boundary[remap[v]] = b->Vb[v];
+        }
+    for (uint32_t k = 0; k < leaves; k++) {
+        const enode *n = &b->E[of[k]];
+        for (int c = 0; c < 4; c++)
+            el->mesh->patches[k].v[c] = n->v[c] == RAD_NONE ? RAD_NONE : remap[n->v[c]];
         el->patch[k] = n->patch;
         el->level[k] = n->level;
         el->row_start[k] = el->nnz;
@@ -999,20 +1100,239 @@ static int finish(builder *b, const rad_solve_options *opt, rad_elements **out, 
             memcpy(el->val + el->nnz, b->val + n->start, (size_t)n->cnt * sizeof *el->val);
         }
         el->nnz += n->cnt;
-        memcpy(el->B + (size_t)k * b->bands, b->B + (size_t)e * b->bands, b->bands * sizeof *el->B);
+        memcpy(el->B + (size_t)k * b->bands, b->B + (size_t)of[k] * b->bands,
+               b->bands * sizeof *el->B);
         if (b->nl)
-            memcpy(el->light_h + (size_t)k * b->nl, b->h + (size_t)e * b->nl, b->nl * sizeof *b->h);
-        k++;
+            memcpy(el->light_h + (size_t)k * b->nl, b->h + (size_t)of[k] * b->nl,
+                   b->nl * sizeof *b->h);
     }
-    el->threshold = opt->refine_threshold > 0.0 ? opt->refine_threshold : 0.0;
-    el->rows_computed = b->rows_computed;
+    free(remap);
     int rc = rad_elements_complete(el, b->s, "elements", err);
     if (rc != RAD_OK) {
         rad_elements_destroy(el);
+        free(of);
         return rc;
     }
     *out = el;
+    if (node_of)
+        *node_of = of;
+    else
+        free(of);
     return RAD_OK;
+}
+
+/* The value the renderer draws at point p of element k: the interpolant of
+ * its cells [first, first + count) of the render mesh rm (one bilinear cell
+ * with weights w, or a fan of triangles, located by barycentric weights). */
+static void drawn_at(const rad_mesh *rm, const double *vB, uint32_t bands, uint32_t first,
+                     uint32_t count, const rad_patch *e, const double *w, rad_vec3 p, double *out)
+{
+    const rad_patch *c = &rm->patches[first];
+    if (count == 1) {
+        for (uint32_t b = 0; b < bands; b++) {
+            out[b] = 0.0;
+            for (int k = 0; k < rad_patch_corners(c); k++)
+                out[b] += w[k] * vB[(size_t)c->v[k] * bands + b];
+        }
+        return;
+    }
+    /* The fan triangle that holds p best (largest smallest weight). */
+    double best = -INFINITY, l[3] = {1 / 3., 1 / 3., 1 / 3.};
+    for (uint32_t t = first; t < first + count; t++) {
+        const rad_patch *f = &rm->patches[t];
+        rad_vec3 a = rm->vertices[f->v[0]], bb = rm->vertices[f->v[1]], cc = rm->vertices[f->v[2]];
+        double whole = rad_dot(rad_cross(rad_sub(bb, a), rad_sub(cc, a)), e->normal);
+        if (!(whole != 0.0))
+            continue;
+        double m[3] = {rad_dot(rad_cross(rad_sub(bb, p), rad_sub(cc, p)), e->normal) / whole,
+                       rad_dot(rad_cross(rad_sub(cc, p), rad_sub(a, p)), e->normal) / whole, 0};
+        m[2] = 1.0 - m[0] - m[1];
+        double lo = fmin(m[0], fmin(m[1], m[2]));
+        if (lo > best) {
+            best = lo;
+            c = f;
+            memcpy(l, m, sizeof l);
+        }
+    }
+    for (uint32_t b = 0; b < bands; b++) {
+        out[b] = 0.0;
+        for (int k = 0; k < 3; k++)
+            out[b] += l[k] * vB[(size_t)c->v[k] * bands + b];
+    }
+}
+
+/* The estimated error of each probed leaf (eps[node], 0 for the others):
+ * the mean difference, over its four probes, between the probe's gathered
+ * B and what the renderer draws there from the current leaves, relative to
+ * scale[] (the largest band), times the leaf's share of its patch's area.
+ * That is the leaf's share of the integrated error |drawn − B|: splitting
+ * the leaves of largest share first is what lowers the mean error most per
+ * element added, and a linear gradient, which the renderer's interpolation
+ * draws exactly, costs nothing. */
+static int estimate(builder *b, const double *scale, double *eps, rad_error *err)
+{
+    const uint32_t bands = b->bands;
+    rad_elements *el = NULL;
+    rad_mesh *rm = NULL;
+    uint32_t *node_of = NULL, *cells_of = NULL;
+    double *cell_B = NULL, *vB = NULL;
+    double *drawn = NULL;
+    int rc = leaves_to_elements(b, &el, &node_of, err);
+    if (rc != RAD_OK)
+        return rc;
+    rc = fan_mesh(el->mesh, &rm, &cells_of, err);
+    if (rc != RAD_OK)
+        goto done;
+    cell_B = malloc(((size_t)rm->patch_count * bands + 1) * sizeof *cell_B);
+    vB = malloc(((size_t)rm->vertex_count * bands + 1) * sizeof *vB);
+    drawn = malloc(((size_t)el->mesh->patch_count * bands + 1) * sizeof *drawn);
+    if (!cell_B || !vB || !drawn) {
+        rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+        goto done;
+    }
+    rc = rad_solution_drawn_radiosity(b->s, el, rm, cells_of, drawn, err);
+    if (rc != RAD_OK)
+        goto done;
+    for (uint32_t k = 0; k < rm->patch_count; k++)
+        memcpy(cell_B + (size_t)k * bands, drawn + (size_t)cells_of[k] * bands, bands * sizeof *cell_B);
+    rn_vertex_radiosity(rm, bands, cell_B, vB);
+    for (uint32_t e = 0; e < b->ne; e++)
+        eps[e] = 0.0;
+    for (uint32_t first = 0, next; first < rm->patch_count; first = next) {
+        uint32_t k = cells_of[first];
+        for (next = first + 1; next < rm->patch_count && cells_of[next] == k;)
+            next++;
+        const enode *n = &b->E[node_of[k]];
+        if (n->kids == RAD_NONE)
+            continue;
+        const rad_patch *ec = &el->mesh->patches[k];
+        int corners = rad_patch_corners(ec);
+        double d[RAD_MAX_BANDS] = {0};
+        for (uint32_t q = 0; q < 4; q++) {
+            const enode *kid = &b->E[n->kids + q];
+            const double *Bk = b->B + (size_t)(n->kids + q) * bands;
+            /* A probe that sees nothing is never seen either: its error
+             * costs nothing. */
+            if (sees_nothing(b->s, kid->patch, kid->level, kid->cnt, Bk))
+                continue;
+            double w[4], at[RAD_MAX_BANDS];
+            child_weights(corners, q, w);
+            rad_vec3 p = rad_v3(0, 0, 0);
+            for (int c = 0; c < corners; c++)
+                p = rad_add(p, rad_scale(el->mesh->vertices[ec->v[c]], w[c]));
+            drawn_at(rm, vB, bands, first, next - first, ec, w, p, at);
+            for (uint32_t c = 0; c < bands; c++)
+                d[c] += 0.25 * fabs(Bk[c] - at[c]);
+        }
+        double worst = 0.0;
+        for (uint32_t c = 0; c < bands; c++)
+            if (scale[c] > 0.0)
+                worst = fmax(worst, d[c] / scale[c]);
+        eps[node_of[k]] = worst * ec->area / b->s->mesh->patches[n->patch].area;
+    }
+done:
+    rad_elements_destroy(el);
+    rad_mesh_destroy(rm);
+    free(drawn);
+    free(node_of);
+    free(cells_of);
+    free(cell_B);
+    free(vB);
+    return rc;
+}
+
+static int too_many(const builder *b, const rad_solve_options *opt, uint64_t adding, rad_error *err)
+{
+    uint64_t after = (uint64_t)b->ne + adding;
+    uint32_t limit = opt->mesh.max_patches ? opt->mesh.max_patches : 2000000u;
+    if (after <= limit)
+        return RAD_OK;
+    return rad_fail(err, RAD_ERR_LIMIT,
+                    "elements: refinement would make %llu elements, above the limit of %u "
+                    "(raise --min-element-size or --refine-threshold)",
+                    (unsigned long long)after, limit);
+}
+
+/* Uniform levels: every leaf that may split does, opt->element_levels
+ * times; only the final leaves get hemi-cubes. */
+static int refine_uniform(builder *b, const rad_solve_options *opt, hc_engine *hc, rad_error *err)
+{
+    for (uint32_t level = 0; level < opt->element_levels; level++) {
+        uint32_t ne = b->ne, marked = 0;
+        for (uint32_t e = 0; e < ne; e++)
+            marked += may_split(b, &b->E[e], NULL) && b->E[e].level == level;
+        int rc = too_many(b, opt, 4ull * marked, err);
+        if (rc != RAD_OK)
+            return rc;
+        for (uint32_t e = 0; e < ne; e++)
+            if (may_split(b, &b->E[e], NULL) && b->E[e].level == level &&
+                split(b, e, NODE_LEAF) != 0)
+                return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    }
+    return compute_from(b, hc, 0, 1, err);
+}
+
+/* A leaf to probe: it may split, has no probes yet and is not settled. */
+static int wants_probe(const builder *b, const enode *n, const double *min_edge)
+{
+    return n->kids == RAD_NONE && !n->settled && may_split(b, n, min_edge);
+}
+
+/* Adaptive: probe every leaf that may split (gather its four children),
+ * estimate each probed leaf's error from its probes (estimate), split those
+ * above the threshold - their probes become leaves, to be probed in turn -
+ * and again until no leaf splits.  Splitting changes what is drawn next to
+ * it, so every probed leaf is estimated again each pass.
+ *
+ * A child's share of the error is at most about a quarter of its parent's
+ * whenever the error density does not grow at the finer scale (a sixteenth
+ * for a smooth field, a quarter at a step): the children of a leaf that
+ * split with an estimate of at most 4 T cannot reach T, and are not probed
+ * (settled).  On the Cornell box that saves half the hemi-cubes for a few
+ * per cent of error. */
+static int refine_adaptive(builder *b, const rad_solve_options *opt, const double *scale,
+                           const double *min_edge, hc_engine *hc, rad_error *err)
+{
+    const double T = opt->refine_threshold;
+    double *eps = NULL;
+    int rc = RAD_OK;
+    for (;;) {
+        uint32_t ne = b->ne, probing = 0;
+        for (uint32_t e = 0; e < ne; e++)
+            probing += wants_probe(b, &b->E[e], min_edge);
+        if ((rc = too_many(b, opt, 4ull * probing, err)) != RAD_OK)
+            break;
+        for (uint32_t e = 0; e < ne; e++)
+            if (wants_probe(b, &b->E[e], min_edge) && split(b, e, NODE_PROBE) != 0) {
+                rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+                goto done;
+            }
+        if ((rc = compute_from(b, hc, ne, 0, err)) != RAD_OK)
+            break;
+        free(eps);
+        eps = malloc(((size_t)b->ne + 1) * sizeof *eps);
+        if (!eps) {
+            rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+            break;
+        }
+        if ((rc = estimate(b, scale, eps, err)) != RAD_OK)
+            break;
+        uint32_t splits = 0;
+        for (uint32_t e = 0; e < b->ne; e++) {
+            enode *n = &b->E[e];
+            if (n->state != NODE_LEAF || n->kids == RAD_NONE || !(eps[e] > T))
+                continue;
+            promote(b, e);
+            for (uint32_t k = 0; k < 4; k++)
+                b->E[n->kids + k].settled = eps[e] <= 4.0 * T;
+            splits++;
+        }
+        if (!splits)
+            break;
+    }
+done:
+    free(eps);
+    return rc;
 }
 
 int rad_solution_refine(rad_solution *s, const rad_solve_options *options, rad_error *err)
@@ -1039,7 +1359,6 @@ int rad_solution_refine(rad_solution *s, const rad_solve_options *options, rad_e
     builder b = {.s = s, .bands = bands, .nl = s->scene->light_count,
                  .light_R = rad_light_resolution(&opt)};
     double *Tr = NULL, *min_edge = NULL;
-    uint8_t *mark = NULL;
     hc_engine *hc = NULL;
     int rc = transmitted(s, &Tr, err);
     if (rc != RAD_OK)
@@ -1062,7 +1381,7 @@ int rad_solution_refine(rad_solution *s, const rad_solve_options *options, rad_e
             }
             b.Vb[v[k]] = pm->vertex_boundary[p->v[k]];
         }
-        if (add_element(&b, v, i, 0) != 0) {
+        if (add_element(&b, v, i, 0, NODE_LEAF) != 0) {
             rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
             goto done;
         }
@@ -1070,8 +1389,8 @@ int rad_solution_refine(rad_solution *s, const rad_solve_options *options, rad_e
         double own = longest_edge(&b, &b.E[i]);
         min_edge[i] = opt.min_element_size > 0.0 ? opt.min_element_size : own / 8.0;
     }
-    /* The threshold is relative to the brightest reflecting (non-emitting)
-     * patch per band: emitters would make any threshold meaningless. */
+    /* Errors are relative to the brightest reflecting (non-emitting) patch
+     * per band: emitters would make any threshold meaningless. */
     double scale[RAD_MAX_BANDS] = {0};
     for (uint32_t i = 0; i < np; i++)
         for (uint32_t c = 0; c < bands; c++)
@@ -1098,56 +1417,21 @@ int rad_solution_refine(rad_solution *s, const rad_solve_options *options, rad_e
     free(exact);
     if (rc != RAD_OK)
         goto done;
-    for (uint32_t pass = 0; pass < RAD_MAX_ELEMENT_LEVEL; pass++) {
-        free(mark);
-        mark = malloc(b.ne ? b.ne : 1);
-        if (!mark) {
-            rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
-            goto done;
-        }
-        int oom = 0;
-        uint32_t marked = mark_splits(&b, &opt, scale, min_edge, mark, &oom);
-        if (oom) {
-            rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
-            goto done;
-        }
-        if (!marked)
-            break;
-        uint64_t after = (uint64_t)b.ne + 4ull * marked;
-        uint32_t limit = opt.mesh.max_patches ? opt.mesh.max_patches : 2000000u;
-        if (after > limit) {
-            rc = rad_fail(err, RAD_ERR_LIMIT,
-                          "elements: refinement would make %llu elements, above the limit of %u "
-                          "(raise --min-element-size or --refine-threshold)",
-                          (unsigned long long)after, limit);
-            goto done;
-        }
-        uint32_t first = b.ne, ne = b.ne;
-        for (uint32_t e = 0; e < ne; e++)
-            if (mark[e] && split(&b, e) != 0) {
-                rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
-                goto done;
-            }
-        /* Adaptive splits need the new radiosities to decide the next pass;
-         * uniform ones are all known in advance, so only the final leaves
-         * get hemi-cubes (below). */
-        if (!uniform && (rc = compute_new(&b, hc, first, err)) != RAD_OK)
-            goto done;
-    }
-    if (uniform && (rc = compute_leaves(&b, hc, err)) != RAD_OK)
-        goto done;
-    {
+    rc = uniform ? refine_uniform(&b, &opt, hc, err)
+                 : refine_adaptive(&b, &opt, scale, min_edge, hc, err);
+    if (rc == RAD_OK) {
         rad_elements *el = NULL;
-        rc = finish(&b, &opt, &el, err);
+        rc = leaves_to_elements(&b, &el, NULL, err);
         if (rc == RAD_OK) {
+            el->threshold = opt.refine_threshold > 0.0 ? opt.refine_threshold : 0.0;
             el->min_size = opt.min_element_size;
+            el->rows_computed = b.rows_computed;
             s->elements = el;
             s->lights_computed += b.lights_rendered;
         }
     }
 done:
     hc_destroy(hc);
-    free(mark);
     free(min_edge);
     free(Tr);
     free(b.h);

@@ -394,8 +394,8 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
     /* Form factors and solve. */
     rc = rad_resolve(s, opt, err);
 
-    /* Elements: split where neighbours' radiosities differ, gather from the
-     * patch solution (hemi-cubes at the new elements' centres). */
+    /* Elements: split where what is drawn misses what finer elements
+     * gather, from the patch solution (hemi-cubes at the elements' centres). */
     if (!rc && (opt->refine_threshold > 0.0 || opt->element_levels)) {
         double t1 = rad_seconds();
         rc = rad_solution_refine(s, opt, err);
@@ -437,39 +437,37 @@ int rad_render_solution(const rad_solution *s, const rn_camera *cam, rn_image **
 {
     *out = NULL;
     const rad_mesh *mesh = s->mesh;
-    const double *B = s->B;
     rad_mesh *cells = NULL;
     uint32_t *cell_element = NULL;
-    double *cell_B = NULL;
+    double *drawn = NULL, *cell_B = NULL, *vertex_B = NULL;
     const uint32_t nb = s->band_count;
+    int rc = RAD_OK;
     if (s->elements) {
-        /* Elements: the crack-free mesh of their cells, each carrying its
-         * element's B. */
-        int rc = rad_elements_render_mesh(s->elements, &cells, &cell_element, err);
+        /* Elements: the crack-free mesh of their cells. */
+        rc = rad_elements_render_mesh(s->elements, &cells, &cell_element, err);
         if (rc != RAD_OK)
             return rc;
-        cell_B = malloc(((size_t)cells->patch_count * nb + 1) * sizeof *cell_B);
-        if (!cell_B) {
-            rad_mesh_destroy(cells);
-            free(cell_element);
-            return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory");
-        }
-        for (uint32_t k = 0; k < cells->patch_count; k++)
-            memcpy(cell_B + (size_t)k * nb, s->elements->B + (size_t)cell_element[k] * nb,
-                   nb * sizeof *cell_B);
         mesh = cells;
-        B = cell_B;
     }
-    size_t count = (size_t)mesh->vertex_count * nb;
-    double *vertex_B = malloc((count ? count : 1) * sizeof *vertex_B);
-    int rc = RAD_OK;
-    if (!vertex_B) {
+    /* What each element (or patch) is drawn with - its B, buried ones
+     * extrapolated from their seen neighbours - then per cell, to the
+     * vertices and the view. */
+    const uint32_t ne = s->elements ? s->elements->mesh->patch_count : s->mesh->patch_count;
+    drawn = malloc(((size_t)ne * nb + 1) * sizeof *drawn);
+    cell_B = malloc(((size_t)mesh->patch_count * nb + 1) * sizeof *cell_B);
+    vertex_B = malloc(((size_t)mesh->vertex_count * nb + 1) * sizeof *vertex_B);
+    if (!drawn || !cell_B || !vertex_B) {
         rc = rad_fail(err, RAD_ERR_NOMEM, "render: out of memory");
-    } else {
-        /* Patch (or element) radiosities to vertices, then the view. */
-        rn_vertex_radiosity(mesh, nb, B, vertex_B);
-        rc = rn_render(mesh, nb, vertex_B, cam, out, err);
+        goto done;
     }
+    rc = rad_solution_drawn_radiosity(s, s->elements, mesh, cell_element, drawn, err);
+    if (rc != RAD_OK)
+        goto done;
+    for (uint32_t k = 0; k < mesh->patch_count; k++)
+        memcpy(cell_B + (size_t)k * nb, drawn + (size_t)(cell_element ? cell_element[k] : k) * nb,
+               nb * sizeof *cell_B);
+    rn_vertex_radiosity(mesh, nb, cell_B, vertex_B);
+    rc = rn_render(mesh, nb, vertex_B, cam, out, err);
     /* The image names patches, whatever was drawn. */
     if (!rc && cells) {
         uint32_t *id = (*out)->patch;
@@ -477,6 +475,8 @@ int rad_render_solution(const rad_solution *s, const rn_camera *cam, rn_image **
             if (id[q] != RAD_NONE)
                 id[q] = s->elements->patch[cell_element[id[q]]];
     }
+done:
+    free(drawn);
     free(vertex_B);
     free(cell_B);
     free(cell_element);

@@ -37,10 +37,13 @@ typedef struct rad_solve_options {
      * (hc_light_power); 0 = the larger of 512 and the hemi-cube resolution. */
     uint32_t light_resolution;
     /* Elements (rad_elements in solution.h): > 0 splits elements, starting
-     * from the patches, wherever an element's B differs from a neighbour's
-     * by more than this fraction of the brightest non-emitting patch's B
-     * (any band), until none does or they reach min_element_size; 0 = no
-     * elements (render the patches). */
+     * from the patches, where what is drawn misses what finer elements
+     * gather: an element's four children are gathered (probes), and it
+     * splits when the mean difference between their B and the drawn
+     * (interpolated) radiosity at their centres, as a fraction of the
+     * brightest non-emitting patch's B (any band), times the element's
+     * area over its patch's, exceeds this threshold; until none does or
+     * they reach min_element_size.  0 = no elements (render the patches). */
     double refine_threshold;
     double min_element_size; /* smallest element edge, scene units; 0 = 1/8 of its patch's */
     uint32_t element_levels; /* with refine_threshold 0: split every reflecting patch this

@@ -64,10 +64,13 @@ typedef struct rad_light_power {
  * B_e = B_p, no row of its own, h_le = 0 (its patch's H_d,p = Σ_l I_l Φ_lp
  * / A_p is in B_p).  Elements read from a version 3 file have no h_le
  * (light_h NULL) and take their patch's H_d,p, as that version did.
- * Elements are split where their radiosity differs from a neighbour's, so
- * neighbours may differ in level: a vertex of the finer one may lie on an
- * edge of the coarser one (a T-vertex); rendering triangulates the coarse
- * side (rad_elements_render_mesh), so there are no cracks.
+ * On a transmitting sheet, B_e also takes τ_p H_twin(p), at the patch's
+ * resolution.  Elements are split where the drawn radiosity misses what
+ * their children gather, so neighbours may differ in level: a vertex of the
+ * finer one may lie on an edge of the coarser one (a T-vertex); rendering
+ * triangulates the coarse side (rad_elements_render_mesh), so there are no
+ * cracks, and fits vertex values so that a linear field is drawn exactly
+ * across levels.
  *
  * Invariants: mesh->patches[e] carries the polygon, object, material and
  * normal of patch[e]; cells of one polygon share vertices; every element of
@@ -183,10 +186,23 @@ int rad_elements_gather(const rad_solution *s, rad_elements *el, rad_error *err)
 int rad_elements_direct_irradiance(const rad_solution *s, const rad_elements *el, double *Hd,
                                    rad_error *err);
 
+/* What the renderer should draw for each element of el (el->mesh->patch_count
+ * × bands into out) or, with el NULL, each patch of s: B, except that an
+ * element that sees nothing (an empty row and B = E: buried under a block)
+ * and touches one that sees something is drawn with the affine
+ * extrapolation of those it touches, so that its darkness does not bleed
+ * into the visible elements through the vertex averages.  rm is the mesh
+ * drawn (rad_elements_render_mesh; for patches, s->mesh) and cells_of its
+ * cell -> element map (NULL: the identity). */
+int rad_solution_drawn_radiosity(const rad_solution *s, const rad_elements *el,
+                                 const rad_mesh *rm, const uint32_t *cells_of, double *out,
+                                 rad_error *err);
+
 /* The mesh to draw: every leaf element whose edges carry vertices of finer
- * neighbours is split into a fan about its centre through those vertices,
+ * neighbours is split into a fan about its centre through those vertices
+ * (each fan triangle's `center` is the element's, where its B belongs),
  * the others are drawn as they are.  *cells_of gets, per cell of *out, its
- * element.  Caller owns both. */
+ * element (the cells of one element are consecutive).  Caller owns both. */
 int rad_elements_render_mesh(const rad_elements *el, rad_mesh **out, uint32_t **cells_of,
                              rad_error *err);
 

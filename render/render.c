@@ -139,19 +139,18 @@ typedef struct vr_sample {
     int is_vertex;
 } vr_sample;
 
-static void outline_fit(uint32_t bands, const double *B, double *vertex_B, uint32_t v,
-                        const vr_sample *s, size_t ns)
+void rn_affine_weights(const double *x, const double *y, size_t n, double *w)
 {
     double mx = 0, my = 0;
-    for (size_t k = 0; k < ns; k++) {
-        mx += s[k].x;
-        my += s[k].y;
+    for (size_t k = 0; k < n; k++) {
+        mx += x[k];
+        my += y[k];
     }
-    mx /= ns;
-    my /= ns;
+    mx /= n;
+    my /= n;
     double sxx = 0, sxy = 0, syy = 0;
-    for (size_t k = 0; k < ns; k++) {
-        double dx = s[k].x - mx, dy = s[k].y - my;
+    for (size_t k = 0; k < n; k++) {
+        double dx = x[k] - mx, dy = y[k] - my;
         sxx += dx * dx;
         sxy += dx * dy;
         syy += dy * dy;
@@ -180,22 +179,28 @@ static void outline_fit(uint32_t bands, const double *B, double *vertex_B, uint3
         ixy = cx * cy / l1;
         iyy = cy * cy / l1;
     }
+    /* B(0) = mean b − g·m with gradient g = S⁺ Σ (s_k − m) b_k: linear in
+     * the b_k, with these weights. */
+    double qx = ixx * mx + ixy * my, qy = ixy * mx + iyy * my;
+    for (size_t k = 0; k < n; k++)
+        w[k] = 1.0 / (double)n - (qx * (x[k] - mx) + qy * (y[k] - my));
+}
+
+static void outline_fit(uint32_t bands, const double *B, double *vertex_B, uint32_t v,
+                        const vr_sample *s, size_t ns, double *scratch)
+{
+    double *x = scratch, *y = scratch + ns, *w = scratch + 2 * ns;
+    for (size_t k = 0; k < ns; k++) {
+        x[k] = s[k].x;
+        y[k] = s[k].y;
+    }
+    rn_affine_weights(x, y, ns, w);
     for (uint32_t c = 0; c < bands; c++) {
-        double mb = 0;
+        double bv = 0.0;
         for (size_t k = 0; k < ns; k++)
-            mb += s[k].is_vertex ? vertex_B[(size_t)s[k].id * bands + c]
-                                 : B[(size_t)s[k].id * bands + c];
-        mb /= ns;
-        double gx = 0, gy = 0;
-        for (size_t k = 0; k < ns; k++) {
-            double b = s[k].is_vertex ? vertex_B[(size_t)s[k].id * bands + c]
-                                      : B[(size_t)s[k].id * bands + c];
-            gx += (s[k].x - mx) * (b - mb);
-            gy += (s[k].y - my) * (b - mb);
-        }
-        double ax = ixx * gx + ixy * gy, ay = ixy * gx + iyy * gy;
+            bv += w[k] * (s[k].is_vertex ? vertex_B[(size_t)s[k].id * bands + c]
+                                         : B[(size_t)s[k].id * bands + c]);
         /* v is the origin of the plane coordinates. */
-        double bv = mb - (ax * mx + ay * my);
         vertex_B[(size_t)v * bands + c] = bv > 0.0 ? bv : 0.0; /* NaN -> 0 too */
     }
 }
@@ -204,6 +209,7 @@ static void outline_fit(uint32_t bands, const double *B, double *vertex_B, uint3
  * (stamps hold v + 1 once taken). */
 typedef struct gather {
     vr_sample *s;
+    double *scratch; /* 3 × cap: the fit's positions and weights */
     size_t n, cap;
     uint32_t *vstamp, *pstamp;
     int failed; /* out of memory: v keeps P(v) */
@@ -214,11 +220,15 @@ static void gather_push(gather *g, double x, double y, uint32_t id, int is_verte
     if (g->n == g->cap) {
         size_t cap = g->cap ? 2 * g->cap : 64;
         vr_sample *s = realloc(g->s, cap * sizeof *s);
-        if (!s) {
+        if (s)
+            g->s = s;
+        double *w = realloc(g->scratch, 3 * cap * sizeof *w);
+        if (w)
+            g->scratch = w;
+        if (!s || !w) {
             g->failed = 1;
             return;
         }
-        g->s = s;
         g->cap = cap;
     }
     g->s[g->n++] = (vr_sample){x, y, id, is_vertex};
@@ -290,11 +300,41 @@ void rn_vertex_radiosity(const rad_mesh *mesh, uint32_t bands, const double *B, 
             adj[fill[pa->v[k]]++] = p;
     }
 
-    /* P(v): mean B of the patches using v; final for interior vertices. */
+    /* P(v): mean B of the patches using v, kept by an outline vertex until
+     * it is extrapolated below.  An interior vertex takes, at v, the affine
+     * function fitted by least squares to the centres of the patches around
+     * it.  Around a vertex of a regular grid the centres are symmetric and
+     * that is the paper's average; where cells of different sizes meet (the
+     * T-vertices and corners of refined elements) the plain average is off
+     * by about half a cell times the gradient, while the fit reproduces a
+     * linear field exactly. */
+    uint64_t most = 0;
+    for (uint32_t v = 0; v < nv; v++)
+        most = start[v + 1] - start[v] > most ? start[v + 1] - start[v] : most;
+    double *fit = malloc(3 * (size_t)(most ? most : 1) * sizeof *fit);
     for (uint32_t v = 0; v < nv; v++) {
         uint64_t n = start[v + 1] - start[v];
         if (n == 0)
             continue;
+        const int interior = !(mesh->vertex_boundary && mesh->vertex_boundary[v]);
+        if (interior && fit && rad_length(mesh->patches[adj[start[v]]].normal) > 0.0) {
+            double *x = fit, *y = fit + n, *w = fit + 2 * n;
+            rad_vec3 e1, e2;
+            plane_basis(mesh->patches[adj[start[v]]].normal, &e1, &e2);
+            for (uint64_t k = 0; k < n; k++) {
+                rad_vec3 d = rad_sub(mesh->patches[adj[start[v] + k]].center, mesh->vertices[v]);
+                x[k] = rad_dot(d, e1);
+                y[k] = rad_dot(d, e2);
+            }
+            rn_affine_weights(x, y, n, w);
+            for (uint32_t c = 0; c < bands; c++) {
+                double sum = 0;
+                for (uint64_t k = 0; k < n; k++)
+                    sum += w[k] * B[(size_t)adj[start[v] + k] * bands + c];
+                vertex_B[(size_t)v * bands + c] = sum > 0.0 ? sum : 0.0; /* NaN -> 0 too */
+            }
+            continue;
+        }
         for (uint32_t c = 0; c < bands; c++) {
             double sum = 0;
             for (uint64_t k = start[v]; k < start[v + 1]; k++)
@@ -303,11 +343,12 @@ void rn_vertex_radiosity(const rad_mesh *mesh, uint32_t bands, const double *B, 
             vertex_B[(size_t)v * bands + c] = pv > 0.0 ? pv : 0.0;
         }
     }
+    free(fit);
 
     /* Outline vertices read only interior values, which are final already,
      * so they can be overwritten in place. */
     const uint8_t *outline = mesh->vertex_boundary;
-    gather g = {NULL, 0, 0, NULL, NULL, 0};
+    gather g = {NULL, NULL, 0, 0, NULL, NULL, 0};
     if (outline) {
         g.vstamp = calloc(nv, sizeof *g.vstamp);
         g.pstamp = calloc(np, sizeof *g.pstamp);
@@ -336,9 +377,10 @@ void rn_vertex_radiosity(const rad_mesh *mesh, uint32_t bands, const double *B, 
             }
         }
         if (interior > 0 && !g.failed)
-            outline_fit(bands, B, vertex_B, v, g.s, g.n);
+            outline_fit(bands, B, vertex_B, v, g.s, g.n, g.scratch);
     }
     free(g.s);
+    free(g.scratch);
     free(g.vstamp);
     free(g.pstamp);
     free(start);

@@ -1,8 +1,10 @@
 /* render.h - drawing any view of a stored solution.
  *
- * Patch radiosities move to vertices as in the paper (interior vertices
- * average their polygon's surrounding patches; outline vertices are
- * extrapolated and clamped at zero).  A camera's item buffer tells which patch
+ * Patch radiosities move to vertices as in the paper: an interior vertex
+ * takes the value at it of the affine least-squares fit to its polygon's
+ * surrounding patches (on a regular grid, their average, the paper's rule;
+ * exact for a linear field where cells of different sizes meet), outline
+ * vertices are extrapolated; both are clamped at zero.  A camera's item buffer tells which patch
  * each pixel sees; the eye ray meets that patch's plane at a point whose
  * (u,v) in the patch gives a bilinear (quads) or barycentric (triangles)
  * interpolation of the vertex radiosities.  Pixels hold radiance L = B/π.
@@ -29,9 +31,16 @@ typedef struct rn_image {
     uint32_t *patch;     /* width × height: patch seen, RAD_NONE for background */
 } rn_image;
 
-/* Vertex radiosities from patch radiosities.  B is n_patches × bands;
- * vertex_B (caller's buffer) gets vertex_count × bands values, all >= 0. */
+/* Vertex radiosities from patch radiosities.  B is n_patches × bands, each
+ * patch's value taken at its `center`; vertex_B (caller's buffer) gets
+ * vertex_count × bands values, all >= 0. */
 void rn_vertex_radiosity(const rad_mesh *mesh, uint32_t bands, const double *B, double *vertex_B);
+
+/* Weights w[0..n) such that Σ_k w_k b_k is, at the origin, the affine
+ * function of the plane fitted by least squares to the samples b_k at
+ * (x_k, y_k) (along their line only when they are collinear; the mean when
+ * they coincide).  What outline vertices are extrapolated with. */
+void rn_affine_weights(const double *x, const double *y, size_t n, double *w);
 
 /* Renders radiance L = B/π seen from cam, with `bands` channels.  Caller owns
  * *out (free with rn_image_destroy). */

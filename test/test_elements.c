@@ -7,6 +7,10 @@
  *     gives, and only there;
  *   - a refined plane lit uniformly renders without cracks (no pixel off
  *     the uniform value by more than 1e-4 relative, none missing);
+ *   - on that refined plane a linear field is drawn exactly, T-vertices
+ *     included (the vertex fits);
+ *   - elements buried under a box resting on the floor do not darken the
+ *     visible floor beside it;
  *   - a relight gathers the elements again without a hemi-cube.
  */
 #include "../radiosity/pipeline.h"
@@ -130,6 +134,9 @@ static box1 shadow_axis(double l0, double l1, double a0, double a1, double hl, d
     return b;
 }
 
+/* The refinement threshold of the shadow scene (see rad_solve_options). */
+#define SHADOW_THRESHOLD 0.005
+
 /* Distance from p to the penumbra (0 inside it). */
 static double penumbra_distance(box1 x, box1 y, rad_vec3 p)
 {
@@ -144,7 +151,7 @@ static double penumbra_distance(box1 x, box1 y, rad_vec3 p)
 static rad_solution *shadow_solution(void)
 {
     rad_solve_options opt = {0};
-    opt.refine_threshold = 0.2;
+    opt.refine_threshold = SHADOW_THRESHOLD;
     return floor_scene(-0.5, 1.5, 16, 0.05, 0.1, &opt);
 }
 
@@ -252,6 +259,171 @@ TEST(refined_plane_has_no_cracks)
     rad_solution_destroy(s);
 }
 
+/* Graded meshes: the refined floor of the shadow scene (elements of four
+ * levels, T-vertices wherever a finer element meets a coarser one) with
+ * each element's B set to a linear function of its centre, seen from
+ * straight above like the crack test.  Every pixel inside the floor shows
+ * that function at the point it sees, within 1e-5 relative: vertex values
+ * are least-squares fits of the cells around them, exact for a linear field
+ * whatever the cells' sizes (a plain average of the cells is off by about
+ * half a cell times the gradient at a T-vertex, 1e-2 here), and the fans
+ * of coarse elements pass through their centres' B. */
+TEST(graded_mesh_draws_a_linear_field_exactly)
+{
+    rad_solution *s = shadow_solution();
+    CHECK(s && s->elements);
+    if (!s || !s->elements)
+        return;
+    rad_elements *el = s->elements;
+    uint32_t floor = object_named(s, "floor"), levels = 0;
+    const double a = 2.0, gx = 0.5, gy = -0.25; /* B = a + gx x + gy y > 0 on [-0.5, 1.5]² */
+    for (uint32_t e = 0; e < el->mesh->patch_count; e++) {
+        rad_patch *c = &el->mesh->patches[e];
+        el->B[e] = a + gx * c->center.x + gy * c->center.y;
+        if (c->object != floor)
+            for (int k = 0; k < rad_patch_corners(c); k++)
+                el->mesh->vertices[c->v[k]].z = -5.0;
+        else
+            levels |= 1u << el->level[e];
+    }
+    CHECK(levels == 0xF); /* levels 0 to 3 all present */
+    rn_camera cam = {.eye = {0.5, 0.5, 6.0}, .target = {0.5, 0.5, 0.0}, .up = {0, 1, 0},
+                     .yfov_deg = 30.0, .width = 256, .height = 256};
+    rn_image *img = NULL;
+    rad_error err = {0};
+    CHECK(rad_render_solution(s, &cam, &img, &err) == RAD_OK);
+    if (!img) {
+        rad_solution_destroy(s);
+        return;
+    }
+    /* Pixel (x, y) looks along (a, b, −1) with a = (x + ½ − 128)/k, b =
+     * (128 − y − ½)/k, k = 128 / tan 15°, and meets z = 0 at 6·(a, b). */
+    const double k = 128.0 / tan(15.0 * M_PI / 180.0), half = 1.0 / 6.0 * k;
+    uint32_t inside = 0;
+    double worst = 0;
+    for (uint32_t y = 0; y < img->height; y++)
+        for (uint32_t x = 0; x < img->width; x++) {
+            double px = x + 0.5 - 128.0, py = 128.0 - y - 0.5;
+            if (fabs(px) > half - 1.0 || fabs(py) > half - 1.0)
+                continue;
+            size_t q = (size_t)y * img->width + x;
+            if (img->patch[q] == RAD_NONE)
+                continue;
+            inside++;
+            double fx = 0.5 + 6.0 * px / k, fy = 0.5 + 6.0 * py / k, B = a + gx * fx + gy * fy;
+            worst = fmax(worst, fabs(img->pixels[q * img->channels] * M_PI / B - 1.0));
+        }
+    printf("  %u pixels inside the floor: worst |drawn / linear − 1| = %.2e\n", inside, worst);
+    CHECK(inside > 20000);
+    CHECK(worst <= 1e-5);
+    rn_image_destroy(img);
+    rad_solution_destroy(s);
+}
+
+/* A white box (sides and top, no bottom, like the Cornell box's blocks)
+ * resting on a floor under a large lamp; the floor's patches line up with
+ * the box's footprint, so 4 patches lie wholly under it. */
+static rad_solution *box_solution(void)
+{
+    const char *text = "bands 1\n"
+                       "material white reflectance 0.5\n"
+                       "material lamp reflectance 0 emission 1\n"
+                       "polygon floor white subdivide 8 8\n 0 0 0\n 1 0 0\n 1 1 0\n 0 1 0\nend\n"
+                       "polygon lamp lamp subdivide 2 2\n 0 0 1\n 0 1 1\n 1 1 1\n 1 0 1\nend\n"
+                       "polygon top white subdivide 2 2\n .375 .375 .25\n .625 .375 .25\n"
+                       " .625 .625 .25\n .375 .625 .25\nend\n"
+                       "polygon south white subdivide 2 1\n .375 .375 0\n .625 .375 0\n"
+                       " .625 .375 .25\n .375 .375 .25\nend\n"
+                       "polygon east white subdivide 2 1\n .625 .375 0\n .625 .625 0\n"
+                       " .625 .625 .25\n .625 .375 .25\nend\n"
+                       "polygon north white subdivide 2 1\n .625 .625 0\n .375 .625 0\n"
+                       " .375 .625 .25\n .625 .625 .25\nend\n"
+                       "polygon west white subdivide 2 1\n .375 .625 0\n .375 .375 0\n"
+                       " .375 .375 .25\n .375 .625 .25\nend\n";
+    rad_scene *scene = NULL;
+    rad_error err = {0};
+    if (rad_scene_parse_polyfile(text, strlen(text), "box.rad", NULL, &scene, &err)) {
+        fprintf(stderr, "  parse: %s\n", err.message);
+        return NULL;
+    }
+    rad_solve_options opt = {0};
+    rad_solution *s = NULL;
+    if (rad_solve_scene(scene, &opt, &s, &err)) {
+        fprintf(stderr, "  solve: %s\n", err.message);
+        return NULL;
+    }
+    return s;
+}
+
+/* The box scene's floor seen from straight above with elements `levels`
+ * splits deep (the box's top hides the floor under it). */
+static rn_image *box_floor_view(rad_solution *s, uint32_t levels)
+{
+    rad_solve_options opt = {0};
+    opt.element_levels = levels;
+    rad_error err = {0};
+    if (rad_solution_refine(s, &opt, &err) != RAD_OK)
+        return NULL;
+    rn_camera cam = {.eye = {0.5, 0.5, 50.0}, .target = {0.5, 0.5, 0.0}, .up = {0, 1, 0},
+                     .yfov_deg = 2.0 * atan(0.5 / 50.0) * 180.0 / M_PI, .width = 512, .height = 512};
+    rn_image *img = NULL;
+    if (rad_render_solution(s, &cam, &img, &err) != RAD_OK)
+        return NULL;
+    return img;
+}
+
+/* Buried elements: the floor under the box sees only the box's back faces
+ * (an empty row, B = 0).  Drawn as they are, those zeros would be averaged
+ * into the vertices of the contact lines and darken the visible floor
+ * beside the box over an element's width.  (1) Exactly the 4 patches under
+ * the box are drawn with another value than their B, a positive one.  (2)
+ * The visible floor within a patch width of the box, drawn from elements
+ * two splits deep, is within 1.5 % (mean absolute difference over its
+ * pixels, relative to their mean) of the floor drawn from elements three
+ * splits deep; with the buried zeros averaged in, it is 1.9 % off. */
+TEST(buried_elements_do_not_darken_their_neighbours)
+{
+    rad_solution *s = box_solution();
+    CHECK(s != NULL);
+    if (!s)
+        return;
+    const uint32_t np = s->mesh->patch_count, floor = object_named(s, "floor");
+    double *drawn = malloc(np * sizeof *drawn);
+    rad_error err = {0};
+    CHECK(drawn && rad_solution_drawn_radiosity(s, NULL, s->mesh, NULL, drawn, &err) == RAD_OK);
+    uint32_t changed = 0, positive = 0;
+    for (uint32_t p = 0; drawn && p < np; p++)
+        if (drawn[p] != s->B[p]) {
+            changed++;
+            positive += s->mesh->patches[p].object == floor && s->B[p] == 0.0 && drawn[p] > 0.0;
+        }
+    printf("  patches drawn with another value than their B: %u (%u buried floor patches, > 0)\n",
+           changed, positive);
+    CHECK(changed == 4 && positive == 4);
+    free(drawn);
+    rn_image *ref = box_floor_view(s, 3), *img = box_floor_view(s, 2);
+    CHECK(ref && img);
+    double diff = 0, sum = 0;
+    uint32_t pixels = 0;
+    for (size_t q = 0; ref && img && q < (size_t)512 * 512; q++) {
+        uint32_t id = ref->patch[q];
+        double fx = ((double)(q % 512) + 0.5) / 512.0, fy = 1.0 - ((double)(q / 512) + 0.5) / 512.0;
+        double d = fmax(fabs(fx - 0.5), fabs(fy - 0.5)) - 0.125; /* Chebyshev distance to the box */
+        if (id == RAD_NONE || s->mesh->patches[id].object != floor || !(d > 0.0 && d < 0.125))
+            continue;
+        pixels++;
+        diff += fabs(img->pixels[q] - ref->pixels[q]);
+        sum += ref->pixels[q];
+    }
+    printf("  %u floor pixels beside the box: two splits vs three, MAE %.4f of the mean\n", pixels,
+           sum > 0 ? diff / sum : -1.0);
+    CHECK(pixels > 45000);
+    CHECK(sum > 0 && diff / sum < 0.015);
+    rn_image_destroy(ref);
+    rn_image_destroy(img);
+    rad_solution_destroy(s);
+}
+
 /* A relight: the lamp ×2 doubles every element's B (within 1e-6 relative:
  * the gather is linear in B and E) with no hemi-cube for patches or
  * elements. */
@@ -295,6 +467,8 @@ int main(void)
     RUN(gather_matches_catalog);
     RUN(refinement_follows_the_shadow);
     RUN(refined_plane_has_no_cracks);
+    RUN(graded_mesh_draws_a_linear_field_exactly);
+    RUN(buried_elements_do_not_darken_their_neighbours);
     RUN(relight_gathers_elements_again);
     return test_finish("test_elements");
 }
