@@ -15,6 +15,7 @@
  */
 #include "../radiosity/pipeline.h"
 #include "test.h"
+#include "util.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -45,18 +46,7 @@ static rad_solution *floor_scene(double f0, double f1, unsigned n, double lh, do
                  " %g %g 0.5\nend\n",
                  0.5 - occ, 0.5 - occ, 0.5 - occ, 0.5 + occ, 0.5 + occ, 0.5 + occ, 0.5 + occ,
                  0.5 - occ);
-    rad_scene *scene = NULL;
-    rad_error err = {0};
-    if (rad_scene_parse_polyfile(text, strlen(text), "elements.rad", NULL, &scene, &err)) {
-        fprintf(stderr, "  parse: %s\n", err.message);
-        return NULL;
-    }
-    rad_solution *s = NULL;
-    if (rad_solve_scene(scene, opt, &s, &err)) {
-        fprintf(stderr, "  solve: %s\n", err.message);
-        return NULL;
-    }
-    return s;
+    return test_solve_text(text, "elements.rad", opt);
 }
 
 /* Howell B-3 for a rectangle [x0,x1]×[y0,y1] at height h over the point

@@ -3,10 +3,6 @@
 # "radiosity: error: FILE: WHERE: WHAT" naming the file, exit status 2, and
 # leaves no output file (nor a temporary one) behind.
 set -u
-BIN=${RADIOSITY_BIN:-build/release/radiosity}
-dir=$(mktemp -d)
-trap 'rm -rf "$dir"' EXIT
-passed=0; failed=0
 . "$(dirname "$0")/lib.bash"
 
 # expect NAME FILE PATTERN: solve FILE must fail with status 2, a single

@@ -1,5 +1,11 @@
 # lib.bash - shared by the command-line tests (sourced, not run: run_tests.sh
-# runs test/cli/*.sh only).
+# runs test/cli/*.sh only): the program under test, a scratch directory
+# removed on exit, the counters each script ends by printing.
+
+BIN=${RADIOSITY_BIN:-build/release/radiosity}
+dir=$(mktemp -d)
+trap 'rm -rf "$dir"' EXIT
+passed=0; failed=0
 
 # room: a small valid polygon file (a floor and a lamp above it) that tests
 # edit with sed to make one thing wrong or different.

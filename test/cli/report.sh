@@ -2,12 +2,7 @@
 # report.sh - `radiosity report` says what it skipped and why (issue 6):
 # back hemi-cubes only behind transmitting sheets.
 set -u
-BIN=${RADIOSITY_BIN:-build/release/radiosity}
-dir=$(mktemp -d)
-trap 'rm -rf "$dir"' EXIT
-passed=0; failed=0
 . "$(dirname "$0")/lib.bash"
-
 
 # a transmitting sheet solves, and the report says which back hemi-cubes it drew
 room | sed 's/^material white reflectance 0.5 0.5 0.5/&\nmaterial paper reflectance 0.1 transmittance 0.5/' > "$dir/sheet.rad"
