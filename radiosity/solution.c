@@ -1052,6 +1052,12 @@ typedef struct reader {
     char str[SOL_MAX_STRING + 1];
 } reader;
 
+/* Version 5: does INFO announce optional section k (LIGHTS and after)? */
+static int announced(const reader *r, int k)
+{
+    return (r->announced >> (k - SEC_LIGHTS)) & 1u;
+}
+
 /* "NAME: section SECTION: WHAT" */
 #if defined(__GNUC__)
 __attribute__((format(printf, 3, 4)))
@@ -1858,10 +1864,9 @@ int rad_solution_parse(const void *data, size_t size, const char *name, int chec
             next = SEC_ELEMENTS;
         /* Version 5 skips the optional sections INFO did not announce. */
         while (version >= SOL_VERSION_SHEETS && next >= SEC_LIGHTS && next < k &&
-               !(r->announced >> (next - SEC_LIGHTS) & 1u))
+               !announced(r, next))
             next++;
-        if (version >= SOL_VERSION_SHEETS && k >= SEC_LIGHTS &&
-            !(r->announced >> (k - SEC_LIGHTS) & 1u)) {
+        if (version >= SOL_VERSION_SHEETS && k >= SEC_LIGHTS && !announced(r, k)) {
             rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: byte %zu: section %s not announced in INFO",
                           name, offset, sec_name[k]);
             goto fail;
@@ -1889,7 +1894,7 @@ int rad_solution_parse(const void *data, size_t size, const char *name, int chec
         next++;
     }
     while (version >= SOL_VERSION_SHEETS && next >= SEC_LIGHTS && next < SEC_COUNT &&
-           !(r->announced >> (next - SEC_LIGHTS) & 1u))
+           !announced(r, next))
         next++;
     if (next < required) {
         rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: section %s missing", name, sec_name[next]);

@@ -325,6 +325,14 @@ static const char *sheet_scene = "bands 1\n"
                                  "polygon sheet paper subdivide 8 8\n 0 1 0  0 1 1  1 1 1  1 1 0\nend\n"
                                  "polygon floor floor subdivide 8 8\n 0 0 0  0 0 1  1 0 1  1 0 0\nend\n";
 
+/* The lamp-sheet-floor scene with the sheet's reflectance rho, solved. */
+static rad_solution *solve_sheet(const char *rho, const rad_solve_options *opt)
+{
+    char text[2048];
+    snprintf(text, sizeof text, sheet_scene, rho);
+    return solve_text(text, opt);
+}
+
 /* Σ_j F(point → patch j) B_j over the patches of `object` (Lambert). */
 static double gather_exact(const rad_solution *s, rad_vec3 p, rad_vec3 n, uint32_t object,
                            const double *B)
@@ -352,9 +360,7 @@ static double gather_exact(const rad_solution *s, rad_vec3 p, rad_vec3 n, uint32
  * 1 % per patch. */
 TEST(lamp_sheet_floor)
 {
-    char text[2048];
-    snprintf(text, sizeof text, sheet_scene, "0");
-    rad_solution *s = solve_text(text, NULL);
+    rad_solution *s = solve_sheet("0", NULL);
     CHECK(s != NULL);
     if (!s)
         return;
@@ -431,12 +437,9 @@ TEST(lamp_sheet_floor)
  * max B, so both stop near the same fixed point; we ask for 1e-10). */
 TEST(relight_sheet)
 {
-    char text[2048];
-    snprintf(text, sizeof text, sheet_scene, "0");
     rad_solve_options opt = {.solver = {.tolerance = 1e-10}};
-    rad_solution *s = solve_text(text, &opt);
-    snprintf(text, sizeof text, sheet_scene, "0.3");
-    rad_solution *fresh = solve_text(text, &opt);
+    rad_solution *s = solve_sheet("0", &opt);
+    rad_solution *fresh = solve_sheet("0.3", &opt);
     CHECK(s && fresh);
     if (!s || !fresh) {
         rad_solution_destroy(s);
@@ -468,10 +471,8 @@ TEST(relight_sheet)
  * elements and without lights: version 5 announces ELEMENTS only. */
 TEST(round_trip)
 {
-    char text[2048];
-    snprintf(text, sizeof text, sheet_scene, "0.1");
     rad_solve_options elements = {.element_levels = 1};
-    rad_solution *s = solve_text(text, &elements);
+    rad_solution *s = solve_sheet("0.1", &elements);
     CHECK(s != NULL);
     if (!s)
         return;
@@ -509,10 +510,8 @@ TEST(round_trip)
  * without the transmitted term it would be 250 times darker). */
 TEST(elements_on_sheet)
 {
-    char text[2048];
-    snprintf(text, sizeof text, sheet_scene, "0.2");
     rad_solve_options opt = {.element_levels = 1};
-    rad_solution *s = solve_text(text, &opt);
+    rad_solution *s = solve_sheet("0.2", &opt);
     CHECK(s != NULL && s->elements != NULL);
     if (!s || !s->elements) {
         rad_solution_destroy(s);
