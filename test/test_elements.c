@@ -422,8 +422,8 @@ TEST(buried_elements_do_not_darken_their_neighbours)
  * floor patches (1/8 wide), a patch whose centre and four probes lie under
  * the box still has a sliver of visible floor beside it, which nothing
  * probes.  Refinement treats a leaf across the contact line (seen with
- * buried probes, or buried beside a seen leaf) as missing its B on a
- * quarter of its area, so at T = 0.002 every floor element across the
+ * buried probes, or buried beside a seen leaf) as missing its B on 1/32
+ * of its area, so at T = 2e-4 every floor element across the
  * footprint's outline is split to the size floor (level 3), and the
  * patches that no part of the footprint's outline crosses are not split
  * by this rule alone: those wholly under the box stay whole. */
@@ -431,7 +431,7 @@ TEST(refinement_splits_across_the_foot_of_a_block)
 {
     const double lo = 0.3, hi = 0.7;
     rad_solve_options opt = {0};
-    opt.refine_threshold = 0.002;
+    opt.refine_threshold = 2e-4;
     rad_solution *s = box_solution(lo, hi, &opt);
     CHECK(s && s->elements);
     if (!s || !s->elements)
