@@ -1162,6 +1162,13 @@ static void drawn_at(const rad_mesh *rm, const double *vB, uint32_t bands, uint3
     }
 }
 
+/* The share of a leaf across a block's foot counted as missing its B (see
+ * estimate), chosen on bench_elements: 1/4 and 1/12 spent elements along
+ * the blocks' feet that the rest of the floor needed more (ratios up to
+ * 0.08 and 0.03 worse at T >= 1e-4); 1/32 is within 0.01 of no rule at
+ * T >= 1e-4 and better at T <= 3e-5. */
+#define CONTACT_SHARE (1.0 / 32.0)
+
 /* The estimated error of each probed leaf (eps[node], 0 for the others):
  * the mean difference, over its four probes, between the probe's gathered
  * B and what the renderer draws there from the current leaves, relative to
@@ -1171,13 +1178,6 @@ static void drawn_at(const rad_mesh *rm, const double *vB, uint32_t bands, uint3
  * element added, and a linear gradient, which the renderer's interpolation
  * draws exactly, costs nothing.  contact[node] marks a leaf at the foot of
  * a block: 1 across it (below), 2 seen but touching a buried leaf. */
-/* The share of a leaf across a block's foot counted as missing its B (see
- * estimate), chosen on bench_elements: 1/4 and 1/12 spent elements along
- * the blocks' feet that the rest of the floor needed more (ratios up to
- * 0.08 and 0.03 worse at T >= 1e-4); 1/32 is within 0.01 of no rule at
- * T >= 1e-4 and better at T <= 3e-5. */
-#define CONTACT_SHARE (1.0 / 32.0)
-
 static int estimate(builder *b, const double *scale, double *eps, uint8_t *contact, rad_error *err)
 {
     const uint32_t bands = b->bands;

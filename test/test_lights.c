@@ -273,18 +273,27 @@ TEST(point_light_shadow_of_a_box)
     rad_solution_destroy(sol);
 }
 
+/* The spot scenes: a grey floor (half-width h, n × n patches) and a spot of
+ * I = 2 W/sr 1 m above its centre pointing down, inner 30°, outer 50°. */
+#define SPOT_INNER (30.0 * M_PI / 180.0)
+#define SPOT_OUTER (50.0 * M_PI / 180.0)
+static rad_scene *spot_scene(double h, uint32_t n)
+{
+    rad_scene *s = new_scene();
+    uint32_t m = material(s, "grey", 0.5);
+    floor_square(s, "floor", h, 0.0, n, m);
+    light(s, "spot", RAD_LIGHT_SPOT, 2.0, rad_v3(0, 0, 1), rad_v3(0, 0, -1), SPOT_INNER, SPOT_OUTER);
+    return s;
+}
+
 /* A spot 1 m above the floor pointing down, inner 30°, outer 50°: patches
  * wholly inside the inner cone (r < tan 30°) within 1 % of a point light;
  * wholly outside the outer cone (r > tan 50°) exactly 0; the patches the
  * falloff crosses within 5 % of the quadrature of I t² cosθ / r². */
 TEST(spot_light_cone)
 {
-    const double inner = 30.0 * M_PI / 180.0, outer = 50.0 * M_PI / 180.0;
-    rad_scene *s = new_scene();
-    uint32_t m = material(s, "grey", 0.5);
-    floor_square(s, "floor", 2.0, 0.0, 20, m);
-    light(s, "spot", RAD_LIGHT_SPOT, 2.0, rad_v3(0, 0, 1), rad_v3(0, 0, -1), inner, outer);
-    rad_solution *sol = solve(s, LIGHT_R);
+    const double inner = SPOT_INNER, outer = SPOT_OUTER;
+    rad_solution *sol = solve(spot_scene(2.0, 20), LIGHT_R);
     if (!sol)
         return;
     double *H = direct(sol);
@@ -645,12 +654,8 @@ TEST(elements_point_light_shadow_edge)
  * I t² cosθ / r² within 1 % (the falloff evaluated at the centre). */
 TEST(elements_spot_cone_edge)
 {
-    const double inner = 30.0 * M_PI / 180.0, outer = 50.0 * M_PI / 180.0;
-    rad_scene *s = new_scene();
-    uint32_t m = material(s, "grey", 0.5);
-    floor_square(s, "floor", 1.6, 0.0, 16, m);
-    light(s, "spot", RAD_LIGHT_SPOT, 2.0, rad_v3(0, 0, 1), rad_v3(0, 0, -1), inner, outer);
-    rad_solution *sol = solve_elements(s, 2, 0.0, 0.0);
+    const double inner = SPOT_INNER, outer = SPOT_OUTER;
+    rad_solution *sol = solve_elements(spot_scene(1.6, 16), 2, 0.0, 0.0);
     if (!sol)
         return;
     const rad_elements *el = sol->elements;
