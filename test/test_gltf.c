@@ -86,8 +86,13 @@ static void put_float(blob *b, float f)
 
 /* One mesh (accessor 0 = POSITION, accessor 1 = indices) plus whatever
  * JSON the test overrides. */
+/* The unit square in z = 0, counter-clockwise seen from +z, as two
+ * triangles: every spec's default geometry. */
+static const float unit_quad[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
+static const uint32_t quad_idx[] = {0, 1, 2, 0, 2, 3};
+
 typedef struct spec {
-    const float *pos;       /* xyz per vertex */
+    const float *pos;       /* xyz per vertex; NULL = unit_quad indexed by quad_idx */
     uint32_t nv;
     uint32_t pos_count;     /* POSITION accessor count; 0 = nv */
     uint32_t pos_stride;    /* byteStride of the positions' view; 0 = packed */
@@ -109,8 +114,16 @@ static const char *default_materials =
     "\"emissiveFactor\":[1,1,1]}]";
 
 /* Builds the document; caller frees the result, *size its length. */
-static unsigned char *build(const spec *sp, size_t *size)
+static unsigned char *build(const spec *given, size_t *size)
 {
+    spec q = *given;
+    if (!q.pos) {
+        q.pos = unit_quad;
+        q.nv = 4;
+        q.idx = quad_idx;
+        q.ni = 6;
+    }
+    const spec *sp = &q;
     blob b;
     b.n = 0;
     for (uint32_t v = 0; v < sp->nv; v++) {
@@ -225,8 +238,6 @@ static void expect_error(const spec *sp, int code, const char *needle)
               err.message);
 }
 
-static const float unit_quad[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
-static const uint32_t quad_idx[] = {0, 1, 2, 0, 2, 3};
 
 static double object_area(const rad_scene *s, uint32_t o)
 {
@@ -244,7 +255,7 @@ static double object_area(const rad_scene *s, uint32_t o)
  * 1e-12 only absorbs the area's arithmetic. */
 TEST(unit_quad_merges)
 {
-    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6};
+    spec sp = {0};
     rad_scene *s;
     rad_error err;
     int rc = parse(&sp, &s, &err);
@@ -410,11 +421,7 @@ TEST(hierarchy_transforms)
  * ρ is baseColorFactor.  Relative 1e-12: one product each. */
 TEST(emissive_strength)
 {
-    spec sp = {.pos = unit_quad,
-               .nv = 4,
-               .idx = quad_idx,
-               .ni = 6,
-               .materials = "[{\"name\":\"lamp\",\"pbrMetallicRoughness\":"
+    spec sp = {.materials = "[{\"name\":\"lamp\",\"pbrMetallicRoughness\":"
                             "{\"baseColorFactor\":[0.1,0.2,0.3,1]},"
                             "\"emissiveFactor\":[0.5,0.25,1],\"extensions\":"
                             "{\"KHR_materials_emissive_strength\":{\"emissiveStrength\":4}}}]",
@@ -440,10 +447,6 @@ TEST(emissive_strength)
 TEST(name_fallbacks)
 {
     spec sp = {
-        .pos = unit_quad,
-        .nv = 4,
-        .idx = quad_idx,
-        .ni = 6,
         .meshes = "[{\"name\":\"m0\",\"primitives\":[{\"attributes\":{\"POSITION\":0},"
                   "\"indices\":1,\"material\":0}]},"
                   "{\"name\":\"beta\",\"primitives\":[{\"attributes\":{\"POSITION\":0},"
@@ -478,7 +481,7 @@ TEST(name_fallbacks)
  * stride: the padding (-99) never shows up as a coordinate. */
 TEST(strided_positions)
 {
-    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6, .pos_stride = 24};
+    spec sp = {.pos_stride = 24};
     rad_scene *s;
     rad_error err;
     int rc = parse(&sp, &s, &err);
@@ -495,7 +498,7 @@ TEST(strided_positions)
 /* The unit square as .glb gives the same quad. */
 TEST(glb_container)
 {
-    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6, .glb = 1, .idx_type = 5125};
+    spec sp = {.glb = 1, .idx_type = 5125};
     rad_scene *s;
     rad_error err;
     int rc = parse(&sp, &s, &err);
@@ -514,10 +517,6 @@ TEST(glb_container)
 TEST(camera_conversion)
 {
     spec sp = {
-        .pos = unit_quad,
-        .nv = 4,
-        .idx = quad_idx,
-        .ni = 6,
         .nodes = "[{\"name\":\"quad\",\"mesh\":0},"
                  "{\"name\":\"n1\",\"camera\":0,\"translation\":[1,2,3],"
                  "\"rotation\":[0,0.7071067811865476,0,0.7071067811865476]},"
@@ -561,11 +560,7 @@ TEST(camera_conversion)
 /* doubleSided: the quad and a reversed copy (opposite normal, same object). */
 TEST(double_sided)
 {
-    spec sp = {.pos = unit_quad,
-               .nv = 4,
-               .idx = quad_idx,
-               .ni = 6,
-               .materials = "[{\"doubleSided\":true,\"emissiveFactor\":[1,1,1],"
+    spec sp = {.materials = "[{\"doubleSided\":true,\"emissiveFactor\":[1,1,1],"
                             "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.5,0.5,1]}}]"};
     rad_scene *s;
     rad_error err;
@@ -590,11 +585,7 @@ TEST(double_sided)
  * Relative 1e-12: one product each. */
 TEST(diffuse_transmission)
 {
-    spec sp = {.pos = unit_quad,
-               .nv = 4,
-               .idx = quad_idx,
-               .ni = 6,
-               .materials = "[{\"name\":\"paper\",\"doubleSided\":true,\"emissiveFactor\":[1,1,1],"
+    spec sp = {.materials = "[{\"name\":\"paper\",\"doubleSided\":true,\"emissiveFactor\":[1,1,1],"
                             "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.5,0.5,1]},"
                             "\"extensions\":{\"KHR_materials_diffuse_transmission\":"
                             "{\"diffuseTransmissionFactor\":0.4,"
@@ -639,8 +630,7 @@ TEST(diffuse_transmission)
 
 TEST(error_diffuse_transmission)
 {
-    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6,
-               .materials = "[{\"name\":\"X\",\"pbrMetallicRoughness\":"
+    spec sp = {.materials = "[{\"name\":\"X\",\"pbrMetallicRoughness\":"
                             "{\"baseColorFactor\":[0.5,0.5,0.5,1]},\"extensions\":"
                             "{\"KHR_materials_diffuse_transmission\":{\"diffuseTransmissionFactor\":1.5}}}]"};
     expect_error(&sp, RAD_ERR_INVALID, "material 'X': diffuseTransmissionFactor 1.5 is not in [0, 1]");
@@ -685,11 +675,7 @@ TEST(degenerate_triangles_dropped)
 /* Extensions only used (Blender's KHR_materials_specular, ior) are ignored. */
 TEST(ignored_extension)
 {
-    spec sp = {.pos = unit_quad,
-               .nv = 4,
-               .idx = quad_idx,
-               .ni = 6,
-               .materials = "[{\"name\":\"m\",\"emissiveFactor\":[1,1,1],"
+    spec sp = {.materials = "[{\"name\":\"m\",\"emissiveFactor\":[1,1,1],"
                             "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.5,0.5,1]},"
                             "\"extensions\":{\"KHR_materials_specular\":"
                             "{\"specularFactor\":0.5},\"KHR_materials_ior\":{\"ior\":1.45}}}]",
@@ -731,7 +717,7 @@ TEST(error_malformed_json)
 
 TEST(error_mode_lines)
 {
-    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6, .mesh_name = "M",
+    spec sp = {.mesh_name = "M",
                .prim = "\"material\":0,\"mode\":1"};
     expect_error(&sp, RAD_ERR_INVALID, "mesh 'M' primitive 0: mode LINES not supported");
 }
@@ -756,8 +742,7 @@ TEST(error_accessor_beyond_view)
 
 TEST(error_required_extension)
 {
-    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6,
-               .extra = "\"extensionsUsed\":[\"KHR_draco_mesh_compression\"],"
+    spec sp = {.extra = "\"extensionsUsed\":[\"KHR_draco_mesh_compression\"],"
                         "\"extensionsRequired\":[\"KHR_draco_mesh_compression\"]"};
     expect_error(&sp, RAD_ERR_INVALID,
                  "extension 'KHR_draco_mesh_compression' is required but not supported");
@@ -765,26 +750,24 @@ TEST(error_required_extension)
 
 TEST(error_base_color_one)
 {
-    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6,
-               .materials = "[{\"name\":\"X\",\"pbrMetallicRoughness\":"
+    spec sp = {.materials = "[{\"name\":\"X\",\"pbrMetallicRoughness\":"
                             "{\"baseColorFactor\":[0.5,1.0,0.5,1]}}]"};
     expect_error(&sp, RAD_ERR_INVALID, "material 'X': baseColorFactor 1 is not a reflectance below 1");
     /* no pbrMetallicRoughness at all: glTF's default white 1.0 */
-    spec sp2 = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6,
-                .materials = "[{\"name\":\"plain\"}]"};
+    spec sp2 = {.materials = "[{\"name\":\"plain\"}]"};
     expect_error(&sp2, RAD_ERR_INVALID, "material 'plain': baseColorFactor 1");
 }
 
 TEST(error_no_material)
 {
-    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6, .mesh_name = "M",
+    spec sp = {.mesh_name = "M",
                .prim = "\"mode\":4"};
     expect_error(&sp, RAD_ERR_INVALID, "mesh 'M' primitive 0: no material");
 }
 
 TEST(error_truncated_glb)
 {
-    spec sp = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6, .glb = 1};
+    spec sp = {.glb = 1};
     size_t n;
     unsigned char *d = build(&sp, &n);
     /* every prefix fails cleanly; the header and chunk cuts say "truncated" */
@@ -803,25 +786,22 @@ TEST(error_truncated_glb)
 /* Structural faults in the node graph and accessors. */
 TEST(error_structure)
 {
-    spec cyc = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6,
-                .nodes = "[{\"name\":\"a\",\"mesh\":0},{\"name\":\"b\",\"children\":[2]},"
+    spec cyc = {.nodes = "[{\"name\":\"a\",\"mesh\":0},{\"name\":\"b\",\"children\":[2]},"
                          "{\"name\":\"c\",\"children\":[1]}]"};
     expect_error(&cyc, RAD_ERR_PARSE, "cycle");
-    spec two = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6,
-                .nodes = "[{\"name\":\"a\",\"children\":[2]},{\"name\":\"b\",\"children\":[2]},"
+    spec two = {.nodes = "[{\"name\":\"a\",\"children\":[2]},{\"name\":\"b\",\"children\":[2]},"
                          "{\"name\":\"c\",\"mesh\":0}]"};
     expect_error(&two, RAD_ERR_PARSE, "node 'c' has two parents");
-    spec nomesh = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6,
-                   .nodes = "[{\"name\":\"a\",\"mesh\":3}]"};
+    spec nomesh = {.nodes = "[{\"name\":\"a\",\"mesh\":3}]"};
     expect_error(&nomesh, RAD_ERR_PARSE, "node 'a': mesh 3 does not exist");
-    spec badtype = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6, .idx_type = 5122};
+    spec badtype = {.idx_type = 5122};
     expect_error(&badtype, RAD_ERR_PARSE, "componentType 5122");
     /* accessor 2 reads the positions as VEC2; accessor 3 is sparse */
     const char *more = ",{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC2\"}"
                        ",{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\","
                        "\"sparse\":{\"count\":1,\"indices\":{\"bufferView\":1,"
                        "\"componentType\":5123},\"values\":{\"bufferView\":0}}}";
-    spec vec2 = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6, .accessors = more,
+    spec vec2 = {.accessors = more,
                  .meshes = "[{\"name\":\"M\",\"primitives\":[{\"attributes\":{\"POSITION\":2},"
                            "\"indices\":1,\"material\":0}]}]"};
     expect_error(&vec2, RAD_ERR_PARSE, "mesh 'M' primitive 0: POSITION accessor 2: type VEC2");
@@ -833,8 +813,7 @@ TEST(error_structure)
     absent.meshes = "[{\"name\":\"M\",\"primitives\":[{\"attributes\":{\"POSITION\":9},"
                     "\"indices\":1,\"material\":0}]}]";
     expect_error(&absent, RAD_ERR_PARSE, "POSITION accessor 9 does not exist");
-    spec limit = {.pos = unit_quad, .nv = 4, .idx = quad_idx, .ni = 6,
-                  .nodes = "[{\"mesh\":0},{\"mesh\":0}]"};
+    spec limit = {.nodes = "[{\"mesh\":0},{\"mesh\":0}]"};
     size_t n;
     unsigned char *d = build(&limit, &n);
     rad_load_options opt = {.max_polygons = 3};

@@ -237,11 +237,13 @@ TEST(solver_matches_direct_solution)
 
 /* ------------------------------------------------------------- pipeline */
 
-/* Polygon-file text of the unit cube with inward faces (material m) split
- * at x = 0.5 by a sheet of material s. */
-static void partitioned_cube(char *buf, size_t size, const char *materials, const char *wall_x0)
+/* The unit cube with inward faces (material m, the face x = 0 wall_x0)
+ * split at x = 0.5 by a sheet of material s, solved with the defaults;
+ * NULL on failure. */
+static rad_solution *partitioned_cube(const char *materials, const char *wall_x0)
 {
-    snprintf(buf, size,
+    char text[4096];
+    snprintf(text, sizeof text,
              "bands 1\n%s\n"
              "polygon x0 %s subdivide 6 6\n 0 0 0  0 1 0  0 1 1  0 0 1\nend\n"
              "polygon x1 m subdivide 6 6\n 1 0 0  1 0 1  1 1 1  1 1 0\nend\n"
@@ -251,6 +253,7 @@ static void partitioned_cube(char *buf, size_t size, const char *materials, cons
              "polygon z1 m subdivide 6 6\n 0 0 1  0 1 1  1 1 1  1 0 1\nend\n"
              "polygon sheet s subdivide 6 6\n 0.5 0 0  0.5 1 0  0.5 1 1  0.5 0 1\nend\n",
              materials, wall_x0);
+    return solve_text(text, NULL);
 }
 
 /* Furnace with a sheet: E = 1 everywhere, walls ρ = 0.5, the sheet ρ = 0.2
@@ -259,12 +262,9 @@ static void partitioned_cube(char *buf, size_t size, const char *materials, cons
  * furnace bound), amplified by 1/(1 − 0.5). */
 TEST(furnace_with_sheet)
 {
-    char text[4096];
-    partitioned_cube(text, sizeof text,
-                     "material m reflectance 0.5 emission 1\n"
-                     "material s reflectance 0.2 transmittance 0.3 emission 1",
-                     "m");
-    rad_solution *s = solve_text(text, NULL);
+    rad_solution *s = partitioned_cube("material m reflectance 0.5 emission 1\n"
+                                       "material s reflectance 0.2 transmittance 0.3 emission 1",
+                                       "m");
     CHECK(s != NULL);
     if (!s)
         return;
@@ -287,13 +287,10 @@ TEST(furnace_with_sheet)
  * lit only through the sheet, is lit. */
 TEST(energy_through_sheet)
 {
-    char text[4096];
-    partitioned_cube(text, sizeof text,
-                     "material m reflectance 0.5\n"
-                     "material lamp reflectance 0.5 emission 1\n"
-                     "material s reflectance 0.2 transmittance 0.6",
-                     "lamp");
-    rad_solution *s = solve_text(text, NULL);
+    rad_solution *s = partitioned_cube("material m reflectance 0.5\n"
+                                       "material lamp reflectance 0.5 emission 1\n"
+                                       "material s reflectance 0.2 transmittance 0.6",
+                                       "lamp");
     CHECK(s != NULL);
     if (!s)
         return;
