@@ -1150,8 +1150,11 @@ static void section_exact_emitters(void)
     MD("### 6.4 Exact form factors to emitters\n\n"
        "The pipeline marks its emitters (hc_options.exact, unless `pixel_emitters` is set): "
        "a marked patch j gets F_ij = F_exact · v_ij, Lambert's contour integral from i's "
-       "centre (hc_ff_point_polygon) times the fraction of j's pixels the hemi-cube sees "
-       "unoccluded, and the row's other entries are rescaled to keep the cube's pixel total.  "
+       "centre (hc_ff_point_polygon) times the fraction v_ij of j that i's centre sees: "
+       "measured in an item buffer of its own, R×R, aimed at j's polygon and just wide "
+       "enough to hold it (rendered only when a patch inside that view lies between i and "
+       "j; else v_ij = 1), and the row's other entries are rescaled to keep the cube's "
+       "pixel total.  "
        "First the scene of 6.3 with the lamp's patch marked: nothing occludes, so v_ij = 1.  "
        "Errors are per floor patch against the exact factor from its centre, as in 6.3; "
        "times are hc_compute_rows for the %u floor rows (all CPUs; the workers' start-up, "
@@ -1268,22 +1271,18 @@ static void section_exact_emitters(void)
        "contour integral to %.0e (the row's float storage) whatever the lamp's size in "
        "pixels, where counting pixels is off by up to %.0f %% under 5 pixels: the blotches "
        "of 6.3 are gone without raising R, for %.0f %% more form-factor time here (the "
-       "second rendering of the lamp alone, which measures v_ij).  Behind an occluder the "
-       "fully lit patches stay exact (%.0e) and the umbra gets %g, as with pixels.  What "
-       "remains is the penumbra: v_ij is a ratio of pixel counts, so a patch's visible "
-       "fraction of the lamp is quantised to the pixel columns the shadow's edge crosses.  "
-       "The ratio drops the lamp outline's own quantisation: the worst penumbra patch is "
-       "off by %.1f %% of its unoccluded factor at R = %u and %.1f %% at R = %u (counting "
-       "pixels: %.1f %% and %.1f %%).  Only R brings it down (%.1f× from R = %u to %u); "
-       "subdividing the receiver does not (each patch still has its own quantised view).  "
-       "The floor's mean changes little (%+.2f %% counting pixels, %+.2f %% exact, at "
-       "R = %u): the lit patches' "
-       "pixel errors, which the exact factor removes, largely cancelled in it already, as "
-       "in 6.3.\n\n",
+       "second rendering of the lamp alone).  Behind an occluder the fully lit patches stay "
+       "exact (%.0e) and the umbra gets %g, as with pixels.  In the penumbra v_ij is still "
+       "a ratio of pixel sums, but in the lamp's own view, where the lamp fills R×R pixels "
+       "instead of the s·R/2 it spans on the hemi-cube's top face: the worst penumbra patch "
+       "is off by %.2f %% of its unoccluded factor at R = %u and %.2f %% at R = %u "
+       "(counting pixels on the hemi-cube: %.1f %% and %.1f %%).  "
+       "The floor's mean F to the lamp is off by %+.2f %% counting pixels and %+.3f %% "
+       "exact, at R = %u.\n\n",
        fact.exact_worst, 100 * fact.exact_px_lt5, 100 * fact.exact_cost, fact.occ_lit_ex,
        fact.occ_umbra_ex, 100 * fact.occ_pen_ex[0], oR[0], 100 * fact.occ_pen_ex[1], oR[1],
-       100 * fact.occ_pen_px[0], 100 * fact.occ_pen_px[1], fact.occ_pen_ex[0] / fact.occ_pen_ex[1],
-       oR[0], oR[1], 100 * fact.occ_mean_px, 100 * fact.occ_mean_ex, oR[0]);
+       100 * fact.occ_pen_px[0], 100 * fact.occ_pen_px[1], 100 * fact.occ_mean_px,
+       100 * fact.occ_mean_ex, oR[0]);
     free(fvis);
     free(flamp);
     free(f);
@@ -1333,8 +1332,8 @@ int main(int argc, char **argv)
        "40·distance/size or the exact factor).  The exact factor to emitters, the "
        "pipeline's default, takes a floor patch's F to a small lamp from up to %.0f %% off "
        "(lamp under 5 pixels) to %.0e, for %.0f %% more form-factor time; behind an "
-       "occluder the penumbra stays pixel-counted (visible fraction off by up to %.1f %% "
-       "at R = 128; section 6.4).  "
+       "occluder the penumbra's visible fraction, measured in the lamp's own view, is off by "
+       "up to %.2f %% at R = 128 (section 6.4).  "
        "Form factors run at about %.0f hemi-cube rows per second at N = 6,144 patches "
        "(R = 128, all CPUs); the whole report took %.0f s.\n\n",
        100 * sm.err_unit, 100 * sm.err_near, 100 * sm.err_far, 100 * sm.err_perp,

@@ -46,7 +46,13 @@
  * suffice).  Both sums cover the same rasterisation, so an unoccluded j gets
  * v_ij = 1 exactly.  A candidate with no pixel (sub-pixel, or wholly hidden)
  * is probed instead: v_ij is 1 or 0 as c_j is visible or hidden at the one
- * pixel holding the direction to it (probe_visible).  With far exact
+ * pixel holding the direction to it (probe_visible).  A far candidate's
+ * v_ij is then measured again in a focused view (focused_visibility): an
+ * R×R item buffer aimed at its polygon's candidates, which fill it, so a
+ * shadow's edge moves v_ij in steps of about 1/R of the source's width
+ * rather than one hemi-cube pixel (a twentieth of a Cornell light at
+ * R = 128); the view is rendered only when some patch inside it lies
+ * between c_i and the source, else v_ij = 1.  With far exact
  * entries only, the pixel entries are then rescaled so that the row keeps
  * the cube's own total Σ_j F_ij (1 in a closed room): exact entries
  * redistribute the row and never open a closed room; with near entries the
@@ -100,6 +106,11 @@
 /* Bound of the area-average subdivision of exact_near entries: 16² sub-
  * triangles per fan triangle give ~1e-4 at a gap of 1 % of the size. */
 #define HC_NEAR_MAX_SUBDIV 16u
+/* Focused views (focused_visibility) are for candidates covering fewer
+ * hemi-cube pixels than this (1/16 of the view: a quarter of its width),
+ * and a candidate covering fewer of its polygon's view gets one of its own. */
+#define HC_FOCUS_PIXELS(R) ((R) * (R) / 16u)
+#define HC_FOCUS_VIEWS 8u  /* focused views a row may render at most */
 #define HC_FLUSH (1u << 20)       /* a worker sends when this much is buffered */
 #define HC_MAX_PROCESSES 1024u
 #define HC_MAX_CHUNK 32u
@@ -242,6 +253,9 @@ typedef struct hc_cand {
     double free;       /* S°_ij: the same with only the candidates drawn;
                         * for a candidate without pixels, the probe's 1 or 0 */
     double exact;      /* F_exact */
+    double vis;        /* v_ij */
+    uint32_t px;       /* pixels of S°_ij */
+    uint8_t focus;     /* 1: its focused view is still to be measured */
     uint8_t faces;     /* bit f: drawn on hemi-cube face f */
     uint8_t near;      /* nearer to c_i than its own diameter */
 } hc_cand;
@@ -255,6 +269,9 @@ typedef struct hc_gl {
     hc_cand *cand;     /* n when any_exact, else NULL */
     uint32_t *order;   /* n when any_exact: candidates of one OR pass */
     uint8_t *mark;     /* n when any_exact: 1 for the current row's candidates, else 0 */
+    uint32_t *fslot;   /* 2n when any_exact: a focused view's candidates (indices into cand),
+                        * then their pixel counts */
+    double *fsum;      /* 3n when any_exact: a focused view's sums S, S° and visibilities */
     /* Light target, R×R, made on the first light request of that size. */
     GLuint lfbo, lrb[2];
     uint32_t lR;
@@ -547,6 +564,37 @@ static void draw_face(const hc_faces *fs, hc_gl *g, int f, uint32_t R, const GLi
     glMultiDrawArrays(GL_TRIANGLES, first, count, nr);
 }
 
+/* Appends patch j's vertices to a draw list of merged ranges (first[],
+ * count[], *nr of them), extending the last range when j follows *last. */
+static void push_range(const hc_gl *g, GLint *first, GLsizei *count, GLsizei *nr, uint32_t *last,
+                       uint32_t j)
+{
+    if (*nr > 0 && *last + 1 == j) {
+        count[*nr - 1] += g->vcount[j];
+    } else {
+        first[*nr] = g->vfirst[j];
+        count[*nr] = g->vcount[j];
+        (*nr)++;
+    }
+    *last = j;
+}
+
+/* Makes an R×R view at the atlas's origin current with the row-major
+ * projection m, and clears its item and depth buffers. */
+static void square_view(const hc_gl *g, const double m[16], uint32_t R)
+{
+    float mf[16];
+    for (int k = 0; k < 16; k++)
+        mf[k] = (float)m[k];
+    const GLuint clear_id[4] = {HC_NO_PATCH, 0, 0, 0};
+    const GLfloat clear_depth = 0.0f;
+    glViewport(0, 0, (GLsizei)R, (GLsizei)R);
+    glScissor(0, 0, (GLsizei)R, (GLsizei)R);
+    glClearBufferuiv(GL_COLOR, 0, clear_id);
+    glClearBufferfv(GL_DEPTH, 0, &clear_depth);
+    glUniformMatrix4fv(g->loc_m, 1, GL_TRUE, mf);
+}
+
 static void load_corners(const hc_engine *e, uint32_t j, rad_vec3 p[4])
 {
     const double *q = e->corner + (size_t)j * 12;
@@ -590,11 +638,160 @@ static int probe_visible(const hc_engine *e, const hc_gl *g, uint32_t j, rad_vec
     return !((double)D > near / w * (1.0 + HC_PROBE_MARGIN));
 }
 
+/* The visibilities v_ij of far exact candidates js[0..nj) (ascending, all
+ * patches of one polygon, so that none can hide another), measured in a
+ * view of their own: an R×R item buffer from c_i aimed at their centre and
+ * just wide enough to hold them, so that they cover most of it instead of
+ * the few hundred pixels they cover on the hemi-cube (at R = 128 the
+ * Cornell light, 0.13 m wide 0.4 m away, is about 20 × 16 pixels, and a
+ * block's edge sweeping across it changed v in steps of 1/16).  Two
+ * renderings: every patch in front of i inside the view (S_j), and the
+ * candidates alone (S°_j); both sum the weight cosθ_i dω of the pixels
+ * showing j (in the view's tangent plane at (x, y), dω ∝ (1 + x² + y²)^{-3/2}
+ * and cosθ_i ∝ the direction's dot n_i over its length), so v_ij = S_j / S°_j
+ * is the cosine-weighted fraction of j that c_i sees, as F_exact weighs it.
+ * cover[k] counts the pixels of js[k] in the second rendering, and vis[k]
+ * is -1 for a candidate without any (sub-pixel in this view).  Sets
+ * vis[k] = 1 without rendering when no other patch lies inside the view
+ * between c_i and the polygon's plane (nothing can hide them: the light's
+ * own patches, the ceiling around it; cover[k] is then R²), and returns -1
+ * (vis untouched) when the candidates are too wide for one view (a corner
+ * 76° or more off the view's axis). */
+static int focused_visibility(const hc_engine *e, hc_gl *g, const uint32_t *js, uint32_t nj,
+                              rad_vec3 c, rad_vec3 ni, uint32_t nfront, double near, double *vis,
+                              uint32_t *cover)
+{
+    const uint32_t R = e->R;
+    const rad_vec3 pn = e->mesh->patches[js[0]].normal;
+    rad_vec3 mid = rad_v3(0, 0, 0), p0[4];
+    for (uint32_t k = 0; k < nj; k++)
+        mid = rad_add(mid, e->center[js[k]]);
+    const rad_vec3 d = rad_normalize(rad_sub(rad_scale(mid, 1.0 / nj), c));
+    rad_vec3 bu, up;
+    basis(d, &bu, &up);
+    const rad_vec3 rt = rad_cross(d, up); /* right = forward × up: unmirrored, as the faces */
+    double span = 0.0;
+    for (uint32_t k = 0; k < nj; k++) {
+        rad_vec3 pj[4];
+        load_corners(e, js[k], pj);
+        if (k == 0)
+            memcpy(p0, pj, sizeof p0);
+        for (int q = 0; q < e->ncorner[js[k]]; q++) {
+            rad_vec3 r = rad_sub(pj[q], c);
+            double w = rad_dot(r, d);
+            if (!(w > 0.25 * rad_length(r)))
+                return -1;
+            span = fmax(span, fmax(fabs(rad_dot(r, rt)), fabs(rad_dot(r, up))) / w);
+        }
+    }
+    span *= 1.02; /* a margin: the edge pixels stay inside the view */
+    if (!(span > 0.0))
+        return -1;
+    /* The patches to draw: those with a corner inside the view's four planes
+     * (conservative, as the faces' culling).  A patch can hide a candidate
+     * only if some of it lies inside the view between c_i and the polygon's
+     * plane: it is clipped to those five planes (the polygon's moved a margin
+     * towards c_i, so that what is flush with it never counts). */
+    const double margin = 1e-6 * e->radius[js[0]];
+    const double jd = rad_dot(rad_sub(p0[0], c), pn); /* < 0: c_i sees the front */
+    const rad_vec3 pa[5] = {rad_sub(rad_scale(d, span), rt), rad_add(rad_scale(d, span), rt),
+                            rad_sub(rad_scale(d, span), up), rad_add(rad_scale(d, span), up), pn};
+    const double po[5] = {0, 0, 0, 0, -jd - margin};
+    GLsizei nr = 0;
+    uint32_t last = 0, next = 0;
+    int hider = 0;
+    for (uint32_t k = 0; k < nfront; k++) {
+        uint32_t m = g->front[k];
+        const double *p = e->corner + (size_t)m * 12;
+        rad_vec3 poly[2][16];
+        int np = e->ncorner[m];
+        unsigned in = 0;
+        for (int q = 0; q < np; q++) {
+            rad_vec3 r = rad_v3(p[3 * q] - c.x, p[3 * q + 1] - c.y, p[3 * q + 2] - c.z);
+            for (int pl = 0; pl < 4; pl++)
+                in |= (unsigned)(rad_dot(pa[pl], r) >= 0) << pl;
+            poly[0][q] = r;
+        }
+        if (in != 15u)
+            continue;
+        push_range(g, g->first[0], g->count[0], &nr, &last, m);
+        while (next < nj && js[next] < m)
+            next++;
+        if (hider || (next < nj && js[next] == m))
+            continue;
+        int cur = 0;
+        for (int pl = 0; pl < 5 && np > 0; pl++) {
+            int nn = 0;
+            for (int q = 0; q < np; q++) {
+                rad_vec3 a = poly[cur][q], b = poly[cur][(q + 1) % np];
+                double da = rad_dot(pa[pl], a) + po[pl], db = rad_dot(pa[pl], b) + po[pl];
+                if (da >= 0)
+                    poly[!cur][nn++] = a;
+                if ((da >= 0) != (db >= 0))
+                    poly[!cur][nn++] = rad_add(a, rad_scale(rad_sub(b, a), da / (da - db)));
+            }
+            np = nn;
+            cur = !cur;
+        }
+        hider = np > 0;
+    }
+    if (!hider) {
+        for (uint32_t k = 0; k < nj; k++) {
+            vis[k] = 1.0;
+            cover[k] = R * R;
+        }
+        return 0;
+    }
+    double mat[16];
+    set_mat(mat, rad_scale(rt, 1.0 / span), rad_scale(up, 1.0 / span), d, 0, near);
+    /* Weight of pixel (x, y): (d + a·rt + b·up)·n_i / (1 + a² + b²)². */
+    const double dn = rad_dot(d, ni), rn = rad_dot(rt, ni), un = rad_dot(up, ni);
+    double *sum = g->fsum; /* S_j, then S°_j */
+    memset(sum, 0, 2 * (size_t)nj * sizeof *sum);
+    memset(cover, 0, (size_t)nj * sizeof *cover);
+    for (int pass = 0; pass < 2; pass++) {
+        square_view(g, mat, R);
+        if (pass == 1) {
+            nr = 0;
+            for (uint32_t k = 0; k < nj; k++)
+                push_range(g, g->first[0], g->count[0], &nr, &last, js[k]);
+        }
+        glMultiDrawArrays(GL_TRIANGLES, g->first[0], g->count[0], nr);
+        glReadPixels(0, 0, (GLsizei)R, (GLsizei)R, GL_RED_INTEGER, GL_UNSIGNED_INT, g->pixels);
+        for (uint32_t y = 0; y < R; y++) {
+            const double b = ((y + 0.5) * 2.0 / R - 1.0) * span;
+            for (uint32_t x = 0; x < R; x++) {
+                uint32_t id = g->pixels[(size_t)y * R + x];
+                if (id < js[0] || id > js[nj - 1])
+                    continue;
+                uint32_t lo = 0, hi = nj; /* id's slot, if it is a candidate */
+                while (hi - lo > 1) {
+                    uint32_t md = (lo + hi) / 2;
+                    if (js[md] <= id)
+                        lo = md;
+                    else
+                        hi = md;
+                }
+                if (js[lo] != id)
+                    continue;
+                const double a = ((x + 0.5) * 2.0 / R - 1.0) * span, l2 = 1.0 + a * a + b * b;
+                const double w = dn + a * rn + b * un;
+                if (w > 0.0)
+                    sum[(size_t)pass * nj + lo] += w / (l2 * l2);
+                cover[lo] += pass;
+            }
+        }
+    }
+    for (uint32_t k = 0; k < nj; k++)
+        vis[k] = cover[k] > 0 && sum[nj + k] > 0.0 ? fmin(1.0, sum[k] / sum[nj + k]) : -1.0;
+    return 0;
+}
+
 /* Replaces the pixel sums g->acc[j] of the ncand candidates in g->cand by
  * their exact entries F_exact · v_ij (see the top of the file).  Needs the
  * occluded pass's depth buffer; leaves the item buffer overwritten. */
 static void exact_entries(const hc_engine *e, hc_gl *g, uint32_t i, rad_vec3 c, uint32_t ncand,
-                          const rad_vec3 fr[5][3], const hc_faces *fs, double near)
+                          uint32_t nfront, const rad_vec3 fr[5][3], const hc_faces *fs, double near)
 {
     const uint32_t R = e->R;
     const rad_vec3 nn = e->mesh->patches[i].normal;
@@ -606,6 +803,7 @@ static void exact_entries(const hc_engine *e, hc_gl *g, uint32_t i, rad_vec3 c, 
         uint32_t j = cd->j;
         cd->occ = g->acc[j];
         cd->free = 0.0;
+        cd->px = 0;
         load_corners(e, j, pj);
         double ex;
         if (cd->near) {
@@ -655,14 +853,7 @@ static void exact_entries(const hc_engine *e, hc_gl *g, uint32_t i, rad_vec3 c, 
                     const hc_cand *cd = &g->cand[g->order[t]];
                     if (!(cd->faces & (1u << f)))
                         continue;
-                    if (nr > 0 && last + 1 == cd->j) {
-                        g->count[0][nr - 1] += g->vcount[cd->j];
-                    } else {
-                        g->first[0][nr] = g->vfirst[cd->j];
-                        g->count[0][nr] = g->vcount[cd->j];
-                        nr++;
-                    }
-                    last = cd->j;
+                    push_range(g, g->first[0], g->count[0], &nr, &last, cd->j);
                 }
                 if (nr)
                     draw_face(fs, g, f, R, g->first[0], g->count[0], nr);
@@ -676,6 +867,7 @@ static void exact_entries(const hc_engine *e, hc_gl *g, uint32_t i, rad_vec3 c, 
                     uint32_t r = (uint32_t)__builtin_ctz(bits);
                     bits &= bits - 1;
                     g->cand[slot[r]].free += e->dff[q];
+                    g->cand[slot[r]].px++;
                 }
             }
         }
@@ -683,12 +875,53 @@ static void exact_entries(const hc_engine *e, hc_gl *g, uint32_t i, rad_vec3 c, 
         glDisable(GL_COLOR_LOGIC_OP);
         glEnable(GL_DEPTH_TEST);
     }
+    /* The hemi-cube's v_ij, then the focused views' where they apply: to
+     * far candidates that cover fewer hemi-cube pixels than a focused view
+     * would give them, one view per polygon (its such candidates, ascending
+     * as the row found them), and one per patch when the polygon is too
+     * wide for one view or a patch too small in it.  At most
+     * HC_FOCUS_VIEWS views a row, taken in candidate order, a polygon's
+     * per-patch views all or none: a room whose every wall glows keeps the
+     * hemi-cube's ratios (its walls are large and near; what the views are
+     * for is a few small bright sources). */
+    for (uint32_t k = 0; k < ncand; k++) {
+        hc_cand *cd = &g->cand[k];
+        cd->vis = cd->occ > 0.0 ? fmin(1.0, cd->occ / cd->free) : cd->free;
+        cd->focus = cd->exact > 0.0 && !cd->near && cd->px < HC_FOCUS_PIXELS(R);
+    }
+    uint32_t views = 0;
+    for (uint32_t k = 0; k < ncand && views < HC_FOCUS_VIEWS; k++) {
+        if (!g->cand[k].focus)
+            continue;
+        uint32_t ng = 0, poly = e->mesh->patches[g->cand[k].j].polygon;
+        for (uint32_t q = k; q < ncand; q++)
+            if (g->cand[q].focus && e->mesh->patches[g->cand[q].j].polygon == poly) {
+                g->order[ng] = g->cand[q].j;
+                g->cand[q].focus = 0;
+                g->fslot[ng++] = q;
+            }
+        double *vis = g->fsum + 2 * (size_t)e->n;
+        uint32_t *cover = g->fslot + e->n, singles = 0;
+        views++;
+        const int whole = focused_visibility(e, g, g->order, ng, c, nn, nfront, near, vis, cover) == 0;
+        for (uint32_t q = 0; q < ng; q++)
+            singles += !whole || (ng > 1 && cover[q] < HC_FOCUS_PIXELS(R));
+        const int alone = singles > 0 && views + singles <= HC_FOCUS_VIEWS;
+        views += alone ? singles : 0;
+        for (uint32_t q = 0; q < ng; q++) {
+            hc_cand *cd = &g->cand[g->fslot[q]];
+            double v1 = -1.0;
+            uint32_t c1;
+            if (alone && (!whole || cover[q] < HC_FOCUS_PIXELS(R)) &&
+                focused_visibility(e, g, &cd->j, 1, c, nn, nfront, near, &v1, &c1) == 0 && v1 >= 0.0)
+                cd->vis = v1;
+            else if (whole && vis[q] >= 0.0)
+                cd->vis = vis[q];
+        }
+    }
     for (uint32_t k = 0; k < ncand; k++) {
         const hc_cand *cd = &g->cand[k];
-        double vis = 0.0;
-        if (cd->exact > 0.0)
-            vis = cd->occ > 0.0 ? fmin(1.0, cd->occ / cd->free) : cd->free;
-        g->acc[cd->j] = cd->exact * vis;
+        g->acc[cd->j] = cd->exact > 0.0 ? cd->exact * cd->vis : 0.0;
     }
 }
 
@@ -757,14 +990,7 @@ static long compute_row(const hc_engine *e, hc_gl *g, uint32_t i, const rad_vec3
             if ((inside & face_planes[f]) != face_planes[f])
                 continue;
             faces |= 1u << f;
-            if (nr[f] > 0 && last[f] + 1 == j) {
-                g->count[f][nr[f] - 1] += g->vcount[j];
-            } else {
-                g->first[f][nr[f]] = g->vfirst[j];
-                g->count[f][nr[f]] = g->vcount[j];
-                nr[f]++;
-            }
-            last[f] = j;
+            push_range(g, g->first[f], g->count[f], &nr[f], &last[f], j);
         }
         if (e->any_exact) {
             int is_near = 0;
@@ -824,7 +1050,7 @@ static long compute_row(const hc_engine *e, hc_gl *g, uint32_t i, const rad_vec3
         for (uint32_t k = 0; k < nfront; k++)
             total += acc[g->front[k]];
         total = total < 1.0 ? total : 1.0;
-        exact_entries(e, g, i, c, ncand, fr, &fs, near);
+        exact_entries(e, g, i, c, ncand, nfront, fr, &fs, near);
         if (gl_check("measuring exact form factors", msg))
             return -1;
         /* Renormalisation.  With far exact entries only (emitters), the
@@ -1032,28 +1258,12 @@ static int light_render(const hc_engine *e, hc_gl *g, const hc_light_req *q, con
             }
             if (reach != 15u)
                 continue;
-            if (nr > 0 && last + 1 == j) {
-                g->count[0][nr - 1] += g->vcount[j];
-            } else {
-                g->first[0][nr] = g->vfirst[j];
-                g->count[0][nr] = g->vcount[j];
-                nr++;
-            }
-            last = j;
+            push_range(g, g->first[0], g->count[0], &nr, &last, j);
         }
     }
-    float mf[16];
-    for (int k = 0; k < 16; k++)
-        mf[k] = (float)m[k];
-    const GLuint clear_id[4] = {HC_NO_PATCH, 0, 0, 0};
-    const GLfloat clear_depth = 0.0f;
-    glViewport(0, 0, (GLsizei)R, (GLsizei)R);
-    glScissor(0, 0, (GLsizei)R, (GLsizei)R);
-    glClearBufferuiv(GL_COLOR, 0, clear_id);
-    glClearBufferfv(GL_DEPTH, 0, &clear_depth);
+    square_view(g, m, R);
     glUniform3f(g->loc_eye, (float)(v->ortho ? 0.0 : pos.x), (float)(v->ortho ? 0.0 : pos.y),
                 (float)(v->ortho ? 0.0 : pos.z));
-    glUniformMatrix4fv(g->loc_m, 1, GL_TRUE, mf);
     if (nr)
         glMultiDrawArrays(GL_TRIANGLES, g->first[0], g->count[0], nr);
     glReadPixels(0, 0, (GLsizei)R, (GLsizei)R, GL_RED_INTEGER, GL_UNSIGNED_INT, g->lpixels);
@@ -1224,7 +1434,9 @@ static void worker_main(const hc_engine *e, int fd)
     if (ok && e->any_exact)
         ok = (g.cand = worker_alloc(n, sizeof *g.cand, msg)) &&
              (g.order = worker_alloc(n, sizeof *g.order, msg)) &&
-             (g.mark = worker_alloc(n, sizeof *g.mark, msg));
+             (g.mark = worker_alloc(n, sizeof *g.mark, msg)) &&
+             (g.fslot = worker_alloc((size_t)2 * n, sizeof *g.fslot, msg)) &&
+             (g.fsum = worker_alloc((size_t)3 * n, sizeof *g.fsum, msg));
     if (!ok || gl_setup(e, &g, msg) != 0) {
         send_msg(fd, HC_MSG_ERROR, msg);
         _exit(1);

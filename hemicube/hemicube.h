@@ -33,9 +33,11 @@ typedef struct hc_options {
     /* Per patch (mesh->patch_count bytes, may be NULL): 1 marks the patches j
      * whose F_ij is computed exactly rather than by counting pixels: the
      * point-to-polygon contour integral from i's centre to patch j
-     * (hc_ff_point_polygon), times the fraction of j the hemi-cube sees
-     * unoccluded.  The pipeline marks emitters: this removes the aliasing of
-     * small bright sources the hemi-cube paper warns about. */
+     * (hc_ff_point_polygon), times the fraction of j that i's centre sees
+     * (from the hemi-cube, then measured again in an R×R view aimed at j's
+     * polygon whenever something in that view lies between them).  The
+     * pipeline marks emitters: this removes the aliasing of small bright
+     * sources the hemi-cube paper warns about, and most of a penumbra's. */
     const uint8_t *exact;
     /* 1 = also treat exactly every patch j nearer to i's centre than j's own
      * size (the proximity case, where point sampling of i is the weak part). */
