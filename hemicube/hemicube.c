@@ -50,8 +50,8 @@
  * v_ij is then measured again in a focused view (focused_visibility): an
  * R×R item buffer aimed at its polygon's candidates, which fill it, so a
  * shadow's edge moves v_ij in steps of about 1/R of the source's width
- * rather than one hemi-cube pixel (a twentieth of a Cornell light at
- * R = 128); the view is rendered only when some patch inside it lies
+ * rather than one hemi-cube pixel (a twelfth to a fifteenth of the
+ * Cornell light at R = 128); the view is rendered only when some patch inside it lies
  * between c_i and the source, else v_ij = 1.  With far exact
  * entries only, the pixel entries are then rescaled so that the row keeps
  * the cube's own total Σ_j F_ij (1 in a closed room): exact entries
@@ -643,8 +643,9 @@ static int probe_visible(const hc_engine *e, const hc_gl *g, uint32_t j, rad_vec
  * view of their own: an R×R item buffer from c_i aimed at their centre and
  * just wide enough to hold them, so that they cover most of it instead of
  * the few hundred pixels they cover on the hemi-cube (at R = 128 the
- * Cornell light, 0.13 m wide 0.4 m away, is about 20 × 16 pixels, and a
- * block's edge sweeping across it changed v in steps of 1/16).  Two
+ * Cornell light, 0.13 × 0.105 m seen from the middle of the floor 0.55 m
+ * below, is about 15 × 12 pixels, and a block's edge sweeping across it
+ * changed v in steps of 1/15 to 1/12).  Two
  * renderings: every patch in front of i inside the view (S_j), and the
  * candidates alone (S°_j); both sum the weight cosθ_i dω of the pixels
  * showing j (in the view's tangent plane at (x, y), dω ∝ (1 + x² + y²)^{-3/2}
