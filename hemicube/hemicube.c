@@ -579,17 +579,17 @@ static void push_range(const hc_gl *g, GLint *first, GLsizei *count, GLsizei *nr
     *last = j;
 }
 
-/* Makes an R×R view at the atlas's origin current with the row-major
+/* Makes an R×R view at row y0 of the atlas current with the row-major
  * projection m, and clears its item and depth buffers. */
-static void square_view(const hc_gl *g, const double m[16], uint32_t R)
+static void square_view(const hc_gl *g, const double m[16], uint32_t R, uint32_t y0)
 {
     float mf[16];
     for (int k = 0; k < 16; k++)
         mf[k] = (float)m[k];
     const GLuint clear_id[4] = {HC_NO_PATCH, 0, 0, 0};
     const GLfloat clear_depth = 0.0f;
-    glViewport(0, 0, (GLsizei)R, (GLsizei)R);
-    glScissor(0, 0, (GLsizei)R, (GLsizei)R);
+    glViewport(0, (GLint)y0, (GLsizei)R, (GLsizei)R);
+    glScissor(0, (GLint)y0, (GLsizei)R, (GLsizei)R);
     glClearBufferuiv(GL_COLOR, 0, clear_id);
     glClearBufferfv(GL_DEPTH, 0, &clear_depth);
     glUniformMatrix4fv(g->loc_m, 1, GL_TRUE, mf);
@@ -750,19 +750,23 @@ static int focused_visibility(const hc_engine *e, hc_gl *g, const uint32_t *js, 
     double *sum = g->fsum; /* S_j, then S°_j */
     memset(sum, 0, 2 * (size_t)nj * sizeof *sum);
     memset(cover, 0, (size_t)nj * sizeof *cover);
+    /* Both renderings side by side in the atlas (rows [0, R) and [R, 2R)),
+     * read back at once: one wait for the rasteriser instead of two. */
     for (int pass = 0; pass < 2; pass++) {
-        square_view(g, mat, R);
+        square_view(g, mat, R, pass ? R : 0);
         if (pass == 1) {
             nr = 0;
             for (uint32_t k = 0; k < nj; k++)
                 push_range(g, g->first[0], g->count[0], &nr, &last, js[k]);
         }
         glMultiDrawArrays(GL_TRIANGLES, g->first[0], g->count[0], nr);
-        glReadPixels(0, 0, (GLsizei)R, (GLsizei)R, GL_RED_INTEGER, GL_UNSIGNED_INT, g->pixels);
+    }
+    glReadPixels(0, 0, (GLsizei)R, (GLsizei)(2 * R), GL_RED_INTEGER, GL_UNSIGNED_INT, g->pixels);
+    for (uint32_t pass = 0; pass < 2; pass++) {
         for (uint32_t y = 0; y < R; y++) {
             const double b = ((y + 0.5) * 2.0 / R - 1.0) * span;
             for (uint32_t x = 0; x < R; x++) {
-                uint32_t id = g->pixels[(size_t)y * R + x];
+                uint32_t id = g->pixels[((size_t)pass * R + y) * R + x];
                 if (id < js[0] || id > js[nj - 1])
                     continue;
                 uint32_t lo = 0, hi = nj; /* id's slot, if it is a candidate */
@@ -1262,7 +1266,7 @@ static int light_render(const hc_engine *e, hc_gl *g, const hc_light_req *q, con
             push_range(g, g->first[0], g->count[0], &nr, &last, j);
         }
     }
-    square_view(g, m, R);
+    square_view(g, m, R, 0);
     glUniform3f(g->loc_eye, (float)(v->ortho ? 0.0 : pos.x), (float)(v->ortho ? 0.0 : pos.y),
                 (float)(v->ortho ? 0.0 : pos.z));
     if (nr)
