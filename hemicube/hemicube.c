@@ -910,7 +910,7 @@ static void exact_entries(const hc_engine *e, hc_gl *g, uint32_t i, rad_vec3 c, 
         views++;
         const int whole = focused_visibility(e, g, g->order, ng, c, nn, nfront, near, vis, cover) == 0;
         for (uint32_t q = 0; q < ng; q++)
-            singles += !whole || (ng > 1 && cover[q] < HC_FOCUS_PIXELS(R));
+            singles += ng > 1 && (!whole || cover[q] < HC_FOCUS_PIXELS(R));
         const int alone = singles > 0 && views + singles <= HC_FOCUS_VIEWS;
         views += alone ? singles : 0;
         for (uint32_t q = 0; q < ng; q++) {
