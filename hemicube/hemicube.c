@@ -51,8 +51,10 @@
  * R×R item buffer aimed at its polygon's candidates, which fill it, so a
  * shadow's edge moves v_ij in steps of about 1/R of the source's width
  * rather than one hemi-cube pixel (a twelfth to a fifteenth of the
- * Cornell light at R = 128); the view is rendered only when some patch inside it lies
- * between c_i and the source, else v_ij = 1.  With far exact
+ * Cornell light at R = 128).  Only candidates small on the hemi-cube get
+ * one, at most HC_FOCUS_VIEWS a row, and the view is rendered only when
+ * some patch inside it lies between c_i and the source, else v_ij = 1.
+ * With far exact
  * entries only, the pixel entries are then rescaled so that the row keeps
  * the cube's own total Σ_j F_ij (1 in a closed room): exact entries
  * redistribute the row and never open a closed room; with near entries the
@@ -267,7 +269,8 @@ typedef struct hc_gl {
     GLint loc_m, loc_eye, loc_mode;
     uint32_t nvert;    /* vertices in the VBO */
     hc_cand *cand;     /* n when any_exact, else NULL */
-    uint32_t *order;   /* n when any_exact: candidates of one OR pass */
+    uint32_t *order;   /* n when any_exact: candidates of one OR pass, then the
+                        * patches of one focused view */
     uint8_t *mark;     /* n when any_exact: 1 for the current row's candidates, else 0 */
     uint32_t *fslot;   /* 2n when any_exact: a focused view's candidates (indices into cand),
                         * then their pixel counts */
