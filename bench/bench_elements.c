@@ -38,7 +38,9 @@
  * adaptive set spends fewer on the blocks and the ceiling, which no score
  * looks at: the second ratio is the fair one).
  *
- * Environment: BENCH_PATCH_SIZE, BENCH_REF_LEVELS; BENCH_REF_R and BENCH_R,
+ * Environment: BENCH_PATCH_SIZE, BENCH_REF_LEVELS; BENCH_THRESHOLDS, the
+ * adaptive sets' T as a comma-separated list (default 1e-3,3e-4,1e-4,3e-5,
+ * 1e-5, at most 16); BENCH_REF_R and BENCH_R,
  * the hemi-cube resolution of the reference's and the candidates' element
  * rows (default 128); BENCH_REF_FILE, a solution file the reference is read
  * from when it exists and written to when not (same scene and settings:
@@ -248,6 +250,7 @@ static run refine(rad_solution *s, const char *name, double threshold, uint32_t 
     o.refine_threshold = threshold;
     o.element_levels = levels;
     o.min_element_size = min_size;
+    o.mesh.max_patches = 20000000u; /* a reference 7 splits deep counts 4.3 million nodes */
     const size_t n = (size_t)s->mesh->patch_count * s->band_count;
     double *rho = NULL;
     if (scored_only) {
@@ -356,10 +359,20 @@ int main(void)
     printf("reference: uniform, %u splits on the floor and walls: %u elements, %.1f s\n\n", REF_LEVELS,
            rr.elements, rr.seconds);
 
-    enum { NA = 5 };
+    enum { MAX_NA = 16 };
     const uint32_t NU = REF_LEVELS - 1; /* uniform 0..REF_LEVELS-2 */
-    static const double thresholds[NA] = {1e-3, 3e-4, 1e-4, 3e-5, 1e-5};
-    run uni[RAD_MAX_ELEMENT_LEVEL], ada[NA], conv;
+    double thresholds[MAX_NA] = {1e-3, 3e-4, 1e-4, 3e-5, 1e-5};
+    int NA = 5;
+    if (getenv("BENCH_THRESHOLDS")) {
+        NA = 0;
+        for (char *p = getenv("BENCH_THRESHOLDS"), *end; *p && NA < MAX_NA; p = *end ? end + 1 : end) {
+            thresholds[NA] = strtod(p, &end);
+            if (end == p || !(thresholds[NA] > 0))
+                die("BENCH_THRESHOLDS: a comma-separated list of positive numbers", NULL);
+            NA++;
+        }
+    }
+    run uni[RAD_MAX_ELEMENT_LEVEL], ada[MAX_NA], conv;
     for (uint32_t l = 0; l < NU; l++) {
         char name[64];
         snprintf(name, sizeof name, "uniform, %u splits", l);
