@@ -359,20 +359,21 @@ int main(void)
     printf("reference: uniform, %u splits on the floor and walls: %u elements, %.1f s\n\n", REF_LEVELS,
            rr.elements, rr.seconds);
 
-    enum { MAX_NA = 16 };
+    enum { MAX_THRESHOLDS = 16 };
     const uint32_t NU = REF_LEVELS - 1; /* uniform 0..REF_LEVELS-2 */
-    double thresholds[MAX_NA] = {1e-3, 3e-4, 1e-4, 3e-5, 1e-5};
-    int NA = 5;
+    double thresholds[MAX_THRESHOLDS] = {1e-3, 3e-4, 1e-4, 3e-5, 1e-5};
+    int threshold_count = 5;
     if (getenv("BENCH_THRESHOLDS")) {
-        NA = 0;
-        for (char *p = getenv("BENCH_THRESHOLDS"), *end; *p && NA < MAX_NA; p = *end ? end + 1 : end) {
-            thresholds[NA] = strtod(p, &end);
-            if (end == p || !(thresholds[NA] > 0))
+        threshold_count = 0;
+        for (char *p = getenv("BENCH_THRESHOLDS"), *end; *p && threshold_count < MAX_THRESHOLDS;
+             p = *end ? end + 1 : end) {
+            thresholds[threshold_count] = strtod(p, &end);
+            if (end == p || !(thresholds[threshold_count] > 0))
                 die("BENCH_THRESHOLDS: a comma-separated list of positive numbers", NULL);
-            NA++;
+            threshold_count++;
         }
     }
-    run uni[RAD_MAX_ELEMENT_LEVEL], ada[MAX_NA], conv;
+    run uni[RAD_MAX_ELEMENT_LEVEL], ada[MAX_THRESHOLDS], conv;
     for (uint32_t l = 0; l < NU; l++) {
         char name[64];
         snprintf(name, sizeof name, "uniform, %u splits", l);
@@ -390,7 +391,7 @@ int main(void)
         score(s, el, ref, ref_view, ref_surf, &conv);
         rad_elements_destroy(el);
     }
-    for (int a = 0; a < NA; a++) {
+    for (int a = 0; a < threshold_count; a++) {
         char name[64];
         snprintf(name, sizeof name, "adaptive, T = %g", thresholds[a]);
         rad_elements *el = NULL;
@@ -412,7 +413,7 @@ int main(void)
                    uni[l].scored, (unsigned long long)uni[l].hemicubes, uni[l].seconds, uni[l].mae[m]);
         printf("| %s | %u | %u | %llu | %.2f | %.5f | | | | |\n", conv.name, conv.elements, conv.scored,
                (unsigned long long)conv.hemicubes, conv.seconds, conv.mae[m]);
-        for (int a = 0; a < NA; a++) {
+        for (int a = 0; a < threshold_count; a++) {
             double e = ada[a].mae[m], need = -1, need_scored = -1;
             /* log-log interpolation of the uniform curve at this MAE */
             for (uint32_t l = 0; l + 1 < NU; l++) {

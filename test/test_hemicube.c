@@ -607,6 +607,32 @@ static uint32_t clip_half_plane(const rad_vec3 *p, uint32_t count, rad_vec3 o, r
     return k;
 }
 
+/* The room of the small-light tests: a unit floor (patches 0-15, up) and a
+ * ceiling 1e-3 above z = 1 (16-31, down), below which the lights hang. */
+static void add_light_room(builder *b)
+{
+    add_rect(b, rad_v3(0, 0, 0), rad_v3(1, 0, 0), rad_v3(0, 1, 0), 4, 4);
+    add_rect(b, rad_v3(0, 0, 1.001), rad_v3(0, 1, 0), rad_v3(1, 0, 0), 4, 4);
+}
+
+/* A 0.03 × 0.03 light centred on lc (z = 1), facing down: its patch. */
+static uint32_t add_small_light(builder *b, rad_vec3 lc)
+{
+    return add_rect(b, rad_sub(lc, rad_v3(0.015, 0.015, 0)), rad_v3(0, 0.03, 0), rad_v3(0.03, 0, 0), 1, 1);
+}
+
+/* Lambert's point-to-polygon factor from (ci, ni) to the part of light j
+ * (centred on lc) left of a shadow line 6 mm off lc along m: the side
+ * m·(x − line) <= 0. */
+static double shaded_light_ff(const builder *b, uint32_t j, rad_vec3 lc, rad_vec3 m, rad_vec3 ci,
+                              rad_vec3 ni)
+{
+    rad_vec3 lp[4], vis[5];
+    patch_corners(b, j, lp);
+    uint32_t nv = clip_half_plane(lp, 4, rad_add(lc, rad_scale(m, 0.006)), m, vis);
+    return hc_ff_point_polygon(ci, ni, vis, nv);
+}
+
 TEST(exact_small_source)
 {
     /* A 1×1 room cross-section: floor (patches 0-15, up), ceiling 1e-3
@@ -614,11 +640,9 @@ TEST(exact_small_source)
      * down (32), 1/1000 of the floor's area, above floor patch 5 (centre
      * (0.375, 0.375)) and a little off its vertical. */
     builder b = {0};
-    add_rect(&b, rad_v3(0, 0, 0), rad_v3(1, 0, 0), rad_v3(0, 1, 0), 4, 4);
-    add_rect(&b, rad_v3(0, 0, 1.001), rad_v3(0, 1, 0), rad_v3(1, 0, 0), 4, 4);
+    add_light_room(&b);
     const rad_vec3 lc = rad_v3(0.3812, 0.3733, 1.0);
-    uint32_t light = add_rect(&b, rad_sub(lc, rad_v3(0.015, 0.015, 0)), rad_v3(0, 0.03, 0),
-                              rad_v3(0.03, 0, 0), 1, 1);
+    uint32_t light = add_small_light(&b, lc);
     const uint32_t i = 5;
     rad_vec3 ci = b.m.patches[i].center, ni = b.m.patches[i].normal, lp[4];
     patch_corners(&b, light, lp);
@@ -652,9 +676,7 @@ TEST(exact_small_source)
     rad_vec3 t = rad_v3(cos(phi), sin(phi), 0), m = rad_v3(-sin(phi), cos(phi), 0);
     rad_vec3 mid = rad_add(rad_scale(rad_add(ci, lc), 0.5), rad_scale(m, 0.003));
     add_rect(&b, rad_sub(mid, rad_scale(t, 0.2)), rad_scale(m, 0.4), rad_scale(t, 0.4), 1, 1);
-    rad_vec3 vis[5];
-    uint32_t nv = clip_half_plane(lp, 4, rad_add(lc, rad_scale(m, 0.006)), m, vis);
-    double ref = hc_ff_point_polygon(ci, ni, vis, nv);
+    double ref = shaded_light_ff(&b, light, lc, m, ci, ni);
     uint8_t *marks2 = calloc(b.m.patch_count + 1, 1);
     marks2[light] = 1;
     exact.exact = marks2;
@@ -675,9 +697,8 @@ TEST(exact_small_source)
 
     /* Fully occluded (blocker widened over the whole light): 0. */
     builder c = {0};
-    add_rect(&c, rad_v3(0, 0, 0), rad_v3(1, 0, 0), rad_v3(0, 1, 0), 4, 4);
-    add_rect(&c, rad_v3(0, 0, 1.001), rad_v3(0, 1, 0), rad_v3(1, 0, 0), 4, 4);
-    light = add_rect(&c, rad_sub(lc, rad_v3(0.015, 0.015, 0)), rad_v3(0, 0.03, 0), rad_v3(0.03, 0, 0), 1, 1);
+    add_light_room(&c);
+    light = add_small_light(&c, lc);
     add_rect(&c, rad_v3(0.25, 0.25, 0.5), rad_v3(0, 0.2, 0), rad_v3(0.2, 0, 0), 1, 1);
     exact.exact = marks;
     exact.resolution = 32;
@@ -701,8 +722,7 @@ TEST(focus_view_budget)
      * with the contour integral over the light's visible part. */
     enum { LIGHTS = 12 };
     builder b = {0};
-    add_rect(&b, rad_v3(0, 0, 0), rad_v3(1, 0, 0), rad_v3(0, 1, 0), 4, 4);
-    add_rect(&b, rad_v3(0, 0, 1.001), rad_v3(0, 1, 0), rad_v3(1, 0, 0), 4, 4);
+    add_light_room(&b);
     const double phi = 25.0 * M_PI / 180;
     const rad_vec3 t = rad_v3(cos(phi), sin(phi), 0), m = rad_v3(-sin(phi), cos(phi), 0);
     const rad_vec3 base = rad_v3(0.3812, 0.3733, 1.0);
@@ -711,12 +731,9 @@ TEST(focus_view_budget)
     uint32_t light[LIGHTS];
     double ref[LIGHTS];
     for (int k = 0; k < LIGHTS; k++) {
-        rad_vec3 lc = rad_add(base, rad_scale(t, 0.05 * (k - 5.5))), lp[4], vis[5];
-        light[k] = add_rect(&b, rad_sub(lc, rad_v3(0.015, 0.015, 0)), rad_v3(0, 0.03, 0),
-                            rad_v3(0.03, 0, 0), 1, 1);
-        patch_corners(&b, light[k], lp);
-        uint32_t nv = clip_half_plane(lp, 4, rad_add(lc, rad_scale(m, 0.006)), m, vis);
-        ref[k] = hc_ff_point_polygon(ci, ni, vis, nv);
+        rad_vec3 lc = rad_add(base, rad_scale(t, 0.05 * (k - 5.5)));
+        light[k] = add_small_light(&b, lc);
+        ref[k] = shaded_light_ff(&b, light[k], lc, m, ci, ni);
     }
     /* The lights' centres lie on a line along t, so the midpoints between
      * them and c_i do too: one edge along t cuts every light alike. */
