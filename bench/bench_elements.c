@@ -44,7 +44,10 @@
  * the hemi-cube resolution of the reference's and the candidates' element
  * rows (default 128); BENCH_REF_FILE, a solution file the reference is read
  * from when it exists and written to when not (same scene and settings:
- * the file does not record them).
+ * the file does not record them); BENCH_MAPS, a directory that gets each
+ * set's error maps (write_maps) and whose area MAE is printed per surface;
+ * BENCH_ONLY_ADAPTIVE, no uniform sets (to try a rule against a uniform
+ * curve measured before).
  * Hemi-cubes are the element rows rendered (adaptive refinement renders
  * four per leaf it tests).  Times are wall-clock, one run each; nothing here
  * asserts anything.
@@ -130,7 +133,8 @@ static double element_score(const rad_solution *s, const rad_elements *el, const
 /* Each scored surface drawn alone, head-on from 100 m (see the top of the
  * file): the cells of that surface, and for the floor the cells of
  * everything but the walls (the blocks' tops hide the floor under them).
- * Pixels of other objects are marked RAD_NONE.  out[k] are the caller's. */
+ * A pixel's patch is the element drawn there; pixels of other objects are
+ * marked RAD_NONE.  out[k] are the caller's. */
 static void draw_surfaces(rad_solution *s, rad_elements *el, rn_image *out[SURFACES])
 {
     rad_error err = {0};
@@ -144,13 +148,14 @@ static void draw_surfaces(rad_solution *s, rad_elements *el, rn_image *out[SURFA
     double *vB = malloc(((size_t)rm->vertex_count * nb + 1) * sizeof *vB);
     rad_patch *sub = malloc(((size_t)rm->patch_count + 1) * sizeof *sub);
     uint32_t *sub_object = malloc(((size_t)rm->patch_count + 1) * sizeof *sub_object);
-    if (!drawn || !cell_B || !vB || !sub || !sub_object)
+    uint32_t *sub_element = malloc(((size_t)rm->patch_count + 1) * sizeof *sub_element);
+    if (!drawn || !cell_B || !vB || !sub || !sub_object || !sub_element)
         die("out of memory", NULL);
     if (rad_solution_drawn_radiosity(s, el, rm, of, drawn, &err))
         die("drawn radiosity", &err);
     for (uint32_t k = 0; k < rm->patch_count; k++)
         memcpy(cell_B + (size_t)k * nb, drawn + (size_t)of[k] * nb, nb * sizeof *cell_B);
-    rn_vertex_radiosity(rm, nb, cell_B, vB);
+    rn_vertex_radiosity_fit(rm, nb, cell_B, vB, RN_FIT_QUADRATIC);
     for (int w = 0; w < SURFACES; w++) {
         uint32_t n = 0;
         rad_vec3 lo = {INFINITY, INFINITY, INFINITY}, hi = {-INFINITY, -INFINITY, -INFINITY}, normal = {0, 0, 0};
@@ -160,6 +165,7 @@ static void draw_surfaces(rad_solution *s, rad_elements *el, rn_image *out[SURFA
             if (mine != w && !(w == 0 && mine < 0))
                 continue;
             sub_object[n] = c->object;
+            sub_element[n] = of[k];
             sub[n++] = *c;
             if (mine != w)
                 continue;
@@ -182,8 +188,9 @@ static void draw_surfaces(rad_solution *s, rad_elements *el, rn_image *out[SURFA
             die("render a surface", &err);
         for (size_t q = 0; q < (size_t)SIDE * SIDE; q++) {
             uint32_t id = out[w]->patch[q];
-            if (id != RAD_NONE && surface_of(s->scene, sub_object[id]) != w)
-                out[w]->patch[q] = RAD_NONE;
+            out[w]->patch[q] = id == RAD_NONE || surface_of(s->scene, sub_object[id]) != w
+                                   ? RAD_NONE
+                                   : sub_element[id];
         }
     }
     free(drawn);
@@ -191,6 +198,7 @@ static void draw_surfaces(rad_solution *s, rad_elements *el, rn_image *out[SURFA
     free(vB);
     free(sub);
     free(sub_object);
+    free(sub_element);
     free(of);
     rad_mesh_destroy(rm);
 }
@@ -282,6 +290,61 @@ static run refine(rad_solution *s, const char *name, double threshold, uint32_t 
     return r;
 }
 
+/* BENCH_MAPS=dir: for each set, its area MAE per surface on stdout and,
+ * per surface, dir/<set>_<surface>.png: the reference dimmed to grey, the
+ * error |drawn − reference| in red (full red at 5 % of the reference's mean
+ * over the scored surfaces), element edges in blue. */
+static void write_maps(const char *dir, const run *r, rn_image *const *a, rn_image *const *ref)
+{
+    double mean = 0, area = 0;
+    for (int k = 0; k < SURFACES; k++) {
+        uint32_t ch = ref[k]->channels;
+        for (size_t q = 0; q < (size_t)SIDE * SIDE; q++)
+            if (ref[k]->patch[q] != RAD_NONE) {
+                for (uint32_t c = 0; c < ch; c++)
+                    mean += ref[k]->pixels[q * ch + c] / ch;
+                area++;
+            }
+    }
+    mean /= area;
+    printf("%s: area MAE by surface:", r->name);
+    for (int k = 0; k < SURFACES; k++) {
+        printf(" %s %.5f", surface_name[k], pixel_score(&a[k], &ref[k], 1));
+        uint32_t ch = ref[k]->channels, W = SIDE;
+        rn_image map = {W, W, 3, malloc((size_t)W * W * 3 * sizeof(float)), a[k]->patch};
+        if (!map.pixels)
+            die("out of memory", NULL);
+        for (size_t q = 0; q < (size_t)W * W; q++) {
+            float *o = map.pixels + q * 3;
+            o[0] = o[1] = o[2] = 0.0f;
+            if (ref[k]->patch[q] == RAD_NONE)
+                continue;
+            double e = 0, g = 0;
+            for (uint32_t c = 0; c < ch; c++) {
+                e += fabs(a[k]->pixels[q * ch + c] - ref[k]->pixels[q * ch + c]) / ch;
+                g += ref[k]->pixels[q * ch + c] / ch;
+            }
+            size_t x = q % W, y = q / W;
+            int edge = (x + 1 < W && a[k]->patch[q + 1] != a[k]->patch[q]) ||
+                       (y + 1 < W && a[k]->patch[q + W] != a[k]->patch[q]);
+            o[0] = o[1] = o[2] = (float)(0.25 * g / mean);
+            o[0] = (float)fmin(1.0, o[0] + e / (0.05 * mean));
+            if (edge)
+                o[2] = 1.0f;
+        }
+        char path[512];
+        snprintf(path, sizeof path, "%s/%s_%s.png", dir, r->name, surface_name[k]);
+        for (char *c = path + strlen(dir) + 1; *c; c++)
+            if (*c == ' ' || *c == ',' || *c == '=')
+                *c = '_';
+        rad_error err = {0};
+        if (rn_write_png(&map, path, 0.0, &err))
+            die("write a map", &err);
+        free(map.pixels);
+    }
+    printf("\n");
+}
+
 /* Scores el on the three metrics against the reference's images. */
 static void score(rad_solution *s, rad_elements *el, const rad_elements *ref, rn_image *ref_view,
                   rn_image *const *ref_surf, run *r)
@@ -290,6 +353,8 @@ static void score(rad_solution *s, rad_elements *el, const rad_elements *ref, rn
     rn_image *surf[SURFACES];
     draw_surfaces(s, el, surf);
     r->mae[AREA] = pixel_score(surf, ref_surf, SURFACES);
+    if (getenv("BENCH_MAPS"))
+        write_maps(getenv("BENCH_MAPS"), r, surf, ref_surf);
     for (int k = 0; k < SURFACES; k++)
         rn_image_destroy(surf[k]);
     rn_image *view = draw_view(s, el);
@@ -360,7 +425,10 @@ int main(void)
            rr.elements, rr.seconds);
 
     enum { MAX_THRESHOLDS = 16 };
-    const uint32_t NU = REF_LEVELS - 1; /* uniform 0..REF_LEVELS-2 */
+    /* BENCH_ONLY_ADAPTIVE: no uniform sets (for trying adaptive rules
+     * against a uniform curve measured before). */
+    const int uniform_sets = !getenv("BENCH_ONLY_ADAPTIVE");
+    const uint32_t NU = uniform_sets ? REF_LEVELS - 1 : 0; /* uniform 0..REF_LEVELS-2 */
     double thresholds[MAX_THRESHOLDS] = {1e-3, 3e-4, 1e-4, 3e-5, 1e-5};
     int threshold_count = 5;
     if (getenv("BENCH_THRESHOLDS")) {
@@ -373,7 +441,7 @@ int main(void)
             threshold_count++;
         }
     }
-    run uni[RAD_MAX_ELEMENT_LEVEL], ada[MAX_THRESHOLDS], conv;
+    run uni[RAD_MAX_ELEMENT_LEVEL], ada[MAX_THRESHOLDS], conv = {{0}, 0, 0, 0, 0, {0}};
     for (uint32_t l = 0; l < NU; l++) {
         char name[64];
         snprintf(name, sizeof name, "uniform, %u splits", l);
@@ -383,7 +451,7 @@ int main(void)
         score(s, el, ref, ref_view, ref_surf, &uni[l]);
         rad_elements_destroy(el);
     }
-    {
+    if (uniform_sets) {
         char name[64];
         snprintf(name, sizeof name, "uniform, %u splits, floor and walls only", REF_LEVELS - 1);
         rad_elements *el = NULL;
@@ -411,8 +479,9 @@ int main(void)
         for (uint32_t l = 0; l < NU; l++)
             printf("| %s | %u | %u | %llu | %.2f | %.5f | | | | |\n", uni[l].name, uni[l].elements,
                    uni[l].scored, (unsigned long long)uni[l].hemicubes, uni[l].seconds, uni[l].mae[m]);
-        printf("| %s | %u | %u | %llu | %.2f | %.5f | | | | |\n", conv.name, conv.elements, conv.scored,
-               (unsigned long long)conv.hemicubes, conv.seconds, conv.mae[m]);
+        if (uniform_sets)
+            printf("| %s | %u | %u | %llu | %.2f | %.5f | | | | |\n", conv.name, conv.elements,
+                   conv.scored, (unsigned long long)conv.hemicubes, conv.seconds, conv.mae[m]);
         for (int a = 0; a < threshold_count; a++) {
             double e = ada[a].mae[m], need = -1, need_scored = -1;
             /* log-log interpolation of the uniform curve at this MAE */

@@ -472,25 +472,19 @@ static int fan_mesh(const rad_mesh *m, rad_mesh **out, uint32_t **cells_of, rad_
             goto done;
     /* Count first: a cell with k outline vertices beyond its corners becomes
      * a fan of (corners + k) triangles about one new centre vertex. */
-    uint64_t cells = 0, extra = 0;
+    uint64_t cells = 0;
     for (uint32_t e = 0; e < ne; e++) {
         cell_outline(&t, m->patches[e].v, surface_of(&m->patches[e]), &ol);
         if (ol.failed)
             goto done;
-        int corners = rad_patch_corners(&m->patches[e]);
-        if (ol.n == (size_t)corners) {
-            cells++;
-        } else {
-            cells += ol.n;
-            extra++;
-        }
+        cells += ol.n;
     }
-    if (cells > UINT32_MAX / 2 || nv + extra > UINT32_MAX / 2) {
+    if (cells > UINT32_MAX / 2 || (uint64_t)nv + ne > UINT32_MAX / 2) {
         rc = rad_fail(err, RAD_ERR_LIMIT, "elements: %llu cells to draw: too many",
                       (unsigned long long)cells);
         goto done;
     }
-    rm = rad_mesh_alloc((uint32_t)(nv + extra), (uint32_t)cells);
+    rm = rad_mesh_alloc(nv + ne, (uint32_t)cells);
     of = malloc((size_t)(cells ? cells : 1) * sizeof *of);
     if (!rm || !of)
         goto done;
@@ -502,11 +496,6 @@ static int fan_mesh(const rad_mesh *m, rad_mesh **out, uint32_t **cells_of, rad_
         cell_outline(&t, c->v, surface_of(c), &ol);
         if (ol.failed)
             goto done;
-        if (ol.n == (size_t)rad_patch_corners(c)) {
-            rm->patches[nc] = *c;
-            of[nc++] = e;
-            continue;
-        }
         uint32_t centre = vc++;
         rm->vertices[centre] = c->center;
         for (size_t k = 0; k < ol.n; k++) {
@@ -1123,20 +1112,12 @@ static int leaves_to_elements(const builder *b, rad_elements **out, uint32_t **n
 }
 
 /* The value the renderer draws at point p of element k: the interpolant of
- * its cells [first, first + count) of the render mesh rm (one bilinear cell
- * with weights w, or a fan of triangles, located by barycentric weights). */
+ * its fan [first, first + count) of the render mesh rm, in the triangle
+ * that holds p (barycentric weights). */
 static void drawn_at(const rad_mesh *rm, const double *vB, uint32_t bands, uint32_t first,
-                     uint32_t count, const rad_patch *e, const double *w, rad_vec3 p, double *out)
+                     uint32_t count, const rad_patch *e, rad_vec3 p, double *out)
 {
     const rad_patch *c = &rm->patches[first];
-    if (count == 1) {
-        for (uint32_t b = 0; b < bands; b++) {
-            out[b] = 0.0;
-            for (int k = 0; k < rad_patch_corners(c); k++)
-                out[b] += w[k] * vB[(size_t)c->v[k] * bands + b];
-        }
-        return;
-    }
     /* The fan triangle that holds p best (largest smallest weight). */
     double best = -INFINITY, l[3] = {1 / 3., 1 / 3., 1 / 3.};
     for (uint32_t t = first; t < first + count; t++) {
@@ -1205,7 +1186,7 @@ static int estimate(builder *b, const double *scale, double *eps, uint8_t *conta
         goto done;
     for (uint32_t k = 0; k < rm->patch_count; k++)
         memcpy(cell_B + (size_t)k * bands, drawn + (size_t)cells_of[k] * bands, bands * sizeof *cell_B);
-    rn_vertex_radiosity(rm, bands, cell_B, vB);
+    rn_vertex_radiosity_fit(rm, bands, cell_B, vB, RN_FIT_QUADRATIC);
     /* Buried leaves; per drawing vertex, bit 0: a seen leaf's cells use it,
      * bit 1: a buried leaf's. */
     const uint32_t nel = el->mesh->patch_count;
@@ -1259,7 +1240,7 @@ static int estimate(builder *b, const double *scale, double *eps, uint8_t *conta
             rad_vec3 p = rad_v3(0, 0, 0);
             for (int c = 0; c < corners; c++)
                 p = rad_add(p, rad_scale(el->mesh->vertices[ec->v[c]], w[c]));
-            drawn_at(rm, vB, bands, first, next - first, ec, w, p, at);
+            drawn_at(rm, vB, bands, first, next - first, ec, p, at);
             for (uint32_t c = 0; c < bands; c++)
                 d[c] += 0.25 * fabs(Bk[c] - at[c]);
         }

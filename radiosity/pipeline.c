@@ -466,7 +466,10 @@ int rad_render_solution(const rad_solution *s, const rn_camera *cam, rn_image **
     for (uint32_t k = 0; k < mesh->patch_count; k++)
         memcpy(cell_B + (size_t)k * nb, drawn + (size_t)(cell_element ? cell_element[k] : k) * nb,
                nb * sizeof *cell_B);
-    rn_vertex_radiosity(mesh, nb, cell_B, vertex_B);
+    /* Elements: quadratic vertex fits on fans through each element's B (see
+     * rad_elements_render_mesh); patches: the paper's vertex rule. */
+    rn_vertex_radiosity_fit(mesh, nb, cell_B, vertex_B,
+                            s->elements ? RN_FIT_QUADRATIC : RN_FIT_AFFINE);
     rc = rn_render(mesh, nb, vertex_B, cam, out, err);
     /* The image names patches, whatever was drawn. */
     if (!rc && cells) {

@@ -198,11 +198,14 @@ int rad_solution_drawn_radiosity(const rad_solution *s, const rad_elements *el,
                                  const rad_mesh *rm, const uint32_t *cells_of, double *out,
                                  rad_error *err);
 
-/* The mesh to draw: every leaf element whose edges carry vertices of finer
- * neighbours is split into a fan about its centre through those vertices
- * (each fan triangle's `center` is the element's, where its B belongs),
- * the others are drawn as they are.  *cells_of gets, per cell of *out, its
- * element (the cells of one element are consecutive).  Caller owns both. */
+/* The mesh to draw: every leaf element is split into a fan of triangles
+ * about its centre, through its corners and the vertices of finer
+ * neighbours that lie on its edges (each fan triangle's `center` is the
+ * element's, where its B belongs; the apex, drawn with the element's own B,
+ * is the vertex count of el's mesh plus the element's index).  *cells_of
+ * gets, per cell of *out, its element (the cells of one element are
+ * consecutive).  Caller owns both.  Vertex radiosities for it come from
+ * rn_vertex_radiosity_fit with RN_FIT_QUADRATIC. */
 int rad_elements_render_mesh(const rad_elements *el, rad_mesh **out, uint32_t **cells_of,
                              rad_error *err);
 

@@ -186,6 +186,61 @@ void rn_affine_weights(const double *x, const double *y, size_t n, double *w)
         w[k] = 1.0 / (double)n - (qx * (x[k] - mx) + qy * (y[k] - my));
 }
 
+/* Weights w[0..n) such that Σ_k w_k b_k is, at the origin, the quadratic
+ * fitted by least squares to the samples at (x_k, y_k); 0, or -1 when the
+ * samples do not determine a quadratic (fewer than 7, or too close to a
+ * conic).  Coordinates are scaled by their RMS distance first. */
+static int quadratic_weights(const double *x, const double *y, size_t n, double *w)
+{
+    if (n < 7)
+        return -1;
+    double r2 = 0;
+    for (size_t k = 0; k < n; k++)
+        r2 += x[k] * x[k] + y[k] * y[k];
+    double sc = sqrt(r2 / (double)n);
+    if (!(sc > 0))
+        return -1;
+    double M[6][7] = {{0}};
+    for (size_t k = 0; k < n; k++) {
+        double u = x[k] / sc, v = y[k] / sc, a[6] = {1, u, v, u * u, u * v, v * v};
+        for (int i = 0; i < 6; i++)
+            for (int j = 0; j < 6; j++)
+                M[i][j] += a[i] * a[j];
+    }
+    M[0][6] = 1.0; /* solve (AᵀA) z = e_0 */
+    double trace = 0;
+    for (int i = 0; i < 6; i++)
+        trace += M[i][i];
+    for (int c = 0; c < 6; c++) {
+        int piv = c;
+        for (int r = c + 1; r < 6; r++)
+            if (fabs(M[r][c]) > fabs(M[piv][c]))
+                piv = r;
+        if (!(fabs(M[piv][c]) > 1e-10 * trace))
+            return -1;
+        for (int j = 0; j < 7; j++) {
+            double t = M[c][j];
+            M[c][j] = M[piv][j];
+            M[piv][j] = t;
+        }
+        for (int r = 0; r < 6; r++) {
+            if (r == c)
+                continue;
+            double f = M[r][c] / M[c][c];
+            for (int j = c; j < 7; j++)
+                M[r][j] -= f * M[c][j];
+        }
+    }
+    double z[6];
+    for (int i = 0; i < 6; i++)
+        z[i] = M[i][6] / M[i][i];
+    for (size_t k = 0; k < n; k++) {
+        double u = x[k] / sc, v = y[k] / sc;
+        w[k] = z[0] + z[1] * u + z[2] * v + z[3] * u * u + z[4] * u * v + z[5] * v * v;
+    }
+    return 0;
+}
+
 static void outline_fit(uint32_t bands, const double *B, double *vertex_B, uint32_t v,
                         const vr_sample *s, size_t ns, double *scratch)
 {
@@ -235,7 +290,7 @@ static void gather_push(gather *g, double x, double y, uint32_t id, int is_verte
 }
 
 /* Adds patch q's centre and its interior corners to v's samples; returns the
- * number of interior vertices added. */
+ * number of interior vertices added other than q's centre. */
 static size_t gather_patch(gather *g, const rad_mesh *m, const uint8_t *outline, uint32_t v,
                            uint32_t q, rad_vec3 e1, rad_vec3 e2)
 {
@@ -251,14 +306,76 @@ static size_t gather_patch(gather *g, const rad_mesh *m, const uint8_t *outline,
         if (w == v || outline[w] || g->vstamp[w] == v + 1)
             continue;
         g->vstamp[w] = v + 1;
-        d = rad_sub(m->vertices[w], pv);
+        rad_vec3 pw = m->vertices[w];
+        d = rad_sub(pw, pv);
         gather_push(g, rad_dot(d, e1), rad_dot(d, e2), w, 1);
-        added++;
+        /* A fan's apex is the cell's own centre: no new direction. */
+        added += !(pw.x == pa->center.x && pw.y == pa->center.y && pw.z == pa->center.z);
     }
     return added;
 }
 
+/* Interior vertex v by the quadratic fit (RN_FIT_QUADRATIC in render.h).
+ * start/adj: vertex -> cells.  Returns -1, writing nothing, when no
+ * quadratic is determined (the caller falls back to the affine fit). */
+static int quadratic_vertex(const rad_mesh *mesh, const uint64_t *start, const uint32_t *adj,
+                            uint32_t v, uint32_t bands, const double *B, double *vertex_B)
+{
+    enum { CAP = 256 }; /* more distinct centres than this: fall back */
+    uint32_t id[CAP];
+    size_t n = 0;
+    for (uint64_t k = start[v]; k < start[v + 1]; k++) {
+        const rad_patch *pa = &mesh->patches[adj[k]];
+        for (int c = 0; c < rad_patch_corners(pa); c++) {
+            uint32_t u = pa->v[c];
+            for (uint64_t q = start[u]; q < start[u + 1]; q++) {
+                /* The cells of one fan share their element's centre: one
+                 * sample each. */
+                rad_vec3 b = mesh->patches[adj[q]].center;
+                int dup = 0;
+                for (size_t i = 0; i < n && !dup; i++) {
+                    rad_vec3 a = mesh->patches[id[i]].center;
+                    dup = a.x == b.x && a.y == b.y && a.z == b.z;
+                }
+                if (dup)
+                    continue;
+                if (n == CAP)
+                    return -1;
+                id[n++] = adj[q];
+            }
+        }
+    }
+    double x[CAP], y[CAP], w[CAP];
+    rad_vec3 e1, e2;
+    plane_basis(mesh->patches[adj[start[v]]].normal, &e1, &e2);
+    for (size_t k = 0; k < n; k++) {
+        rad_vec3 d = rad_sub(mesh->patches[id[k]].center, mesh->vertices[v]);
+        x[k] = rad_dot(d, e1);
+        y[k] = rad_dot(d, e2);
+    }
+    if (quadratic_weights(x, y, n, w) != 0)
+        return -1;
+    for (uint32_t c = 0; c < bands; c++) {
+        double sum = 0, lo = INFINITY, hi = -INFINITY;
+        for (size_t k = 0; k < n; k++)
+            sum += w[k] * B[(size_t)id[k] * bands + c];
+        for (uint64_t k = start[v]; k < start[v + 1]; k++) {
+            lo = fmin(lo, B[(size_t)adj[k] * bands + c]);
+            hi = fmax(hi, B[(size_t)adj[k] * bands + c]);
+        }
+        sum = sum >= lo ? fmin(sum, hi) : lo; /* NaN -> lo too */
+        vertex_B[(size_t)v * bands + c] = sum > 0.0 ? sum : 0.0;
+    }
+    return 0;
+}
+
 void rn_vertex_radiosity(const rad_mesh *mesh, uint32_t bands, const double *B, double *vertex_B)
+{
+    rn_vertex_radiosity_fit(mesh, bands, B, vertex_B, RN_FIT_AFFINE);
+}
+
+void rn_vertex_radiosity_fit(const rad_mesh *mesh, uint32_t bands, const double *B,
+                             double *vertex_B, rn_vertex_fit how)
 {
     if (!mesh || !vertex_B || bands == 0 || bands > RAD_MAX_BANDS)
         return;
@@ -317,6 +434,10 @@ void rn_vertex_radiosity(const rad_mesh *mesh, uint32_t bands, const double *B, 
         if (n == 0)
             continue;
         const int interior = !(mesh->vertex_boundary && mesh->vertex_boundary[v]);
+        if (interior && how == RN_FIT_QUADRATIC &&
+            rad_length(mesh->patches[adj[start[v]]].normal) > 0.0 &&
+            quadratic_vertex(mesh, start, adj, v, bands, B, vertex_B) == 0)
+            continue;
         if (interior && fit && rad_length(mesh->patches[adj[start[v]]].normal) > 0.0) {
             double *x = fit, *y = fit + n, *w = fit + 2 * n;
             rad_vec3 e1, e2;

@@ -36,6 +36,26 @@ typedef struct rn_image {
  * vertex_count × bands values, all >= 0. */
 void rn_vertex_radiosity(const rad_mesh *mesh, uint32_t bands, const double *B, double *vertex_B);
 
+/* How an interior vertex's radiosity is fitted to the cells around it. */
+typedef enum rn_vertex_fit {
+    /* The affine least-squares fit to the centres of the cells using the
+     * vertex: the paper's average on a regular grid (rn_vertex_radiosity). */
+    RN_FIT_AFFINE = 0,
+    /* The quadratic least-squares fit to the distinct centres of those cells
+     * and of their neighbours (two rings: 12 on a regular grid of fans, 16 of
+     * quads), limited to
+     * the range of the cells using the vertex, so that no new extreme
+     * appears beside a shadow edge; the affine fit where no quadratic is
+     * determined.  Exact for a quadratic field away from its extremes. */
+    RN_FIT_QUADRATIC
+} rn_vertex_fit;
+
+/* rn_vertex_radiosity with a choice of fit for interior vertices (outline
+ * vertices are extrapolated affinely either way).  A vertex that is the
+ * centre of every cell using it (the apex of a fan) takes their B. */
+void rn_vertex_radiosity_fit(const rad_mesh *mesh, uint32_t bands, const double *B,
+                             double *vertex_B, rn_vertex_fit how);
+
 /* Weights w[0..n) such that Σ_k w_k b_k is, at the origin, the affine
  * function of the plane fitted by least squares to the samples b_k at
  * (x_k, y_k) (along their line only when they are collinear; the mean when

@@ -124,8 +124,11 @@ static box1 shadow_axis(double l0, double l1, double a0, double a1, double hl, d
     return b;
 }
 
-/* The refinement threshold of the shadow scene (see rad_solve_options). */
-#define SHADOW_THRESHOLD 0.005
+/* The refinement threshold of the shadow scene (see rad_solve_options):
+ * low enough that the penumbra's elements reach the size floor (three
+ * splits) under the quadratic vertex fits, which draw a smooth field well
+ * enough that 0.003 stops at two. */
+#define SHADOW_THRESHOLD 0.002
 
 /* Distance from p to the penumbra (0 inside it). */
 static double penumbra_distance(box1 x, box1 y, rad_vec3 p)

@@ -223,6 +223,56 @@ TEST(vertex_rules_of_the_paper)
     mesh_free(m);
 }
 
+/* RN_FIT_QUADRATIC on a 6×6 unit grid.  A quadratic field increasing in x
+ * and y (so no vertex is an extreme of the cells around it and the limiter
+ * stays out of it): every interior vertex exact, where the affine fit is
+ * off by the curvature, h²/8·(q_xx + q_yy) = 0.005.  A step (1 for x < 3, 0
+ * beyond): the limiter keeps every interior vertex inside the range of the
+ * cells using it, so the columns next to the step stay exactly 1 and 0
+ * (an unlimited quadratic rings there). */
+TEST(vertex_quadratic_fit)
+{
+    rad_vec3 c[4];
+    rect_z(c, 0, 0, 6, 6, 0, 0);
+    rad_mesh *m = mesh_new(49, 36);
+    add_grid(m, c, 6, 6, 0, 0);
+    double B[36], vq[49], va[49];
+    for (uint32_t p = 0; p < 36; p++) {
+        rad_vec3 x = m->patches[p].center;
+        B[p] = 5 + 2 * x.x + x.y + 0.1 * x.x * x.x + 0.05 * x.x * x.y - 0.08 * x.y * x.y;
+    }
+    rn_vertex_radiosity_fit(m, 1, B, vq, RN_FIT_QUADRATIC);
+    rn_vertex_radiosity_fit(m, 1, B, va, RN_FIT_AFFINE);
+    double worst_q = 0, least_a = INFINITY;
+    uint32_t interior = 0;
+    for (uint32_t v = 0; v < m->vertex_count; v++) {
+        if (m->vertex_boundary[v])
+            continue;
+        rad_vec3 x = m->vertices[v];
+        double want = 5 + 2 * x.x + x.y + 0.1 * x.x * x.x + 0.05 * x.x * x.y - 0.08 * x.y * x.y;
+        worst_q = fmax(worst_q, fabs(vq[v] - want));
+        least_a = fmin(least_a, fabs(va[v] - want));
+        interior++;
+    }
+    CHECK(interior == 25);
+    CHECK(worst_q < 1e-12); /* rounding on values of order 20 */
+    CHECK_NEAR(least_a, 0.005, 1e-12);
+    for (uint32_t p = 0; p < 36; p++)
+        B[p] = m->patches[p].center.x < 3.0 ? 1.0 : 0.0;
+    rn_vertex_radiosity_fit(m, 1, B, vq, RN_FIT_QUADRATIC);
+    for (uint32_t v = 0; v < m->vertex_count; v++) {
+        if (m->vertex_boundary[v])
+            continue;
+        double x = m->vertices[v].x;
+        CHECK(vq[v] >= 0.0 && vq[v] <= 1.0);
+        if (x <= 2.0)
+            CHECK(vq[v] == 1.0);
+        if (x >= 4.0)
+            CHECK(vq[v] == 0.0);
+    }
+    mesh_free(m);
+}
+
 TEST(vertex_clamp_and_fallbacks)
 {
     /* B = x − 0.25 on unit cells from x = 0: centres are >= 0.25 but the
@@ -824,6 +874,7 @@ int main(void)
     }
     RUN(vertex_linear_field_exact);
     RUN(vertex_rules_of_the_paper);
+    RUN(vertex_quadratic_fit);
     RUN(vertex_clamp_and_fallbacks);
     RUN(uniform_quad);
     RUN(linear_ramp_quads);
