@@ -138,24 +138,19 @@ static double element_score(const rad_solution *s, const rad_elements *el, const
 static void draw_surfaces(rad_solution *s, rad_elements *el, rn_image *out[SURFACES])
 {
     rad_error err = {0};
-    const uint32_t nb = s->band_count, ne = el->mesh->patch_count;
+    const uint32_t nb = s->band_count;
     rad_mesh *rm = NULL;
     uint32_t *of = NULL;
     if (rad_elements_render_mesh(el, &rm, &of, &err))
         die("render mesh", &err);
-    double *drawn = malloc(((size_t)ne * nb + 1) * sizeof *drawn);
-    double *cell_B = malloc(((size_t)rm->patch_count * nb + 1) * sizeof *cell_B);
     double *vB = malloc(((size_t)rm->vertex_count * nb + 1) * sizeof *vB);
     rad_patch *sub = malloc(((size_t)rm->patch_count + 1) * sizeof *sub);
     uint32_t *sub_object = malloc(((size_t)rm->patch_count + 1) * sizeof *sub_object);
     uint32_t *sub_element = malloc(((size_t)rm->patch_count + 1) * sizeof *sub_element);
-    if (!drawn || !cell_B || !vB || !sub || !sub_object || !sub_element)
+    if (!vB || !sub || !sub_object || !sub_element)
         die("out of memory", NULL);
-    if (rad_solution_drawn_radiosity(s, el, rm, of, drawn, &err))
-        die("drawn radiosity", &err);
-    for (uint32_t k = 0; k < rm->patch_count; k++)
-        memcpy(cell_B + (size_t)k * nb, drawn + (size_t)of[k] * nb, nb * sizeof *cell_B);
-    rn_vertex_radiosity_fit(rm, nb, cell_B, vB, RN_FIT_QUADRATIC);
+    if (rad_solution_vertex_radiosity(s, el, rm, of, NULL, vB, &err))
+        die("vertex radiosity", &err);
     for (int w = 0; w < SURFACES; w++) {
         uint32_t n = 0;
         rad_vec3 lo = {INFINITY, INFINITY, INFINITY}, hi = {-INFINITY, -INFINITY, -INFINITY}, normal = {0, 0, 0};
@@ -193,8 +188,6 @@ static void draw_surfaces(rad_solution *s, rad_elements *el, rn_image *out[SURFA
                                    : sub_element[id];
         }
     }
-    free(drawn);
-    free(cell_B);
     free(vB);
     free(sub);
     free(sub_object);

@@ -682,6 +682,32 @@ done:
     return rc;
 }
 
+int rad_solution_vertex_radiosity(const rad_solution *s, const rad_elements *el,
+                                  const rad_mesh *rm, const uint32_t *cells_of, double *drawn,
+                                  double *vertex_B, rad_error *err)
+{
+    const uint32_t bands = s->band_count;
+    const uint32_t n = el ? el->mesh->patch_count : s->mesh->patch_count;
+    double *own = drawn ? NULL : malloc(((size_t)n * bands + 1) * sizeof *own);
+    double *cell_B = malloc(((size_t)rm->patch_count * bands + 1) * sizeof *cell_B);
+    double *d = drawn ? drawn : own;
+    int rc = RAD_OK;
+    if (!d || !cell_B) {
+        rc = rad_fail(err, RAD_ERR_NOMEM, "render: out of memory for the vertex radiosities");
+        goto done;
+    }
+    if ((rc = rad_solution_drawn_radiosity(s, el, rm, cells_of, d, err)) != RAD_OK)
+        goto done;
+    for (uint32_t k = 0; k < rm->patch_count; k++)
+        memcpy(cell_B + (size_t)k * bands, d + (size_t)(cells_of ? cells_of[k] : k) * bands,
+               bands * sizeof *cell_B);
+    rn_vertex_radiosity_fit(rm, bands, cell_B, vertex_B, el ? RN_FIT_QUADRATIC : RN_FIT_AFFINE);
+done:
+    free(own);
+    free(cell_B);
+    return rc;
+}
+
 /* ---------------------------------------------------------- refinement */
 
 /* Every element made so far while refining: the leaves, the parents they
@@ -1165,8 +1191,7 @@ static int estimate(builder *b, const double *scale, double *eps, uint8_t *conta
     rad_elements *el = NULL;
     rad_mesh *rm = NULL;
     uint32_t *node_of = NULL, *cells_of = NULL;
-    double *cell_B = NULL, *vB = NULL;
-    double *drawn = NULL;
+    double *vB = NULL, *drawn = NULL;
     uint8_t *buried_leaf = NULL, *vertex_side = NULL;
     int rc = leaves_to_elements(b, &el, &node_of, err);
     if (rc != RAD_OK)
@@ -1174,19 +1199,15 @@ static int estimate(builder *b, const double *scale, double *eps, uint8_t *conta
     rc = fan_mesh(el->mesh, &rm, &cells_of, err);
     if (rc != RAD_OK)
         goto done;
-    cell_B = malloc(((size_t)rm->patch_count * bands + 1) * sizeof *cell_B);
     vB = malloc(((size_t)rm->vertex_count * bands + 1) * sizeof *vB);
     drawn = malloc(((size_t)el->mesh->patch_count * bands + 1) * sizeof *drawn);
-    if (!cell_B || !vB || !drawn) {
+    if (!vB || !drawn) {
         rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
         goto done;
     }
-    rc = rad_solution_drawn_radiosity(b->s, el, rm, cells_of, drawn, err);
+    rc = rad_solution_vertex_radiosity(b->s, el, rm, cells_of, drawn, vB, err);
     if (rc != RAD_OK)
         goto done;
-    for (uint32_t k = 0; k < rm->patch_count; k++)
-        memcpy(cell_B + (size_t)k * bands, drawn + (size_t)cells_of[k] * bands, bands * sizeof *cell_B);
-    rn_vertex_radiosity_fit(rm, bands, cell_B, vB, RN_FIT_QUADRATIC);
     /* Buried leaves; per drawing vertex, bit 0: a seen leaf's cells use it,
      * bit 1: a buried leaf's. */
     const uint32_t nel = el->mesh->patch_count;
@@ -1271,7 +1292,6 @@ done:
     free(vertex_side);
     free(node_of);
     free(cells_of);
-    free(cell_B);
     free(vB);
     return rc;
 }

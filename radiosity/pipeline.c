@@ -439,7 +439,7 @@ int rad_render_solution(const rad_solution *s, const rn_camera *cam, rn_image **
     const rad_mesh *mesh = s->mesh;
     rad_mesh *cells = NULL;
     uint32_t *cell_element = NULL;
-    double *drawn = NULL, *cell_B = NULL, *vertex_B = NULL;
+    double *vertex_B = NULL;
     const uint32_t nb = s->band_count;
     int rc = RAD_OK;
     if (s->elements) {
@@ -450,26 +450,16 @@ int rad_render_solution(const rad_solution *s, const rn_camera *cam, rn_image **
         mesh = cells;
     }
     /* What each element (or patch) is drawn with - its B, buried ones
-     * extrapolated from their seen neighbours - then per cell, to the
-     * vertices and the view. */
-    const uint32_t ne = s->elements ? s->elements->mesh->patch_count : s->mesh->patch_count;
-    drawn = malloc(((size_t)ne * nb + 1) * sizeof *drawn);
-    cell_B = malloc(((size_t)mesh->patch_count * nb + 1) * sizeof *cell_B);
+     * extrapolated from their seen neighbours - fitted to the vertices,
+     * then the view. */
     vertex_B = malloc(((size_t)mesh->vertex_count * nb + 1) * sizeof *vertex_B);
-    if (!drawn || !cell_B || !vertex_B) {
+    if (!vertex_B) {
         rc = rad_fail(err, RAD_ERR_NOMEM, "render: out of memory");
         goto done;
     }
-    rc = rad_solution_drawn_radiosity(s, s->elements, mesh, cell_element, drawn, err);
+    rc = rad_solution_vertex_radiosity(s, s->elements, mesh, cell_element, NULL, vertex_B, err);
     if (rc != RAD_OK)
         goto done;
-    for (uint32_t k = 0; k < mesh->patch_count; k++)
-        memcpy(cell_B + (size_t)k * nb, drawn + (size_t)(cell_element ? cell_element[k] : k) * nb,
-               nb * sizeof *cell_B);
-    /* Elements: quadratic vertex fits on fans through each element's B (see
-     * rad_elements_render_mesh); patches: the paper's vertex rule. */
-    rn_vertex_radiosity_fit(mesh, nb, cell_B, vertex_B,
-                            s->elements ? RN_FIT_QUADRATIC : RN_FIT_AFFINE);
     rc = rn_render(mesh, nb, vertex_B, cam, out, err);
     /* The image names patches, whatever was drawn. */
     if (!rc && cells) {
@@ -479,9 +469,7 @@ int rad_render_solution(const rad_solution *s, const rn_camera *cam, rn_image **
                 id[q] = s->elements->patch[cell_element[id[q]]];
     }
 done:
-    free(drawn);
     free(vertex_B);
-    free(cell_B);
     free(cell_element);
     rad_mesh_destroy(cells);
     return rc;

@@ -198,6 +198,16 @@ int rad_solution_drawn_radiosity(const rad_solution *s, const rad_elements *el,
                                  const rad_mesh *rm, const uint32_t *cells_of, double *out,
                                  rad_error *err);
 
+/* The vertex radiosities the renderer draws rm with (rm->vertex_count ×
+ * bands into vertex_B): each cell carries its element's (or patch's) drawn
+ * B (rad_solution_drawn_radiosity, also written to drawn when not NULL),
+ * fitted to the vertices by RN_FIT_QUADRATIC for elements (the fans of
+ * rad_elements_render_mesh) and by the paper's rule for patches.  Same
+ * rm, el and cells_of as rad_solution_drawn_radiosity. */
+int rad_solution_vertex_radiosity(const rad_solution *s, const rad_elements *el,
+                                  const rad_mesh *rm, const uint32_t *cells_of, double *drawn,
+                                  double *vertex_B, rad_error *err);
+
 /* The mesh to draw: every leaf element is split into a fan of triangles
  * about its centre, through its corners and the vertices of finer
  * neighbours that lie on its edges (each fan triangle's `center` is the

@@ -108,6 +108,8 @@ static int patch_valid(const rad_mesh *m, const rad_patch *p)
     return 1;
 }
 
+static int same_point(rad_vec3 a, rad_vec3 b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
+
 /* Two unit vectors spanning the plane with normal n (any n != 0). */
 static void plane_basis(rad_vec3 n, rad_vec3 *e1, rad_vec3 *e2)
 {
@@ -187,9 +189,9 @@ void rn_affine_weights(const double *x, const double *y, size_t n, double *w)
 }
 
 /* Weights w[0..n) such that Σ_k w_k b_k is, at the origin, the quadratic
- * fitted by least squares to the samples at (x_k, y_k); 0, or -1 when the
- * samples do not determine a quadratic (fewer than 7, or too close to a
- * conic).  Coordinates are scaled by their RMS distance first. */
+ * fitted by least squares to the samples at (x_k, y_k).  Returns 0, or -1
+ * when the samples do not determine a quadratic (fewer than 7, or too close
+ * to a conic).  Coordinates are scaled by their RMS distance first. */
 static int quadratic_weights(const double *x, const double *y, size_t n, double *w)
 {
     if (n < 7)
@@ -306,11 +308,10 @@ static size_t gather_patch(gather *g, const rad_mesh *m, const uint8_t *outline,
         if (w == v || outline[w] || g->vstamp[w] == v + 1)
             continue;
         g->vstamp[w] = v + 1;
-        rad_vec3 pw = m->vertices[w];
-        d = rad_sub(pw, pv);
+        d = rad_sub(m->vertices[w], pv);
         gather_push(g, rad_dot(d, e1), rad_dot(d, e2), w, 1);
         /* A fan's apex is the cell's own centre: no new direction. */
-        added += !(pw.x == pa->center.x && pw.y == pa->center.y && pw.z == pa->center.z);
+        added += !same_point(m->vertices[w], pa->center);
     }
     return added;
 }
@@ -333,10 +334,8 @@ static int quadratic_vertex(const rad_mesh *mesh, const uint64_t *start, const u
                  * sample each. */
                 rad_vec3 b = mesh->patches[adj[q]].center;
                 int dup = 0;
-                for (size_t i = 0; i < n && !dup; i++) {
-                    rad_vec3 a = mesh->patches[id[i]].center;
-                    dup = a.x == b.x && a.y == b.y && a.z == b.z;
-                }
+                for (size_t i = 0; i < n && !dup; i++)
+                    dup = same_point(mesh->patches[id[i]].center, b);
                 if (dup)
                     continue;
                 if (n == CAP)

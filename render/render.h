@@ -42,11 +42,11 @@ typedef enum rn_vertex_fit {
      * vertex: the paper's average on a regular grid (rn_vertex_radiosity). */
     RN_FIT_AFFINE = 0,
     /* The quadratic least-squares fit to the distinct centres of those cells
-     * and of their neighbours (two rings: 12 on a regular grid of fans, 16 of
-     * quads), limited to
-     * the range of the cells using the vertex, so that no new extreme
-     * appears beside a shadow edge; the affine fit where no quadratic is
-     * determined.  Exact for a quadratic field away from its extremes. */
+     * and of their neighbours (two rings: 12 on a regular grid of fans, 16
+     * of quads), limited to the range of the cells using the vertex, so
+     * that no new extreme appears beside a shadow edge; the affine fit where
+     * no quadratic is determined.  Exact for a quadratic field away from its
+     * extremes. */
     RN_FIT_QUADRATIC
 } rn_vertex_fit;
 
