@@ -24,9 +24,9 @@ CXXFLAGS := -std=c++17 -Wall -Wextra -Werror -Wno-unused-parameter $(CFLAGS_$(MO
 LDFLAGS  := $(CFLAGS_$(MODE))
 LDLIBS   := -lOSMesa -lOpenEXRCore-3_1 -lpng -lstdc++ -lm -lpthread
 
-CLI_C    := radiosity/main.c $(wildcard radiosity/cli_*.c)
-LIB_C    := $(filter-out $(CLI_C),$(wildcard radiosity/*.c hemicube/*.c solver/*.c render/*.c))
-LIB_CXX  := $(wildcard radiosity/*.cpp)
+CLI_C    := $(wildcard radiosity/cli/*.c)
+LIB_C    := $(filter-out $(CLI_C),$(wildcard radiosity/*/*.c hemicube/*.c solver/*.c render/*.c))
+LIB_CXX  := $(wildcard radiosity/*/*.cpp)
 LIB_OBJ  := $(LIB_C:%.c=$(B)/obj/%.o) $(LIB_CXX:%.cpp=$(B)/obj/%.o)
 LIB      := $(B)/libradiosity.a
 PROG     := $(B)/radiosity

@@ -52,7 +52,7 @@
  * four per leaf it tests).  Times are wall-clock, one run each; nothing here
  * asserts anything.
  */
-#include "../radiosity/pipeline.h"
+#include "../radiosity/pipeline/pipeline.h"
 
 #include <stdio.h>
 #include <stdlib.h>

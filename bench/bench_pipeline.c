@@ -7,7 +7,7 @@
  * The patch size for each target count is found by bisection on
  * rad_mesh_count, so the table's sizes are the nearest the mesher makes.
  */
-#include "../radiosity/pipeline.h"
+#include "../radiosity/pipeline/pipeline.h"
 
 #include <stdio.h>
 #include <stdlib.h>

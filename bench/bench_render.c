@@ -6,7 +6,7 @@
  * Prints ms per image (mean of several) and the vertex-radiosity time.
  * With an argument DIR it also writes DIR/bench_render_<patches>.png.
  */
-#include "../radiosity/rad.h"
+#include "../radiosity/core/rad.h"
 #include "../render/render.h"
 
 #include <stdio.h>

@@ -13,8 +13,8 @@
  * temporary name and renamed.
  */
 #include "../hemicube/hemicube.h"
-#include "../radiosity/mesh.h"
-#include "../radiosity/validate.h"
+#include "../radiosity/mesh/mesh.h"
+#include "../radiosity/validate/validate.h"
 #include "../solver/solver.h"
 
 #include <errno.h>

@@ -21,7 +21,7 @@
 #ifndef HC_HEMICUBE_H
 #define HC_HEMICUBE_H
 
-#include "../radiosity/rad.h"
+#include "../radiosity/core/rad.h"
 
 /* {0} means defaults. */
 typedef struct hc_options {

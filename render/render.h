@@ -15,7 +15,7 @@
 #ifndef RN_RENDER_H
 #define RN_RENDER_H
 
-#include "../radiosity/rad.h"
+#include "../radiosity/core/rad.h"
 
 typedef struct rn_camera {
     rad_vec3 eye, target, up;

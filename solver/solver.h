@@ -13,7 +13,7 @@
 #ifndef SV_SOLVER_H
 #define SV_SOLVER_H
 
-#include "../radiosity/rad.h"
+#include "../radiosity/core/rad.h"
 
 /* The system to solve.  Arrays are indexed [patch * bands + band]. */
 typedef struct sv_system {

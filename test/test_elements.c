@@ -13,7 +13,7 @@
  *     visible floor beside it;
  *   - a relight gathers the elements again without a hemi-cube.
  */
-#include "../radiosity/pipeline.h"
+#include "../radiosity/pipeline/pipeline.h"
 #include "test.h"
 #include "util.h"
 

@@ -6,8 +6,8 @@
  * by hand in the comments; tolerances are stated where they are used.
  * The last test holds models/cornell.gltf against models/cornell.rad.
  */
-#include "../radiosity/mesh.h"
-#include "../radiosity/scene.h"
+#include "../radiosity/mesh/mesh.h"
+#include "../radiosity/scene/scene.h"
 #include "test.h"
 
 #include <stdarg.h>

@@ -17,7 +17,7 @@
  *     adaptive refinement following a shadow edge, and a relight that
  *     doubles every element's direct term with nothing rendered.
  */
-#include "../radiosity/pipeline.h"
+#include "../radiosity/pipeline/pipeline.h"
 #include "test.h"
 
 #include <stdio.h>

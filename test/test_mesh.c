@@ -1,6 +1,6 @@
 /* test_mesh.c - meshing (mesh.c): patch counts, exact area sums, shared
  * vertices, boundary flags, centroids, the patch limit and the mesh checks. */
-#include "../radiosity/mesh.h"
+#include "../radiosity/mesh/mesh.h"
 #include "test.h"
 
 static const double ZERO3[3] = {0, 0, 0};

@@ -7,7 +7,7 @@
  *   - relight (issue 3): scaling, switching off, changing ρ without a row;
  *   - the three solvers agree on one matrix.
  */
-#include "../radiosity/pipeline.h"
+#include "../radiosity/pipeline/pipeline.h"
 #include "test.h"
 #include "util.h"
 

@@ -1,6 +1,6 @@
 /* test_polyfile.c - the polygon-file parser (polyfile.c), the file loader
  * (load.c) and the bundled Cornell box (models/cornell.rad). */
-#include "../radiosity/scene.h"
+#include "../radiosity/scene/scene.h"
 #include "test.h"
 
 #include <stdint.h>

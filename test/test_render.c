@@ -7,7 +7,7 @@
  * ray-plane intersection in this file, using the camera convention render.h
  * documents: pixel centres, row 0 at the top, right-handed frame.
  */
-#include "../radiosity/rad.h"
+#include "../radiosity/core/rad.h"
 #include "../render/render.h"
 #include "test.h"
 

@@ -1,7 +1,7 @@
 /* test_scene.c - the scene builder's checks (scene.c): every refusal names
  * the source, the element and the problem; what is accepted gets the right
  * normal and area. */
-#include "../radiosity/scene.h"
+#include "../radiosity/scene/scene.h"
 #include "test.h"
 
 static const double ZERO3[3] = {0, 0, 0};

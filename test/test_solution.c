@@ -6,10 +6,10 @@
  * Run as `test_solution --write-seeds DIR` it writes the fuzzer's seed
  * corpus (three small valid solution files) into DIR instead.
  */
-#include "../radiosity/mesh.h"
-#include "../radiosity/pipeline.h"
-#include "../radiosity/scene.h"
-#include "../radiosity/solution.h"
+#include "../radiosity/mesh/mesh.h"
+#include "../radiosity/pipeline/pipeline.h"
+#include "../radiosity/scene/scene.h"
+#include "../radiosity/store/solution.h"
 #include "test.h"
 
 #include <dirent.h>

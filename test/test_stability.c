@@ -10,7 +10,7 @@
  * twice, solved with fewer worker processes).  Every tolerance is stated
  * where it is checked, with its reason; docs/robustness.md summarises them.
  */
-#include "../radiosity/pipeline.h"
+#include "../radiosity/pipeline/pipeline.h"
 #include "test.h"
 #include "util.h"
 

@@ -14,7 +14,7 @@
  *   - energy: absorbed = emitted in a closed room with a sheet;
  *   - relight and a file round trip against a fresh solve.
  */
-#include "../radiosity/pipeline.h"
+#include "../radiosity/pipeline/pipeline.h"
 #include "test.h"
 #include "util.h"
 

@@ -7,7 +7,7 @@
  * report states for the default settings.  No expected value comes from a
  * run of the code under test.
  */
-#include "../radiosity/validate.h"
+#include "../radiosity/validate/validate.h"
 #include "test.h"
 
 #ifndef M_PI

@@ -5,7 +5,7 @@
 #ifndef TEST_UTIL_H
 #define TEST_UTIL_H
 
-#include "../radiosity/pipeline.h"
+#include "../radiosity/pipeline/pipeline.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -12,8 +12,8 @@
  * accepts passes rad_mesh_check.
  * Seeds: test/fuzz/corpus/gltf/; dictionary: test/fuzz/gltf.dict.
  */
-#include "../../radiosity/mesh.h"
-#include "../../radiosity/scene.h"
+#include "../../radiosity/mesh/mesh.h"
+#include "../../radiosity/scene/scene.h"
 
 #include <stdint.h>
 #include <stdlib.h>

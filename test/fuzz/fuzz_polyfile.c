@@ -11,8 +11,8 @@
  * rad_mesh_count predicted.
  * Seeds: test/fuzz/corpus/polyfile/; dictionary: test/fuzz/polyfile.dict.
  */
-#include "../../radiosity/mesh.h"
-#include "../../radiosity/scene.h"
+#include "../../radiosity/mesh/mesh.h"
+#include "../../radiosity/scene/scene.h"
 
 #include <stdint.h>
 #include <stdlib.h>

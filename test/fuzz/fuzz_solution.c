@@ -8,7 +8,7 @@
  * patch corners index existing vertices).
  * Seeds: test/fuzz/corpus/solution/ (written by `test_solution --write-seeds`).
  */
-#include "../../radiosity/solution.h"
+#include "../../radiosity/store/solution.h"
 
 #include <stdint.h>
 #include <stdlib.h>

@@ -8,7 +8,7 @@
  * a bad command line.  The library computes; only this file prints.
  */
 #include "cli.h"
-#include "validate.h"
+#include "../validate/validate.h"
 
 #include <stdio.h>
 #include <stdlib.h>

@@ -19,10 +19,10 @@
  */
 #include "validate.h"
 
-#include "../hemicube/hemicube.h"
-#include "../solver/solver.h"
-#include "mesh.h"
-#include "scene.h"
+#include "../../hemicube/hemicube.h"
+#include "../../solver/solver.h"
+#include "../mesh/mesh.h"
+#include "../scene/scene.h"
 
 #include <stdio.h>
 #include <stdlib.h>

@@ -13,8 +13,8 @@
 #ifndef RAD_VALIDATE_H
 #define RAD_VALIDATE_H
 
-#include "rad.h"
-#include "scene.h"
+#include "../core/rad.h"
+#include "../scene/scene.h"
 
 typedef enum rad_val_config {
     /* F_AB of directly opposed parallel rectangles a×b, gap c (Howell C-11). */

@@ -29,7 +29,7 @@
  * (B_e = B_p, exactly the patch's own equation, whose H_d,p is the patch
  * average Φ_lp / A_p).
  */
-#include "pipeline.h"
+#include "../pipeline/pipeline.h"
 
 #include <stdio.h>
 #include <stdlib.h>

@@ -18,7 +18,7 @@
  * and size tinygltf leaves unchecked is checked below before it is used.
  */
 #include "gltf_bridge.h"
-#include "rad.h"
+#include "../core/rad.h"
 
 #include <sys/stat.h>
 

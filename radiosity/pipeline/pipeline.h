@@ -5,12 +5,12 @@
 #ifndef RAD_PIPELINE_H
 #define RAD_PIPELINE_H
 
-#include "../hemicube/hemicube.h"
-#include "../render/render.h"
-#include "../solver/solver.h"
-#include "mesh.h"
-#include "scene.h"
-#include "solution.h"
+#include "../../hemicube/hemicube.h"
+#include "../../render/render.h"
+#include "../../solver/solver.h"
+#include "../mesh/mesh.h"
+#include "../scene/scene.h"
+#include "../store/solution.h"
 
 /* {0} means defaults. */
 typedef struct rad_solve_options {

@@ -5,7 +5,7 @@
 #ifndef RAD_CLI_H
 #define RAD_CLI_H
 
-#include "pipeline.h"
+#include "../pipeline/pipeline.h"
 
 int cli_solve(int argc, char **argv);
 int cli_render(int argc, char **argv);

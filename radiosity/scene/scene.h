@@ -13,7 +13,7 @@
 #ifndef RAD_SCENE_H
 #define RAD_SCENE_H
 
-#include "rad.h"
+#include "../core/rad.h"
 
 typedef struct rad_material {
     char *name;

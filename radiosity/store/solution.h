@@ -14,9 +14,9 @@
 #ifndef RAD_SOLUTION_H
 #define RAD_SOLUTION_H
 
-#include "mesh.h"
-#include "rad.h"
-#include "scene.h"
+#include "../mesh/mesh.h"
+#include "../core/rad.h"
+#include "../scene/scene.h"
 
 /* Stages timed and reported. */
 typedef enum rad_stage {

@@ -11,8 +11,8 @@
 #ifndef RAD_MESH_H
 #define RAD_MESH_H
 
-#include "rad.h"
-#include "scene.h"
+#include "../core/rad.h"
+#include "../scene/scene.h"
 
 /* {0} means defaults. */
 typedef struct rad_mesh_options {
