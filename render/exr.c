@@ -2,9 +2,9 @@
  *
  * The only file that includes OpenEXR.  Images are linear radiance, one float
  * channel per band: R,G,B for three bands, Y for one, B0..Bk otherwise;
- * scanline storage, ZIP compression.  Invariant: a write either renames a
- * complete "<path>.tmp.<pid>" onto path or leaves path exactly as it was and
- * no temporary file behind.  The library's own messages are caught by a
+ * scanline storage, ZIP compression.  Invariant: a write goes through a
+ * rad_output, so it either renames a complete temporary onto path or leaves
+ * path exactly as it was and no temporary file behind.  The library's own messages are caught by a
  * handler (library code never prints) and end up in the rad_error.
  */
 #include "rn_internal.h"
@@ -108,28 +108,43 @@ static int write_pixels(exr_context_t ctx, int part, const rn_image *img, const 
     return rc;
 }
 
+/* OpenEXR's writer hands us its bytes with their offsets: they go to the
+ * rad_output, whose first failure sticks and is reported at commit. */
+static int64_t exr_to_output(exr_const_context_t ctxt, void *user, const void *buffer, uint64_t sz,
+                             uint64_t offset, exr_stream_error_func_ptr_t error_cb)
+{
+    rad_output *o = user;
+    if (rad_output_write_at(o, buffer, (size_t)sz, offset) < 0) {
+        error_cb(ctxt, EXR_ERR_WRITE_IO, "cannot write %s", rad_output_temp(o));
+        return -1;
+    }
+    return (int64_t)sz;
+}
+
 int rn_write_exr(const rn_image *img, const char *path, rad_error *err)
 {
     int rc = rn_image_check(img, path, err);
     if (rc)
         return rc;
-    char *tmp = NULL;
-    rc = rn_temp_name(path, &tmp, err);
+    rad_output *out = NULL;
+    rc = rad_output_open(path, &out, err);
     if (rc)
         return rc;
 
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = exr_quiet;
+    init.write_fn = exr_to_output;
+    init.user_data = out;
     exr_context_t ctx = NULL;
     int part = 0;
     exr_msg[0] = '\0';
-    exr_result_t rv = exr_start_write(&ctx, tmp, EXR_WRITE_FILE_DIRECTLY, &init);
+    exr_result_t rv = exr_start_write(&ctx, rad_output_temp(out), EXR_WRITE_FILE_DIRECTLY, &init);
     if (rv != EXR_ERR_SUCCESS) {
-        rc = rad_fail(err, RAD_ERR_IO, "%s: cannot create '%s': %s", path, tmp, exr_why(rv));
+        rc = rad_fail(err, RAD_ERR_IO, "%s: cannot create '%s': %s", path, rad_output_temp(out),
+                      exr_why(rv));
         if (ctx)
             exr_finish(&ctx);
-        unlink(tmp);
-        free(tmp);
+        rad_output_abort(out);
         return rc;
     }
     rv = exr_add_part(ctx, "radiance", EXR_STORAGE_SCANLINE, &part);
@@ -149,23 +164,13 @@ int rn_write_exr(const rn_image *img, const char *path, rad_error *err)
         rc = write_pixels(ctx, part, img, path, err);
     rv = exr_finish(&ctx);
     if (!rc && rv != EXR_ERR_SUCCESS)
-        rc = rad_fail(err, RAD_ERR_IO, "%s: OpenEXR: finishing '%s': %s", path, tmp, exr_why(rv));
-
-    if (!rc) {
-        /* Data on disk before the name points at it. */
-        int fd = open(tmp, O_RDONLY);
-        if (fd < 0 || fsync(fd) != 0)
-            rc = rad_fail(err, RAD_ERR_IO, "%s: cannot sync '%s': %s", path, tmp, strerror(errno));
-        if (fd >= 0)
-            close(fd);
+        rc = rad_fail(err, RAD_ERR_IO, "%s: OpenEXR: finishing '%s': %s", path,
+                      rad_output_temp(out), exr_why(rv));
+    if (rc) {
+        rad_output_abort(out);
+        return rc;
     }
-    if (!rc && rename(tmp, path) != 0)
-        rc = rad_fail(err, RAD_ERR_IO, "%s: cannot rename '%s' into place: %s", path, tmp,
-                      strerror(errno));
-    if (rc)
-        unlink(tmp);
-    free(tmp);
-    return rc;
+    return rad_output_commit(out, err);
 }
 
 int rn_read_exr(const char *path, rn_image **out, rad_error *err)

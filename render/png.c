@@ -2,9 +2,9 @@
  *
  * The only file that uses libpng.  A pixel's byte is the sRGB transfer curve
  * of L·2^exposure clamped to [0, 1]; one band (or two: the first) is grey,
- * three or more bands are RGB from the first three.  Invariant: a write
- * either renames a complete "<path>.tmp.<pid>" onto path or leaves path as it
- * was and no temporary file behind.  libpng's errors come back through
+ * three or more bands are RGB from the first three.  Invariant: a write goes
+ * through a rad_output, so it either renames a complete temporary onto path
+ * or leaves path as it was and no temporary file behind.  libpng's errors come back through
  * longjmp into a rad_error; nothing is printed.
  */
 #include "rn_internal.h"
@@ -48,7 +48,16 @@ static png_byte srgb_byte(double x)
 }
 
 /* Encodes img into the open file f; RAD_OK or RAD_ERR_IO/NOMEM. */
-static int encode(FILE *f, const rn_image *img, double scale, const char *path, rad_error *err)
+/* libpng's write callback: bytes go to the rad_output (its first failure
+ * sticks and is reported at commit). */
+static void png_to_output(png_structp png, png_bytep data, size_t n)
+{
+    rad_output_write(png_get_io_ptr(png), data, n);
+}
+
+static void png_no_flush(png_structp png) { (void)png; }
+
+static int encode(rad_output *out, const rn_image *img, double scale, const char *path, rad_error *err)
 {
     int grey = img->channels < 3;
     size_t row_bytes = (size_t)img->width * (grey ? 1 : 3);
@@ -70,7 +79,7 @@ static int encode(FILE *f, const rn_image *img, double scale, const char *path, 
         free(row);
         return rad_fail(err, RAD_ERR_IO, "%s: libpng: %s", path, fail.message);
     }
-    png_init_io(png, f);
+    png_set_write_fn(png, out, png_to_output, png_no_flush);
     png_set_IHDR(png, info, img->width, img->height, 8, grey ? PNG_COLOR_TYPE_GRAY : PNG_COLOR_TYPE_RGB,
                  PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
@@ -97,26 +106,14 @@ int rn_write_png(const rn_image *img, const char *path, double exposure, rad_err
     double scale = exp2(exposure);
     if (!isfinite(scale))
         return rad_fail(err, RAD_ERR_USAGE, "%s: exposure %g unusable", path, exposure);
-    char *tmp = NULL;
-    rc = rn_temp_name(path, &tmp, err);
+    rad_output *out = NULL;
+    rc = rad_output_open(path, &out, err);
     if (rc)
         return rc;
-    FILE *f = fopen(tmp, "wb");
-    if (!f) {
-        rc = rad_fail(err, RAD_ERR_IO, "%s: cannot create '%s': %s", path, tmp, strerror(errno));
-        free(tmp);
+    rc = encode(out, img, scale, path, err);
+    if (rc) {
+        rad_output_abort(out);
         return rc;
     }
-    rc = encode(f, img, scale, path, err);
-    if (!rc && (fflush(f) != 0 || fsync(fileno(f)) != 0))
-        rc = rad_fail(err, RAD_ERR_IO, "%s: cannot write '%s': %s", path, tmp, strerror(errno));
-    if (fclose(f) != 0 && !rc)
-        rc = rad_fail(err, RAD_ERR_IO, "%s: cannot close '%s': %s", path, tmp, strerror(errno));
-    if (!rc && rename(tmp, path) != 0)
-        rc = rad_fail(err, RAD_ERR_IO, "%s: cannot rename '%s' into place: %s", path, tmp,
-                      strerror(errno));
-    if (rc)
-        unlink(tmp);
-    free(tmp);
-    return rc;
+    return rad_output_commit(out, err);
 }

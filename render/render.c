@@ -55,20 +55,6 @@ int rn_image_check(const rn_image *img, const char *path, rad_error *err)
     return RAD_OK;
 }
 
-int rn_temp_name(const char *path, char **tmp, rad_error *err)
-{
-    *tmp = NULL;
-    if (!path || !path[0])
-        return rad_fail(err, RAD_ERR_USAGE, "(no path): empty output path");
-    size_t n = strlen(path) + 32;
-    char *s = malloc(n);
-    if (!s)
-        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory for the temporary name", path);
-    snprintf(s, n, "%s.tmp.%ld", path, (long)getpid());
-    *tmp = s;
-    return RAD_OK;
-}
-
 rn_image *rn_image_alloc(uint32_t width, uint32_t height, uint32_t channels)
 {
     rn_image *img = calloc(1, sizeof *img);

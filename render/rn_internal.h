@@ -1,8 +1,8 @@
 /* rn_internal.h - what render.c shares with the two image writers.
  *
  * Private to render/: the public contract stays render.h.  Both writers check
- * an image the same way and write through the same "<path>.tmp.<pid>" name,
- * so that a failed write never touches the file already at `path`.
+ * an image the same way and write through a rad_output (rad.h), so that a
+ * failed write never touches the file already at `path`.
  */
 #ifndef RN_INTERNAL_H
 #define RN_INTERNAL_H
@@ -15,10 +15,6 @@
 /* RAD_OK when img has 1..RN_MAX_SIDE pixels a side, 1..RAD_MAX_BANDS channels
  * and pixels; else RAD_ERR_USAGE naming `path`. */
 int rn_image_check(const rn_image *img, const char *path, rad_error *err);
-
-/* Allocates "<path>.tmp.<pid>" into *tmp (caller frees).  RAD_ERR_USAGE for an
- * empty path, RAD_ERR_NOMEM when memory runs out. */
-int rn_temp_name(const char *path, char **tmp, rad_error *err);
 
 /* A zeroed image of the given size with every patch id RAD_NONE; NULL when
  * memory runs out.  Sizes must already be checked.  Caller owns. */

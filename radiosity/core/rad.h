@@ -192,4 +192,40 @@ uint64_t rad_available_memory(void);
 /* Wall-clock seconds from a monotonic clock, for stage timings. */
 double rad_seconds(void);
 
+/* ------------------------------------------------------------ output files */
+
+/* Every file the program writes goes through a rad_output: the bytes go to
+ * a temporary file beside the target ("PATH.tmp.PID"), and only
+ * rad_output_commit, once everything is written and synced, renames it onto
+ * PATH.  A failure at any point leaves PATH exactly as it was and no
+ * temporary behind, so no command ever loses a good file.  Writes record
+ * their first error; commit reports it ("PATH: cannot write TMP: why"). */
+typedef struct rad_output rad_output;
+
+/* Creates the temporary file for path.  Caller owns *out: it must end with
+ * rad_output_commit or rad_output_abort. */
+int rad_output_open(const char *path, rad_output **out, rad_error *err);
+
+/* Appends n bytes (0 on success, -1 once any write has failed). */
+int rad_output_write(rad_output *o, const void *p, size_t n);
+
+/* Writes n bytes at offset `at` without moving the append position (a
+ * header patched once the payload is through). */
+int rad_output_write_at(rad_output *o, const void *p, size_t n, uint64_t at);
+
+/* Bytes appended so far. */
+uint64_t rad_output_size(const rad_output *o);
+
+/* The target and temporary paths, for messages. */
+const char *rad_output_path(const rad_output *o);
+const char *rad_output_temp(const rad_output *o);
+
+/* Syncs, closes and renames the temporary onto the target, then syncs the
+ * directory.  On any failure (including an earlier write's) removes the
+ * temporary and reports why.  Frees o either way. */
+int rad_output_commit(rad_output *o, rad_error *err);
+
+/* Removes the temporary and frees o.  NULL does nothing. */
+void rad_output_abort(rad_output *o);
+
 #endif /* RAD_H */

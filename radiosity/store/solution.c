@@ -318,44 +318,33 @@ static int check_info(const rad_solution *s, const char *file, const char *where
 
 /* ------------------------------------------------------------------ writer */
 
-/* Where encoded bytes go: a counting pass (fd < 0) only measures a section,
- * the writing pass buffers, checksums and writes.  The first failure sticks
- * in rc so the encoders need no error paths. */
+/* Where encoded bytes go: a counting pass (out NULL) only measures a
+ * section, the writing pass buffers, checksums and writes.  A write failure
+ * sticks in the rad_output, so the encoders need no error paths. */
 typedef struct sink {
-    int fd;
+    rad_output *out;
     uint8_t *buf;
     size_t len, cap;
     uint64_t total; /* bytes put, including those still in buf */
     uint64_t crc;   /* CRC register over the bytes flushed so far */
     const crc64_tables *tab;
     int failed;
-    int errnum;
 } sink;
 
 static void sink_flush(sink *k)
 {
-    if (k->fd < 0 || k->failed || k->len == 0)
+    if (!k->out || k->failed || k->len == 0)
         return;
     k->crc = crc64_update(k->tab, k->crc, k->buf, k->len);
-    size_t off = 0;
-    while (off < k->len) {
-        ssize_t w = write(k->fd, k->buf + off, k->len - off);
-        if (w <= 0) {
-            if (w < 0 && errno == EINTR)
-                continue;
-            k->failed = 1;
-            k->errnum = w < 0 ? errno : ENOSPC; /* 0 bytes written: no progress possible */
-            return;
-        }
-        off += (size_t)w;
-    }
+    if (rad_output_write(k->out, k->buf, k->len) < 0)
+        k->failed = 1;
     k->len = 0;
 }
 
 static void put(sink *k, const void *p, size_t n)
 {
     k->total += n;
-    if (k->fd < 0 || k->failed)
+    if (!k->out || k->failed)
         return;
     const uint8_t *b = p;
     while (n) {
@@ -796,40 +785,6 @@ static void store_le(uint8_t *p, uint64_t v, int bytes)
         p[i] = (uint8_t)(v >> (8 * i));
 }
 
-static int write_all_at(int fd, const uint8_t *p, size_t n, off_t at)
-{
-    while (n) {
-        ssize_t w = pwrite(fd, p, n, at);
-        if (w <= 0) {
-            if (w < 0 && errno == EINTR)
-                continue;
-            if (w == 0)
-                errno = ENOSPC;
-            return -1;
-        }
-        p += w;
-        n -= (size_t)w;
-        at += w;
-    }
-    return 0;
-}
-
-/* Makes the rename itself durable; a failure here loses nothing already
- * written, so it is not reported. */
-static void sync_directory_of(const char *path)
-{
-    const char *slash = strrchr(path, '/');
-    char *dir = slash ? strndup(path, (size_t)(slash - path) + (slash == path)) : strdup(".");
-    if (!dir)
-        return;
-    int fd = open(dir, O_RDONLY | O_CLOEXEC);
-    if (fd >= 0) {
-        fsync(fd);
-        close(fd);
-    }
-    free(dir);
-}
-
 int rad_solution_write(const rad_solution *s, const char *path, rad_error *err)
 {
     if (!path || !*path)
@@ -844,7 +799,7 @@ int rad_solution_write(const rad_solution *s, const char *path, rad_error *err)
         len[i] = 0;
         if (!section_written(s, i))
             continue;
-        sink count = {.fd = -1};
+        sink count = {0};
         sec_emit[i](&count, s);
         len[i] = count.total;
         payload += SOL_SECTION_HEADER + len[i];
@@ -854,36 +809,23 @@ int rad_solution_write(const rad_solution *s, const char *path, rad_error *err)
                         "%s: cannot write: %llu bytes exceeds the 64 GiB limit of the reader", path,
                         (unsigned long long)(payload + SOL_HEADER_BYTES));
 
-    size_t tmp_size = strlen(path) + 32;
-    char *tmp = malloc(tmp_size);
     crc64_tables *tab = malloc(sizeof *tab);
-    sink k = {.fd = -1, .cap = 1u << 20};
+    sink k = {.cap = 1u << 20};
     k.buf = malloc(k.cap);
-    if (!tmp || !tab || !k.buf) {
-        free(tmp);
+    if (!tab || !k.buf) {
         free(tab);
         free(k.buf);
         return rad_fail(err, RAD_ERR_NOMEM, "%s: cannot write: out of memory", path);
     }
-    crc64_init(tab);
-    k.tab = tab;
-    k.crc = ~0ull;
-    snprintf(tmp, tmp_size, "%s.tmp.%ld", path, (long)getpid());
-
-    int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-    if (fd < 0 && errno == EEXIST) {
-        /* A leftover from an earlier process with our pid: it is ours to replace. */
-        unlink(tmp);
-        fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-    }
-    if (fd < 0) {
-        rc = rad_fail(err, RAD_ERR_IO, "%s: cannot create temporary file %s: %s", path, tmp,
-                      strerror(errno));
-        free(tmp);
+    rc = rad_output_open(path, &k.out, err);
+    if (rc) {
         free(tab);
         free(k.buf);
         return rc;
     }
+    crc64_init(tab);
+    k.tab = tab;
+    k.crc = ~0ull;
 
     uint8_t head[SOL_HEADER_BYTES] = {0};
     memcpy(head, SOL_MAGIC, 8);
@@ -891,13 +833,7 @@ int rad_solution_write(const rad_solution *s, const char *path, rad_error *err)
     store_le(head + 12, 0, 4);
     store_le(head + 16, payload, 8);
     /* bytes 24..31, the checksum, are written once the payload is through */
-    const char *what = "write";
-    int e = 0;
-    if (write_all_at(fd, head, sizeof head, 0) < 0 || lseek(fd, SOL_HEADER_BYTES, SEEK_SET) < 0) {
-        e = errno;
-        goto io_fail;
-    }
-    k.fd = fd;
+    rad_output_write(k.out, head, sizeof head);
     for (int i = 0; i < SEC_COUNT; i++) {
         if (!section_written(s, i))
             continue;
@@ -909,48 +845,10 @@ int rad_solution_write(const rad_solution *s, const char *path, rad_error *err)
         (void)before;
     }
     sink_flush(&k);
-    if (k.failed) {
-        e = k.errnum;
-        goto io_fail;
-    }
-    RAD_ASSERT(k.total == payload);
+    RAD_ASSERT(k.failed || k.total == payload);
     store_le(head + 24, k.crc ^ ~0ull, 8);
-    if (write_all_at(fd, head + 24, 8, 24) < 0) {
-        e = errno;
-        goto io_fail;
-    }
-    what = "sync";
-    if (fsync(fd) < 0) {
-        e = errno;
-        goto io_fail;
-    }
-    what = "close";
-    rc = close(fd);
-    fd = -1;
-    if (rc < 0) {
-        e = errno;
-        goto io_fail;
-    }
-    what = "rename";
-    if (rename(tmp, path) < 0) {
-        e = errno;
-        goto io_fail;
-    }
-    sync_directory_of(path);
-    free(tmp);
-    free(tab);
-    free(k.buf);
-    return RAD_OK;
-
-io_fail:
-    if (fd >= 0)
-        close(fd);
-    unlink(tmp); /* the target, if any, was never touched */
-    if (strcmp(what, "rename") == 0)
-        rc = rad_fail(err, RAD_ERR_IO, "%s: cannot rename %s to it: %s", path, tmp, strerror(e));
-    else
-        rc = rad_fail(err, RAD_ERR_IO, "%s: cannot %s %s: %s", path, what, tmp, strerror(e));
-    free(tmp);
+    rad_output_write_at(k.out, head + 24, 8, 24);
+    rc = rad_output_commit(k.out, err); /* reports any write's failure */
     free(tab);
     free(k.buf);
     return rc;
