@@ -149,7 +149,7 @@ static void draw_surfaces(rad_solution *s, rad_elements *el, rn_image *out[SURFA
     uint32_t *sub_element = malloc(((size_t)rm->patch_count + 1) * sizeof *sub_element);
     if (!vB || !sub || !sub_object || !sub_element)
         die("out of memory", NULL);
-    if (rad_solution_vertex_radiosity(s, el, rm, of, NULL, vB, &err))
+    if (rad_elements_vertex_radiosity(s, el, rm, of, NULL, vB, &err))
         die("vertex radiosity", &err);
     for (int w = 0; w < SURFACES; w++) {
         uint32_t n = 0;
@@ -266,7 +266,7 @@ static run refine(rad_solution *s, const char *name, double threshold, uint32_t 
     }
     rad_error err = {0};
     double t0 = rad_seconds();
-    int rc = rad_solution_refine(s, &o, &err);
+    int rc = rad_refine_solution(s, &o, &err);
     if (rho) {
         memcpy(s->rho, rho, n * sizeof *rho);
         free(rho);

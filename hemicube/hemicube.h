@@ -23,9 +23,14 @@
 
 #include "../radiosity/core/rad.h"
 
+/* The default hemi-cube resolution R (hc_options.resolution 0), the one
+ * place it is written. */
+#define HC_DEFAULT_RESOLUTION 128
+
 /* {0} means defaults. */
 typedef struct hc_options {
-    uint32_t resolution; /* R: the top face is R×R pixels, side faces R×R/2; 0 = 128; even, 8..4096 */
+    uint32_t resolution; /* R: the top face is R×R pixels, side faces R×R/2;
+                          * 0 = HC_DEFAULT_RESOLUTION; even, 8..4096 */
     uint32_t processes;  /* worker processes; 0 = number of online CPUs */
     /* Called from the caller's process as rows complete (may be NULL). */
     void (*progress)(void *user, uint32_t done, uint32_t total);

@@ -16,7 +16,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define SV_DEFAULT_TOLERANCE 1e-4
 #define SV_DEFAULT_SWEEPS 10000u
 #define SV_DEFAULT_SHOTS_PER_PATCH 100u
 /* rad.h allows rows to sum to 1 + 1e-3 (hemi-cube rounding); more is not a form-factor row. */

@@ -40,13 +40,17 @@ typedef enum sv_method {
     SV_PROGRESSIVE
 } sv_method;
 
+/* The solvers' default stopping tolerance (sv_options.tolerance 0), the one
+ * place it is written. */
+#define SV_DEFAULT_TOLERANCE 1e-4
+
 /* {0} means defaults. */
 typedef struct sv_options {
     sv_method method;
     /* Stop when the estimated remaining relative error is below this.
      * Gauss-Seidel/Jacobi: max_i |B_i - B_i*| / max(B_i) estimated from the
      * last change and the observed contraction rate q: change · q / (1 - q).
-     * Progressive: unshot power / emitted power.  0 = 1e-4. */
+     * Progressive: unshot power / emitted power.  0 = SV_DEFAULT_TOLERANCE. */
     double tolerance;
     uint32_t max_iterations; /* sweeps (or shots for progressive); 0 = 10000 (progressive: 100·n) */
 

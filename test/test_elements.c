@@ -359,7 +359,7 @@ static rn_image *box_floor_view(rad_solution *s, uint32_t levels)
     rad_solve_options opt = {0};
     opt.element_levels = levels;
     rad_error err = {0};
-    if (rad_solution_refine(s, &opt, &err) != RAD_OK)
+    if (rad_refine_solution(s, &opt, &err) != RAD_OK)
         return NULL;
     rn_camera cam = {.eye = {0.5, 0.5, 50.0}, .target = {0.5, 0.5, 0.0}, .up = {0, 1, 0},
                      .yfov_deg = 2.0 * atan(0.5 / 50.0) * 180.0 / M_PI, .width = 512, .height = 512};
@@ -387,7 +387,7 @@ TEST(buried_elements_do_not_darken_their_neighbours)
     const uint32_t np = s->mesh->patch_count, floor = object_named(s, "floor");
     double *drawn = malloc(np * sizeof *drawn);
     rad_error err = {0};
-    CHECK(drawn && rad_solution_drawn_radiosity(s, NULL, s->mesh, NULL, drawn, &err) == RAD_OK);
+    CHECK(drawn && rad_elements_drawn_radiosity(s, NULL, s->mesh, NULL, drawn, &err) == RAD_OK);
     uint32_t changed = 0, positive = 0;
     for (uint32_t p = 0; drawn && p < np; p++)
         if (drawn[p] != s->B[p]) {

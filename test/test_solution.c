@@ -1395,7 +1395,7 @@ static rad_solution *make_elements(void)
     opt.element_levels = 1;
     opt.hemicube.resolution = 32;
     rad_error e;
-    if (s && rad_solution_refine(s, &opt, &e) != RAD_OK) {
+    if (s && rad_refine_solution(s, &opt, &e) != RAD_OK) {
         fprintf(stderr, "  refine: %s\n", e.message);
         rad_solution_destroy(s);
         return NULL;

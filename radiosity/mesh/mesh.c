@@ -517,7 +517,7 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
                             "%s: polygon '%s': points, object or material out of range", src,
                             pg->name ? pg->name : "");
     }
-    uint32_t limit = opt && opt->max_patches ? opt->max_patches : 2000000u;
+    uint32_t limit = opt && opt->max_patches ? opt->max_patches : RAD_MESH_DEFAULT_MAX_PATCHES;
     uint64_t np, nv;
     mesh_totals(scene, opt, &np, &nv);
     double size = effective_default(scene, opt);

@@ -14,6 +14,10 @@
 #include "../core/rad.h"
 #include "../scene/scene.h"
 
+/* The largest patch (and element) count a solution may have unless told
+ * otherwise: the memory check's first line of defence. */
+#define RAD_MESH_DEFAULT_MAX_PATCHES 2000000u
+
 /* {0} means defaults. */
 typedef struct rad_mesh_options {
     /* Target patch edge length in scene units.  0 = the polygons' own
@@ -21,7 +25,7 @@ typedef struct rad_mesh_options {
      * (scene bounding-box diagonal / 24). A positive value overrides the
      * polygons' parameters. */
     double patch_size;
-    /* Refuse to build more patches than this; 0 = 2,000,000. */
+    /* Refuse to build more patches than this; 0 = RAD_MESH_DEFAULT_MAX_PATCHES. */
     uint32_t max_patches;
 } rad_mesh_options;
 

@@ -29,41 +29,60 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* What the progressive solver's row callback needs. */
-typedef struct resolve_ctx {
+/* One run of the pipeline on a solution: the hemi-cube engine (started on
+ * first need and shared by the patch rows, the lights and the elements) and
+ * what the run computed.  The progressive solver's row callback gets it. */
+typedef struct run {
     rad_solution *s;
     const rad_solve_options *opt;
-    hc_engine *hc;        /* created on first need */
+    hc_engine *hc;        /* created on first need, destroyed by run_end */
     uint8_t *exact;       /* patches with exact incoming factors (emitters), or NULL */
     uint64_t rows_computed;
     uint64_t lights_computed;
     uint64_t max_memory;
     double ff_seconds;    /* time inside the hemi-cube, counted apart from the solve */
-} resolve_ctx;
+} run;
 
-static int start_hemicube(resolve_ctx *c, rad_error *err)
+static void run_begin(run *c, rad_solution *s, const rad_solve_options *opt)
+{
+    uint64_t limit = opt->max_memory;
+    if (!limit)
+        limit = (uint64_t)(0.8 * (double)rad_available_memory());
+    *c = (run){.s = s, .opt = opt, .max_memory = limit};
+}
+
+static void run_end(run *c)
+{
+    if (c->hc)
+        c->s->resolution = c->opt->hemicube.resolution ? c->opt->hemicube.resolution
+                                                       : HC_DEFAULT_RESOLUTION;
+    hc_destroy(c->hc);
+    free(c->exact);
+    c->hc = NULL;
+    c->exact = NULL;
+}
+
+static int start_hemicube(run *c, rad_error *err)
 {
     if (c->hc)
         return RAD_OK;
     hc_options ho = c->opt->hemicube;
     ho.exact_near = c->opt->exact_near;
     uint32_t n = c->s->mesh->patch_count, nb = c->s->band_count;
-    uint8_t *exact = NULL;
     if (!c->opt->pixel_emitters && !ho.exact) {
         /* Emitters get exact factors: their few pixels are where aliasing hurts. */
-        exact = calloc((size_t)n + 1, 1);
-        if (!exact)
+        c->exact = calloc((size_t)n + 1, 1);
+        if (!c->exact)
             return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", c->s->scene->source);
         for (uint32_t i = 0; i < n; i++)
             for (uint32_t b = 0; b < nb; b++)
-                exact[i] |= c->s->emission[(size_t)i * nb + b] > 0.0;
-        ho.exact = exact;
+                c->exact[i] |= c->s->emission[(size_t)i * nb + b] > 0.0;
+        ho.exact = c->exact; /* lives as long as the engine */
     }
-    c->exact = exact; /* lives as long as the engine: freed in rad_resolve */
     return hc_create(c->s->mesh, &ho, &c->hc, err);
 }
 
-static int compute_rows(resolve_ctx *c, const uint32_t *rows, uint32_t count, rad_error *err)
+static int compute_rows(run *c, const uint32_t *rows, uint32_t count, rad_error *err)
 {
     if (count == 0)
         return RAD_OK;
@@ -91,7 +110,7 @@ static const char *human_bytes(double bytes, char *buf, size_t size)
 
 static int need_row(void *user, uint32_t i, rad_error *err)
 {
-    resolve_ctx *c = user;
+    run *c = user;
     uint64_t used = c->s->F->capacity * (sizeof(uint32_t) + sizeof(float));
     if (used > c->max_memory) {
         char a[32], b[32];
@@ -106,7 +125,7 @@ static int need_row(void *user, uint32_t i, rad_error *err)
 
 static int on_preview(void *user, uint32_t shots, const double *B_display)
 {
-    resolve_ctx *c = user;
+    run *c = user;
     return c->opt->on_preview(c->opt->preview_user, c->s, shots, B_display);
 }
 
@@ -182,7 +201,8 @@ uint32_t rad_light_resolution(const rad_solve_options *opt)
     return opt->hemicube.resolution > 512 ? opt->hemicube.resolution : 512;
 }
 
-hc_light rad_light_for_hemicube(const rad_light *L)
+/* A scene light as the hemi-cube module takes it. */
+static hc_light light_for_hemicube(const rad_light *L)
 {
     hc_light hl = {.kind = L->kind == RAD_LIGHT_POINT  ? HC_LIGHT_POINT
                            : L->kind == RAD_LIGHT_SPOT ? HC_LIGHT_SPOT
@@ -194,9 +214,34 @@ hc_light rad_light_for_hemicube(const rad_light *L)
     return hl;
 }
 
+/* The stage "form factors": the rows the gathering solvers need and do not
+ * have (no row for a patch that neither reflects nor lets its twin's light
+ * through; a back hemi-cube only behind a transmitting patch).  The
+ * progressive solver asks for its rows as it shoots instead. */
+static int compute_missing_rows(run *c, const sv_system *all, rad_error *err)
+{
+    const rad_solution *s = c->s;
+    const rad_solve_options *opt = c->opt;
+    const uint32_t n = s->mesh->patch_count;
+    if (opt->solver.method == SV_PROGRESSIVE && !opt->all_rows)
+        return RAD_OK;
+    uint32_t *missing = malloc(((size_t)n + 1) * sizeof *missing);
+    if (!missing)
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
+    uint32_t count = 0;
+    for (uint32_t i = 0; i < n; i++)
+        if (!s->F->row_done[i] && (opt->all_rows || sv_row_needed(all, i)))
+            missing[count++] = i;
+    int rc = check_memory(s, s->F->rows_done + count, c->max_memory, err);
+    if (!rc)
+        rc = compute_rows(c, missing, count, err);
+    free(missing);
+    return rc;
+}
+
 /* The stage "direct light": renders every punctual light whose per-patch
  * power the solution does not hold yet, on the same engine as the rows. */
-static int shoot_lights(resolve_ctx *c, rad_error *err)
+static int shoot_lights(run *c, rad_error *err)
 {
     rad_solution *s = c->s;
     const rad_scene *sc = s->scene;
@@ -210,7 +255,7 @@ static int shoot_lights(resolve_ctx *c, rad_error *err)
         double t0 = rad_seconds();
         if (!power && !(power = malloc(((size_t)n + 1) * sizeof *power)))
             return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", sc->source);
-        hc_light hl = rad_light_for_hemicube(&sc->lights[l]);
+        hc_light hl = light_for_hemicube(&sc->lights[l]);
         rc = start_hemicube(c, err);
         if (!rc)
             rc = hc_light_power(c->hc, &hl, R, power, err);
@@ -224,117 +269,118 @@ static int shoot_lights(resolve_ctx *c, rad_error *err)
     return rc;
 }
 
-int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err)
+/* The source term of the solve, E + ρ H_d (+ τ H_d of the twin, through a
+ * sheet), n × bands into *out; NULL (use E) when the scene has no punctual
+ * lights.  Caller owns *out. */
+static int source_term(const rad_solution *s, const double *tau, double **out, rad_error *err)
 {
-    static const rad_solve_options defaults;
-    if (!opt)
-        opt = &defaults;
-    uint32_t n = s->mesh->patch_count;
-    uint64_t limit = opt->max_memory;
-    if (!limit)
-        limit = (uint64_t)(0.8 * (double)rad_available_memory());
-    resolve_ctx c = {.s = s, .opt = opt, .max_memory = limit};
-    double *tau = NULL;
+    *out = NULL;
+    if (!s->scene->light_count)
+        return RAD_OK;
+    const uint32_t n = s->mesh->patch_count, nb = s->band_count;
+    const size_t count = (size_t)n * nb;
+    double *Hd = malloc((count + 1) * sizeof *Hd);
+    double *src = malloc((count + 1) * sizeof *src);
+    int rc = (!src || !Hd) ? rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source)
+                           : rad_solution_direct_irradiance(s, Hd, err);
+    for (uint32_t i = 0; !rc && i < n; i++) {
+        uint32_t t = tau ? s->mesh->twin[i] : RAD_NONE;
+        for (uint32_t b = 0; b < nb; b++) {
+            size_t k = (size_t)i * nb + b;
+            src[k] = s->emission[k] + s->rho[k] * Hd[k] +
+                     (t != RAD_NONE ? tau[k] * Hd[(size_t)t * nb + b] : 0.0);
+        }
+    }
+    free(Hd);
+    if (rc)
+        free(src);
+    else
+        *out = src;
+    return rc;
+}
+
+/* The stage "solve": B for every band with the source E (one band, copied,
+ * when the scene is grey); the progressive solver pulls rows as it shoots,
+ * and the time it spends in the hemi-cube meanwhile counts as form factors,
+ * not as solving. */
+static int solve_patches(run *c, const sv_system *all, const double *E, rad_error *err)
+{
+    rad_solution *s = c->s;
+    const uint32_t n = s->mesh->patch_count, nbands = s->band_count;
+    const uint32_t nb = rad_solution_is_grey(s) ? 1 : nbands;
+    sv_system sys = *all;
+    sys.bands = nb;
+    sys.emission = E;
+    double *area = malloc(((size_t)n + 1) * sizeof *area);
+    double *grey = nb < nbands ? malloc(((size_t)n * 4 + 1) * sizeof *grey) : NULL;
+    if (!area || (nb < nbands && !grey)) {
+        free(area);
+        free(grey);
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
+    }
+    if (grey) { /* band 0 of each patch, packed: ρ, E, τ, then room for B */
+        for (uint32_t i = 0; i < n; i++) {
+            grey[i] = s->rho[(size_t)i * nbands];
+            grey[n + i] = E[(size_t)i * nbands];
+            grey[2 * (size_t)n + i] = all->tau ? all->tau[(size_t)i * nbands] : 0.0;
+        }
+        sys.rho = grey;
+        sys.emission = grey + n;
+        sys.tau = all->tau ? grey + 2 * (size_t)n : NULL;
+    }
+    for (uint32_t i = 0; i < n; i++)
+        area[i] = s->mesh->patches[i].area;
+    sys.area = area;
+    sv_options so = c->opt->solver;
+    so.need_row = need_row;
+    so.on_preview = c->opt->on_preview ? on_preview : NULL;
+    so.user = c;
+    sv_stats st = {0};
+    const double t0 = rad_seconds(), ff0 = c->ff_seconds;
+    double *B = grey ? grey + 3 * (size_t)n : s->B;
+    int rc = sv_solve(&sys, &so, B, &st, err);
+    for (uint32_t i = 0; grey && !rc && i < n; i++)
+        for (uint32_t b = 0; b < nbands; b++)
+            s->B[(size_t)i * nbands + b] = B[i];
+    /* Rows computed on demand during the solve are form-factor time. */
+    const double solve_seconds = fmax(0.0, rad_seconds() - t0 - (c->ff_seconds - ff0));
+    free(area);
+    free(grey);
+    if (rc)
+        return rc;
+    snprintf(s->solver, sizeof s->solver, "%s", sv_method_name(so.method));
+    s->tolerance = so.tolerance > 0 ? so.tolerance : SV_DEFAULT_TOLERANCE;
+    s->iterations = st.iterations;
+    s->residual = st.residual;
+    s->stages[RAD_STAGE_SOLVE].seconds = solve_seconds;
+    s->stages[RAD_STAGE_SOLVE].reused = 0;
+    return RAD_OK;
+}
+
+/* rad_resolve on a run whose engine the caller may reuse afterwards. */
+static int resolve(run *c, rad_error *err)
+{
+    rad_solution *s = c->s;
+    const uint32_t n = s->mesh->patch_count;
+    double *tau = NULL, *src = NULL;
     int rc = patch_tau(s, &tau, err);
     if (rc)
         return rc;
-    const uint32_t nbands = s->band_count;
-    const sv_system all = {.n = n, .bands = nbands, .F = s->F, .rho = s->rho,
+    const sv_system all = {.n = n, .bands = s->band_count, .F = s->F, .rho = s->rho,
                            .emission = s->emission, .tau = tau, .twin = tau ? s->mesh->twin : NULL};
 
-    /* Form factors: the rows the gathering solvers need and do not have
-     * (no row for a patch that neither reflects nor lets its twin's light
-     * through; a back hemi-cube only behind a transmitting patch). */
-    if (opt->solver.method != SV_PROGRESSIVE || opt->all_rows) {
-        uint32_t *missing = malloc(((size_t)n + 1) * sizeof *missing);
-        if (!missing) {
-            free(tau);
-            return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
-        }
-        uint32_t count = 0;
-        for (uint32_t i = 0; i < n; i++)
-            if (!s->F->row_done[i] && (opt->all_rows || sv_row_needed(&all, i)))
-                missing[count++] = i;
-        rc = check_memory(s, s->F->rows_done + count, limit, err);
-        if (!rc)
-            rc = compute_rows(&c, missing, count, err);
-        free(missing);
-    }
+    /* Form factors: the missing rows the gathering solvers need. */
+    rc = compute_missing_rows(c, &all, err);
 
     /* Direct light: the punctual lights' Φ not yet stored. */
     if (!rc)
-        rc = shoot_lights(&c, err);
+        rc = shoot_lights(c, err);
 
-    /* Solve: B for every band (one band when the scene is grey) with the
-     * source E + ρ H_d (+ τ H_d of the twin, through a sheet); the
-     * progressive solver pulls rows as it shoots. */
-    double *src = NULL;
-    if (!rc && s->scene->light_count) {
-        size_t count = (size_t)n * nbands;
-        double *Hd = malloc((count + 1) * sizeof *Hd);
-        src = malloc((count + 1) * sizeof *src);
-        if (!src || !Hd)
-            rc = rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
-        else
-            rc = rad_solution_direct_irradiance(s, Hd, err);
-        for (uint32_t i = 0; !rc && i < n; i++) {
-            uint32_t t = all.twin ? all.twin[i] : RAD_NONE;
-            for (uint32_t b = 0; b < nbands; b++) {
-                size_t k = (size_t)i * nbands + b;
-                src[k] = s->emission[k] + s->rho[k] * Hd[k] +
-                         (t != RAD_NONE ? tau[k] * Hd[(size_t)t * nbands + b] : 0.0);
-            }
-        }
-        free(Hd);
-    }
-    if (!rc) {
-        const double *E = src ? src : s->emission;
-        uint32_t nb = rad_solution_is_grey(s) ? 1 : nbands;
-        sv_system sys = all;
-        sys.bands = nb;
-        sys.emission = E;
-        double *area = malloc(((size_t)n + 1) * sizeof *area);
-        double *grey = nb < nbands ? malloc(((size_t)n * 4 + 1) * sizeof *grey) : NULL;
-        if (grey) { /* band 0 of each patch, packed: ρ, E, τ, then room for B */
-            for (uint32_t i = 0; i < n; i++) {
-                grey[i] = s->rho[(size_t)i * nbands];
-                grey[n + i] = E[(size_t)i * nbands];
-                grey[2 * (size_t)n + i] = tau ? tau[(size_t)i * nbands] : 0.0;
-            }
-            sys.rho = grey;
-            sys.emission = grey + n;
-            sys.tau = tau ? grey + 2 * (size_t)n : NULL;
-        }
-        if (!area || (nb < nbands && !grey)) {
-            rc = rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
-        } else {
-            for (uint32_t i = 0; i < n; i++)
-                area[i] = s->mesh->patches[i].area;
-            sys.area = area;
-            sv_options so = opt->solver;
-            so.need_row = need_row;
-            so.on_preview = opt->on_preview ? on_preview : NULL;
-            so.user = &c;
-            sv_stats st = {0};
-            double t0 = rad_seconds();
-            double *B = grey ? grey + 3 * (size_t)n : s->B;
-            rc = sv_solve(&sys, &so, B, &st, err);
-            for (uint32_t i = 0; grey && !rc && i < n; i++)
-                for (uint32_t b = 0; b < s->band_count; b++)
-                    s->B[(size_t)i * s->band_count + b] = B[i];
-            double solve_seconds = rad_seconds() - t0 - (so.method == SV_PROGRESSIVE ? c.ff_seconds : 0);
-            free(area);
-            free(grey);
-            if (!rc) {
-                snprintf(s->solver, sizeof s->solver, "%s", sv_method_name(so.method));
-                s->tolerance = so.tolerance > 0 ? so.tolerance : 1e-4;
-                s->iterations = st.iterations;
-                s->residual = st.residual;
-                s->stages[RAD_STAGE_SOLVE].seconds = solve_seconds;
-                s->stages[RAD_STAGE_SOLVE].reused = 0;
-            }
-        }
-    }
+    /* Solve: B for every band from the source E + ρ H_d (+ τ H_d of the twin). */
+    if (!rc)
+        rc = source_term(s, tau, &src, err);
+    if (!rc)
+        rc = solve_patches(c, &all, src ? src : s->emission, err);
 
     /* Elements: a stored element mesh is gathered again from the new patch
      * solution through its stored rows (no hemi-cube). */
@@ -344,17 +390,13 @@ int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err)
         s->elements->rows_computed = 0;
         s->stages[RAD_STAGE_SOLVE].seconds += rad_seconds() - t0;
     }
-
     free(src);
     free(tau);
-    s->rows_computed = c.rows_computed;
-    s->lights_computed = c.lights_computed;
-    s->stages[RAD_STAGE_FORM_FACTORS].seconds = c.ff_seconds;
-    s->stages[RAD_STAGE_FORM_FACTORS].reused = (c.rows_computed == 0 && c.lights_computed == 0);
-    if (c.hc)
-        s->resolution = opt->hemicube.resolution ? opt->hemicube.resolution : 128;
-    hc_destroy(c.hc);
-    free(c.exact);
+
+    s->rows_computed = c->rows_computed;
+    s->lights_computed = c->lights_computed;
+    s->stages[RAD_STAGE_FORM_FACTORS].seconds = c->ff_seconds;
+    s->stages[RAD_STAGE_FORM_FACTORS].reused = (c->rows_computed == 0 && c->lights_computed == 0);
 #if RAD_DEBUG
     if (!rc) {
         RAD_ASSERT(rad_matrix_check(s->F, NULL) == RAD_OK);
@@ -362,6 +404,53 @@ int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err)
             RAD_ASSERT(isfinite(s->B[k]) && s->B[k] >= 0.0);
     }
 #endif
+    return rc;
+}
+
+int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err)
+{
+    static const rad_solve_options defaults;
+    run c;
+    run_begin(&c, s, opt ? opt : &defaults);
+    int rc = resolve(&c, err);
+    run_end(&c);
+    return rc;
+}
+
+/* Refinement on the run's engine (started if the solve reused every row):
+ * the element hemi-cubes count as form-factor time. */
+static int refine(run *c, rad_error *err)
+{
+    rad_solution *s = c->s;
+    const rad_solve_options *opt = c->opt;
+    const uint32_t nl = s->scene->light_count;
+    const double t0 = rad_seconds();
+    hc_light *lights = malloc(((size_t)nl + 1) * sizeof *lights);
+    if (!lights)
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
+    for (uint32_t l = 0; l < nl; l++)
+        lights[l] = light_for_hemicube(&s->scene->lights[l]);
+    const rad_refine_options ro = {.threshold = opt->refine_threshold,
+                                   .min_element_size = opt->min_element_size,
+                                   .levels = opt->element_levels,
+                                   .max_elements = opt->mesh.max_patches,
+                                   .lights = lights,
+                                   .light_resolution = rad_light_resolution(opt)};
+    int rc = (ro.threshold > 0.0 || ro.levels) ? start_hemicube(c, err) : RAD_OK;
+    if (!rc)
+        rc = rad_elements_refine(s, c->hc, &ro, err);
+    free(lights);
+    s->stages[RAD_STAGE_FORM_FACTORS].seconds += rad_seconds() - t0;
+    return rc;
+}
+
+int rad_refine_solution(rad_solution *s, const rad_solve_options *opt, rad_error *err)
+{
+    static const rad_solve_options defaults;
+    run c;
+    run_begin(&c, s, opt ? opt : &defaults);
+    int rc = refine(&c, err);
+    run_end(&c);
     return rc;
 }
 
@@ -391,16 +480,17 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
     s->patch_size = opt->mesh.patch_size;
     s->stages[RAD_STAGE_MESH].seconds = mesh_seconds;
 
+    run c;
+    run_begin(&c, s, opt);
     /* Form factors and solve. */
-    rc = rad_resolve(s, opt, err);
+    rc = resolve(&c, err);
 
     /* Elements: split where what is drawn misses what finer elements
-     * gather, from the patch solution (hemi-cubes at the elements' centres). */
-    if (!rc && (opt->refine_threshold > 0.0 || opt->element_levels)) {
-        double t1 = rad_seconds();
-        rc = rad_solution_refine(s, opt, err);
-        s->stages[RAD_STAGE_FORM_FACTORS].seconds += rad_seconds() - t1;
-    }
+     * gather, from the patch solution (hemi-cubes at the elements' centres,
+     * on the same engine as the rows). */
+    if (!rc && (opt->refine_threshold > 0.0 || opt->element_levels))
+        rc = refine(&c, err);
+    run_end(&c);
     if (rc) {
         rad_solution_destroy(s);
         return rc;
@@ -457,7 +547,7 @@ int rad_render_solution(const rad_solution *s, const rn_camera *cam, rn_image **
         rc = rad_fail(err, RAD_ERR_NOMEM, "render: out of memory");
         goto done;
     }
-    rc = rad_solution_vertex_radiosity(s, s->elements, mesh, cell_element, NULL, vertex_B, err);
+    rc = rad_elements_vertex_radiosity(s, s->elements, mesh, cell_element, NULL, vertex_B, err);
     if (rc != RAD_OK)
         goto done;
     rc = rn_render(mesh, nb, vertex_B, cam, out, err);

@@ -8,6 +8,7 @@
 #include "../../hemicube/hemicube.h"
 #include "../../render/render.h"
 #include "../../solver/solver.h"
+#include "../elements/elements.h"
 #include "../mesh/mesh.h"
 #include "../scene/scene.h"
 #include "../store/solution.h"
@@ -69,17 +70,15 @@ int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err);
 
 /* Builds s->elements (replacing any) from the patch solution s->B, as
  * opt->refine_threshold, min_element_size and element_levels say (none:
- * removes them).  Renders one hemi-cube per new element, with the options'
- * hemi-cube settings; emitters get exact factors unless pixel_emitters. */
-int rad_solution_refine(rad_solution *s, const rad_solve_options *opt, rad_error *err);
+ * removes them): rad_elements_refine on an engine of its own, with the
+ * options' hemi-cube settings; emitters get exact factors unless
+ * pixel_emitters.  (rad_solve_scene refines on the engine of its solve.) */
+int rad_refine_solution(rad_solution *s, const rad_solve_options *opt, rad_error *err);
 
 /* The resolution R of the item buffers rendered at punctual lights:
  * opt->light_resolution, or by default the larger of 512 and the hemi-cube
  * resolution.  The patch power and the elements' visibility use the same. */
 uint32_t rad_light_resolution(const rad_solve_options *opt);
-
-/* A scene light as the hemi-cube module takes it. */
-hc_light rad_light_for_hemicube(const rad_light *L);
 
 /* 1 when the solution has several bands but equal ρ, E and light
  * intensities in all of them:

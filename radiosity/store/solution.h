@@ -154,7 +154,7 @@ int rad_solution_read(const char *path, rad_solution **out, rad_error *err);
 int rad_solution_parse(const void *data, size_t size, const char *name, int check_sum,
                        rad_solution **out, rad_error *err);
 
-/* ------------------------------------------------------- elements (elements.c) */
+/* --------------------------------------------- the element store (elements.c) */
 
 /* Empty elements: a mesh of vertex_count vertices and count cells, every
  * per-element array of count entries (B of count × bands), room for
@@ -174,50 +174,6 @@ int rad_elements_complete(rad_elements *el, const rad_solution *s, const char *n
  * agree): what the writer runs before it creates a file. */
 int rad_elements_check(const rad_elements *el, const rad_solution *s, const char *name,
                        rad_error *err);
-
-/* B_e of every element from the patch solution s->B (and the punctual
- * lights' direct irradiance), by the gather above.  What a relight calls:
- * no hemi-cube, no item buffer. */
-int rad_elements_gather(const rad_solution *s, rad_elements *el, rad_error *err);
-
-/* H_d,e of every element per band, mesh->patch_count × bands into the
- * caller's buffer: Σ_l I_l h_le with the intensities solved with, or its
- * patch's H_d,p for a level-0 element and for elements without light_h. */
-int rad_elements_direct_irradiance(const rad_solution *s, const rad_elements *el, double *Hd,
-                                   rad_error *err);
-
-/* What the renderer should draw for each element of el (el->mesh->patch_count
- * × bands into out) or, with el NULL, each patch of s: B, except that an
- * element that sees nothing (an empty row and B = E: buried under a block)
- * and touches one that sees something is drawn with the affine
- * extrapolation of those it touches, so that its darkness does not bleed
- * into the visible elements through the vertex averages.  rm is the mesh
- * drawn (rad_elements_render_mesh; for patches, s->mesh) and cells_of its
- * cell -> element map (NULL: the identity). */
-int rad_solution_drawn_radiosity(const rad_solution *s, const rad_elements *el,
-                                 const rad_mesh *rm, const uint32_t *cells_of, double *out,
-                                 rad_error *err);
-
-/* The vertex radiosities the renderer draws rm with (rm->vertex_count ×
- * bands into vertex_B): each cell carries its element's (or patch's) drawn
- * B (rad_solution_drawn_radiosity, also written to drawn when not NULL),
- * fitted to the vertices by RN_FIT_QUADRATIC for elements (the fans of
- * rad_elements_render_mesh) and by the paper's rule for patches.  Same
- * rm, el and cells_of as rad_solution_drawn_radiosity. */
-int rad_solution_vertex_radiosity(const rad_solution *s, const rad_elements *el,
-                                  const rad_mesh *rm, const uint32_t *cells_of, double *drawn,
-                                  double *vertex_B, rad_error *err);
-
-/* The mesh to draw: every leaf element is split into a fan of triangles
- * about its centre, through its corners and the vertices of finer
- * neighbours that lie on its edges (each fan triangle's `center` is the
- * element's, where its B belongs; the apex, drawn with the element's own B,
- * is the vertex count of el's mesh plus the element's index).  *cells_of
- * gets, per cell of *out, its element (the cells of one element are
- * consecutive).  Caller owns both.  Vertex radiosities for it come from
- * rn_vertex_radiosity_fit with RN_FIT_QUADRATIC. */
-int rad_elements_render_mesh(const rad_elements *el, rad_mesh **out, uint32_t **cells_of,
-                             rad_error *err);
 
 /* ------------------------------------------------ reading a solution (analysis.c) */
 

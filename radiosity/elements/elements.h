@@ -1,0 +1,97 @@
+/* elements.h - elements: detail where the light changes (substructuring,
+ * Cohen, Greenberg, Immel & Brock 1986: patches shoot, elements receive).
+ *
+ * The element data (rad_elements) belongs to the solution store
+ * (solution.h); this module computes with it: the gather of each element's
+ * B from the patch solution, what the renderer draws for elements, and the
+ * refinement that decides where elements are needed.  Only refinement
+ * renders (element hemi-cubes and light visibility, on the caller's
+ * engine); gathering and drawing read stored data only.
+ */
+#ifndef RAD_ELEMENTS_H
+#define RAD_ELEMENTS_H
+
+#include "../../hemicube/hemicube.h"
+#include "../../render/render.h"
+#include "../store/solution.h"
+
+/* ---------------------------------------------------------- gather (gather.c) */
+
+/* B_e of every element from the patch solution s->B (and the punctual
+ * lights' direct irradiance), by the gather in solution.h's rad_elements.  What a relight calls:
+ * no hemi-cube, no item buffer. */
+int rad_elements_gather(const rad_solution *s, rad_elements *el, rad_error *err);
+
+/* H_d,e of every element per band, mesh->patch_count × bands into the
+ * caller's buffer: Σ_l I_l h_le with the intensities solved with, or its
+ * patch's H_d,p for a level-0 element and for elements without light_h. */
+int rad_elements_direct_irradiance(const rad_solution *s, const rad_elements *el, double *Hd,
+                                   rad_error *err);
+
+/* ------------------------------------------------------------ drawing (draw.c) */
+
+/* What the renderer should draw for each element of el (el->mesh->patch_count
+ * × bands into out) or, with el NULL, each patch of s: B, except that an
+ * element that sees nothing (an empty row and B = E: buried under a block)
+ * and touches one that sees something is drawn with the affine
+ * extrapolation of those it touches, so that its darkness does not bleed
+ * into the visible elements through the vertex averages.  rm is the mesh
+ * drawn (rad_elements_render_mesh; for patches, s->mesh) and cells_of its
+ * cell -> element map (NULL: the identity). */
+int rad_elements_drawn_radiosity(const rad_solution *s, const rad_elements *el,
+                                 const rad_mesh *rm, const uint32_t *cells_of, double *out,
+                                 rad_error *err);
+
+/* The vertex radiosities the renderer draws rm with (rm->vertex_count ×
+ * bands into vertex_B): each cell carries its element's (or patch's) drawn
+ * B (rad_elements_drawn_radiosity, also written to drawn when not NULL),
+ * fitted to the vertices by RN_FIT_QUADRATIC for elements (the fans of
+ * rad_elements_render_mesh) and by the paper's rule for patches.  Same
+ * rm, el and cells_of as rad_elements_drawn_radiosity. */
+int rad_elements_vertex_radiosity(const rad_solution *s, const rad_elements *el,
+                                  const rad_mesh *rm, const uint32_t *cells_of, double *drawn,
+                                  double *vertex_B, rad_error *err);
+
+/* The mesh to draw: every leaf element is split into a fan of triangles
+ * about its centre, through its corners and the vertices of finer
+ * neighbours that lie on its edges (each fan triangle's `center` is the
+ * element's, where its B belongs; the apex, drawn with the element's own B,
+ * is the vertex count of el's mesh plus the element's index).  *cells_of
+ * gets, per cell of *out, its element (the cells of one element are
+ * consecutive).  Caller owns both.  Vertex radiosities for it come from
+ * rn_vertex_radiosity_fit with RN_FIT_QUADRATIC. */
+int rad_elements_render_mesh(const rad_elements *el, rad_mesh **out, uint32_t **cells_of,
+                             rad_error *err);
+
+/* ------------------------------------------------------- refinement (refine.c) */
+
+/* {0} means defaults: no elements. */
+typedef struct rad_refine_options {
+    /* > 0 splits elements, starting from the patches, where what is drawn
+     * misses what finer elements gather: an element's four children are
+     * gathered (probes), and it splits when the mean difference between
+     * their B and the drawn radiosity at their centres, as a fraction of the
+     * brightest non-emitting patch's B (any band), times the element's area
+     * over its patch's, exceeds this threshold; until none does or they
+     * reach min_element_size.  0 = no adaptive elements. */
+    double threshold;
+    double min_element_size;   /* smallest element edge, scene units; 0 = 1/8 of its patch's */
+    uint32_t levels;           /* with threshold 0: split every patch this many times
+                                * (uniform elements: references, benchmarks) */
+    uint32_t max_elements;     /* refuse to make more; 0 = RAD_MESH_DEFAULT_MAX_PATCHES */
+    /* The scene's punctual lights as the hemi-cube takes them
+     * (scene->light_count entries; may be NULL without lights), and the
+     * resolution of their item buffers (the one the patch power used). */
+    const hc_light *lights;
+    uint32_t light_resolution;
+} rad_refine_options;
+
+/* Builds s->elements (replacing any) from the patch solution s->B, as opt
+ * says (threshold 0 and levels 0: removes them).  Renders one hemi-cube per
+ * new element on hc, an engine for s->mesh (whose exact marks decide which
+ * element-to-patch factors are exact), and the lights' visibility at the
+ * elements. */
+int rad_elements_refine(rad_solution *s, hc_engine *hc, const rad_refine_options *opt,
+                        rad_error *err);
+
+#endif /* RAD_ELEMENTS_H */

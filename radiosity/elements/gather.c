@@ -1,0 +1,151 @@
+/* gather.c - an element's radiosity from the patch solution:
+ *   B_e = E_p + ρ_p (Σ_j F_ej B_j + H_d,e) + τ_p H_twin(p),   H_d,e = Σ_l I_l h_le,
+ * with h_le the punctual lights' direct irradiance at the element's centre
+ * (unit strength, visibility from the light's item buffer) and, on the side
+ * of a transmitting sheet, what comes through from the other side's patch.
+ *
+ * Invariant: a gather reads only stored rows and stored h_le (no hemi-cube,
+ * no item buffer), so a relight re-gathers elements at the cost of a sparse
+ * product; a level-0 element is its patch (B_e = B_p, whose H_d,p is the
+ * patch average Φ_lp / A_p).
+ */
+#include "el_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ------------------------------------------------------------- gather */
+
+/* H_d,e of one element per band into hd: Σ_l I_l h_le from its own h[]
+ * (light_count values), or for a level-0 element and without them its
+ * patch's H_d,p from Hd (NULL: no direct light). */
+void el_element_direct(const rad_solution *s, const double *Hd, const float *h, uint32_t p,
+                           uint32_t level, double *hd)
+{
+    const uint32_t bands = s->band_count, nl = s->scene->light_count;
+    for (uint32_t b = 0; b < bands; b++) {
+        double v = 0.0;
+        if (h && level > 0)
+            for (uint32_t l = 0; l < nl; l++)
+                v += s->light_intensity[(size_t)l * bands + b] * (double)h[l];
+        else if (Hd)
+            v = Hd[(size_t)p * bands + b];
+        hd[b] = v;
+    }
+}
+
+/* B_e of one element from its row and its direct irradiance hd (see the
+ * top of the file).  Tr, when not NULL, holds per patch the light a sheet
+ * lets through from its other side, τ_p H_twin(p), at the patch's
+ * resolution. */
+void el_gather_one(const rad_solution *s, const double *hd, const double *Tr, uint32_t p,
+                       uint32_t level, const uint32_t *col, const float *val, uint32_t cnt,
+                       double *Be)
+{
+    const uint32_t bands = s->band_count;
+    const size_t pb = (size_t)p * bands;
+    if (level == 0) {
+        memcpy(Be, s->B + pb, bands * sizeof *Be);
+        return;
+    }
+    for (uint32_t b = 0; b < bands; b++) {
+        double h = hd[b];
+        for (uint32_t q = 0; q < cnt; q++)
+            h += (double)val[q] * s->B[(size_t)col[q] * bands + b];
+        double v = s->emission[pb + b] + s->rho[pb + b] * h + (Tr ? Tr[pb + b] : 0.0);
+        Be[b] = v > 0.0 ? v : 0.0;
+    }
+}
+
+/* τ_p H_twin(p) of every patch when the mesh has two-sided sheets, else
+ * NULL: what reaches an element through its sheet, taken at the patch's
+ * resolution (the twin's irradiance from its own row). */
+int el_transmitted(const rad_solution *s, double **out, rad_error *err)
+{
+    *out = NULL;
+    if (!s->mesh->twin)
+        return RAD_OK;
+    const uint32_t n = s->mesh->patch_count, bands = s->band_count;
+    double *H = malloc(((size_t)n * bands + 1) * sizeof *H);
+    double *T = malloc(((size_t)n * bands + 1) * sizeof *T);
+    int rc = H && T ? rad_solution_irradiance(s, H, err)
+                    : rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    for (uint32_t p = 0; rc == RAD_OK && p < n; p++) {
+        uint32_t t = s->mesh->twin[p];
+        const double *tau = s->scene->materials[s->mesh->patches[p].material].transmit;
+        for (uint32_t b = 0; b < bands; b++)
+            T[(size_t)p * bands + b] = t != RAD_NONE ? tau[b] * H[(size_t)t * bands + b] : 0.0;
+    }
+    free(H);
+    if (rc != RAD_OK) {
+        free(T);
+        return rc;
+    }
+    *out = T;
+    return RAD_OK;
+}
+
+/* H_d of every patch when the scene has punctual lights, else NULL (no
+ * direct term).  *hd_out NULL with RAD_OK means none. */
+static int direct_irradiance(const rad_solution *s, double **hd_out, rad_error *err)
+{
+    *hd_out = NULL;
+    if (!s->scene->light_count)
+        return RAD_OK;
+    double *Hd = malloc((size_t)s->mesh->patch_count * s->band_count * sizeof *Hd + 1);
+    if (!Hd)
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    int rc = rad_solution_direct_irradiance(s, Hd, err);
+    if (rc != RAD_OK) {
+        free(Hd);
+        return rc;
+    }
+    *hd_out = Hd;
+    return RAD_OK;
+}
+
+/* Element e's own h_le, or NULL. */
+static const float *own_light(const rad_elements *el, uint32_t e)
+{
+    return el->light_h ? el->light_h + (size_t)e * el->light_count : NULL;
+}
+
+int rad_elements_direct_irradiance(const rad_solution *s, const rad_elements *el, double *Hd,
+                                   rad_error *err)
+{
+    if (!s || !el || !Hd)
+        return rad_fail(err, RAD_ERR_USAGE,
+                        "rad_elements_direct_irradiance: solution, elements and Hd must be given");
+    double *patch_Hd;
+    int rc = direct_irradiance(s, &patch_Hd, err);
+    if (rc != RAD_OK)
+        return rc;
+    const uint32_t bands = s->band_count;
+    for (uint32_t e = 0; e < el->mesh->patch_count; e++)
+        el_element_direct(s, patch_Hd, own_light(el, e), el->patch[e], el->level[e],
+                       Hd + (size_t)e * bands);
+    free(patch_Hd);
+    return RAD_OK;
+}
+
+int rad_elements_gather(const rad_solution *s, rad_elements *el, rad_error *err)
+{
+    if (!s || !el)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_elements_gather: solution and elements must be given");
+    double *Hd, *Tr = NULL;
+    int rc = direct_irradiance(s, &Hd, err);
+    if (rc == RAD_OK)
+        rc = el_transmitted(s, &Tr, err);
+    const uint32_t bands = s->band_count;
+    double hd[RAD_MAX_BANDS];
+    for (uint32_t e = 0; rc == RAD_OK && e < el->mesh->patch_count; e++) {
+        el_element_direct(s, Hd, own_light(el, e), el->patch[e], el->level[e], hd);
+        el_gather_one(s, hd, Tr, el->patch[e], el->level[e], el->col + el->row_start[e],
+                   el->val + el->row_start[e], el->row_count[e], el->B + (size_t)e * bands);
+    }
+    free(Hd);
+    free(Tr);
+    return rc;
+}

@@ -1,0 +1,805 @@
+/* refine.c - adaptive refinement: which elements a solution needs.
+ *
+ * Refinement splits where the drawn radiosity misses what a finer element
+ * gathers: each leaf is probed (its four children gathered through
+ * hemi-cubes at their centres) and split when the children's B differ from
+ * what the renderer draws at their centres by more than the threshold,
+ * weighted by the leaf's area, or when it lies across the foot of a block,
+ * part seen and part buried (see estimate).  An element is its patch split
+ * `level` times as a quadtree.  The hemi-cube engine is the caller's (the
+ * pipeline's, shared with the patch rows).
+ *
+ * Invariant: a leaf element of level k > 0 has its own row F_ej from a
+ * hemi-cube at its centre, and (when the scene has punctual lights) its own
+ * h_le, computed before its B_e is gathered, so the refinement rule sees
+ * shadow edges finer than the patches.
+ */
+#include "el_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ---------------------------------------------------------- refinement */
+
+/* Every element made so far while refining: the leaves, the parents they
+ * were split from, and probes (the four children of a leaf, gathered to
+ * test whether the leaf should split; kept only if it does, and then they
+ * reuse their rows: a kept split costs no hemi-cube beyond its probes). */
+enum { NODE_LEAF = 0, NODE_SPLIT, NODE_PROBE };
+
+typedef struct enode {
+    uint32_t v[4];     /* corners; v[3] == RAD_NONE for a triangle */
+    uint32_t patch;
+    uint32_t kids;     /* first of its four children (probes or split), RAD_NONE: none */
+    uint8_t level;
+    uint8_t state;     /* NODE_* */
+    uint8_t settled;   /* 1: not worth probing (see refine_adaptive) */
+    uint32_t cnt;      /* row entries */
+    uint64_t start;    /* first row entry */
+} enode;
+
+typedef struct builder {
+    rad_solution *s;
+    const double *Tr;  /* el_transmitted (τ_p H_twin(p)), or NULL */
+    uint32_t bands;
+    /* punctual lights: h_le of every element, ne × nl (level 0: 0) */
+    uint32_t nl;
+    uint32_t light_R;  /* item-buffer resolution at the lights */
+    const hc_light *lights; /* the scene's lights as the hemi-cube takes them */
+    float *h;
+    uint64_t lights_rendered;
+    /* vertices */
+    rad_vec3 *V;
+    uint8_t *Vb;
+    uint32_t *Vsurf;
+    uint32_t nv, cap_v;
+    el_vtable t;
+    /* elements */
+    enode *E;
+    double *B;         /* ne × bands */
+    uint32_t ne, cap_e;
+    /* rows */
+    uint32_t *col;
+    float *val;
+    uint64_t nnz, cap_r;
+    /* the elements of the rows being computed (receiver k -> which[k]) */
+    const uint32_t *which;
+    uint64_t rows_computed;
+} builder;
+
+/* Is p on an edge of polygon poly's outline?  Decides the boundary flag of
+ * a new vertex (the renderer extrapolates outline vertices). */
+static int on_outline(const rad_scene *sc, uint32_t poly, rad_vec3 p)
+{
+    const rad_polygon *pg = &sc->polygons[poly];
+    const rad_vec3 *P = sc->points + pg->first_point;
+    for (uint32_t k = 0; k < pg->point_count; k++) {
+        rad_vec3 a = P[k], b = P[(k + 1) % pg->point_count], ab = rad_sub(b, a);
+        double len2 = rad_dot(ab, ab);
+        if (!(len2 > 0.0))
+            continue;
+        double u = rad_dot(rad_sub(p, a), ab) / len2;
+        if (u < -1e-9 || u > 1.0 + 1e-9)
+            continue;
+        rad_vec3 d = rad_sub(p, rad_add(a, rad_scale(ab, u)));
+        if (rad_dot(d, d) <= 1e-18 * len2)
+            return 1;
+    }
+    return 0;
+}
+
+/* The vertex at p on surface surf, made when missing; RAD_NONE on OOM. */
+static uint32_t vertex_at(builder *b, uint32_t surf, rad_vec3 p, int maybe_outline)
+{
+    uint32_t v = b->nv ? el_vt_find(&b->t, surf, p) : RAD_NONE;
+    if (v != RAD_NONE)
+        return v;
+    if (b->nv == b->cap_v) {
+        uint32_t cap = b->cap_v ? 2 * b->cap_v : 1024;
+        rad_vec3 *V = realloc(b->V, (size_t)cap * sizeof *V);
+        if (V)
+            b->V = V;
+        uint8_t *Vb = realloc(b->Vb, cap);
+        if (Vb)
+            b->Vb = Vb;
+        uint32_t *Vp = realloc(b->Vsurf, (size_t)cap * sizeof *Vp);
+        if (Vp)
+            b->Vsurf = Vp;
+        if (!V || !Vb || !Vp)
+            return RAD_NONE;
+        b->cap_v = cap;
+        b->t.V = b->V;
+        b->t.Vsurf = b->Vsurf;
+    }
+    v = b->nv++;
+    b->V[v] = p;
+    b->Vsurf[v] = surf;
+    b->Vb[v] = maybe_outline && on_outline(b->s->scene, surf / 2, p);
+    if (el_vt_insert(&b->t, v) != 0)
+        return RAD_NONE;
+    return v;
+}
+
+static int add_element(builder *b, const uint32_t v[4], uint32_t patch, uint32_t level, int state)
+{
+    if (b->ne == b->cap_e) {
+        uint32_t cap = b->cap_e ? 2 * b->cap_e : 1024;
+        enode *E = realloc(b->E, (size_t)cap * sizeof *E);
+        if (E)
+            b->E = E;
+        double *B = realloc(b->B, (size_t)cap * b->bands * sizeof *B);
+        if (B)
+            b->B = B;
+        float *h = b->nl ? realloc(b->h, (size_t)cap * b->nl * sizeof *h) : NULL;
+        if (h)
+            b->h = h;
+        if (!E || !B || (b->nl && !h))
+            return -1;
+        b->cap_e = cap;
+    }
+    enode *n = &b->E[b->ne];
+    memcpy(n->v, v, sizeof n->v);
+    n->patch = patch;
+    n->kids = RAD_NONE;
+    n->level = (uint8_t)level;
+    n->state = (uint8_t)state;
+    n->settled = 0;
+    n->cnt = 0;
+    n->start = 0;
+    memcpy(b->B + (size_t)b->ne * b->bands, b->s->B + (size_t)patch * b->bands,
+           b->bands * sizeof *b->B);
+    for (uint32_t l = 0; l < b->nl; l++)
+        b->h[(size_t)b->ne * b->nl + l] = 0.0f; /* set before a row is gathered (level > 0) */
+    b->ne++;
+    return 0;
+}
+
+/* Makes the four children of leaf e (appended): leaves that replace it
+ * (kid_state NODE_LEAF), or probes beside it (NODE_PROBE).  -1 on OOM. */
+static int split(builder *b, uint32_t e, int kid_state)
+{
+    enode n = b->E[e];
+    uint32_t surf = el_surface_of(&b->s->mesh->patches[n.patch]);
+    uint32_t c[4];
+    memcpy(c, n.v, sizeof c);
+    int corners = c[3] == RAD_NONE ? 3 : 4;
+    uint32_t m[4];
+    for (int k = 0; k < corners; k++) {
+        uint32_t a = c[k], z = c[(k + 1) % corners];
+        /* Only a el_midpoint between two outline vertices can be on the outline. */
+        m[k] = vertex_at(b, surf, el_midpoint(b->V[a], b->V[z]), b->Vb[a] && b->Vb[z]);
+        if (m[k] == RAD_NONE)
+            return -1;
+    }
+    uint32_t kids[4][4];
+    if (corners == 4) {
+        rad_vec3 mid = rad_scale(rad_add(rad_add(b->V[c[0]], b->V[c[1]]), rad_add(b->V[c[2]], b->V[c[3]])), 0.25);
+        uint32_t ctr = vertex_at(b, surf, mid, 0);
+        if (ctr == RAD_NONE)
+            return -1;
+        uint32_t q[4][4] = {{c[0], m[0], ctr, m[3]}, {m[0], c[1], m[1], ctr},
+                            {ctr, m[1], c[2], m[2]}, {m[3], ctr, m[2], c[3]}};
+        memcpy(kids, q, sizeof kids);
+    } else {
+        uint32_t q[4][4] = {{c[0], m[0], m[2], RAD_NONE}, {m[0], c[1], m[1], RAD_NONE},
+                            {m[2], m[1], c[2], RAD_NONE}, {m[0], m[1], m[2], RAD_NONE}};
+        memcpy(kids, q, sizeof kids);
+    }
+    uint32_t first = b->ne;
+    for (int k = 0; k < 4; k++)
+        if (add_element(b, kids[k], n.patch, n.level + 1u, kid_state) != 0)
+            return -1;
+    b->E[e].kids = first;
+    if (kid_state == NODE_LEAF)
+        b->E[e].state = NODE_SPLIT;
+    return 0;
+}
+
+/* Leaf e takes its probes as its children. */
+static void promote(builder *b, uint32_t e)
+{
+    enode *n = &b->E[e];
+    RAD_ASSERT(n->state == NODE_LEAF && n->kids != RAD_NONE);
+    n->state = NODE_SPLIT;
+    for (uint32_t k = 0; k < 4; k++)
+        b->E[n->kids + k].state = NODE_LEAF;
+}
+
+/* Where the centre of child k of a cell stands in the cell, as weights of
+ * the cell's corners (split's order): bilinear (u, v) = (¼ or ¾, ¼ or ¾)
+ * for a quad, barycentric for a triangle. */
+static void child_weights(int corners, uint32_t k, double w[4])
+{
+    if (corners == 4) {
+        static const double uv[4][2] = {{0.25, 0.25}, {0.75, 0.25}, {0.75, 0.75}, {0.25, 0.75}};
+        double u = uv[k][0], v = uv[k][1];
+        w[0] = (1 - u) * (1 - v);
+        w[1] = u * (1 - v);
+        w[2] = u * v;
+        w[3] = (1 - u) * v;
+        return;
+    }
+    static const double bw[4][3] = {{4 / 6., 1 / 6., 1 / 6.}, {1 / 6., 4 / 6., 1 / 6.},
+                                    {1 / 6., 1 / 6., 4 / 6.}, {1 / 3., 1 / 3., 1 / 3.}};
+    for (int c = 0; c < 3; c++)
+        w[c] = bw[k][c];
+    w[3] = 0.0;
+}
+
+static int store_row(void *user, uint32_t k, uint32_t count, const uint32_t *col, const float *val,
+                     rad_error *err)
+{
+    builder *b = user;
+    if (b->nnz + count > b->cap_r) {
+        uint64_t cap = b->cap_r ? b->cap_r : 4096;
+        while (cap < b->nnz + count)
+            cap *= 2;
+        uint32_t *c = realloc(b->col, cap * sizeof *c);
+        if (c)
+            b->col = c;
+        float *v = realloc(b->val, cap * sizeof *v);
+        if (v)
+            b->val = v;
+        if (!c || !v)
+            return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for element rows");
+        b->cap_r = cap;
+    }
+    uint32_t e = b->which[k];
+    enode *n = &b->E[e];
+    n->start = b->nnz;
+    n->cnt = count;
+    if (count) { /* an element that sees nothing: the pool may not exist yet */
+        memcpy(b->col + b->nnz, col, count * sizeof *col);
+        memcpy(b->val + b->nnz, val, count * sizeof *val);
+    }
+    b->nnz += count;
+    double hd[RAD_MAX_BANDS];
+    el_element_direct(b->s, NULL, b->nl ? b->h + (size_t)e * b->nl : NULL, n->patch, n->level, hd);
+    el_gather_one(b->s, hd, b->Tr, n->patch, n->level, col, val, count, b->B + (size_t)e * b->bands);
+    return RAD_OK;
+}
+
+/* h_le of the elements which[k] at the receivers r[k] (their centres), for
+ * every light: the unoccluded unit-strength irradiance there times the
+ * visibility from the light's item buffer.  Only points that face the light
+ * (and lie in a spot's cone) are looked up. */
+static int element_lights(builder *b, hc_engine *hc, const hc_receiver *r, const uint32_t *which,
+                          uint32_t count, rad_error *err)
+{
+    const uint32_t nl = b->nl;
+    if (!nl || !count)
+        return RAD_OK;
+    hc_receiver *lit = malloc((size_t)count * sizeof *lit);
+    uint32_t *at = malloc((size_t)count * sizeof *at);
+    double *direct = malloc((size_t)count * sizeof *direct), *vis = malloc((size_t)count * sizeof *vis);
+    int rc = RAD_OK;
+    if (!lit || !at || !direct || !vis)
+        rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    for (uint32_t l = 0; l < nl && rc == RAD_OK; l++) {
+        const hc_light hl = b->lights[l];
+        uint32_t m = 0;
+        for (uint32_t k = 0; k < count; k++) {
+            double d = hc_light_direct(&hl, r[k].center, b->s->mesh->patches[r[k].patch].normal);
+            b->h[(size_t)which[k] * nl + l] = 0.0f;
+            if (d > 0.0) {
+                lit[m] = r[k];
+                at[m] = which[k];
+                direct[m++] = d;
+            }
+        }
+        if (!m)
+            continue;
+        rc = hc_light_visibility(hc, &hl, b->light_R, lit, m, vis, err);
+        for (uint32_t k = 0; k < m && rc == RAD_OK; k++)
+            b->h[(size_t)at[k] * nl + l] = (float)(direct[k] * vis[k]);
+        b->lights_rendered++;
+    }
+    free(lit);
+    free(at);
+    free(direct);
+    free(vis);
+    return rc;
+}
+
+/* Rows and radiosities of the elements which[0..count). */
+static int compute_rows_of(builder *b, hc_engine *hc, const uint32_t *which, uint32_t count,
+                           rad_error *err)
+{
+    if (!count)
+        return RAD_OK;
+    hc_receiver *r = malloc((size_t)count * sizeof *r);
+    if (!r)
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    for (uint32_t k = 0; k < count; k++) {
+        const enode *n = &b->E[which[k]];
+        double area;
+        if (rad_cell_geometry(b->V, n->v, b->s->mesh->patches[n->patch].normal, &r[k].center,
+                              &area) != 0) {
+            free(r);
+            return rad_fail(err, RAD_ERR_INVALID, "elements: element %u has no area", which[k]);
+        }
+        r[k].patch = n->patch;
+    }
+    b->which = which;
+    /* The direct light first: store_row gathers B_e as each row arrives. */
+    int rc = element_lights(b, hc, r, which, count, err);
+    if (rc == RAD_OK)
+        rc = hc_compute_points(hc, r, count, store_row, b, err);
+    b->rows_computed += count;
+    free(r);
+    return rc;
+}
+
+/* Rows of the elements [first, b->ne), made by the last splits (uniform:
+ * only the leaves below level 0). */
+static int compute_from(builder *b, hc_engine *hc, uint32_t first, int leaves_only, rad_error *err)
+{
+    uint32_t *which = malloc(((size_t)b->ne - first + 1) * sizeof *which), count = 0;
+    if (!which)
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    for (uint32_t e = first; e < b->ne; e++)
+        if (!leaves_only || (b->E[e].state == NODE_LEAF && b->E[e].level > 0))
+            which[count++] = e;
+    int rc = compute_rows_of(b, hc, which, count, err);
+    free(which);
+    return rc;
+}
+
+/* Longest edge of element n. */
+static double longest_edge(const builder *b, const enode *n)
+{
+    int corners = n->v[3] == RAD_NONE ? 3 : 4;
+    double l = 0.0;
+    for (int k = 0; k < corners; k++)
+        l = fmax(l, rad_length(rad_sub(b->V[n->v[(k + 1) % corners]], b->V[n->v[k]])));
+    return l;
+}
+
+/* May leaf n split: a reflecting patch (a black one's B is its emission
+ * whatever it receives), children not below the size floor. */
+static int may_split(const builder *b, const enode *n, const double *min_edge)
+{
+    if (n->state != NODE_LEAF || n->level >= RAD_MAX_ELEMENT_LEVEL)
+        return 0;
+    int reflects = 0;
+    for (uint32_t c = 0; c < b->bands; c++)
+        reflects |= b->s->rho[(size_t)n->patch * b->bands + c] > 0.0;
+    return reflects &&
+           (!min_edge || 0.5 * longest_edge(b, n) >= min_edge[n->patch] * (1.0 - 1e-9));
+}
+
+/* The builder's leaves as a rad_elements, with their rows and only the
+ * vertices they use (a probe that was not kept leaves vertices no leaf
+ * uses); node_of[k] = the node of element k when node_of is not NULL. */
+static int leaves_to_elements(const builder *b, rad_elements **out, uint32_t **node_of,
+                              rad_error *err)
+{
+    *out = NULL;
+    uint32_t leaves = 0, used = 0;
+    uint64_t entries = 0;
+    uint32_t *remap = malloc(((size_t)b->nv + 1) * sizeof *remap);
+    uint32_t *of = malloc(((size_t)b->ne + 1) * sizeof *of);
+    if (!remap || !of) {
+        free(remap);
+        free(of);
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    }
+    for (uint32_t v = 0; v < b->nv; v++)
+        remap[v] = RAD_NONE;
+    for (uint32_t e = 0; e < b->ne; e++) {
+        const enode *n = &b->E[e];
+        if (n->state != NODE_LEAF)
+            continue;
+        of[leaves++] = e;
+        entries += n->cnt;
+        for (int k = 0; k < 4 && n->v[k] != RAD_NONE; k++)
+            if (remap[n->v[k]] == RAD_NONE)
+                remap[n->v[k]] = used++;
+    }
+    rad_elements *el = rad_elements_alloc(used, leaves, b->bands, entries);
+    if (el && b->nl) {
+        el->light_count = b->nl;
+        el->light_h = malloc((size_t)(leaves ? leaves : 1) * b->nl * sizeof *el->light_h);
+        if (!el->light_h) {
+            rad_elements_destroy(el);
+            el = NULL;
+        }
+    }
+    if (!el) {
+        free(remap);
+        free(of);
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    }
+    for (uint32_t v = 0; v < b->nv; v++)
+        if (remap[v] != RAD_NONE) {
+            el->mesh->vertices[remap[v]] = b->V[v];
+            el->mesh->vertex_boundary[remap[v]] = b->Vb[v];
+        }
+    for (uint32_t k = 0; k < leaves; k++) {
+        const enode *n = &b->E[of[k]];
+        for (int c = 0; c < 4; c++)
+            el->mesh->patches[k].v[c] = n->v[c] == RAD_NONE ? RAD_NONE : remap[n->v[c]];
+        el->patch[k] = n->patch;
+        el->level[k] = n->level;
+        el->row_start[k] = el->nnz;
+        el->row_count[k] = n->cnt;
+        if (n->cnt) {
+            memcpy(el->col + el->nnz, b->col + n->start, (size_t)n->cnt * sizeof *el->col);
+            memcpy(el->val + el->nnz, b->val + n->start, (size_t)n->cnt * sizeof *el->val);
+        }
+        el->nnz += n->cnt;
+        memcpy(el->B + (size_t)k * b->bands, b->B + (size_t)of[k] * b->bands,
+               b->bands * sizeof *el->B);
+        if (b->nl)
+            memcpy(el->light_h + (size_t)k * b->nl, b->h + (size_t)of[k] * b->nl,
+                   b->nl * sizeof *b->h);
+    }
+    free(remap);
+    int rc = rad_elements_complete(el, b->s, "elements", err);
+    if (rc != RAD_OK) {
+        rad_elements_destroy(el);
+        free(of);
+        return rc;
+    }
+    *out = el;
+    if (node_of)
+        *node_of = of;
+    else
+        free(of);
+    return RAD_OK;
+}
+
+/* The value the renderer draws at point p of element k: the interpolant of
+ * its fan [first, first + count) of the render mesh rm, in the triangle
+ * that holds p (barycentric weights). */
+static void drawn_at(const rad_mesh *rm, const double *vB, uint32_t bands, uint32_t first,
+                     uint32_t count, const rad_patch *e, rad_vec3 p, double *out)
+{
+    const rad_patch *c = &rm->patches[first];
+    /* The fan triangle that holds p best (largest smallest weight). */
+    double best = -INFINITY, l[3] = {1 / 3., 1 / 3., 1 / 3.};
+    for (uint32_t t = first; t < first + count; t++) {
+        const rad_patch *f = &rm->patches[t];
+        rad_vec3 a = rm->vertices[f->v[0]], bb = rm->vertices[f->v[1]], cc = rm->vertices[f->v[2]];
+        double whole = rad_dot(rad_cross(rad_sub(bb, a), rad_sub(cc, a)), e->normal);
+        if (!(whole != 0.0))
+            continue;
+        double m[3] = {rad_dot(rad_cross(rad_sub(bb, p), rad_sub(cc, p)), e->normal) / whole,
+                       rad_dot(rad_cross(rad_sub(cc, p), rad_sub(a, p)), e->normal) / whole, 0};
+        m[2] = 1.0 - m[0] - m[1];
+        double lo = fmin(m[0], fmin(m[1], m[2]));
+        if (lo > best) {
+            best = lo;
+            c = f;
+            memcpy(l, m, sizeof l);
+        }
+    }
+    for (uint32_t b = 0; b < bands; b++) {
+        out[b] = 0.0;
+        for (int k = 0; k < 3; k++)
+            out[b] += l[k] * vB[(size_t)c->v[k] * bands + b];
+    }
+}
+
+/* The share of a leaf across a block's foot counted as missing its B (see
+ * estimate), chosen on bench_elements: 1/4 and 1/12 spent elements along
+ * the blocks' feet that the rest of the floor needed more (ratios up to
+ * 0.08 and 0.03 worse at T >= 1e-4); 1/32 is within 0.01 of no rule at
+ * T >= 1e-4 and better at T <= 3e-5. */
+#define CONTACT_SHARE (1.0 / 32.0)
+
+/* The estimated error of each probed leaf (eps[node], 0 for the others):
+ * the mean difference, over its four probes, between the probe's gathered
+ * B and what the renderer draws there from the current leaves, relative to
+ * scale[] (the largest band), times the leaf's share of its patch's area.
+ * That is the leaf's share of the integrated error |drawn − B|: splitting
+ * the leaves of largest share first is what lowers the mean error most per
+ * element added, and a linear gradient, which the renderer's interpolation
+ * draws exactly, costs nothing.  contact[node] marks a leaf at the foot of
+ * a block: 1 across it (below), 2 seen but touching a buried leaf. */
+static int estimate(builder *b, const double *scale, double *eps, uint8_t *contact, rad_error *err)
+{
+    const uint32_t bands = b->bands;
+    rad_elements *el = NULL;
+    rad_mesh *rm = NULL;
+    uint32_t *node_of = NULL, *cells_of = NULL;
+    double *vB = NULL, *drawn = NULL;
+    uint8_t *buried_leaf = NULL, *vertex_side = NULL;
+    int rc = leaves_to_elements(b, &el, &node_of, err);
+    if (rc != RAD_OK)
+        return rc;
+    rc = el_fan_mesh(el->mesh, &rm, &cells_of, err);
+    if (rc != RAD_OK)
+        goto done;
+    vB = malloc(((size_t)rm->vertex_count * bands + 1) * sizeof *vB);
+    drawn = malloc(((size_t)el->mesh->patch_count * bands + 1) * sizeof *drawn);
+    if (!vB || !drawn) {
+        rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+        goto done;
+    }
+    rc = rad_elements_vertex_radiosity(b->s, el, rm, cells_of, drawn, vB, err);
+    if (rc != RAD_OK)
+        goto done;
+    /* Buried leaves; per drawing vertex, bit 0: a seen leaf's cells use it,
+     * bit 1: a buried leaf's. */
+    const uint32_t nel = el->mesh->patch_count;
+    buried_leaf = calloc(nel ? nel : 1, 1);
+    vertex_side = calloc(rm->vertex_count ? rm->vertex_count : 1, 1);
+    if (!buried_leaf || !vertex_side) {
+        rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+        goto done;
+    }
+    for (uint32_t e = 0; e < nel; e++)
+        buried_leaf[e] = (uint8_t)el_sees_nothing(b->s, el->patch[e], el->level[e], el->row_count[e],
+                                               el->B + (size_t)e * bands);
+    for (uint32_t k = 0; k < rm->patch_count; k++)
+        for (int c = 0; c < rad_patch_corners(&rm->patches[k]); c++)
+            vertex_side[rm->patches[k].v[c]] |= (uint8_t)(buried_leaf[cells_of[k]] ? 2 : 1);
+    for (uint32_t e = 0; e < b->ne; e++) {
+        eps[e] = 0.0;
+        contact[e] = 0;
+    }
+    for (uint32_t first = 0, next; first < rm->patch_count; first = next) {
+        uint32_t k = cells_of[first];
+        for (next = first + 1; next < rm->patch_count && cells_of[next] == k;)
+            next++;
+        const enode *n = &b->E[node_of[k]];
+        if (n->kids == RAD_NONE)
+            continue;
+        const rad_patch *ec = &el->mesh->patches[k];
+        int corners = rad_patch_corners(ec);
+        double d[RAD_MAX_BANDS] = {0}, seen_B[RAD_MAX_BANDS] = {0};
+        uint32_t seen = 0, buried = buried_leaf[k];
+        /* touches: a vertex of the other kind (seen for a buried leaf,
+         * buried for a seen one) */
+        int touches = 0;
+        for (uint32_t f = first; f < next && !touches; f++)
+            for (int c = 0; c < rad_patch_corners(&rm->patches[f]); c++)
+                touches |= (vertex_side[rm->patches[f].v[c]] >> (buried ? 0 : 1)) & 1;
+        for (uint32_t q = 0; q < 4; q++) {
+            const enode *kid = &b->E[n->kids + q];
+            const double *Bk = b->B + (size_t)(n->kids + q) * bands;
+            /* A probe that sees nothing is never seen either: its error
+             * costs nothing. */
+            if (el_sees_nothing(b->s, kid->patch, kid->level, kid->cnt, Bk)) {
+                buried++;
+                continue;
+            }
+            seen++;
+            for (uint32_t c = 0; c < bands; c++)
+                seen_B[c] += Bk[c];
+            double w[4], at[RAD_MAX_BANDS];
+            child_weights(corners, q, w);
+            rad_vec3 p = rad_v3(0, 0, 0);
+            for (int c = 0; c < corners; c++)
+                p = rad_add(p, rad_scale(el->mesh->vertices[ec->v[c]], w[c]));
+            drawn_at(rm, vB, bands, first, next - first, ec, p, at);
+            for (uint32_t c = 0; c < bands; c++)
+                d[c] += 0.25 * fabs(Bk[c] - at[c]);
+        }
+        /* A leaf across the foot of a block - seen, with buried probes, or
+         * buried itself (with buried probes) beside a seen leaf - draws its
+         * seen part from values that belong to neither side of the contact
+         * line, and no probe may land in that part: count CONTACT_SHARE of
+         * the leaf as missing its B entirely (the seen probes' B, or what is
+         * drawn for the buried leaf, extrapolated from its seen
+         * neighbours).  Without this, a sliver of floor beside a block,
+         * inside a patch whose centre and probes lie under the block, kept
+         * the patch's wrong value: the largest single error of the adaptive
+         * sets in bench_elements. */
+        contact[node_of[k]] = (seen && buried) || (!seen && touches) ? 1 : touches ? 2 : 0;
+        for (uint32_t c = 0; c < bands && contact[node_of[k]] == 1; c++)
+            d[c] = fmax(d[c], CONTACT_SHARE * (seen ? seen_B[c] / seen : drawn[(size_t)k * bands + c]));
+        double worst = 0.0;
+        for (uint32_t c = 0; c < bands; c++)
+            if (scale[c] > 0.0)
+                worst = fmax(worst, d[c] / scale[c]);
+        eps[node_of[k]] = worst * ec->area / b->s->mesh->patches[n->patch].area;
+    }
+done:
+    rad_elements_destroy(el);
+    rad_mesh_destroy(rm);
+    free(drawn);
+    free(buried_leaf);
+    free(vertex_side);
+    free(node_of);
+    free(cells_of);
+    free(vB);
+    return rc;
+}
+
+static int too_many(const builder *b, const rad_refine_options *opt, uint64_t adding, rad_error *err)
+{
+    uint64_t after = (uint64_t)b->ne + adding;
+    uint32_t limit = opt->max_elements ? opt->max_elements : RAD_MESH_DEFAULT_MAX_PATCHES;
+    if (after <= limit)
+        return RAD_OK;
+    return rad_fail(err, RAD_ERR_LIMIT,
+                    "elements: refinement would make %llu elements, above the limit of %u "
+                    "(raise --min-element-size or --refine-threshold)",
+                    (unsigned long long)after, limit);
+}
+
+/* Uniform levels: every leaf that may split does, opt->levels
+ * times; only the final leaves get hemi-cubes. */
+static int refine_uniform(builder *b, const rad_refine_options *opt, hc_engine *hc, rad_error *err)
+{
+    for (uint32_t level = 0; level < opt->levels; level++) {
+        uint32_t ne = b->ne, marked = 0;
+        for (uint32_t e = 0; e < ne; e++)
+            marked += may_split(b, &b->E[e], NULL) && b->E[e].level == level;
+        int rc = too_many(b, opt, 4ull * marked, err);
+        if (rc != RAD_OK)
+            return rc;
+        for (uint32_t e = 0; e < ne; e++)
+            if (may_split(b, &b->E[e], NULL) && b->E[e].level == level &&
+                split(b, e, NODE_LEAF) != 0)
+                return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    }
+    return compute_from(b, hc, 0, 1, err);
+}
+
+/* A leaf to probe: it may split, has no probes yet and is not settled. */
+static int wants_probe(const builder *b, const enode *n, const double *min_edge)
+{
+    return n->kids == RAD_NONE && !n->settled && may_split(b, n, min_edge);
+}
+
+/* Adaptive: probe every leaf that may split (gather its four children),
+ * estimate each probed leaf's error from its probes (estimate), split those
+ * above the threshold - their probes become leaves, to be probed in turn -
+ * and again until no leaf splits.  Splitting changes what is drawn next to
+ * it, so every probed leaf is estimated again each pass.
+ *
+ * A child's share of the error is at most about a quarter of its parent's
+ * whenever the error density does not grow at the finer scale (a sixteenth
+ * for a smooth field, a quarter at a step): the children of a leaf that
+ * split with an estimate of at most 4 T cannot reach T, and are not probed
+ * (settled).  On the Cornell box that saves half the hemi-cubes for a few
+ * per cent of error. */
+static int refine_adaptive(builder *b, const rad_refine_options *opt, const double *scale,
+                           const double *min_edge, hc_engine *hc, rad_error *err)
+{
+    const double T = opt->threshold;
+    double *eps = NULL;
+    uint8_t *contact = NULL;
+    int rc = RAD_OK;
+    for (;;) {
+        uint32_t ne = b->ne, probing = 0;
+        for (uint32_t e = 0; e < ne; e++)
+            probing += wants_probe(b, &b->E[e], min_edge);
+        if ((rc = too_many(b, opt, 4ull * probing, err)) != RAD_OK)
+            break;
+        for (uint32_t e = 0; e < ne; e++)
+            if (wants_probe(b, &b->E[e], min_edge) && split(b, e, NODE_PROBE) != 0) {
+                rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+                goto done;
+            }
+        if ((rc = compute_from(b, hc, ne, 0, err)) != RAD_OK)
+            break;
+        free(eps);
+        free(contact);
+        eps = malloc(((size_t)b->ne + 1) * sizeof *eps);
+        contact = malloc((size_t)b->ne + 1);
+        if (!eps || !contact) {
+            rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+            break;
+        }
+        if ((rc = estimate(b, scale, eps, contact, err)) != RAD_OK)
+            break;
+        uint32_t splits = 0;
+        for (uint32_t e = 0; e < b->ne; e++) {
+            enode *n = &b->E[e];
+            if (n->state != NODE_LEAF || n->kids == RAD_NONE || !(eps[e] > T))
+                continue;
+            promote(b, e);
+            /* Across or beside a contact line the error is a line's, and
+             * may sit in a child that no probe of the leaf saw: no child
+             * is settled. */
+            for (uint32_t k = 0; k < 4; k++)
+                b->E[n->kids + k].settled = eps[e] <= 4.0 * T && !contact[e];
+            splits++;
+        }
+        if (!splits)
+            break;
+    }
+done:
+    free(eps);
+    free(contact);
+    return rc;
+}
+
+int rad_elements_refine(rad_solution *s, hc_engine *hc, const rad_refine_options *options,
+                        rad_error *err)
+{
+    if (!s)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_elements_refine: no solution");
+    rad_refine_options opt = {0};
+    if (options)
+        opt = *options;
+    if (!(opt.threshold >= 0.0) || !isfinite(opt.threshold) ||
+        !(opt.min_element_size >= 0.0) || !isfinite(opt.min_element_size) ||
+        opt.levels > RAD_MAX_ELEMENT_LEVEL)
+        return rad_fail(err, RAD_ERR_USAGE,
+                        "refine: threshold and minimum element size must be finite and >= 0, "
+                        "levels at most %u", RAD_MAX_ELEMENT_LEVEL);
+    if (s->scene->light_count && (!opt.lights || !opt.light_resolution))
+        return rad_fail(err, RAD_ERR_USAGE, "rad_elements_refine: the scene's lights are missing");
+    rad_elements_destroy(s->elements);
+    s->elements = NULL;
+    if (!(opt.threshold > 0.0) && opt.levels == 0)
+        return RAD_OK;
+    if (!hc)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_elements_refine: no hemi-cube engine");
+
+    const rad_mesh *pm = s->mesh;
+    const uint32_t np = pm->patch_count, bands = s->band_count;
+    const int uniform = opt.levels && !(opt.threshold > 0.0);
+    builder b = {.s = s, .bands = bands, .nl = s->scene->light_count,
+                 .light_R = opt.light_resolution, .lights = opt.lights};
+    double *Tr = NULL, *min_edge = NULL;
+    int rc = el_transmitted(s, &Tr, err);
+    if (rc != RAD_OK)
+        return rc;
+    b.Tr = Tr;
+    min_edge = malloc((np ? np : 1) * sizeof *min_edge);
+    if (!min_edge) {
+        rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+        goto done;
+    }
+    /* Level 0: one element per patch, on the patch's own corners. */
+    for (uint32_t i = 0; i < np; i++) {
+        const rad_patch *p = &pm->patches[i];
+        uint32_t v[4] = {RAD_NONE, RAD_NONE, RAD_NONE, RAD_NONE};
+        for (int k = 0; k < rad_patch_corners(p); k++) {
+            v[k] = vertex_at(&b, el_surface_of(p), pm->vertices[p->v[k]], 0);
+            if (v[k] == RAD_NONE) {
+                rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+                goto done;
+            }
+            b.Vb[v[k]] = pm->vertex_boundary[p->v[k]];
+        }
+        if (add_element(&b, v, i, 0, NODE_LEAF) != 0) {
+            rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+            goto done;
+        }
+        /* Default floor: three splits below the patch (1/8 of its size). */
+        double own = longest_edge(&b, &b.E[i]);
+        min_edge[i] = opt.min_element_size > 0.0 ? opt.min_element_size : own / 8.0;
+    }
+    /* Errors are relative to the brightest reflecting (non-emitting) patch
+     * per band: emitters would make any threshold meaningless. */
+    double scale[RAD_MAX_BANDS] = {0};
+    for (uint32_t i = 0; i < np; i++)
+        for (uint32_t c = 0; c < bands; c++)
+            if (s->emission[(size_t)i * bands + c] == 0.0)
+                scale[c] = fmax(scale[c], s->B[(size_t)i * bands + c]);
+    rc = uniform ? refine_uniform(&b, &opt, hc, err)
+                 : refine_adaptive(&b, &opt, scale, min_edge, hc, err);
+    if (rc == RAD_OK) {
+        rad_elements *el = NULL;
+        rc = leaves_to_elements(&b, &el, NULL, err);
+        if (rc == RAD_OK) {
+            el->threshold = opt.threshold > 0.0 ? opt.threshold : 0.0;
+            el->min_size = opt.min_element_size;
+            el->rows_computed = b.rows_computed;
+            s->elements = el;
+            s->lights_computed += b.lights_rendered;
+        }
+    }
+done:
+    free(min_edge);
+    free(Tr);
+    free(b.h);
+    free(b.V);
+    free(b.Vb);
+    free(b.Vsurf);
+    free(b.t.slot);
+    free(b.E);
+    free(b.B);
+    free(b.col);
+    free(b.val);
+    return rc;
+}

@@ -1,0 +1,154 @@
+/* elements.c - the element store of solution.h: allocating, freeing and
+ * checking a rad_elements (substructuring: Cohen, Greenberg, Immel & Brock
+ * 1986: patches shoot, elements receive).  What elements are and how they
+ * are made lives in radiosity/elements/; this file only keeps the data,
+ * which the solution file reads and writes.
+ *
+ * Invariant: rad_elements_check accepts exactly the element sets that obey
+ * solution.h's element invariants against their solution, and the reader
+ * and the writer both run it.
+ */
+#include "solution.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ------------------------------------------------------------ storage */
+
+rad_elements *rad_elements_alloc(uint32_t vertex_count, uint32_t count, uint32_t bands,
+                                 uint64_t entries)
+{
+    rad_elements *el = calloc(1, sizeof *el);
+    if (!el)
+        return NULL;
+    size_t n = count ? count : 1, ne = entries ? (size_t)entries : 1;
+    el->mesh = rad_mesh_alloc(vertex_count, count);
+    el->patch = calloc(n, sizeof *el->patch);
+    el->level = calloc(n, sizeof *el->level);
+    el->B = calloc(n * (bands ? bands : 1), sizeof *el->B);
+    el->row_start = calloc(n, sizeof *el->row_start);
+    el->row_count = calloc(n, sizeof *el->row_count);
+    el->col = malloc(ne * sizeof *el->col);
+    el->val = malloc(ne * sizeof *el->val);
+    if (!el->mesh || !el->patch || !el->level || !el->B || !el->row_start || !el->row_count ||
+        !el->col || !el->val) {
+        rad_elements_destroy(el);
+        return NULL;
+    }
+    el->capacity = entries;
+    return el;
+}
+
+void rad_elements_destroy(rad_elements *el)
+{
+    if (!el)
+        return;
+    rad_mesh_destroy(el->mesh);
+    free(el->patch);
+    free(el->level);
+    free(el->B);
+    free(el->row_start);
+    free(el->row_count);
+    free(el->col);
+    free(el->val);
+    free(el->light_h);
+    free(el);
+}
+
+int rad_elements_complete(rad_elements *el, const rad_solution *s, const char *name,
+                          rad_error *err)
+{
+    const rad_mesh *pm = s->mesh;
+    rad_mesh *m = el->mesh;
+    for (uint32_t e = 0; e < m->patch_count; e++) {
+        rad_patch *c = &m->patches[e];
+        uint32_t p = el->patch[e];
+        if (p >= pm->patch_count)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: patch %u out of range (%u patches)",
+                            name, e, p, pm->patch_count);
+        const rad_patch *pp = &pm->patches[p];
+        c->polygon = pp->polygon;
+        c->object = pp->object;
+        c->material = pp->material;
+        c->normal = pp->normal;
+        for (int k = 0; k < rad_patch_corners(c); k++)
+            if (c->v[k] >= m->vertex_count)
+                return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: vertex %u out of range", name,
+                                e, c->v[k]);
+        if (rad_cell_geometry(m->vertices, c->v, c->normal, &c->center, &c->area) != 0)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: area is not positive", name, e);
+    }
+    return rad_elements_check(el, s, name, err);
+}
+
+int rad_elements_check(const rad_elements *el, const rad_solution *s, const char *name,
+                       rad_error *err)
+{
+    const rad_mesh *pm = s->mesh, *m = el->mesh;
+    const uint32_t bands = s->band_count;
+    if (!m || !el->patch || !el->level || !el->B || !el->row_start || !el->row_count ||
+        (el->nnz && (!el->col || !el->val)) || el->nnz > el->capacity)
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: elements: missing arrays", name);
+    int rc = rad_mesh_check(m, s->scene->polygon_count, s->scene->object_count,
+                            s->scene->material_count, err);
+    if (rc != RAD_OK)
+        return rc;
+    for (uint32_t e = 0; e < m->patch_count; e++) {
+        const rad_patch *c = &m->patches[e];
+        uint32_t p = el->patch[e];
+        if (p >= pm->patch_count)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: patch %u out of range (%u patches)",
+                            name, e, p, pm->patch_count);
+        const rad_patch *pp = &pm->patches[p];
+        if (c->polygon != pp->polygon || c->object != pp->object || c->material != pp->material)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: not in its patch's polygon", name, e);
+        if (el->level[e] > RAD_MAX_ELEMENT_LEVEL)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: level %u above %u", name, e,
+                            el->level[e], RAD_MAX_ELEMENT_LEVEL);
+        /* The element lies in its patch: its area is at most the patch's. */
+        if (!(c->area <= pp->area * (1.0 + 1e-9)))
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: larger than its patch", name, e);
+        uint32_t cnt = el->row_count[e];
+        if (el->row_start[e] > el->nnz || cnt > el->nnz - el->row_start[e])
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: row outside the entries", name, e);
+        if (el->level[e] == 0 && cnt != 0)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: level 0 with a row", name, e);
+        double sum = 0.0;
+        for (uint32_t q = 0; q < cnt; q++) {
+            uint64_t k = el->row_start[e] + q;
+            uint32_t j = el->col[k];
+            if (j >= pm->patch_count || j == p || (q && j <= el->col[k - 1]) ||
+                !(el->val[k] > 0.0f) || !isfinite(el->val[k]))
+                return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: bad row entry %u", name, e, q);
+            sum += el->val[k];
+        }
+        if (!(sum <= 1.0 + 1e-3))
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: row sum %g above 1", name, e, sum);
+        for (uint32_t b = 0; b < bands; b++) {
+            double v = el->B[(size_t)e * bands + b];
+            if (!(v >= 0.0) || !isfinite(v))
+                return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: radiosity %g", name, e, v);
+        }
+    }
+    if (el->light_h) {
+        if (el->light_count == 0 || el->light_count != s->scene->light_count)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: elements: direct light of %u lights, the scene has %u",
+                            name, el->light_count, s->scene->light_count);
+        for (uint32_t e = 0; e < m->patch_count; e++)
+            for (uint32_t l = 0; l < el->light_count; l++) {
+                float h = el->light_h[(size_t)e * el->light_count + l];
+                if (!(h >= 0.0f) || !isfinite(h) || (el->level[e] == 0 && h != 0.0f))
+                    return rad_fail(err, RAD_ERR_CORRUPT,
+                                    "%s: element %u: direct light %g from light %u (level %u)", name,
+                                    e, (double)h, l, el->level[e]);
+            }
+    } else if (el->light_count) {
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: elements: light count without direct light", name);
+    }
+    if (!(el->threshold >= 0.0) || !isfinite(el->threshold) || !(el->min_size >= 0.0) ||
+        !isfinite(el->min_size))
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: elements: bad threshold or minimum size", name);
+    return RAD_OK;
+}
