@@ -5,6 +5,10 @@
 #ifndef RAD_CLI_H
 #define RAD_CLI_H
 
+/* A numeric macro as a string literal, for help texts that name a default. */
+#define CLI_STR_(x) #x
+#define CLI_STR(x) CLI_STR_(x)
+
 #include "../pipeline/pipeline.h"
 
 int cli_solve(int argc, char **argv);

@@ -64,7 +64,8 @@ static int within(const rad_val_result *r)
 
 static void print_json(const rad_val_result *res, uint32_t n, int all_ok)
 {
-    printf("{\"resolution_default\": 128, \"all_within_promise\": %s, \"results\": [\n",
+    printf("{\"resolution_default\": %d, \"all_within_promise\": %s, \"results\": [\n",
+           HC_DEFAULT_RESOLUTION,
            all_ok ? "true" : "false");
     for (uint32_t k = 0; k < n; k++) {
         const rad_val_result *r = &res[k];
@@ -98,7 +99,7 @@ static void print_json(const rad_val_result *res, uint32_t n, int all_ok)
 
 static void print_table(const rad_val_result *res, uint32_t n)
 {
-    printf("Hemi-cube against exact values.  '*' marks the default settings (R = 128) and the\n"
+    printf("Hemi-cube against exact values.  '*' marks the default settings (R = " CLI_STR(HC_DEFAULT_RESOLUTION) ") and the\n"
            "error promised for them; other rows vary R or the subdivision (patches per edge).\n\n");
     printf("  %-40s %-10s %5s %6s %7s %13s %13s %10s %9s %7s\n", "case", "quantity", "R", "subdiv",
            "patches", "exact", "hemi-cube", "rel.error", "promise", "time s");

@@ -10,6 +10,11 @@
  * Invariants: every array is sized by mesh->patch_count × band_count; F->n ==
  * mesh->patch_count; B >= 0 and finite.  Files are written to a temporary
  * name and renamed, so a failed write never replaces a good file.
+ *
+ * The files of radiosity/store/ implement this header: solution.c (create,
+ * destroy), write.c and read.c (the file), format.c (what those two share),
+ * elements.c (the element store), lights.c (the punctual lights' stored
+ * power), analysis.c (quantities read off a solution), relight.c (edits).
  */
 #ifndef RAD_SOLUTION_H
 #define RAD_SOLUTION_H

@@ -67,7 +67,7 @@ void rad_validate_defaults(rad_val_case *c)
     if (c->a == 0) c->a = 1;
     if (c->b == 0) c->b = 1;
     if (c->c == 0) c->c = 1;
-    if (c->resolution == 0) c->resolution = 128;
+    if (c->resolution == 0) c->resolution = HC_DEFAULT_RESOLUTION;
     if (c->subdiv == 0) c->subdiv = rad_validate_default_subdiv(c->config);
     if (c->sides == 0) c->sides = 32;
     if (c->rho == 0) c->rho = 0.5;

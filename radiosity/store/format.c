@@ -1,0 +1,179 @@
+/* format.c - what the solution file's writer and reader share: the section
+ * table, the CRC-64/XZ checksum and the rules on values (ρ, E, B, lights,
+ * provenance) that both apply.
+ *
+ * Invariant: a rule lives here once, so the writer refuses exactly what the
+ * reader would.
+ */
+#include "store_internal.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+const char sol_sec_tag[SEC_COUNT][4] = {
+    {'I', 'N', 'F', 'O'}, {'S', 'C', 'E', 'N'}, {'M', 'E', 'S', 'H'}, {'M', 'T', 'R', 'X'},
+    {'P', 'D', 'A', 'T'}, {'L', 'G', 'H', 'T'}, {'E', 'L', 'E', 'M'}, {'E', 'L', 'G', 'T'}};
+
+const char *const sol_sec_name[SEC_COUNT] = {"INFO",      "SCENE",  "MESH",     "MATRIX",
+                                                "PATCHDATA", "LIGHTS", "ELEMENTS", "ELEMENTLIGHTS"};
+
+const int sol_version_sections[SOL_VERSION + 1] = {0, SEC_LIGHTS, SEC_ELEMENTS,
+                                                      SEC_ELEMENT_LIGHTS, SEC_COUNT, SEC_COUNT};
+
+/* ------------------------------------------------------------- CRC-64/XZ */
+
+/* CRC-64/XZ (ECMA-182 polynomial, reflected, init and final XOR all ones;
+ * check value of "123456789" is 0x995DC9BBDF1939FA).  A CRC, unlike a hash,
+ * is guaranteed to catch every error burst of up to 64 bits, so every
+ * single-byte corruption is detected.  Slicing-by-8 tables: solution files
+ * reach gigabytes. */
+#define CRC64_POLY 0xC96C5795D7870F42ull
+
+
+void sol_crc64_init(sol_crc64_tables *c)
+{
+    for (uint32_t i = 0; i < 256; i++) {
+        uint64_t r = i;
+        for (int k = 0; k < 8; k++)
+            r = (r & 1) ? (r >> 1) ^ CRC64_POLY : r >> 1;
+        c->t[0][i] = r;
+    }
+    for (int k = 1; k < 8; k++)
+        for (uint32_t i = 0; i < 256; i++)
+            c->t[k][i] = (c->t[k - 1][i] >> 8) ^ c->t[0][c->t[k - 1][i] & 0xff];
+}
+
+uint64_t sol_load_le64(const uint8_t *p)
+{
+    uint64_t v = 0;
+    for (int k = 7; k >= 0; k--)
+        v = (v << 8) | p[k];
+    return v;
+}
+
+/* Advances the CRC register (not yet inverted) over n bytes. */
+uint64_t sol_crc64_update(const sol_crc64_tables *c, uint64_t crc, const uint8_t *p, size_t n)
+{
+    while (n >= 8) {
+        crc ^= sol_load_le64(p);
+        crc = c->t[7][crc & 0xff] ^ c->t[6][(crc >> 8) & 0xff] ^ c->t[5][(crc >> 16) & 0xff] ^
+              c->t[4][(crc >> 24) & 0xff] ^ c->t[3][(crc >> 32) & 0xff] ^
+              c->t[2][(crc >> 40) & 0xff] ^ c->t[1][(crc >> 48) & 0xff] ^ c->t[0][crc >> 56];
+        p += 8;
+        n -= 8;
+    }
+    while (n--)
+        crc = c->t[0][(crc ^ *p++) & 0xff] ^ (crc >> 8);
+    return crc;
+}
+
+int sol_crc64_of(const uint8_t *p, size_t n, uint64_t *out)
+{
+    sol_crc64_tables *c = malloc(sizeof *c);
+    if (!c)
+        return 0;
+    sol_crc64_init(c);
+    *out = sol_crc64_update(c, ~0ull, p, n) ^ ~0ull;
+    free(c);
+    return 1;
+}
+
+/* ---------------------------------------------------------- shared checks */
+
+int sol_bad_reflectance(double r) { return !(r >= 0.0 && r < 1.0); } /* also NaN */
+int sol_bad_nonneg(double v) { return !(v >= 0.0) || !isfinite(v); }
+
+/* The per-patch ρ, E and B rules; `where` is "section PATCHDATA" (reader) or
+ * "cannot write" (writer). */
+int sol_check_patch_values(const rad_solution *s, const char *file, const char *where,
+                              int code, rad_error *err)
+{
+    uint32_t n = s->mesh->patch_count, nb = s->band_count;
+    for (uint32_t i = 0; i < n; i++) {
+        for (uint32_t b = 0; b < nb; b++) {
+            size_t k = (size_t)i * nb + b;
+            if (sol_bad_reflectance(s->rho[k]))
+                return rad_fail(err, code, "%s: %s: patch %u band %u: ρ = %g outside [0, 1)", file,
+                                where, i, b, s->rho[k]);
+            if (sol_bad_nonneg(s->emission[k]))
+                return rad_fail(err, code,
+                                "%s: %s: patch %u band %u: E = %g is not finite and >= 0", file,
+                                where, i, b, s->emission[k]);
+            if (sol_bad_nonneg(s->B[k]))
+                return rad_fail(err, code,
+                                "%s: %s: patch %u band %u: B = %g is not finite and >= 0", file,
+                                where, i, b, s->B[k]);
+        }
+    }
+    return RAD_OK;
+}
+
+/* The provenance rules: durations and sizes are finite and non-negative;
+ * the residual may be +inf (no sweep done yet) but not NaN or negative. */
+int sol_check_info(const rad_solution *s, const char *file, const char *where, int code,
+                      rad_error *err)
+{
+    if (sol_bad_nonneg(s->patch_size))
+        return rad_fail(err, code, "%s: %s: patch size %g is not finite and >= 0", file, where,
+                        s->patch_size);
+    if (sol_bad_nonneg(s->tolerance))
+        return rad_fail(err, code, "%s: %s: tolerance %g is not finite and >= 0", file, where,
+                        s->tolerance);
+    if (!(s->residual >= 0.0))
+        return rad_fail(err, code, "%s: %s: residual %g is negative or NaN", file, where,
+                        s->residual);
+    for (int k = 0; k < RAD_STAGE_COUNT; k++) {
+        if (sol_bad_nonneg(s->stages[k].seconds))
+            return rad_fail(err, code, "%s: %s: stage %s: %g seconds is not finite and >= 0", file,
+                            where, rad_stage_name((rad_stage)k), s->stages[k].seconds);
+        if (s->stages[k].reused != 0 && s->stages[k].reused != 1)
+            return rad_fail(err, code, "%s: %s: stage %s: reused flag %d is not 0 or 1", file,
+                            where, rad_stage_name((rad_stage)k), s->stages[k].reused);
+    }
+    return RAD_OK;
+}
+
+/* The light rules; `where` as for sol_check_patch_values. */
+int sol_check_lights(const rad_solution *s, const char *file, const char *where, int code,
+                        rad_error *err)
+{
+    const rad_scene *sc = s->scene;
+    uint32_t nb = s->band_count, n = s->mesh->patch_count;
+    if (sc->light_count == 0)
+        return RAD_OK;
+    if (!s->light_intensity || !s->light_power || s->light_slots_ < sc->light_count)
+        return rad_fail(err, code, "%s: %s: %u lights but no light data", file, where,
+                        sc->light_count);
+    for (uint32_t l = 0; l < sc->light_count; l++) {
+        const rad_light_power *lp = &s->light_power[l];
+        for (uint32_t b = 0; b < nb; b++)
+            if (sol_bad_nonneg(s->light_intensity[(size_t)l * nb + b]))
+                return rad_fail(err, code,
+                                "%s: %s: light '%s' band %u: intensity %g is not finite and >= 0",
+                                file, where, sc->lights[l].name, b,
+                                s->light_intensity[(size_t)l * nb + b]);
+        if (!lp->present)
+            continue;
+        if (lp->count > n || (lp->count && (!lp->patch || !lp->power)))
+            return rad_fail(err, code, "%s: %s: light '%s': %u patches lit but the mesh has %u",
+                            file, where, sc->lights[l].name, lp->count, n);
+        for (uint32_t k = 0; k < lp->count; k++) {
+            if (lp->patch[k] >= n || (k && lp->patch[k] <= lp->patch[k - 1]))
+                return rad_fail(err, code,
+                                "%s: %s: light '%s': patch %u out of range or out of order", file,
+                                where, sc->lights[l].name, lp->patch[k]);
+            if (!(lp->power[k] > 0.0f) || !isfinite(lp->power[k]))
+                return rad_fail(err, code,
+                                "%s: %s: light '%s': patch %u: power %g is not positive and finite",
+                                file, where, sc->lights[l].name, lp->patch[k],
+                                (double)lp->power[k]);
+        }
+    }
+    return RAD_OK;
+}
