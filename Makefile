@@ -2,8 +2,10 @@
 # the benchmarks, in a release flavour (build/release) and an
 # AddressSanitizer + UndefinedBehaviorSanitizer flavour (build/asan).
 #
-#   make demo    install missing Debian packages, build, solve and render the Cornell box
-#   make test    build and run every test (release and sanitizer builds, CLI, fuzz)
+#   make deps    install missing Debian packages (apt-get)
+#   make demo    install missing packages, build, solve and render the Cornell box
+#   make test    build and run every test (release and sanitizer builds, CLI, fuzz);
+#                checks the packages but never installs them
 #   make bench   print the benchmark tables
 #   make report  write report/accuracy.md (issue 4)
 #   make fuzz    run each fuzz target for FUZZ_SECONDS (default 60)
@@ -36,7 +38,7 @@ TEST_BIN := $(TEST_SRC:test/%.c=$(B)/test/%)
 BENCH_SRC:= $(wildcard bench/bench_*.c)
 BENCH_BIN:= $(BENCH_SRC:bench/%.c=$(B)/bench/%)
 
-.PHONY: all lib prog tests benches demo test test-release test-asan test-cli fuzz bench report deps clean
+.PHONY: all lib prog tests benches demo test fuzz bench report deps check-deps clean
 
 all: prog
 
@@ -78,6 +80,9 @@ $(B)/bench/%: $(B)/obj/bench/%.o $(LIB)
 deps:
 	@bash tools/install-deps.sh
 
+check-deps:
+	@bash tools/install-deps.sh --check
+
 demo: deps
 	@$(MAKE) --no-print-directory -j$(NPROC) MODE=release prog
 	@mkdir -p out
@@ -86,20 +91,20 @@ demo: deps
 	build/release/radiosity report out/cornell.sol
 	@echo "demo: wrote out/cornell.exr and out/cornell.png"
 
-test: deps
+test: check-deps
 	@$(MAKE) --no-print-directory -j$(NPROC) MODE=release prog tests
 	@$(MAKE) --no-print-directory -j$(NPROC) MODE=asan prog tests
 	@bash test/run_tests.sh
 
-bench: deps
+bench: check-deps
 	@$(MAKE) --no-print-directory -j$(NPROC) MODE=release prog benches
 	@bash bench/run_bench.sh
 
-report: deps
+report: check-deps
 	@$(MAKE) --no-print-directory -j$(NPROC) MODE=release prog
 	@bash tools/make_report.sh
 
-fuzz: deps
+fuzz: check-deps
 	@bash test/fuzz/run_fuzz.sh $${FUZZ_SECONDS:-60}
 
 clean:

@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
-# install-deps.sh - installs the Debian 12 packages the build needs, and only
-# those that are missing.  Needs root (or sudo) when something is missing.
+# install-deps.sh - the Debian 12 packages the build needs.
+#   tools/install-deps.sh          installs those that are missing (root or sudo)
+#   tools/install-deps.sh --check  only names the missing ones; exit 1 if any
+# `make deps` and `make demo` install; `make test`, `make bench` and
+# `make report` only check, so they never run apt-get.
 set -euo pipefail
 pkgs=(build-essential libosmesa6-dev libopenexr-dev libtinygltf-dev nlohmann-json3-dev
       libpng-dev clang libclang-rt-14-dev)
@@ -9,6 +12,10 @@ for p in "${pkgs[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
 done
 [ ${#missing[@]} -eq 0 ] && exit 0
+if [ "${1:-}" = "--check" ]; then
+    echo "missing Debian packages: ${missing[*]}; run 'make deps' (it installs them)" >&2
+    exit 1
+fi
 echo "install-deps: installing ${missing[*]}"
 sudo=""
 [ "$(id -u)" -eq 0 ] || sudo="sudo"
