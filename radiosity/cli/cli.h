@@ -20,6 +20,9 @@ int cli_validate(int argc, char **argv);
 
 /* Prints "radiosity: error: MESSAGE" and returns the exit status for it. */
 int cli_error(const rad_error *err);
+
+/* Prints a library warning (a rad_warn_fn; user unused). */
+void cli_warn(void *user, const char *message);
 /* Prints a usage error and returns 2. */
 int cli_usage_error(const char *fmt, ...)
 #if defined(__GNUC__)

@@ -32,6 +32,12 @@ int cli_error(const rad_error *err)
     return (err->code == RAD_ERR_NOMEM || err->code == RAD_ERR_GL) ? 1 : 2;
 }
 
+void cli_warn(void *user, const char *message)
+{
+    (void)user;
+    fprintf(stderr, "radiosity: warning: %s\n", message);
+}
+
 int cli_usage_error(const char *fmt, ...)
 {
     char msg[1024];

@@ -23,6 +23,18 @@ int rad_fail(rad_error *err, int code, const char *fmt, ...)
     return code;
 }
 
+void rad_warn(rad_warn_fn fn, void *user, const char *fmt, ...)
+{
+    if (!fn)
+        return;
+    char msg[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    fn(user, msg);
+}
+
 const char *rad_result_name(int code)
 {
     switch (code) {

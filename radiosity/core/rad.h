@@ -58,6 +58,21 @@ int rad_fail(rad_error *err, int code, const char *fmt, ...)
 #endif
     ;
 
+/* Warnings: something was ignored, clamped or stopped early that the user
+ * should know about, while the work goes on.  The library never prints:
+ * a function that may warn takes a rad_warn_fn (with its user pointer) in
+ * its options struct, NULL dropping the warnings.  A message has an error's
+ * form, "FILE: WHERE: WHAT", one line, no trailing newline; the program
+ * prints it as "radiosity: warning: MESSAGE". */
+typedef void (*rad_warn_fn)(void *user, const char *message);
+
+/* Formats a warning and hands it to fn (nothing when fn is NULL). */
+void rad_warn(rad_warn_fn fn, void *user, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
 /* Short English name of a result code ("I/O error", ...). */
 const char *rad_result_name(int code);
 
