@@ -37,6 +37,9 @@ TEST_SRC := $(wildcard test/test_*.c)
 TEST_BIN := $(TEST_SRC:test/%.c=$(B)/test/%)
 BENCH_SRC:= $(wildcard bench/bench_*.c)
 BENCH_BIN:= $(BENCH_SRC:bench/%.c=$(B)/bench/%)
+# The reference path tracer: built with the benchmarks, run by hand (its
+# data is shipped in bench/data/; bench/run_bench.sh runs bench_* only).
+TOOL_BIN := $(B)/bench/pathtrace
 
 .PHONY: all lib prog tests benches demo test fuzz bench report deps check-deps clean
 
@@ -45,7 +48,7 @@ all: prog
 lib: $(LIB)
 prog: $(PROG)
 tests: $(TEST_BIN)
-benches: $(BENCH_BIN)
+benches: $(BENCH_BIN) $(TOOL_BIN)
 
 $(B)/obj/%.o: %.c
 	@mkdir -p $(dir $@)

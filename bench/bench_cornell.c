@@ -1,0 +1,219 @@
+/* bench_cornell.c - accuracy against time on the glTF Cornell box (issue 18).
+ *
+ * The engine solves models/cornell.gltf (render included) at several
+ * refinement settings and each image, 256×256 through the scene's camera,
+ * is scored against the independent path-traced reference shipped in
+ * bench/data/ (made once by bench/pathtrace.c, the command in the JSON):
+ * per region, the mean radiance over its pixels, band sum R + G + B,
+ * relative to the reference's.  The emitter's region (radiance exact in
+ * both) is printed apart and left out of the scores: the worst region and
+ * the RMS over the 13 others.
+ *
+ * Rows: "defaults" (rad_solve_options {0}), "off" (no elements), then each
+ * threshold T of BENCH_THRESHOLDS (comma-separated, default
+ * 3e-3,1e-3,3e-4,1e-4; "off" and "default" are accepted too).  Each row is
+ * one run (BENCH_REPEAT runs: the fastest is kept), wall-clock time of
+ * solve + render on a machine shared with others: the times are noisy, the
+ * errors are not.  BENCH_REGIONS=1 also prints every region's error for
+ * each row.  Nothing here asserts anything.
+ */
+#include "../radiosity/pipeline/pipeline.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define SCENE "models/cornell.gltf"
+#define REGIONS "bench/data/cornell_regions.pgm"
+#define REFERENCE "bench/data/cornell_reference.json"
+enum { MAX_REGIONS = 32, MAX_ROWS = 24 };
+
+typedef struct region {
+    int id;
+    char name[64];
+    double mean[3], se[3], rel_se;
+} region;
+
+static region reg[MAX_REGIONS];
+static int nreg;
+static uint8_t *mask;
+static uint32_t side;
+
+static void die(const char *what, const char *why)
+{
+    fprintf(stderr, "bench_cornell: %s: %s\n", what, why);
+    exit(1);
+}
+
+/* The reference: one region a line, as pathtrace writes it. */
+static void read_reference(void)
+{
+    FILE *f = fopen(REFERENCE, "r");
+    if (!f)
+        die(REFERENCE, "cannot open (run from the repository's root)");
+    char line[4096];
+    while (fgets(line, sizeof line, f)) {
+        const char *p = strstr(line, "{\"id\": ");
+        if (!p || nreg == MAX_REGIONS)
+            continue;
+        region *r = &reg[nreg];
+        const char *nm = strstr(p, "\"name\": \""), *mn = strstr(p, "\"mean\": ["),
+                   *se = strstr(p, "\"stderr\": ["), *rs = strstr(p, "\"sum_relative_stderr\": ");
+        if (!nm || !mn || !se || !rs || sscanf(p, "{\"id\": %d", &r->id) != 1 ||
+            sscanf(nm + 9, "%63[^\"]", r->name) != 1 ||
+            sscanf(mn + 9, "%lf, %lf, %lf", &r->mean[0], &r->mean[1], &r->mean[2]) != 3 ||
+            sscanf(se + 11, "%lf, %lf, %lf", &r->se[0], &r->se[1], &r->se[2]) != 3 ||
+            sscanf(rs + 23, "%lf", &r->rel_se) != 1)
+            die(REFERENCE, "a region line does not parse");
+        nreg++;
+    }
+    fclose(f);
+    f = fopen(REGIONS, "rb");
+    uint32_t w, h;
+    int maxv;
+    if (!f || fscanf(f, "P5 %u %u %d", &w, &h, &maxv) != 3 || w != h || maxv != 255 || fgetc(f) == EOF)
+        die(REGIONS, "not an 8-bit square PGM");
+    side = w;
+    mask = malloc((size_t)w * h);
+    if (!mask || fread(mask, 1, (size_t)w * h, f) != (size_t)w * h)
+        die(REGIONS, "short");
+    fclose(f);
+}
+
+typedef struct row {
+    char label[32];
+    double threshold;   /* rad_solve_options.refine_threshold */
+    double seconds;     /* solve + render, the fastest run */
+    uint32_t patches, elements;
+    uint64_t element_rows, lights;
+    double err[MAX_REGIONS]; /* band-sum relative error per region */
+    double worst, rms, worst_band;
+    int worst_at;
+} row;
+
+static void run(row *r, int repeat)
+{
+    r->seconds = INFINITY;
+    for (int k = 0; k < repeat; k++) {
+        rad_solve_options opt = {0};
+        opt.refine_threshold = r->threshold;
+        rad_solution *s = NULL;
+        rn_image *img = NULL;
+        rn_camera cam;
+        rad_error err;
+        double t0 = rad_seconds();
+        if (rad_solve_scene_file(SCENE, &opt, &s, &err) ||
+            rad_camera_from_scene(s->scene, NULL, side, side, &cam, &err) ||
+            rad_render_solution(s, &cam, &img, &err))
+            die(r->label, err.message);
+        double t = rad_seconds() - t0;
+        r->seconds = fmin(r->seconds, t);
+        r->patches = s->mesh->patch_count;
+        r->elements = s->elements ? s->elements->mesh->patch_count : 0;
+        r->element_rows = s->elements ? s->elements->rows_computed : 0;
+        r->lights = s->lights_computed;
+        /* region means of the image */
+        double sum[MAX_REGIONS][3] = {{0}};
+        uint64_t cnt[MAX_REGIONS] = {0};
+        for (size_t q = 0; q < (size_t)side * side; q++)
+            for (int g = 0; g < nreg; g++)
+                if (mask[q] == reg[g].id) {
+                    for (int b = 0; b < 3; b++)
+                        sum[g][b] += img->pixels[q * img->channels + (uint32_t)b];
+                    cnt[g]++;
+                }
+        double ss = 0.0;
+        int scored = 0;
+        r->worst = r->worst_band = 0.0;
+        r->worst_at = -1;
+        for (int g = 0; g < nreg; g++) {
+            double e = 0.0, ref = 0.0;
+            for (int b = 0; b < 3; b++) {
+                double m = sum[g][b] / (double)(cnt[g] ? cnt[g] : 1);
+                e += m;
+                ref += reg[g].mean[b];
+                if (strcmp(reg[g].name, "light"))
+                    r->worst_band = fmax(r->worst_band, fabs(m / reg[g].mean[b] - 1.0));
+            }
+            r->err[g] = e / ref - 1.0;
+            if (!strcmp(reg[g].name, "light"))
+                continue;
+            ss += r->err[g] * r->err[g];
+            scored++;
+            if (fabs(r->err[g]) > r->worst) {
+                r->worst = fabs(r->err[g]);
+                r->worst_at = g;
+            }
+        }
+        r->rms = sqrt(ss / (scored ? scored : 1));
+        rn_image_destroy(img);
+        rad_solution_destroy(s);
+    }
+}
+
+int main(void)
+{
+    read_reference();
+    const char *env = getenv("BENCH_THRESHOLDS");
+    char list[512];
+    snprintf(list, sizeof list, "%s", env && *env ? env : "default,off,3e-3,1e-3,3e-4,1e-4");
+    int repeat = getenv("BENCH_REPEAT") ? atoi(getenv("BENCH_REPEAT")) : 1;
+    repeat = repeat < 1 ? 1 : repeat;
+    row rows[MAX_ROWS];
+    int nrows = 0;
+    for (char *tok = strtok(list, ","); tok && nrows < MAX_ROWS; tok = strtok(NULL, ",")) {
+        row *r = &rows[nrows++];
+        memset(r, 0, sizeof *r);
+        if (!strcmp(tok, "default")) {
+            snprintf(r->label, sizeof r->label, "defaults");
+            r->threshold = 0.0;
+        } else if (!strcmp(tok, "off")) {
+            snprintf(r->label, sizeof r->label, "off");
+            r->threshold = -1.0;
+        } else {
+            r->threshold = atof(tok);
+            snprintf(r->label, sizeof r->label, "T = %s", tok);
+        }
+    }
+    printf("glTF Cornell box, %ux%u through its camera, against %s\n", side, side, REFERENCE);
+    double se_lo = INFINITY, se_hi = 0.0;
+    for (int g = 0; g < nreg; g++)
+        if (strcmp(reg[g].name, "light")) {
+            se_lo = fmin(se_lo, reg[g].rel_se);
+            se_hi = fmax(se_hi, reg[g].rel_se);
+        }
+    printf("(region error: mean radiance R+G+B over the region, relative; worst and RMS over %d "
+           "regions, the emitter's left out; the reference's standard errors %.2g %% to %.2g %%)\n\n",
+           nreg - 1, 100 * se_lo, 100 * se_hi);
+    printf("| setting | patches | elements | element hemi-cubes | item buffers at lights/emitters "
+           "| solve + render s | worst region | RMS | worst band |\n");
+    printf("|:--|--:|--:|--:|--:|--:|--:|--:|--:|\n");
+    for (int k = 0; k < nrows; k++) {
+        row *r = &rows[k];
+        run(r, repeat);
+        printf("| %s | %u | %u | %llu | %llu | %.1f | %.2f %% (%s) | %.2f %% | %.2f %% |\n", r->label,
+               r->patches, r->elements, (unsigned long long)r->element_rows,
+               (unsigned long long)r->lights, r->seconds, 100 * r->worst,
+               r->worst_at >= 0 ? reg[r->worst_at].name : "-", 100 * r->rms, 100 * r->worst_band);
+        fflush(stdout);
+    }
+    if (getenv("BENCH_REGIONS") && atoi(getenv("BENCH_REGIONS"))) {
+        printf("\n| region | pixels' reference (R+G+B) | ± |");
+        for (int k = 0; k < nrows; k++)
+            printf(" %s |", rows[k].label);
+        printf("\n|:--|--:|--:|");
+        for (int k = 0; k < nrows; k++)
+            printf("--:|");
+        printf("\n");
+        for (int g = 0; g < nreg; g++) {
+            printf("| %s | %.5f | %.2g %% |", reg[g].name, reg[g].mean[0] + reg[g].mean[1] + reg[g].mean[2],
+                   100 * reg[g].rel_se);
+            for (int k = 0; k < nrows; k++)
+                printf(" %+.2f %% |", 100 * rows[k].err[g]);
+            printf("\n");
+        }
+    }
+    free(mask);
+    return 0;
+}
