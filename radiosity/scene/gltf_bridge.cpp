@@ -1,308 +1,46 @@
-/* gltf_bridge.cpp - the project's only C++: tinygltf behind one C function.
+/* gltf_bridge.cpp - tinygltf behind one C function: rad_gltf_bridge_load.
  *
- * It owns everything about reading a glTF 2.0 document (.gltf or .glb) and
- * turning it into the plain-C rad_gltf_raw of gltf_bridge.h: node
- * hierarchy to world matrices, accessors to double positions and uint32
+ * The bridge is the project's only C++ (gltf_bridge_internal.h tells its
+ * files apart).  This file owns the second pass: tinygltf parses the document
+ * gltf_vet.cpp has vetted, through file callbacks confined to the vetted
+ * buffers, and its Model becomes the plain-C rad_gltf_raw of gltf_bridge.h --
+ * node hierarchy to world matrices, accessors to double positions and uint32
  * triangle indices, materials, cameras and KHR_lights_punctual lights as
- * numbers.  The lights are read here from the JSON itself (tinygltf checks
- * little of them), before the top-level `extensions` member is dropped.
+ * numbers.  It includes tiny_gltf.h's declarations only (tinygltf_impl.cpp
+ * compiles its code), so an edit here recompiles in seconds.
  *
  * Invariant: no exception and no C++ type leaves this file, and no input can
  * make it read outside a buffer, recurse without bound, allocate more than
- * the document's own data justifies, or open a file outside base_dir.  To
- * keep tinygltf's parser away from what it does not check (image buffer
- * views, deep recursion in extras), the JSON is first read here with
- * nlohmann::json, its nesting depth bounded, the parts of glTF a radiosity
- * scene never needs (images, textures, animations, skins, ...) removed and
- * external buffer URIs vetted; only then does tinygltf parse it.  Every index
- * and size tinygltf leaves unchecked is checked below before it is used.
+ * the document's own data justifies, or open a file outside base_dir.  Every
+ * index and size tinygltf leaves unchecked is checked below before it is
+ * used, and the conversion checks everything (references, accessors, the
+ * triangle budget) before it copies any vertex.
  */
 #include "gltf_bridge.h"
+#include "gltf_bridge_internal.h"
+#include "tinygltf_config.h"
 #include "../core/rad.h"
 
 #include <sys/stat.h>
 
 #include <cerrno>
 #include <cmath>
-#include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
-#include <fstream> /* tinygltf 2.7 uses std::ofstream even with TINYGLTF_NO_FS */
-#include <map>
 #include <memory>
 #include <new>
 #include <string>
 #include <vector>
 
-/* We never decode images (a radiosity scene has no textures), never write
- * glTF, and give tinygltf our own vetted file callbacks instead of its own. */
-#define TINYGLTF_IMPLEMENTATION
-#define TINYGLTF_NO_STB_IMAGE
-#define TINYGLTF_NO_STB_IMAGE_WRITE
-#define TINYGLTF_NO_EXTERNAL_IMAGE
-#define TINYGLTF_NO_FS
-#include <tiny_gltf.h>
-
+namespace rad_gltf {
 namespace {
 
-/* ------------------------------------------------------------------ limits */
-
-/* Inputs above 2 GiB are refused: tinygltf takes lengths as unsigned int. */
-const size_t kMaxDocument = (size_t)1 << 31;
-/* A JSON nesting depth no glTF needs (materials with extensions reach ~6);
- * tinygltf and nlohmann's dump recurse once per level. */
-const int kMaxDepth = 64;
 const uint64_t kMaxVertices = 100000000;  /* per primitive */
 const uint64_t kMaxIndices = 300000000;   /* per primitive */
 
-/* ------------------------------------------------------------------ errors */
-
-struct bridge_error {
-    int code;
-    std::string msg;
-};
-
-std::string format(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
-std::string format(const char *fmt, ...)
-{
-    char buf[1024];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(buf, sizeof buf, fmt, ap);
-    va_end(ap);
-    return std::string(buf);
-}
-
-[[noreturn]] void fail(int code, const std::string &msg)
-{
-    throw bridge_error{code, msg};
-}
-
-/* Names quoted in messages are cut so that a hostile 1 MB name cannot push
- * the useful part of a message out of its 1024 bytes. */
-std::string q(const std::string &name)
-{
-    std::string s = name.size() > 80 ? name.substr(0, 77) + "..." : name;
-    return "'" + s + "'";
-}
-
-/* tinygltf's messages end with newlines and may hold several lines; the
- * first says what went wrong. */
-std::string first_line(const std::string &s)
-{
-    size_t a = s.find_first_not_of(" \n\r\t");
-    if (a == std::string::npos)
-        return std::string();
-    size_t b = s.find_first_of("\n\r", a);
-    std::string line = s.substr(a, b == std::string::npos ? std::string::npos : b - a);
-    return line.size() > 300 ? line.substr(0, 297) + "..." : line;
-}
-
-/* ------------------------------------------------------------ byte helpers */
-
-uint32_t le32(const unsigned char *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
-void put_le32(std::vector<unsigned char> &v, uint32_t x)
-{
-    for (int k = 0; k < 4; k++)
-        v.push_back((unsigned char)(x >> (8 * k)));
-}
-
-float le_float(const unsigned char *p)
-{
-    uint32_t u = le32(p);
-    float f;
-    static_assert(sizeof f == sizeof u, "float must be 32 bits");
-    memcpy(&f, &u, sizeof f);
-    return f;
-}
-
-/* --------------------------------------------------------------- .glb split */
-
-struct glb_parts {
-    const unsigned char *json = nullptr;
-    size_t json_size = 0;
-    const unsigned char *bin = nullptr; /* nullptr: no BIN chunk */
-    size_t bin_size = 0;
-};
-
-/* Reads the binary container's header and chunk table; every length is
- * checked against the bytes actually present. */
-glb_parts split_glb(const unsigned char *d, size_t size)
-{
-    glb_parts g;
-    if (size < 12)
-        fail(RAD_ERR_PARSE, format("truncated .glb: %zu bytes, the header alone needs 12", size));
-    uint32_t version = le32(d + 4), length = le32(d + 8);
-    if (version != 2)
-        fail(RAD_ERR_PARSE, format(".glb container version %u (only 2 is supported)", version));
-    if (length > size)
-        fail(RAD_ERR_PARSE,
-             format("truncated .glb: the header says %u bytes but only %zu are present", length,
-                    size));
-    size_t n = length;
-    if (n < 20)
-        fail(RAD_ERR_PARSE, format("truncated .glb: %zu bytes, no room for the JSON chunk", n));
-    uint32_t c0len = le32(d + 12), c0type = le32(d + 16);
-    if (c0type != 0x4E4F534Au)
-        fail(RAD_ERR_PARSE, ".glb: the first chunk is not JSON");
-    if (c0len > n - 20)
-        fail(RAD_ERR_PARSE,
-             format("truncated .glb: the JSON chunk of %u bytes runs past the end (%zu bytes "
-                    "left)",
-                    c0len, n - 20));
-    g.json = d + 20;
-    g.json_size = c0len;
-    size_t off = 20 + (size_t)c0len;
-    if (n - off >= 8) {
-        uint32_t c1len = le32(d + off), c1type = le32(d + off + 4);
-        if (c1type == 0x004E4942u) {
-            if (c1len > n - off - 8)
-                fail(RAD_ERR_PARSE,
-                     format("truncated .glb: the BIN chunk of %u bytes runs past the end (%zu "
-                            "bytes left)",
-                            c1len, n - off - 8));
-            g.bin = d + off + 8;
-            g.bin_size = c1len;
-        }
-        /* Any other chunk type is an extension's: the specification says to
-         * ignore it. */
-    } else if (n - off > 0) {
-        fail(RAD_ERR_PARSE,
-             format("truncated .glb: %zu stray bytes after the JSON chunk", n - off));
-    }
-    return g;
-}
-
-/* A fresh, well-formed .glb around the filtered JSON and the original BIN
- * payload, in the exact layout tinygltf's reader expects. */
-std::vector<unsigned char> build_glb(const std::string &json, const glb_parts &g)
-{
-    size_t jpad = (4 - json.size() % 4) % 4;
-    size_t blen = g.bin ? g.bin_size : 0;
-    size_t bpad = (4 - blen % 4) % 4;
-    size_t total = 12 + 8 + json.size() + jpad + (blen ? 8 + blen + bpad : 0);
-    if (total > kMaxDocument)
-        fail(RAD_ERR_LIMIT, format(".glb of %zu bytes is larger than the 2 GiB limit", total));
-    std::vector<unsigned char> v;
-    v.reserve(total);
-    v.insert(v.end(), {'g', 'l', 'T', 'F'});
-    put_le32(v, 2);
-    put_le32(v, (uint32_t)total);
-    put_le32(v, (uint32_t)(json.size() + jpad));
-    put_le32(v, 0x4E4F534Au);
-    v.insert(v.end(), json.begin(), json.end());
-    v.insert(v.end(), jpad, ' ');
-    if (blen) {
-        put_le32(v, (uint32_t)(blen + bpad));
-        put_le32(v, 0x004E4942u);
-        v.insert(v.end(), g.bin, g.bin + blen);
-        v.insert(v.end(), bpad, 0);
-    }
-    return v;
-}
-
-/* ------------------------------------------------------------- JSON vetting */
-
-/* Nesting depth of a JSON text, by a plain scan (strings skipped), so that
- * no recursive code ever sees a document nested deeper than kMaxDepth. */
-void check_depth(const unsigned char *p, size_t n)
-{
-    int depth = 0;
-    bool in_string = false;
-    for (size_t k = 0; k < n; k++) {
-        unsigned char c = p[k];
-        if (in_string) {
-            if (c == '\\')
-                k++;
-            else if (c == '"')
-                in_string = false;
-        } else if (c == '"') {
-            in_string = true;
-        } else if (c == '[' || c == '{') {
-            if (++depth > kMaxDepth)
-                fail(RAD_ERR_PARSE,
-                     format("JSON nested more than %d levels deep at byte %zu", kMaxDepth, k));
-        } else if (c == ']' || c == '}') {
-            depth--;
-        }
-    }
-}
-
-/* Only these top-level members reach tinygltf; the rest (images, textures,
- * samplers, animations, skins, extensions such as lights) carry nothing a
- * diffuse radiosity scene uses, and leaving them out means they can neither
- * trigger image decoding nor unchecked buffer reads. */
-const char *const kKeptMembers[] = {"asset",     "scene",       "scenes",    "nodes",
-                                    "meshes",    "accessors",   "bufferViews", "buffers",
-                                    "materials", "cameras",     "extensionsUsed",
-                                    "extensionsRequired"};
-
-struct fs_context {
-    bool allow_external = false;
-    std::string prefix;                  /* base_dir with a trailing '/' */
-    std::map<std::string, size_t> sizes; /* vetted path -> byteLength */
-    std::string failure;                 /* first file problem, for the message */
-};
-
-/* External buffer URIs are relative paths inside base_dir: no scheme, no
- * absolute path, no '..' component (checked after the same percent-decoding
- * tinygltf applies, so "%2e%2e" cannot sneak through). */
-void vet_buffers(const nlohmann::json &doc, fs_context &fs)
-{
-    auto it = doc.find("buffers");
-    if (it == doc.end() || !it->is_array())
-        return;
-    size_t index = 0;
-    for (const auto &b : *it) {
-        std::string where = format("buffer %zu", index++);
-        if (!b.is_object())
-            fail(RAD_ERR_PARSE, where + ": not a JSON object");
-        auto u = b.find("uri");
-        if (u == b.end())
-            continue; /* the .glb BIN chunk */
-        if (!u->is_string())
-            fail(RAD_ERR_PARSE, where + ": uri is not a string");
-        const std::string &uri = u->get_ref<const std::string &>();
-        if (uri.compare(0, 5, "data:") == 0) {
-            if (!tinygltf::IsDataURI(uri))
-                fail(RAD_ERR_PARSE,
-                     where + ": unsupported data URI (only base64 "
-                             "application/octet-stream or application/gltf-buffer)");
-            continue;
-        }
-        std::string path = tinygltf::dlib::urldecode(uri);
-        if (!fs.allow_external)
-            fail(RAD_ERR_IO, where + ": external file " + q(path) +
-                                 " not allowed (the document was not read from a file)");
-        bool bad = path.empty() || path[0] == '/' || path.find('\\') != std::string::npos ||
-                   path.find(':') != std::string::npos || path.find('\0') != std::string::npos;
-        size_t start = 0;
-        while (!bad && start <= path.size()) {
-            size_t slash = path.find('/', start);
-            std::string part = path.substr(start, slash == std::string::npos ? std::string::npos
-                                                                             : slash - start);
-            if (part == "..")
-                bad = true;
-            if (slash == std::string::npos)
-                break;
-            start = slash + 1;
-        }
-        if (bad)
-            fail(RAD_ERR_IO, where + ": external file " + q(path) +
-                                 " refused (only relative paths below the document's "
-                                 "directory, without '..')");
-        auto bl = b.find("byteLength");
-        if (bl == b.end() || !bl->is_number_unsigned())
-            fail(RAD_ERR_PARSE, where + ": byteLength missing or not a non-negative integer");
-        fs.sizes[fs.prefix + path] = bl->get<size_t>();
-    }
-}
+/* ---------------------------------------------------------- tinygltf parse */
 
 /* tinygltf's file callbacks, confined to the vetted paths. */
 bool fs_exists(const std::string &path, void *user)
@@ -371,6 +109,41 @@ bool no_image(tinygltf::Image *, const int, std::string *, std::string *, int, i
     return true;
 }
 
+/* tinygltf's Model of the vetted document; its external buffers are read
+ * through fs (only the vetted ones). */
+tinygltf::Model parse_model(const vetted_doc &doc, fs_context &fs, const char *base_dir)
+{
+    tinygltf::TinyGLTF loader;
+    tinygltf::FsCallbacks cb;
+    cb.FileExists = fs_exists;
+    cb.ExpandFilePath = fs_expand;
+    cb.ReadWholeFile = fs_read;
+    cb.WriteWholeFile = fs_write;
+    cb.user_data = &fs;
+    loader.SetFsCallbacks(cb);
+    loader.SetImageLoader(no_image, nullptr);
+
+    /* tinygltf joins base_dir and the URI itself; our prefix already ends in
+     * '/', which it keeps as is. */
+    std::string base = base_dir ? fs.prefix : std::string();
+    tinygltf::Model model;
+    std::string err, warn;
+    bool ok;
+    if (doc.binary)
+        ok = loader.LoadBinaryFromMemory(&model, &err, &warn, doc.glb.data(),
+                                         (unsigned int)doc.glb.size(), base);
+    else
+        ok = loader.LoadASCIIFromString(&model, &err, &warn, doc.json.data(),
+                                        (unsigned int)doc.json.size(), base);
+    if (!ok) {
+        if (!fs.failure.empty())
+            fail(RAD_ERR_IO, fs.failure);
+        std::string e = first_line(err);
+        fail(RAD_ERR_PARSE, "invalid glTF: " + (e.empty() ? std::string("unknown error") : e));
+    }
+    return model;
+}
+
 /* ----------------------------------------------------------- raw ownership */
 
 char *dup_c(const std::string &s)
@@ -396,6 +169,11 @@ uint32_t count32(size_t n, const char *what)
         fail(RAD_ERR_LIMIT, format("%zu %s, more than 2^32", n, what));
     return (uint32_t)n;
 }
+
+struct raw_deleter {
+    void operator()(rad_gltf_raw *r) const { rad_gltf_raw_free(r); }
+};
+using raw_ptr = std::unique_ptr<rad_gltf_raw, raw_deleter>;
 
 /* -------------------------------------------------------------- transforms */
 
@@ -590,99 +368,16 @@ data_span check_accessor(const tinygltf::Model &m, int idx, const std::string &w
     return sp;
 }
 
+float le_float(const unsigned char *p)
+{
+    uint32_t u = le32(p);
+    float f;
+    static_assert(sizeof f == sizeof u, "float must be 32 bits");
+    memcpy(&f, &u, sizeof f);
+    return f;
+}
+
 /* --------------------------------------------------------------- converter */
-
-struct raw_deleter {
-    void operator()(rad_gltf_raw *r) const { rad_gltf_raw_free(r); }
-};
-using raw_ptr = std::unique_ptr<rad_gltf_raw, raw_deleter>;
-
-/* One entry of extensions.KHR_lights_punctual.lights, glTF's defaults filled in. */
-struct light_def {
-    std::string name;
-    int type = RAD_GLTF_LIGHT_POINT;
-    double color[3] = {1, 1, 1};
-    double intensity = 1.0;
-    double inner = 0.0, outer = M_PI / 4;
-};
-
-/* A JSON number into *out, or a parse failure naming `where` and `what`. */
-void json_number(const nlohmann::json &o, const char *what, const std::string &where, double *out)
-{
-    auto it = o.find(what);
-    if (it == o.end())
-        return;
-    if (!it->is_number())
-        fail(RAD_ERR_PARSE, where + ": " + what + " is not a number");
-    *out = it->get<double>();
-}
-
-/* extensions.KHR_lights_punctual.lights of the document, type-checked. */
-std::vector<light_def> parse_lights(const nlohmann::json &doc)
-{
-    std::vector<light_def> out;
-    auto ext = doc.find("extensions");
-    if (ext == doc.end() || !ext->is_object())
-        return out;
-    auto kh = ext->find("KHR_lights_punctual");
-    if (kh == ext->end())
-        return out;
-    if (!kh->is_object())
-        fail(RAD_ERR_PARSE, "extensions.KHR_lights_punctual is not a JSON object");
-    auto arr = kh->find("lights");
-    if (arr == kh->end())
-        return out;
-    if (!arr->is_array())
-        fail(RAD_ERR_PARSE, "KHR_lights_punctual.lights is not an array");
-    size_t index = 0;
-    for (const auto &o : *arr) {
-        std::string where = format("KHR_lights_punctual light %zu", index++);
-        if (!o.is_object())
-            fail(RAD_ERR_PARSE, where + ": not a JSON object");
-        light_def d;
-        auto nm = o.find("name");
-        if (nm != o.end()) {
-            if (!nm->is_string())
-                fail(RAD_ERR_PARSE, where + ": name is not a string");
-            d.name = nm->get<std::string>();
-            where += " " + q(d.name);
-        }
-        auto ty = o.find("type");
-        if (ty == o.end() || !ty->is_string())
-            fail(RAD_ERR_PARSE, where + ": type missing or not a string");
-        const std::string &t = ty->get_ref<const std::string &>();
-        if (t == "point")
-            d.type = RAD_GLTF_LIGHT_POINT;
-        else if (t == "spot")
-            d.type = RAD_GLTF_LIGHT_SPOT;
-        else if (t == "directional")
-            d.type = RAD_GLTF_LIGHT_DIRECTIONAL;
-        else
-            fail(RAD_ERR_PARSE, where + ": type " + q(t) + " is not point, spot or directional");
-        auto co = o.find("color");
-        if (co != o.end()) {
-            if (!co->is_array() || co->size() != 3)
-                fail(RAD_ERR_PARSE, where + ": color is not an array of 3 numbers");
-            for (int c = 0; c < 3; c++) {
-                if (!(*co)[c].is_number())
-                    fail(RAD_ERR_PARSE, where + ": color is not an array of 3 numbers");
-                d.color[c] = (*co)[c].get<double>();
-            }
-        }
-        json_number(o, "intensity", where, &d.intensity);
-        double range = 0.0; /* checked for type, then ignored: light falls off as 1/r² */
-        json_number(o, "range", where, &range);
-        if (d.type == RAD_GLTF_LIGHT_SPOT) {
-            auto sp = o.find("spot");
-            if (sp == o.end() || !sp->is_object())
-                fail(RAD_ERR_PARSE, where + ": a spot light needs a \"spot\" object");
-            json_number(*sp, "innerConeAngle", where, &d.inner);
-            json_number(*sp, "outerConeAngle", where, &d.outer);
-        }
-        out.push_back(d);
-    }
-    return out;
-}
 
 /* The light index a node carries in extensions.KHR_lights_punctual.light,
  * or -1. */
@@ -1051,47 +746,6 @@ void convert(const tinygltf::Model &m, const std::vector<light_def> &lights,
 int load(const void *data, size_t size, const char *base_dir, uint64_t max_triangles,
          rad_gltf_raw **out)
 {
-    if (!data && size)
-        fail(RAD_ERR_USAGE, "no data");
-    if (size > kMaxDocument)
-        fail(RAD_ERR_LIMIT,
-             format("document of %zu bytes is larger than the 2 GiB limit", size));
-    const unsigned char *d = static_cast<const unsigned char *>(data);
-    bool binary = size >= 4 && memcmp(d, "glTF", 4) == 0;
-    glb_parts g;
-    if (binary) {
-        g = split_glb(d, size);
-    } else {
-        g.json = d;
-        g.json_size = size;
-    }
-    if (g.json_size == 0)
-        fail(RAD_ERR_PARSE, "malformed JSON: the document is empty");
-    check_depth(g.json, g.json_size);
-
-    nlohmann::json doc;
-    try {
-        doc = nlohmann::json::parse(g.json, g.json + g.json_size);
-    } catch (const nlohmann::json::parse_error &e) {
-        /* what() reads "[json.exception.parse_error.101] parse error at line
-         * 1, column 5: syntax error ..."; the part after "] " is the news. */
-        std::string w = e.what();
-        size_t b = w.find("] ");
-        fail(RAD_ERR_PARSE, "malformed JSON: " + first_line(b == std::string::npos
-                                                                 ? w
-                                                                 : w.substr(b + 2)));
-    }
-    if (!doc.is_object())
-        fail(RAD_ERR_PARSE, "malformed JSON: the document is not a JSON object");
-    std::vector<light_def> lights = parse_lights(doc);
-
-    nlohmann::json kept = nlohmann::json::object();
-    for (const char *key : kKeptMembers) {
-        auto it = doc.find(key);
-        if (it != doc.end())
-            kept[key] = *it;
-    }
-
     fs_context fs;
     fs.allow_external = base_dir != nullptr;
     if (base_dir) {
@@ -1099,45 +753,10 @@ int load(const void *data, size_t size, const char *base_dir, uint64_t max_trian
         if (fs.prefix.back() != '/')
             fs.prefix += '/';
     }
-    vet_buffers(kept, fs);
-
-    std::string text = kept.dump();
-    if (text.size() > kMaxDocument)
-        fail(RAD_ERR_LIMIT, "the document's JSON is larger than the 2 GiB limit");
-
-    tinygltf::TinyGLTF loader;
-    tinygltf::FsCallbacks cb;
-    cb.FileExists = fs_exists;
-    cb.ExpandFilePath = fs_expand;
-    cb.ReadWholeFile = fs_read;
-    cb.WriteWholeFile = fs_write;
-    cb.user_data = &fs;
-    loader.SetFsCallbacks(cb);
-    loader.SetImageLoader(no_image, nullptr);
-
-    /* tinygltf joins base_dir and the URI itself; our prefix already ends in
-     * '/', which it keeps as is. */
-    std::string base = base_dir ? fs.prefix : std::string();
-    tinygltf::Model model;
-    std::string err, warn;
-    bool ok;
-    if (binary) {
-        std::vector<unsigned char> glb = build_glb(text, g);
-        ok = loader.LoadBinaryFromMemory(&model, &err, &warn, glb.data(),
-                                         (unsigned int)glb.size(), base);
-    } else {
-        ok = loader.LoadASCIIFromString(&model, &err, &warn, text.data(),
-                                        (unsigned int)text.size(), base);
-    }
-    if (!ok) {
-        if (!fs.failure.empty())
-            fail(RAD_ERR_IO, fs.failure);
-        std::string e = first_line(err);
-        fail(RAD_ERR_PARSE, "invalid glTF: " + (e.empty() ? std::string("unknown error") : e));
-    }
-
+    vetted_doc doc = vet_document(data, size, fs);
+    tinygltf::Model model = parse_model(doc, fs, base_dir);
     raw_ptr raw(calloc_n<rad_gltf_raw>(1));
-    convert(model, lights, max_triangles, raw.get());
+    convert(model, doc.lights, max_triangles, raw.get());
     *out = raw.release();
     return RAD_OK;
 }
@@ -1149,11 +768,13 @@ void set_msg(char *msg, size_t msg_size, const std::string &s)
 }
 
 } /* namespace */
+} /* namespace rad_gltf */
 
 extern "C" int rad_gltf_bridge_load(const void *data, size_t size, const char *base_dir,
                                     uint64_t max_triangles, rad_gltf_raw **out, char *msg,
                                     size_t msg_size)
 {
+    using namespace rad_gltf;
     if (msg && msg_size)
         msg[0] = '\0';
     if (!out) {
