@@ -203,63 +203,70 @@ std::string node_label(const tinygltf::Model &m, size_t i)
     return n.empty() ? format("node %zu", i) : "node " + q(n);
 }
 
-/* The node's local matrix: its `matrix`, else T·R·S (glTF's order). */
+/* A node's `matrix`, which must be affine. */
+void given_matrix(const tinygltf::Node &n, const std::string &where, double out[16])
+{
+    if (n.matrix.size() != 16)
+        fail(RAD_ERR_PARSE,
+             format("%s: matrix has %zu numbers, expected 16", where.c_str(), n.matrix.size()));
+    for (int k = 0; k < 16; k++)
+        out[k] = n.matrix[k];
+    /* glTF requires a matrix decomposable into T·R·S, so its last row is
+     * (0 0 0 1); a projective one would bend planar polygons. */
+    if (std::fabs(out[3]) > 1e-9 || std::fabs(out[7]) > 1e-9 || std::fabs(out[11]) > 1e-9 ||
+        std::fabs(out[15] - 1.0) > 1e-9)
+        fail(RAD_ERR_PARSE, where + ": matrix is not affine (last row is not 0 0 0 1)");
+    out[3] = out[7] = out[11] = 0.0;
+    out[15] = 1.0;
+}
+
+/* `n` numbers of a node's translation, rotation or scale into out, unless the
+ * node leaves it out (out keeps glTF's default). */
+void trs_part(const std::vector<double> &v, size_t n, const char *what, const std::string &where,
+              double *out)
+{
+    if (v.empty())
+        return;
+    if (v.size() != n)
+        fail(RAD_ERR_PARSE, format("%s: %s has %zu numbers, expected %zu", where.c_str(), what,
+                                   v.size(), n));
+    for (size_t k = 0; k < n; k++)
+        out[k] = v[k];
+}
+
+/* T·R·S (glTF's order) of a node's translation, rotation and scale. */
+void trs_matrix(const tinygltf::Node &n, const std::string &where, double out[16])
+{
+    double t[3] = {0, 0, 0}, r[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
+    trs_part(n.translation, 3, "translation", where, t);
+    trs_part(n.rotation, 4, "rotation", where, r);
+    trs_part(n.scale, 3, "scale", where, s);
+    /* Exporters write unit quaternions to ~7 digits; normalising makes
+     * the rotation exactly orthogonal instead of a slight scale. */
+    double len = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3]);
+    if (!(len > 1e-12) || !std::isfinite(len))
+        fail(RAD_ERR_PARSE, where + ": rotation quaternion is zero or not finite");
+    double x = r[0] / len, y = r[1] / len, z = r[2] / len, w = r[3] / len;
+    double R[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
+                      {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
+                      {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
+    mat_identity(out);
+    for (int col = 0; col < 3; col++)
+        for (int row = 0; row < 3; row++)
+            out[col * 4 + row] = R[row][col] * s[col];
+    for (int row = 0; row < 3; row++)
+        out[12 + row] = t[row];
+}
+
+/* The node's local matrix: its `matrix`, else T·R·S. */
 void local_matrix(const tinygltf::Model &m, size_t i, double out[16])
 {
     const tinygltf::Node &n = m.nodes[i];
     std::string where = node_label(m, i);
-    if (!n.matrix.empty()) {
-        if (n.matrix.size() != 16)
-            fail(RAD_ERR_PARSE,
-                 format("%s: matrix has %zu numbers, expected 16", where.c_str(), n.matrix.size()));
-        for (int k = 0; k < 16; k++)
-            out[k] = n.matrix[k];
-        /* glTF requires a matrix decomposable into T·R·S, so its last row is
-         * (0 0 0 1); a projective one would bend planar polygons. */
-        if (std::fabs(out[3]) > 1e-9 || std::fabs(out[7]) > 1e-9 || std::fabs(out[11]) > 1e-9 ||
-            std::fabs(out[15] - 1.0) > 1e-9)
-            fail(RAD_ERR_PARSE, where + ": matrix is not affine (last row is not 0 0 0 1)");
-        out[3] = out[7] = out[11] = 0.0;
-        out[15] = 1.0;
-    } else {
-        double t[3] = {0, 0, 0}, r[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
-        if (!n.translation.empty()) {
-            if (n.translation.size() != 3)
-                fail(RAD_ERR_PARSE, format("%s: translation has %zu numbers, expected 3",
-                                           where.c_str(), n.translation.size()));
-            for (int k = 0; k < 3; k++)
-                t[k] = n.translation[k];
-        }
-        if (!n.rotation.empty()) {
-            if (n.rotation.size() != 4)
-                fail(RAD_ERR_PARSE, format("%s: rotation has %zu numbers, expected 4",
-                                           where.c_str(), n.rotation.size()));
-            for (int k = 0; k < 4; k++)
-                r[k] = n.rotation[k];
-        }
-        if (!n.scale.empty()) {
-            if (n.scale.size() != 3)
-                fail(RAD_ERR_PARSE, format("%s: scale has %zu numbers, expected 3",
-                                           where.c_str(), n.scale.size()));
-            for (int k = 0; k < 3; k++)
-                s[k] = n.scale[k];
-        }
-        /* Exporters write unit quaternions to ~7 digits; normalising makes
-         * the rotation exactly orthogonal instead of a slight scale. */
-        double len = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2] + r[3] * r[3]);
-        if (!(len > 1e-12) || !std::isfinite(len))
-            fail(RAD_ERR_PARSE, where + ": rotation quaternion is zero or not finite");
-        double x = r[0] / len, y = r[1] / len, z = r[2] / len, w = r[3] / len;
-        double R[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
-                          {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
-                          {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
-        mat_identity(out);
-        for (int col = 0; col < 3; col++)
-            for (int row = 0; row < 3; row++)
-                out[col * 4 + row] = R[row][col] * s[col];
-        for (int row = 0; row < 3; row++)
-            out[12 + row] = t[row];
-    }
+    if (!n.matrix.empty())
+        given_matrix(n, where, out);
+    else
+        trs_matrix(n, where, out);
     for (int k = 0; k < 16; k++)
         if (!std::isfinite(out[k]))
             fail(RAD_ERR_PARSE, where + ": transform is not finite");
@@ -288,29 +295,19 @@ const char *type_name(int type)
     }
 }
 
-/* Checks that accessor `idx` holds `what` (POSITION: float VEC3, indices:
- * unsigned SCALAR) and that every element lies inside its buffer view and the
- * view inside its buffer.  Allocates nothing. */
-data_span check_accessor(const tinygltf::Model &m, int idx, const std::string &where,
-                         const char *what, bool is_index)
+/* Checks that accessor `a` (named by w) holds `what` (POSITION: float VEC3,
+ * at most kMaxVertices; indices: unsigned SCALAR, at most kMaxIndices) and
+ * returns the bytes per component. */
+size_t check_element(const tinygltf::Accessor &a, const std::string &w, bool is_index)
 {
-    size_t na = m.accessors.size();
-    if (idx < 0 || (size_t)idx >= na)
-        fail(RAD_ERR_PARSE,
-             format("%s: %s accessor %d does not exist (%zu accessors)", where.c_str(), what, idx,
-                    na));
-    const tinygltf::Accessor &a = m.accessors[(size_t)idx];
-    std::string w = format("%s: %s accessor %d", where.c_str(), what, idx);
-    if (a.sparse.isSparse)
-        fail(RAD_ERR_PARSE, w + ": sparse accessors are not supported");
-    data_span sp;
+    size_t component = 0;
     if (is_index) {
         if (a.type != TINYGLTF_TYPE_SCALAR)
             fail(RAD_ERR_PARSE, w + ": type " + type_name(a.type) + ", expected SCALAR");
         switch (a.componentType) {
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: sp.component = 1; break;
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: sp.component = 2; break;
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: sp.component = 4; break;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: component = 1; break;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: component = 2; break;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: component = 4; break;
         default:
             fail(RAD_ERR_PARSE,
                  format("%s: componentType %d, expected unsigned byte, short or int (5121, "
@@ -327,11 +324,31 @@ data_span check_accessor(const tinygltf::Model &m, int idx, const std::string &w
             fail(RAD_ERR_PARSE,
                  format("%s: componentType %d, expected float (5126)", w.c_str(),
                         a.componentType));
-        sp.component = 4;
+        component = 4;
         if (a.count > kMaxVertices)
             fail(RAD_ERR_LIMIT, format("%s: %zu vertices, more than the limit of %llu",
                                        w.c_str(), a.count, (unsigned long long)kMaxVertices));
     }
+    return component;
+}
+
+/* Checks that accessor `idx` holds `what` (check_element) and that every
+ * element lies inside its buffer view and the view inside its buffer.
+ * Allocates nothing. */
+data_span check_accessor(const tinygltf::Model &m, int idx, const std::string &where,
+                         const char *what, bool is_index)
+{
+    size_t na = m.accessors.size();
+    if (idx < 0 || (size_t)idx >= na)
+        fail(RAD_ERR_PARSE,
+             format("%s: %s accessor %d does not exist (%zu accessors)", where.c_str(), what, idx,
+                    na));
+    const tinygltf::Accessor &a = m.accessors[(size_t)idx];
+    std::string w = format("%s: %s accessor %d", where.c_str(), what, idx);
+    if (a.sparse.isSparse)
+        fail(RAD_ERR_PARSE, w + ": sparse accessors are not supported");
+    data_span sp;
+    sp.component = check_element(a, w, is_index);
     size_t elem = sp.component * (is_index ? 1 : 3);
     sp.count = a.count;
     /* An accessor without a buffer view is all zeros: legal glTF, but it
@@ -377,103 +394,93 @@ float le_float(const unsigned char *p)
     return f;
 }
 
-/* --------------------------------------------------------------- converter */
+/* ---------------------------------------------------------------- materials */
 
-/* The light index a node carries in extensions.KHR_lights_punctual.light,
- * or -1. */
-int64_t node_light(const tinygltf::Model &m, size_t i, size_t light_count)
+/* KHR_materials_emissive_strength's emissiveStrength, default 1. */
+double emissive_strength(const tinygltf::Material &src, const std::string &where)
 {
-    const tinygltf::Node &n = m.nodes[i];
-    auto it = n.extensions.find("KHR_lights_punctual");
-    if (it == n.extensions.end())
-        return -1;
-    const tinygltf::Value &v = it->second;
-    if (!v.IsObject() || !v.Has("light") || !v.Get("light").IsNumber())
-        fail(RAD_ERR_PARSE, node_label(m, i) + ": KHR_lights_punctual has no light index");
-    double x = v.Get("light").GetNumberAsDouble();
-    if (!(x >= 0.0) || x != std::floor(x) || x >= (double)light_count)
-        fail(RAD_ERR_PARSE, format("%s: light %g does not exist (%zu lights)",
-                                   node_label(m, i).c_str(), x, light_count));
-    return (int64_t)x;
+    auto ext = src.extensions.find("KHR_materials_emissive_strength");
+    if (ext == src.extensions.end() || !ext->second.IsObject() ||
+        !ext->second.Has("emissiveStrength"))
+        return 1.0;
+    const tinygltf::Value &s = ext->second.Get("emissiveStrength");
+    if (!s.IsNumber())
+        fail(RAD_ERR_PARSE, where + ": emissiveStrength is not a number");
+    return s.GetNumberAsDouble();
 }
 
-struct prim_plan {
-    data_span pos, idx;
-    bool indexed = false;
-    uint64_t triangles = 0;
-};
-
-void convert(const tinygltf::Model &m, const std::vector<light_def> &lights,
-             uint64_t max_triangles, rad_gltf_raw *raw)
+/* KHR_materials_diffuse_transmission: diffuseTransmissionFactor (default 0)
+ * and diffuseTransmissionColorFactor (default 1); textures ignored. */
+void diffuse_transmission(const tinygltf::Material &src, const std::string &where,
+                          rad_gltf_raw_material &dst)
 {
-    /* extensionsRequired: passed on, judged by gltf.c. */
-    raw->extensions_required_count = count32(m.extensionsRequired.size(), "extensions");
-    raw->extensions_required = calloc_n<char *>(m.extensionsRequired.size());
-    for (size_t k = 0; k < m.extensionsRequired.size(); k++)
-        raw->extensions_required[k] = dup_c(m.extensionsRequired[k]);
+    dst.diffuse_transmission = 0.0;
+    for (int c = 0; c < 3; c++)
+        dst.diffuse_transmission_color[c] = 1.0;
+    auto ext = src.extensions.find("KHR_materials_diffuse_transmission");
+    if (ext == src.extensions.end() || !ext->second.IsObject())
+        return;
+    const tinygltf::Value &dt = ext->second;
+    if (dt.Has("diffuseTransmissionFactor")) {
+        const tinygltf::Value &f = dt.Get("diffuseTransmissionFactor");
+        if (!f.IsNumber())
+            fail(RAD_ERR_PARSE, where + ": diffuseTransmissionFactor is not a number");
+        dst.diffuse_transmission = f.GetNumberAsDouble();
+    }
+    if (dt.Has("diffuseTransmissionColorFactor")) {
+        const tinygltf::Value &col = dt.Get("diffuseTransmissionColorFactor");
+        if (!col.IsArray() || col.ArrayLen() != 3)
+            fail(RAD_ERR_PARSE,
+                 where + ": diffuseTransmissionColorFactor is not an array of 3 numbers");
+        for (int c = 0; c < 3; c++) {
+            if (!col.Get(c).IsNumber())
+                fail(RAD_ERR_PARSE,
+                     where + ": diffuseTransmissionColorFactor is not an array of 3 numbers");
+            dst.diffuse_transmission_color[c] = col.Get(c).GetNumberAsDouble();
+        }
+    }
+}
 
-    /* Materials: plain numbers; the ρ and E rules are gltf.c's. */
+/* Material i as plain numbers; the ρ and E rules are gltf.c's. */
+void convert_material(const tinygltf::Material &src, size_t i, rad_gltf_raw_material &dst)
+{
+    dst.name = dup_c(src.name.empty() ? format("material%zu", i) : src.name);
+    std::string where = "material " + q(dst.name);
+    const std::vector<double> &bc = src.pbrMetallicRoughness.baseColorFactor;
+    if (bc.size() != 4)
+        fail(RAD_ERR_PARSE, format("%s: baseColorFactor has %zu numbers, expected 4",
+                                   where.c_str(), bc.size()));
+    const std::vector<double> &ef = src.emissiveFactor;
+    if (ef.size() != 3)
+        fail(RAD_ERR_PARSE, format("%s: emissiveFactor has %zu numbers, expected 3",
+                                   where.c_str(), ef.size()));
+    for (int c = 0; c < 3; c++) {
+        dst.base_color[c] = bc[c];
+        dst.emissive[c] = ef[c];
+    }
+    dst.emissive_strength = emissive_strength(src, where);
+    diffuse_transmission(src, where, dst);
+    dst.double_sided = src.doubleSided ? 1 : 0;
+}
+
+void convert_materials(const tinygltf::Model &m, rad_gltf_raw *raw)
+{
     size_t nm = m.materials.size();
     raw->material_count = count32(nm, "materials");
     raw->materials = calloc_n<rad_gltf_raw_material>(nm);
-    for (size_t i = 0; i < nm; i++) {
-        const tinygltf::Material &src = m.materials[i];
-        rad_gltf_raw_material &dst = raw->materials[i];
-        dst.name = dup_c(src.name.empty() ? format("material%zu", i) : src.name);
-        std::string where = "material " + q(dst.name);
-        const std::vector<double> &bc = src.pbrMetallicRoughness.baseColorFactor;
-        if (bc.size() != 4)
-            fail(RAD_ERR_PARSE, format("%s: baseColorFactor has %zu numbers, expected 4",
-                                       where.c_str(), bc.size()));
-        const std::vector<double> &ef = src.emissiveFactor;
-        if (ef.size() != 3)
-            fail(RAD_ERR_PARSE, format("%s: emissiveFactor has %zu numbers, expected 3",
-                                       where.c_str(), ef.size()));
-        for (int c = 0; c < 3; c++) {
-            dst.base_color[c] = bc[c];
-            dst.emissive[c] = ef[c];
-        }
-        dst.emissive_strength = 1.0;
-        auto ext = src.extensions.find("KHR_materials_emissive_strength");
-        if (ext != src.extensions.end() && ext->second.IsObject() &&
-            ext->second.Has("emissiveStrength")) {
-            const tinygltf::Value &s = ext->second.Get("emissiveStrength");
-            if (!s.IsNumber())
-                fail(RAD_ERR_PARSE, where + ": emissiveStrength is not a number");
-            dst.emissive_strength = s.GetNumberAsDouble();
-        }
-        dst.diffuse_transmission = 0.0;
-        for (int c = 0; c < 3; c++)
-            dst.diffuse_transmission_color[c] = 1.0;
-        ext = src.extensions.find("KHR_materials_diffuse_transmission");
-        if (ext != src.extensions.end() && ext->second.IsObject()) {
-            const tinygltf::Value &dt = ext->second;
-            if (dt.Has("diffuseTransmissionFactor")) {
-                const tinygltf::Value &f = dt.Get("diffuseTransmissionFactor");
-                if (!f.IsNumber())
-                    fail(RAD_ERR_PARSE, where + ": diffuseTransmissionFactor is not a number");
-                dst.diffuse_transmission = f.GetNumberAsDouble();
-            }
-            if (dt.Has("diffuseTransmissionColorFactor")) {
-                const tinygltf::Value &col = dt.Get("diffuseTransmissionColorFactor");
-                if (!col.IsArray() || col.ArrayLen() != 3)
-                    fail(RAD_ERR_PARSE,
-                         where + ": diffuseTransmissionColorFactor is not an array of 3 numbers");
-                for (int c = 0; c < 3; c++) {
-                    if (!col.Get(c).IsNumber())
-                        fail(RAD_ERR_PARSE,
-                             where + ": diffuseTransmissionColorFactor is not an array of 3 numbers");
-                    dst.diffuse_transmission_color[c] = col.Get(c).GetNumberAsDouble();
-                }
-            }
-        }
-        dst.double_sided = src.doubleSided ? 1 : 0;
-    }
+    for (size_t i = 0; i < nm; i++)
+        convert_material(m.materials[i], i, raw->materials[i]);
+}
 
-    /* Node hierarchy: each node has at most one parent and no cycles, as
-     * glTF requires (a node with two parents would be placed twice). */
+/* -------------------------------------------------------------------- nodes */
+
+/* Checks every node's mesh, camera and child references and returns each
+ * node's parent (-1: a root).  Each node has at most one parent and is not
+ * its own child, as glTF requires (a node with two parents would be placed
+ * twice); longer cycles are found by world_matrices. */
+std::vector<int64_t> node_parents(const tinygltf::Model &m)
+{
     size_t nn = m.nodes.size();
-    raw->node_count = count32(nn, "nodes");
     std::vector<int64_t> parent(nn, -1);
     for (size_t i = 0; i < nn; i++) {
         const tinygltf::Node &n = m.nodes[i];
@@ -499,11 +506,17 @@ void convert(const tinygltf::Model &m, const std::vector<light_def> &lights,
             parent[(size_t)c] = (int64_t)i;
         }
     }
+    return parent;
+}
 
-    /* World matrices, parent first: walk up to the nearest finished ancestor
-     * (iteratively: a chain of a million nodes must not exhaust the stack),
-     * then compose back down.  A walk longer than the node count is a cycle. */
-    raw->nodes = calloc_n<rad_gltf_raw_node>(nn);
+/* World matrices into raw->nodes[].world, parent first: walk up to the
+ * nearest finished ancestor (iteratively: a chain of a million nodes must not
+ * exhaust the stack), then compose back down.  A walk longer than the node
+ * count is a cycle. */
+void world_matrices(const tinygltf::Model &m, const std::vector<int64_t> &parent,
+                    rad_gltf_raw *raw)
+{
+    size_t nn = m.nodes.size();
     std::vector<char> done(nn, 0);
     std::vector<size_t> chain;
     for (size_t i = 0; i < nn; i++) {
@@ -531,30 +544,39 @@ void convert(const tinygltf::Model &m, const std::vector<light_def> &lights,
             done[k] = 1;
         }
     }
+}
 
-    /* The displayed scene: `scene`, else scene 0, else (no scenes at all)
-     * every root node. */
+/* The root nodes of the displayed scene: `scene`, else scene 0, else (no
+ * scenes at all) every node without a parent. */
+std::vector<size_t> scene_roots(const tinygltf::Model &m, const std::vector<int64_t> &parent)
+{
+    size_t nn = m.nodes.size();
     std::vector<size_t> roots;
-    if (!m.scenes.empty()) {
-        size_t s = m.defaultScene >= 0 ? (size_t)m.defaultScene : 0;
-        if (s >= m.scenes.size())
-            fail(RAD_ERR_PARSE, format("scene %d does not exist (%zu scenes)", m.defaultScene,
-                                       m.scenes.size()));
-        for (int r : m.scenes[s].nodes) {
-            if (r < 0 || (size_t)r >= nn)
-                fail(RAD_ERR_PARSE,
-                     format("scene %zu: node %d does not exist (%zu nodes)", s, r, nn));
-            if (parent[(size_t)r] >= 0)
-                fail(RAD_ERR_PARSE, format("scene %zu: %s is not a root node (its parent is %s)",
-                                           s, node_label(m, (size_t)r).c_str(),
-                                           node_label(m, (size_t)parent[(size_t)r]).c_str()));
-            roots.push_back((size_t)r);
-        }
-    } else {
+    if (m.scenes.empty()) {
         for (size_t i = 0; i < nn; i++)
             if (parent[i] < 0)
                 roots.push_back(i);
+        return roots;
     }
+    size_t s = m.defaultScene >= 0 ? (size_t)m.defaultScene : 0;
+    if (s >= m.scenes.size())
+        fail(RAD_ERR_PARSE, format("scene %d does not exist (%zu scenes)", m.defaultScene,
+                                   m.scenes.size()));
+    for (int r : m.scenes[s].nodes) {
+        if (r < 0 || (size_t)r >= nn)
+            fail(RAD_ERR_PARSE, format("scene %zu: node %d does not exist (%zu nodes)", s, r, nn));
+        if (parent[(size_t)r] >= 0)
+            fail(RAD_ERR_PARSE, format("scene %zu: %s is not a root node (its parent is %s)", s,
+                                       node_label(m, (size_t)r).c_str(),
+                                       node_label(m, (size_t)parent[(size_t)r]).c_str()));
+        roots.push_back((size_t)r);
+    }
+    return roots;
+}
+
+/* Sets in_scene on the roots and everything below them (iteratively). */
+void mark_in_scene(const tinygltf::Model &m, const std::vector<size_t> &roots, rad_gltf_raw *raw)
+{
     std::vector<size_t> stack;
     for (size_t r : roots) {
         if (raw->nodes[r].in_scene)
@@ -568,7 +590,18 @@ void convert(const tinygltf::Model &m, const std::vector<light_def> &lights,
                 stack.push_back((size_t)c);
         }
     }
+}
 
+/* Node hierarchy -> raw->nodes: references, world matrices, the displayed
+ * scene, names and meshes. */
+void convert_nodes(const tinygltf::Model &m, rad_gltf_raw *raw)
+{
+    size_t nn = m.nodes.size();
+    raw->node_count = count32(nn, "nodes");
+    std::vector<int64_t> parent = node_parents(m);
+    raw->nodes = calloc_n<rad_gltf_raw_node>(nn);
+    world_matrices(m, parent, raw);
+    mark_in_scene(m, scene_roots(m, parent), raw);
     for (size_t i = 0; i < nn; i++) {
         const tinygltf::Node &n = m.nodes[i];
         rad_gltf_raw_node &dst = raw->nodes[i];
@@ -580,15 +613,141 @@ void convert(const tinygltf::Model &m, const std::vector<light_def> &lights,
             name = format("node%zu", i);
         dst.name = dup_c(name);
     }
+}
 
-    /* Meshes: check every primitive of every instanced mesh and count the
-     * triangles the scene would hold, all before any vertex is copied. */
+/* ------------------------------------------------------------------- meshes */
+
+/* What one primitive will copy, found before anything is allocated. */
+struct prim_plan {
+    data_span pos, idx;
+    bool indexed = false;
+    uint64_t triangles = 0;
+};
+
+std::string primitive_label(const char *mesh_name, size_t p)
+{
+    return format("mesh %s primitive %zu", q(mesh_name).c_str(), p);
+}
+
+/* Checks one primitive: its material index, and for TRIANGLES its POSITION
+ * and index accessors and a whole number of triangles.  Other modes get an
+ * empty plan: gltf.c refuses them with the mode's name. */
+prim_plan plan_primitive(const tinygltf::Model &m, const tinygltf::Primitive &pr,
+                         const std::string &where)
+{
+    prim_plan pl;
+    size_t nm = m.materials.size();
+    if (pr.material < -1 || (pr.material >= 0 && (size_t)pr.material >= nm))
+        fail(RAD_ERR_PARSE, format("%s: material %d does not exist (%zu materials)",
+                                   where.c_str(), pr.material, nm));
+    if (pr.mode != TINYGLTF_MODE_TRIANGLES)
+        return pl;
+    auto pos = pr.attributes.find("POSITION");
+    if (pos == pr.attributes.end())
+        fail(RAD_ERR_PARSE, where + ": no POSITION attribute");
+    pl.pos = check_accessor(m, pos->second, where, "POSITION", false);
+    if (pr.indices >= 0) {
+        pl.indexed = true;
+        pl.idx = check_accessor(m, pr.indices, where, "indices", true);
+        if (pl.idx.count % 3 != 0)
+            fail(RAD_ERR_PARSE, format("%s: %zu indices, not a multiple of 3", where.c_str(),
+                                       pl.idx.count));
+        pl.triangles = pl.idx.count / 3;
+    } else {
+        if (pl.pos.count % 3 != 0)
+            fail(RAD_ERR_PARSE, format("%s: %zu vertices without indices, not a multiple of 3",
+                                       where.c_str(), pl.pos.count));
+        pl.triangles = pl.pos.count / 3;
+    }
+    return pl;
+}
+
+/* The scene's triangles, counted over the in-scene node instances, must not
+ * exceed max_triangles. */
+void check_triangle_budget(const rad_gltf_raw *raw, const std::vector<uint64_t> &mesh_triangles,
+                           uint64_t max_triangles)
+{
+    uint64_t total = 0;
+    for (size_t i = 0; i < raw->node_count; i++) {
+        if (!raw->nodes[i].in_scene || raw->nodes[i].mesh < 0)
+            continue;
+        total += mesh_triangles[(size_t)raw->nodes[i].mesh];
+        if (total > max_triangles) /* checked per step: the sum cannot overflow */
+            fail(RAD_ERR_LIMIT, format("the scene has more than %llu triangles (the limit)",
+                                       (unsigned long long)max_triangles));
+    }
+}
+
+/* The planned POSITION elements as doubles, each finite. */
+void copy_positions(const prim_plan &pl, const std::string &where, rad_gltf_raw_primitive &out)
+{
+    size_t nv = pl.pos.count;
+    out.vertex_count = (uint32_t)nv;
+    out.positions = calloc_n<double>(3 * nv);
+    for (size_t v = 0; v < nv; v++) {
+        const unsigned char *e = pl.pos.base + v * pl.pos.stride;
+        for (int c = 0; c < 3; c++) {
+            double x = le_float(e + 4 * c);
+            if (!std::isfinite(x))
+                fail(RAD_ERR_PARSE, format("%s: vertex %zu is not finite", where.c_str(), v));
+            out.positions[3 * v + c] = x;
+        }
+    }
+}
+
+/* The planned indices as uint32, each below the vertex count; a primitive
+ * without indices gets 0, 1, 2, ... */
+void copy_indices(const prim_plan &pl, const std::string &where, rad_gltf_raw_primitive &out)
+{
+    size_t nv = pl.pos.count;
+    size_t ni = pl.indexed ? pl.idx.count : nv;
+    out.index_count = (uint32_t)ni;
+    out.indices = calloc_n<uint32_t>(ni);
+    for (size_t k = 0; k < ni; k++) {
+        uint32_t ix = (uint32_t)k;
+        if (pl.indexed) {
+            const unsigned char *e = pl.idx.base + k * pl.idx.stride;
+            ix = pl.idx.component == 1   ? e[0]
+                 : pl.idx.component == 2 ? (uint32_t)(e[0] | e[1] << 8)
+                                         : le32(e);
+            if (ix >= nv)
+                fail(RAD_ERR_PARSE, format("%s: index %u out of range (%zu vertices)",
+                                           where.c_str(), ix, nv));
+        }
+        out.indices[k] = ix;
+    }
+}
+
+/* A used mesh's primitives, as planned. */
+void fill_mesh(const tinygltf::Mesh &src, const std::vector<prim_plan> &plans,
+               rad_gltf_raw_mesh &dst)
+{
+    dst.primitive_count = count32(src.primitives.size(), "primitives");
+    dst.primitives = calloc_n<rad_gltf_raw_primitive>(src.primitives.size());
+    for (size_t p = 0; p < src.primitives.size(); p++) {
+        const tinygltf::Primitive &pr = src.primitives[p];
+        rad_gltf_raw_primitive &out = dst.primitives[p];
+        out.mode = pr.mode;
+        out.material = pr.material;
+        if (pr.mode != TINYGLTF_MODE_TRIANGLES)
+            continue;
+        std::string where = primitive_label(dst.name, p);
+        copy_positions(plans[p], where, out);
+        copy_indices(plans[p], where, out);
+    }
+}
+
+/* Meshes -> raw->meshes: every primitive of every instanced mesh is checked
+ * and the triangles the scene would hold are counted, all before any vertex
+ * is copied.  Needs raw->nodes (convert_nodes). */
+void convert_meshes(const tinygltf::Model &m, uint64_t max_triangles, rad_gltf_raw *raw)
+{
     size_t nme = m.meshes.size();
     raw->mesh_count = count32(nme, "meshes");
     raw->meshes = calloc_n<rad_gltf_raw_mesh>(nme);
     std::vector<std::vector<prim_plan>> plans(nme);
     std::vector<uint64_t> mesh_triangles(nme, 0);
-    for (size_t i = 0; i < nn; i++)
+    for (size_t i = 0; i < raw->node_count; i++)
         if (raw->nodes[i].in_scene && raw->nodes[i].mesh >= 0)
             raw->meshes[(size_t)raw->nodes[i].mesh].used = 1;
     for (size_t i = 0; i < nme; i++) {
@@ -597,124 +756,95 @@ void convert(const tinygltf::Model &m, const std::vector<light_def> &lights,
         dst.name = dup_c(src.name.empty() ? format("mesh%zu", i) : src.name);
         if (!dst.used)
             continue;
-        plans[i].resize(src.primitives.size());
         for (size_t p = 0; p < src.primitives.size(); p++) {
-            const tinygltf::Primitive &pr = src.primitives[p];
-            std::string where = format("mesh %s primitive %zu", q(dst.name).c_str(), p);
-            if (pr.material < -1 || (pr.material >= 0 && (size_t)pr.material >= nm))
-                fail(RAD_ERR_PARSE, format("%s: material %d does not exist (%zu materials)",
-                                           where.c_str(), pr.material, nm));
-            if (pr.mode != TINYGLTF_MODE_TRIANGLES)
-                continue; /* gltf.c refuses it with the mode's name */
-            prim_plan &pl = plans[i][p];
-            auto pos = pr.attributes.find("POSITION");
-            if (pos == pr.attributes.end())
-                fail(RAD_ERR_PARSE, where + ": no POSITION attribute");
-            pl.pos = check_accessor(m, pos->second, where, "POSITION", false);
-            if (pr.indices >= 0) {
-                pl.indexed = true;
-                pl.idx = check_accessor(m, pr.indices, where, "indices", true);
-                if (pl.idx.count % 3 != 0)
-                    fail(RAD_ERR_PARSE, format("%s: %zu indices, not a multiple of 3",
-                                               where.c_str(), pl.idx.count));
-                pl.triangles = pl.idx.count / 3;
-            } else {
-                if (pl.pos.count % 3 != 0)
-                    fail(RAD_ERR_PARSE,
-                         format("%s: %zu vertices without indices, not a multiple of 3",
-                                where.c_str(), pl.pos.count));
-                pl.triangles = pl.pos.count / 3;
-            }
-            mesh_triangles[i] += pl.triangles;
+            plans[i].push_back(plan_primitive(m, src.primitives[p], primitive_label(dst.name, p)));
+            mesh_triangles[i] += plans[i].back().triangles;
         }
     }
-    uint64_t total = 0;
-    for (size_t i = 0; i < nn; i++) {
-        if (!raw->nodes[i].in_scene || raw->nodes[i].mesh < 0)
-            continue;
-        total += mesh_triangles[(size_t)raw->nodes[i].mesh];
-        if (total > max_triangles) /* checked per step: the sum cannot overflow */
-            fail(RAD_ERR_LIMIT,
-                 format("the scene has more than %llu triangles (the limit)",
-                        (unsigned long long)max_triangles));
-    }
+    check_triangle_budget(raw, mesh_triangles, max_triangles);
+    for (size_t i = 0; i < nme; i++)
+        if (raw->meshes[i].used)
+            fill_mesh(m.meshes[i], plans[i], raw->meshes[i]);
+}
 
-    for (size_t i = 0; i < nme; i++) {
-        const tinygltf::Mesh &src = m.meshes[i];
-        rad_gltf_raw_mesh &dst = raw->meshes[i];
-        if (!dst.used)
-            continue;
-        dst.primitive_count = count32(src.primitives.size(), "primitives");
-        dst.primitives = calloc_n<rad_gltf_raw_primitive>(src.primitives.size());
-        for (size_t p = 0; p < src.primitives.size(); p++) {
-            const tinygltf::Primitive &pr = src.primitives[p];
-            rad_gltf_raw_primitive &out = dst.primitives[p];
-            out.mode = pr.mode;
-            out.material = pr.material;
-            if (pr.mode != TINYGLTF_MODE_TRIANGLES)
-                continue;
-            std::string where = format("mesh %s primitive %zu", q(dst.name).c_str(), p);
-            const prim_plan &pl = plans[i][p];
-            size_t nv = pl.pos.count;
-            out.vertex_count = (uint32_t)nv;
-            out.positions = calloc_n<double>(3 * nv);
-            for (size_t v = 0; v < nv; v++) {
-                const unsigned char *e = pl.pos.base + v * pl.pos.stride;
-                for (int c = 0; c < 3; c++) {
-                    double x = le_float(e + 4 * c);
-                    if (!std::isfinite(x))
-                        fail(RAD_ERR_PARSE,
-                             format("%s: vertex %zu is not finite", where.c_str(), v));
-                    out.positions[3 * v + c] = x;
-                }
-            }
-            size_t ni = pl.indexed ? pl.idx.count : nv;
-            out.index_count = (uint32_t)ni;
-            out.indices = calloc_n<uint32_t>(ni);
-            for (size_t k = 0; k < ni; k++) {
-                uint32_t ix = (uint32_t)k;
-                if (pl.indexed) {
-                    const unsigned char *e = pl.idx.base + k * pl.idx.stride;
-                    ix = pl.idx.component == 1   ? e[0]
-                         : pl.idx.component == 2 ? (uint32_t)(e[0] | e[1] << 8)
-                                                 : le32(e);
-                    if (ix >= nv)
-                        fail(RAD_ERR_PARSE, format("%s: index %u out of range (%zu vertices)",
-                                                   where.c_str(), ix, nv));
-                }
-                out.indices[k] = ix;
-            }
-        }
-    }
+/* ------------------------------------------------------- cameras and lights */
 
-    /* Cameras, one per in-scene node that carries one, in node order. */
-    size_t ncam = 0;
+/* The camera of in-scene node i. */
+void convert_camera(const tinygltf::Model &m, size_t i, const rad_gltf_raw_node &node,
+                    rad_gltf_raw_camera &dst)
+{
+    size_t ci = (size_t)m.nodes[i].camera;
+    const tinygltf::Camera &c = m.cameras[ci];
+    std::string name = !c.name.empty() ? c.name : m.nodes[i].name;
+    if (name.empty())
+        name = format("camera%zu", ci);
+    dst.name = dup_c(name);
+    dst.node = (uint32_t)i;
+    dst.camera = (uint32_t)ci;
+    dst.perspective = c.type == "perspective";
+    dst.yfov = c.perspective.yfov;
+    dst.aspect = c.perspective.aspectRatio;
+    memcpy(dst.world, node.world, sizeof dst.world);
+}
+
+/* Cameras, one per in-scene node that carries one, in node order.  Needs
+ * raw->nodes. */
+void convert_cameras(const tinygltf::Model &m, rad_gltf_raw *raw)
+{
+    size_t nn = raw->node_count, ncam = 0;
     for (size_t i = 0; i < nn; i++)
         if (raw->nodes[i].in_scene && m.nodes[i].camera >= 0)
             ncam++;
     raw->cameras = calloc_n<rad_gltf_raw_camera>(ncam);
-    for (size_t i = 0; i < nn; i++) {
-        if (!raw->nodes[i].in_scene || m.nodes[i].camera < 0)
-            continue;
-        size_t ci = (size_t)m.nodes[i].camera;
-        const tinygltf::Camera &c = m.cameras[ci];
-        rad_gltf_raw_camera &dst = raw->cameras[raw->camera_count++];
-        std::string name = !c.name.empty() ? c.name : m.nodes[i].name;
-        if (name.empty())
-            name = format("camera%zu", ci);
-        dst.name = dup_c(name);
-        dst.node = (uint32_t)i;
-        dst.camera = (uint32_t)ci;
-        dst.perspective = c.type == "perspective";
-        dst.yfov = c.perspective.yfov;
-        dst.aspect = c.perspective.aspectRatio;
-        memcpy(dst.world, raw->nodes[i].world, sizeof dst.world);
-    }
+    for (size_t i = 0; i < nn; i++)
+        if (raw->nodes[i].in_scene && m.nodes[i].camera >= 0)
+            convert_camera(m, i, raw->nodes[i], raw->cameras[raw->camera_count++]);
+}
 
-    /* Punctual lights, one per in-scene node that carries one, in node order
-     * (every node's index is checked, shown or not). */
+/* The light index a node carries in extensions.KHR_lights_punctual.light,
+ * or -1. */
+int64_t node_light(const tinygltf::Model &m, size_t i, size_t light_count)
+{
+    const tinygltf::Node &n = m.nodes[i];
+    auto it = n.extensions.find("KHR_lights_punctual");
+    if (it == n.extensions.end())
+        return -1;
+    const tinygltf::Value &v = it->second;
+    if (!v.IsObject() || !v.Has("light") || !v.Get("light").IsNumber())
+        fail(RAD_ERR_PARSE, node_label(m, i) + ": KHR_lights_punctual has no light index");
+    double x = v.Get("light").GetNumberAsDouble();
+    if (!(x >= 0.0) || x != std::floor(x) || x >= (double)light_count)
+        fail(RAD_ERR_PARSE, format("%s: light %g does not exist (%zu lights)",
+                                   node_label(m, i).c_str(), x, light_count));
+    return (int64_t)x;
+}
+
+/* Light `li` (d) as placed by in-scene node i. */
+void convert_light(const tinygltf::Model &m, size_t i, size_t li, const light_def &d,
+                   const rad_gltf_raw_node &node, rad_gltf_raw_light &dst)
+{
+    std::string name = !d.name.empty() ? d.name : m.nodes[i].name;
+    if (name.empty())
+        name = format("light%lld", (long long)li);
+    dst.name = dup_c(name);
+    dst.node = (uint32_t)i;
+    dst.light = (uint32_t)li;
+    dst.type = d.type;
+    for (int c = 0; c < 3; c++)
+        dst.color[c] = d.color[c];
+    dst.intensity = d.intensity;
+    dst.inner_cone = d.inner;
+    dst.outer_cone = d.outer;
+    memcpy(dst.world, node.world, sizeof dst.world);
+}
+
+/* Punctual lights, one per in-scene node that carries one, in node order
+ * (every node's index is checked, shown or not).  Needs raw->nodes. */
+void convert_lights(const tinygltf::Model &m, const std::vector<light_def> &lights,
+                    rad_gltf_raw *raw)
+{
+    size_t nn = raw->node_count, nlight = 0;
     std::vector<int64_t> light_of(nn, -1);
-    size_t nlight = 0;
     for (size_t i = 0; i < nn; i++) {
         light_of[i] = node_light(m, i, lights.size());
         if (raw->nodes[i].in_scene && light_of[i] >= 0)
@@ -722,25 +852,31 @@ void convert(const tinygltf::Model &m, const std::vector<light_def> &lights,
     }
     raw->light_count = 0;
     raw->lights = calloc_n<rad_gltf_raw_light>(nlight);
-    for (size_t i = 0; i < nn; i++) {
-        if (!raw->nodes[i].in_scene || light_of[i] < 0)
-            continue;
-        const light_def &d = lights[(size_t)light_of[i]];
-        rad_gltf_raw_light &dst = raw->lights[raw->light_count++];
-        std::string name = !d.name.empty() ? d.name : m.nodes[i].name;
-        if (name.empty())
-            name = format("light%lld", (long long)light_of[i]);
-        dst.name = dup_c(name);
-        dst.node = (uint32_t)i;
-        dst.light = (uint32_t)light_of[i];
-        dst.type = d.type;
-        for (int c = 0; c < 3; c++)
-            dst.color[c] = d.color[c];
-        dst.intensity = d.intensity;
-        dst.inner_cone = d.inner;
-        dst.outer_cone = d.outer;
-        memcpy(dst.world, raw->nodes[i].world, sizeof dst.world);
-    }
+    for (size_t i = 0; i < nn; i++)
+        if (raw->nodes[i].in_scene && light_of[i] >= 0)
+            convert_light(m, i, (size_t)light_of[i], lights[(size_t)light_of[i]], raw->nodes[i],
+                          raw->lights[raw->light_count++]);
+}
+
+/* --------------------------------------------------------------- converter */
+
+/* tinygltf's Model -> raw, in an order where each part finds what it needs:
+ * nodes before meshes (which are read only when instanced), cameras and
+ * lights (placed by nodes). */
+void convert(const tinygltf::Model &m, const std::vector<light_def> &lights,
+             uint64_t max_triangles, rad_gltf_raw *raw)
+{
+    /* extensionsRequired: passed on, judged by gltf.c. */
+    raw->extensions_required_count = count32(m.extensionsRequired.size(), "extensions");
+    raw->extensions_required = calloc_n<char *>(m.extensionsRequired.size());
+    for (size_t k = 0; k < m.extensionsRequired.size(); k++)
+        raw->extensions_required[k] = dup_c(m.extensionsRequired[k]);
+
+    convert_materials(m, raw);
+    convert_nodes(m, raw);
+    convert_meshes(m, max_triangles, raw);
+    convert_cameras(m, raw);
+    convert_lights(m, lights, raw);
 }
 
 int load(const void *data, size_t size, const char *base_dir, uint64_t max_triangles,
