@@ -31,11 +31,15 @@
  *   pathtrace SCENE REGIONS.pgm REFERENCE.json [--size N] [--paths P]
  *             [--target T] [--seed S] [--jobs J]
  *   pathtrace --check
+ *   pathtrace SCENE --image OUT.pfm [--size N] [--spp K] [--jobs J]
  *
  * Each pass gives every pixel of a region one path.  A region gets at least
  * P paths (default 1e6), and more until the relative standard error of its
  * mean band sum (R + G + B) is at most T (default 5e-4), estimated from a
  * pilot of about 1e5 paths.
+ * --image traces every pixel K times (default 256) and writes the image as
+ * a float PFM (radiance, rows bottom-up as PFM has them): for looking at
+ * where an engine's image departs from the reference, not for scores.
  * --check runs the tracer on two closed forms (a furnace and a lamp over a
  * floor) and fails when either is off by more than four standard errors.
  */
@@ -616,12 +620,79 @@ static int check_one(const char *name, const char *text, double expect, int jobs
     return ok ? 0 : -1;
 }
 
+/* ------------------------------------------------------------ image */
+
+/* Every pixel traced spp times, rows split among jobs, written as PFM. */
+static int trace_image(const char *scene, const char *out, uint32_t size, uint64_t spp,
+                       uint64_t seed, int jobs)
+{
+    rad_scene *s = NULL;
+    rad_error err;
+    if (rad_scene_load(scene, NULL, &s, &err)) {
+        fprintf(stderr, "pathtrace: %s\n", err.message);
+        return 2;
+    }
+    world w;
+    if (world_from_scene(s, &w) || !s->camera_count || w.bands < 3) {
+        fprintf(stderr, "pathtrace: %s: a camera and three bands expected\n", scene);
+        return 2;
+    }
+    cam k;
+    cam_make(&s->cameras[0], size, size, &k);
+    const size_t npx = (size_t)size * size;
+    float *img = calloc(npx * 3, sizeof *img);
+    int fds[64][2];
+    pid_t pid[64];
+    for (int q = 0; q < jobs; q++) {
+        if (pipe(fds[q]) != 0 || (pid[q] = fork()) < 0)
+            return 1;
+        if (pid[q] == 0) {
+            rng r;
+            rng_seed(&r, seed + 77u * (uint64_t)q);
+            double L[MAXB];
+            for (uint32_t j = (uint32_t)q; j < size; j += (uint32_t)jobs)
+                for (uint32_t i = 0; i < size; i++) {
+                    double acc[3] = {0, 0, 0};
+                    for (uint64_t t = 0; t < spp; t++) {
+                        radiance(&w, k.eye, cam_dir(&k, i + rnd(&r), j + rnd(&r)), &r, L);
+                        for (int b = 0; b < 3; b++)
+                            acc[b] += L[b];
+                    }
+                    float px[3] = {(float)(acc[0] / spp), (float)(acc[1] / spp), (float)(acc[2] / spp)};
+                    if (write(fds[q][1], px, sizeof px) != (ssize_t)sizeof px)
+                        _exit(1);
+                }
+            _exit(0);
+        }
+        close(fds[q][1]);
+    }
+    for (int q = 0; q < jobs; q++) {
+        for (uint32_t j = (uint32_t)q; j < size; j += (uint32_t)jobs)
+            for (uint32_t i = 0; i < size; i++)
+                if (read(fds[q][0], img + ((size_t)j * size + i) * 3, 3 * sizeof *img) !=
+                    (ssize_t)(3 * sizeof *img))
+                    return 1;
+        close(fds[q][0]);
+        waitpid(pid[q], NULL, 0);
+    }
+    FILE *f = fopen(out, "wb");
+    if (!f || fprintf(f, "PF\n%u %u\n-1.0\n", size, size) < 0)
+        return 1;
+    for (uint32_t j = size; j-- > 0;)
+        if (fwrite(img + (size_t)j * size * 3, sizeof *img, (size_t)size * 3, f) != (size_t)size * 3)
+            return 1;
+    free(img);
+    rad_scene_destroy(s);
+    return fclose(f) ? 1 : 0;
+}
+
 /* ------------------------------------------------------------ main */
 
 static int usage(void)
 {
     fprintf(stderr, "usage: pathtrace SCENE REGIONS.pgm REFERENCE.json [--size N] [--paths P] "
-                    "[--target T] [--seed S] [--jobs J]\n       pathtrace --check [--jobs J]\n");
+                    "[--target T] [--seed S] [--jobs J]\n       pathtrace --check [--jobs J]\n"
+                    "       pathtrace SCENE --image OUT.pfm [--size N] [--spp K] [--jobs J]\n");
     return 2;
 }
 
@@ -631,6 +702,8 @@ int main(int argc, char **argv)
     double paths = 1e6, target = 5e-4;
     uint64_t seed = 1;
     int jobs = 2, check = 0;
+    const char *image = NULL;
+    uint64_t spp = 256;
     const char *pos[3];
     int npos = 0;
     for (int a = 1; a < argc; a++) {
@@ -646,6 +719,10 @@ int main(int argc, char **argv)
             seed = strtoull(argv[++a], NULL, 10);
         else if (!strcmp(argv[a], "--jobs") && a + 1 < argc)
             jobs = atoi(argv[++a]);
+        else if (!strcmp(argv[a], "--image") && a + 1 < argc)
+            image = argv[++a];
+        else if (!strcmp(argv[a], "--spp") && a + 1 < argc)
+            spp = strtoull(argv[++a], NULL, 10);
         else if (npos < 3 && argv[a][0] != '-')
             pos[npos++] = argv[a];
         else
@@ -658,6 +735,8 @@ int main(int argc, char **argv)
         bad |= check_one("lamp", LAMP, 0.5 * howell_b3(1.0, 1.0, 0.5), jobs);
         return bad ? 1 : 0;
     }
+    if (image)
+        return trace_image(pos[0], image, size, spp, seed, jobs);
     if (npos != 3)
         return usage();
     rad_scene *s = NULL;

@@ -149,8 +149,15 @@ int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt)
         TAKE(cli_parse_u32(a, v, 1, 100000000, &opt->solver.max_iterations));
     if (!strcmp(a, "--max-memory"))
         TAKE(cli_parse_bytes(a, v, &opt->max_memory));
-    if (!strcmp(a, "--refine-threshold"))
-        TAKE(cli_parse_double(a, v, 0.0, 1e6, &opt->refine_threshold));
+    if (!strcmp(a, "--refine-threshold")) {
+        /* 0 turns elements off here; the library's 0 means its default. */
+        if ((rc = cli_parse_double(a, v, 0.0, 1e6, &opt->refine_threshold)) != 0)
+            return -1;
+        if (opt->refine_threshold == 0.0)
+            opt->refine_threshold = RAD_REFINE_OFF;
+        (*i)++;
+        return 1;
+    }
     if (!strcmp(a, "--min-element-size"))
         TAKE(cli_parse_double(a, v, 1e-12, 1e12, &opt->min_element_size));
     if (!strcmp(a, "--element-levels"))

@@ -164,10 +164,12 @@ int rad_elements_render_mesh(const rad_elements *el, rad_mesh **out, uint32_t **
  * computed) and it receives nothing (B = E).  In a room that is an element
  * buried under a block resting on it: its hemi-cube sees only the block's
  * back faces. */
-int el_sees_nothing(const rad_solution *s, uint32_t p, uint32_t level, uint32_t row_count,
-                        const double *Be)
+int el_sees_nothing(const rad_solution *s, uint32_t p, uint32_t level, int interp,
+                    uint32_t row_count, const double *Be)
 {
     const uint32_t bands = s->band_count;
+    if (interp)
+        return 0;
     if (level == 0) {
         if (!s->F || !s->F->row_done[p] || s->F->row_count[p] != 0)
             return 0;
@@ -183,19 +185,26 @@ int el_sees_nothing(const rad_solution *s, uint32_t p, uint32_t level, uint32_t 
 int rad_elements_drawn_radiosity(const rad_solution *s, const rad_elements *el, const rad_mesh *rm,
                                  const uint32_t *cells_of, double *out, rad_error *err)
 {
+    return el_drawn_field(s, el, rm, cells_of, el ? el->B : s->B, out, err);
+}
+
+int el_drawn_field(const rad_solution *s, const rad_elements *el, const rad_mesh *rm,
+                   const uint32_t *cells_of, const double *field, double *out, rad_error *err)
+{
     const uint32_t bands = s->band_count;
     const rad_mesh *cells = el ? el->mesh : s->mesh;
     const double *B = el ? el->B : s->B;
     const uint32_t n = cells->patch_count, nv = rm->vertex_count, nc = rm->patch_count;
-    memcpy(out, B, (size_t)n * bands * sizeof *out);
+    memcpy(out, field, (size_t)n * bands * sizeof *out);
     uint8_t *buried = calloc(n ? n : 1, 1);
     uint32_t nb = 0;
     if (!buried)
         return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for the drawn radiosity");
     for (uint32_t e = 0; e < n; e++) {
         uint32_t p = el ? el->patch[e] : e;
-        buried[e] = (uint8_t)el_sees_nothing(s, p, el ? el->level[e] : 0, el ? el->row_count[e] : 0,
-                                          B + (size_t)e * bands);
+        buried[e] = (uint8_t)el_sees_nothing(s, p, el ? el->level[e] : 0,
+                                             el && el->interp ? el->interp[e] : 0,
+                                             el ? el->row_count[e] : 0, B + (size_t)e * bands);
         nb += buried[e];
     }
     if (!nb) {
@@ -280,7 +289,7 @@ int rad_elements_drawn_radiosity(const rad_solution *s, const rad_elements *el, 
         for (uint32_t c = 0; c < bands; c++) {
             double v = 0.0;
             for (size_t k = 0; k < ns; k++)
-                v += w[k] * B[(size_t)id[k] * bands + c];
+                v += w[k] * field[(size_t)id[k] * bands + c];
             out[(size_t)h * bands + c] = v > 0.0 ? v : 0.0;
         }
     }
@@ -324,4 +333,33 @@ done:
     free(own);
     free(cell_B);
     return rc;
+}
+
+void el_drawn_at(const rad_mesh *rm, const double *vB, uint32_t bands, uint32_t first,
+                 uint32_t count, rad_vec3 normal, rad_vec3 p, double *out)
+{
+    const rad_patch *c = &rm->patches[first];
+    /* The fan triangle that holds p best (largest smallest weight). */
+    double best = -INFINITY, l[3] = {1 / 3., 1 / 3., 1 / 3.};
+    for (uint32_t t = first; t < first + count; t++) {
+        const rad_patch *f = &rm->patches[t];
+        rad_vec3 a = rm->vertices[f->v[0]], bb = rm->vertices[f->v[1]], cc = rm->vertices[f->v[2]];
+        double whole = rad_dot(rad_cross(rad_sub(bb, a), rad_sub(cc, a)), normal);
+        if (!(whole != 0.0))
+            continue;
+        double m[3] = {rad_dot(rad_cross(rad_sub(bb, p), rad_sub(cc, p)), normal) / whole,
+                       rad_dot(rad_cross(rad_sub(cc, p), rad_sub(a, p)), normal) / whole, 0};
+        m[2] = 1.0 - m[0] - m[1];
+        double lo = fmin(m[0], fmin(m[1], m[2]));
+        if (lo > best) {
+            best = lo;
+            c = f;
+            memcpy(l, m, sizeof l);
+        }
+    }
+    for (uint32_t b = 0; b < bands; b++) {
+        out[b] = 0.0;
+        for (int k = 0; k < 3; k++)
+            out[b] += l[k] * vB[(size_t)c->v[k] * bands + b];
+    }
 }

@@ -65,7 +65,13 @@ int rad_elements_render_mesh(const rad_elements *el, rad_mesh **out, uint32_t **
 
 /* ------------------------------------------------------- refinement (refine.c) */
 
-/* {0} means defaults: no elements. */
+/* The refinement threshold when none is given (threshold 0), the one
+ * place it is written; RAD_REFINE_OFF, or any negative threshold, asks for
+ * no adaptive elements. */
+#define RAD_DEFAULT_REFINE_THRESHOLD 1e-3
+#define RAD_REFINE_OFF (-1.0)
+
+/* {0} means defaults: adaptive elements at RAD_DEFAULT_REFINE_THRESHOLD. */
 typedef struct rad_refine_options {
     /* > 0 splits elements, starting from the patches, where what is drawn
      * misses what finer elements gather: an element's four children are
@@ -73,21 +79,27 @@ typedef struct rad_refine_options {
      * their B and the drawn radiosity at their centres, as a fraction of the
      * brightest non-emitting patch's B (any band), times the element's area
      * over its patch's, exceeds this threshold; until none does or they
-     * reach min_element_size.  0 = no adaptive elements. */
+     * reach min_element_size.  0 = RAD_DEFAULT_REFINE_THRESHOLD; < 0
+     * (RAD_REFINE_OFF) = no adaptive elements. */
     double threshold;
     double min_element_size;   /* smallest element edge, scene units; 0 = 1/8 of its patch's */
-    uint32_t levels;           /* with threshold 0: split every patch this many times
-                                * (uniform elements: references, benchmarks) */
+    uint32_t levels;           /* > 0: split every patch this many times instead, whatever
+                                * the threshold (uniform elements: references, benchmarks) */
     uint32_t max_elements;     /* refuse to make more; 0 = RAD_MESH_DEFAULT_MAX_PATCHES */
     /* The scene's punctual lights as the hemi-cube takes them
      * (scene->light_count entries; may be NULL without lights), and the
      * resolution of their item buffers (the one the patch power used). */
     const hc_light *lights;
     uint32_t light_resolution;
+    /* 1 = every adaptive element gets its row from a hemi-cube of its own
+     * (the method before interpolated elements: a reference, and slow);
+     * 0 = interpolated elements wherever nothing rests on the surface
+     * (solution.h). */
+    int element_hemicubes;
 } rad_refine_options;
 
 /* Builds s->elements (replacing any) from the patch solution s->B, as opt
- * says (threshold 0 and levels 0: removes them).  Renders one hemi-cube per
+ * says (threshold < 0 and levels 0: removes them).  Renders one hemi-cube per
  * new element on hc, an engine for s->mesh (whose exact marks decide which
  * element-to-patch factors are exact), and the lights' visibility at the
  * elements. */

@@ -1,8 +1,12 @@
 /* gather.c - an element's radiosity from the patch solution:
- *   B_e = E_p + ρ_p (Σ_j F_ej B_j + H_d,e) + τ_p H_twin(p),   H_d,e = Σ_l I_l h_le,
+ *   B_e = E_p + ρ_p (Σ_j F_ej B_j + [Ĥ_i(c_e)] + H_d,e) + τ_p H_twin(p),
+ *   H_d,e = Σ_l I_l h_le,
  * with h_le the punctual lights' direct irradiance at the element's centre
- * (unit strength, visibility from the light's item buffer) and, on the side
- * of a transmitting sheet, what comes through from the other side's patch.
+ * (unit strength, visibility from the light's item buffer), Ĥ_i the
+ * patches' irradiance from all but the direct sources interpolated at the
+ * element's centre (interpolated elements only, solution.h) and, on the
+ * side of a transmitting sheet, what comes through from the other side's
+ * patch.
  *
  * Invariant: a gather reads only stored rows and stored h_le (no hemi-cube,
  * no item buffer), so a relight re-gathers elements at the cost of a sparse
@@ -40,9 +44,9 @@ void el_element_direct(const rad_solution *s, const double *Hd, const float *h, 
  * top of the file).  Tr, when not NULL, holds per patch the light a sheet
  * lets through from its other side, τ_p H_twin(p), at the patch's
  * resolution. */
-void el_gather_one(const rad_solution *s, const double *hd, const double *Tr, uint32_t p,
-                       uint32_t level, const uint32_t *col, const float *val, uint32_t cnt,
-                       double *Be)
+void el_gather_one(const rad_solution *s, const double *hd, const double *ind, const double *Tr,
+                   uint32_t p, uint32_t level, const uint32_t *col, const float *val, uint32_t cnt,
+                   double *Be)
 {
     const uint32_t bands = s->band_count;
     const size_t pb = (size_t)p * bands;
@@ -51,7 +55,7 @@ void el_gather_one(const rad_solution *s, const double *hd, const double *Tr, ui
         return;
     }
     for (uint32_t b = 0; b < bands; b++) {
-        double h = hd[b];
+        double h = hd[b] + (ind ? ind[b] : 0.0);
         for (uint32_t q = 0; q < cnt; q++)
             h += (double)val[q] * s->B[(size_t)col[q] * bands + b];
         double v = s->emission[pb + b] + s->rho[pb + b] * h + (Tr ? Tr[pb + b] : 0.0);
@@ -134,18 +138,109 @@ int rad_elements_gather(const rad_solution *s, rad_elements *el, rad_error *err)
 {
     if (!s || !el)
         return rad_fail(err, RAD_ERR_USAGE, "rad_elements_gather: solution and elements must be given");
-    double *Hd, *Tr = NULL;
+    double *Hd, *Tr = NULL, *Hi = NULL;
+    el_interp ip = {0};
     int rc = direct_irradiance(s, &Hd, err);
     if (rc == RAD_OK)
         rc = el_transmitted(s, &Tr, err);
     const uint32_t bands = s->band_count;
-    double hd[RAD_MAX_BANDS];
-    for (uint32_t e = 0; rc == RAD_OK && e < el->mesh->patch_count; e++) {
-        el_element_direct(s, Hd, own_light(el, e), el->patch[e], el->level[e], hd);
-        el_gather_one(s, hd, Tr, el->patch[e], el->level[e], el->col + el->row_start[e],
-                   el->val + el->row_start[e], el->row_count[e], el->B + (size_t)e * bands);
+    if (rc == RAD_OK && el->interp) {
+        /* The patches' indirect irradiance, drawn the elements' way. */
+        Hi = malloc(((size_t)s->mesh->patch_count * bands + 1) * sizeof *Hi);
+        if (!Hi)
+            rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+        else
+            el_patch_indirect(s, el->direct, Hi);
+        if (rc == RAD_OK)
+            rc = el_interp_make(s, Hi, &ip, err);
     }
+    double hd[RAD_MAX_BANDS], ind[RAD_MAX_BANDS];
+    for (uint32_t e = 0; rc == RAD_OK && e < el->mesh->patch_count; e++) {
+        const int interp = el->interp && el->interp[e];
+        el_element_direct(s, Hd, own_light(el, e), el->patch[e], el->level[e], hd);
+        if (interp)
+            el_interp_at(&ip, s, el->patch[e], el->mesh->patches[e].center, ind);
+        el_gather_one(s, hd, interp ? ind : NULL, Tr, el->patch[e], el->level[e],
+                      el->col + el->row_start[e], el->val + el->row_start[e], el->row_count[e],
+                      el->B + (size_t)e * bands);
+    }
+    el_interp_free(&ip);
+    free(Hi);
     free(Hd);
     free(Tr);
     return rc;
+}
+
+/* ------------------------------------------------------- interpolation */
+
+void el_patch_indirect(const rad_solution *s, const uint8_t *direct, double *H)
+{
+    const rad_matrix *F = s->F;
+    const uint32_t n = s->mesh->patch_count, bands = s->band_count;
+    for (uint32_t p = 0; p < n; p++) {
+        double *h = H + (size_t)p * bands;
+        for (uint32_t b = 0; b < bands; b++)
+            h[b] = 0.0;
+        if (!F->row_done[p] || F->row_count[p] == 0)
+            continue; /* an empty row may have no pool behind it */
+        const uint32_t *col = F->col + F->row_start[p];
+        const float *val = F->val + F->row_start[p];
+        for (uint32_t q = 0; q < F->row_count[p]; q++) {
+            if (direct[col[q]])
+                continue;
+            for (uint32_t b = 0; b < bands; b++)
+                h[b] += (double)val[q] * s->B[(size_t)col[q] * bands + b];
+        }
+    }
+}
+
+void el_interp_free(el_interp *ip)
+{
+    if (!ip)
+        return;
+    rad_mesh_destroy(ip->rm);
+    free(ip->cells_of);
+    free(ip->first);
+    free(ip->vB);
+    memset(ip, 0, sizeof *ip);
+}
+
+int el_interp_make(const rad_solution *s, const double *field, el_interp *ip, rad_error *err)
+{
+    memset(ip, 0, sizeof *ip);
+    const uint32_t n = s->mesh->patch_count, bands = s->band_count;
+    int rc = el_fan_mesh(s->mesh, &ip->rm, &ip->cells_of, err);
+    if (rc != RAD_OK)
+        return rc;
+    const uint32_t nc = ip->rm->patch_count;
+    double *drawn = malloc(((size_t)n * bands + 1) * sizeof *drawn);
+    double *cell = malloc(((size_t)nc * bands + 1) * sizeof *cell);
+    ip->vB = malloc(((size_t)ip->rm->vertex_count * bands + 1) * sizeof *ip->vB);
+    ip->first = calloc((size_t)n + 1, sizeof *ip->first);
+    if (!drawn || !cell || !ip->vB || !ip->first)
+        rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for the interpolation");
+    if (rc == RAD_OK)
+        rc = el_drawn_field(s, NULL, ip->rm, ip->cells_of, field, drawn, err);
+    if (rc == RAD_OK) {
+        /* The fans of one patch are consecutive, in patch order. */
+        for (uint32_t k = 0; k < nc; k++) {
+            ip->first[ip->cells_of[k] + 1]++;
+            memcpy(cell + (size_t)k * bands, drawn + (size_t)ip->cells_of[k] * bands,
+                   bands * sizeof *cell);
+        }
+        for (uint32_t p = 0; p < n; p++)
+            ip->first[p + 1] += ip->first[p];
+        rn_vertex_radiosity_fit(ip->rm, bands, cell, ip->vB, RN_FIT_QUADRATIC);
+    }
+    free(drawn);
+    free(cell);
+    if (rc != RAD_OK)
+        el_interp_free(ip);
+    return rc;
+}
+
+void el_interp_at(const el_interp *ip, const rad_solution *s, uint32_t p, rad_vec3 x, double *out)
+{
+    el_drawn_at(ip->rm, ip->vB, s->band_count, ip->first[p], ip->first[p + 1] - ip->first[p],
+                s->mesh->patches[p].normal, x, out);
 }

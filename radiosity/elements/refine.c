@@ -36,6 +36,7 @@ typedef struct enode {
     uint8_t level;
     uint8_t state;     /* NODE_* */
     uint8_t settled;   /* 1: not worth probing (see refine_adaptive) */
+    uint8_t interp;    /* 1: an interpolated element (solution.h), no hemi-cube of its own */
     uint32_t cnt;      /* row entries */
     uint64_t start;    /* first row entry */
 } enode;
@@ -67,6 +68,17 @@ typedef struct builder {
     /* the elements of the rows being computed (receiver k -> which[k]) */
     const uint32_t *which;
     uint64_t rows_computed;
+    /* Interpolated elements (cheap): the direct sources, the patches'
+     * indirect irradiance as elements draw it, the patches whose elements
+     * get hemi-cubes all the same (contact), the direct rows of the batch
+     * being computed and, for a hemi-cube receiver k, its row there. */
+    int cheap;
+    el_sources src;
+    el_interp ip;
+    el_contacts contact;
+    uint32_t direct_R;
+    el_rows drow;
+    const uint32_t *drow_of;
 } builder;
 
 /* Is p on an edge of polygon poly's outline?  Decides the boundary flag of
@@ -146,6 +158,7 @@ static int add_element(builder *b, const uint32_t v[4], uint32_t patch, uint32_t
     n->level = (uint8_t)level;
     n->state = (uint8_t)state;
     n->settled = 0;
+    n->interp = 0;
     n->cnt = 0;
     n->start = 0;
     memcpy(b->B + (size_t)b->ne * b->bands, b->s->B + (size_t)patch * b->bands,
@@ -228,36 +241,119 @@ static void child_weights(int corners, uint32_t k, double w[4])
     w[3] = 0.0;
 }
 
+/* Room for `more` row entries; RAD_OK or out of memory. */
+static int reserve_row(builder *b, uint64_t more, rad_error *err)
+{
+    if (b->nnz + more <= b->cap_r)
+        return RAD_OK;
+    uint64_t cap = b->cap_r ? b->cap_r : 4096;
+    while (cap < b->nnz + more)
+        cap *= 2;
+    uint32_t *c = realloc(b->col, cap * sizeof *c);
+    if (c)
+        b->col = c;
+    float *v = realloc(b->val, cap * sizeof *v);
+    if (v)
+        b->val = v;
+    if (!c || !v)
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for element rows");
+    b->cap_r = cap;
+    return RAD_OK;
+}
+
+/* Element e's row is the last `count` entries appended: gathers its B
+ * (with the interpolated indirect light when it is an interpolated one). */
+static void finish_row(builder *b, uint32_t e, uint32_t count, const hc_receiver *at)
+{
+    enode *n = &b->E[e];
+    n->start = b->nnz;
+    n->cnt = count;
+    b->nnz += count;
+    double hd[RAD_MAX_BANDS], ind[RAD_MAX_BANDS];
+    el_element_direct(b->s, NULL, b->nl ? b->h + (size_t)e * b->nl : NULL, n->patch, n->level, hd);
+    if (n->interp)
+        el_interp_at(&b->ip, b->s, n->patch, at->center, ind);
+    el_gather_one(b->s, hd, n->interp ? ind : NULL, b->Tr, n->patch, n->level, b->col + n->start,
+                  b->val + n->start, count, b->B + (size_t)e * b->bands);
+}
+
+/* A hemi-cube row arrives: receiver k of the batch, element which[k].
+ * With direct sources, the row's entries for them are replaced by the
+ * direct rows' (strata and item buffers, as an interpolated neighbour
+ * gets them: no seam between the two kinds), and should that lift the
+ * row's sum above 1 the other entries are scaled down to make it 1. */
 static int store_row(void *user, uint32_t k, uint32_t count, const uint32_t *col, const float *val,
                      rad_error *err)
 {
     builder *b = user;
-    if (b->nnz + count > b->cap_r) {
-        uint64_t cap = b->cap_r ? b->cap_r : 4096;
-        while (cap < b->nnz + count)
-            cap *= 2;
-        uint32_t *c = realloc(b->col, cap * sizeof *c);
-        if (c)
-            b->col = c;
-        float *v = realloc(b->val, cap * sizeof *v);
-        if (v)
-            b->val = v;
-        if (!c || !v)
-            return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for element rows");
-        b->cap_r = cap;
+    const uint32_t e = b->which[k];
+    const el_rows *d = b->cheap ? &b->drow : NULL;
+    const uint64_t d0 = d ? d->start[b->drow_of[k]] : 0, d1 = d ? d->start[b->drow_of[k] + 1] : 0;
+    int rc = reserve_row(b, (uint64_t)count + (d1 - d0), err);
+    if (rc != RAD_OK)
+        return rc;
+    uint32_t *oc = b->col + b->nnz;
+    float *ov = b->val + b->nnz;
+    uint32_t m = 0;
+    double own = 0.0, direct = 0.0;
+    for (uint32_t q = 0; q < count; q++) { /* count 0: an element that sees nothing */
+        if (d && b->src.direct[col[q]])
+            continue;
+        oc[m] = col[q];
+        ov[m++] = val[q];
+        own += val[q];
     }
-    uint32_t e = b->which[k];
-    enode *n = &b->E[e];
-    n->start = b->nnz;
-    n->cnt = count;
-    if (count) { /* an element that sees nothing: the pool may not exist yet */
-        memcpy(b->col + b->nnz, col, count * sizeof *col);
-        memcpy(b->val + b->nnz, val, count * sizeof *val);
+    if (d && d1 > d0) {
+        /* Merge the direct entries into the kept ones, both ascending. */
+        uint32_t kept = m, total = kept + (uint32_t)(d1 - d0);
+        for (uint64_t q = d0; q < d1; q++)
+            direct += d->val[q];
+        uint32_t i = kept, w = total;
+        uint64_t q = d1;
+        while (w > 0) {
+            if (q > d0 && (i == 0 || d->col[q - 1] > oc[i - 1])) {
+                q--;
+                oc[--w] = d->col[q];
+                ov[w] = d->val[q];
+            } else {
+                i--;
+                --w;
+                oc[w] = oc[i];
+                ov[w] = ov[i];
+            }
+        }
+        m = total;
+        if (own + direct > 1.0 && own > 0.0) {
+            double f = direct < 1.0 ? (1.0 - direct) / own : 0.0;
+            for (uint32_t q = 0; q < m; q++)
+                if (!b->src.direct[oc[q]])
+                    ov[q] = (float)(ov[q] * f);
+            uint32_t w2 = 0; /* entries scaled to nothing go */
+            for (uint32_t q = 0; q < m; q++)
+                if (ov[q] > 0.0f) {
+                    oc[w2] = oc[q];
+                    ov[w2++] = ov[q];
+                }
+            m = w2;
+        }
     }
-    b->nnz += count;
-    double hd[RAD_MAX_BANDS];
-    el_element_direct(b->s, NULL, b->nl ? b->h + (size_t)e * b->nl : NULL, n->patch, n->level, hd);
-    el_gather_one(b->s, hd, b->Tr, n->patch, n->level, col, val, count, b->B + (size_t)e * b->bands);
+    finish_row(b, e, m, NULL);
+    return RAD_OK;
+}
+
+/* An interpolated element's row: its direct row, receiver k of the batch. */
+static int store_direct(builder *b, uint32_t e, uint32_t k, const hc_receiver *at, rad_error *err)
+{
+    const uint64_t d0 = b->drow.start[k], d1 = b->drow.start[k + 1];
+    int rc = reserve_row(b, d1 - d0, err);
+    if (rc != RAD_OK)
+        return rc;
+    if (d1 > d0) {
+        memcpy(b->col + b->nnz, b->drow.col + d0, (size_t)(d1 - d0) * sizeof *b->col);
+        memcpy(b->val + b->nnz, b->drow.val + d0, (size_t)(d1 - d0) * sizeof *b->val);
+    }
+    b->E[e].interp = 1;
+    finish_row(b, e, (uint32_t)(d1 - d0), at);
     return RAD_OK;
 }
 
@@ -303,6 +399,18 @@ static int element_lights(builder *b, hc_engine *hc, const hc_receiver *r, const
     return rc;
 }
 
+/* Does another surface meet element n (el_contact_patches)? */
+static int touched(const builder *b, const enode *n)
+{
+    const rad_patch *pp = &b->s->mesh->patches[n->patch];
+    const int corners = n->v[3] == RAD_NONE ? 3 : 4;
+    for (uint32_t k = b->contact.start[n->patch]; k < b->contact.start[n->patch + 1]; k++)
+        if (el_cell_touches(b->s->scene, b->V, n->v, corners, pp->normal, pp->polygon,
+                            b->contact.poly[k], b->contact.tol))
+            return 1;
+    return 0;
+}
+
 /* Rows and radiosities of the elements which[0..count). */
 static int compute_rows_of(builder *b, hc_engine *hc, const uint32_t *which, uint32_t count,
                            rad_error *err)
@@ -322,12 +430,37 @@ static int compute_rows_of(builder *b, hc_engine *hc, const uint32_t *which, uin
         }
         r[k].patch = n->patch;
     }
-    b->which = which;
-    /* The direct light first: store_row gathers B_e as each row arrives. */
+    /* The lights' and the sources' direct light first: rows gather B_e as
+     * they are stored. */
     int rc = element_lights(b, hc, r, which, count, err);
+    if (rc == RAD_OK && b->cheap)
+        rc = el_direct_rows(b->s, &b->src, hc, b->direct_R, r, count, &b->drow,
+                            &b->lights_rendered, err);
+    /* Interpolated elements are done; the others (all of them when not
+     * cheap, else those on contact patches) get their hemi-cubes. */
+    uint32_t *hw = malloc(((size_t)count + 1) * sizeof *hw), *hk = malloc(((size_t)count + 1) * sizeof *hk);
+    hc_receiver *hr = malloc(((size_t)count + 1) * sizeof *hr);
+    uint32_t m = 0;
+    if (rc == RAD_OK && (!hw || !hk || !hr))
+        rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    for (uint32_t k = 0; k < count && rc == RAD_OK; k++) {
+        if (b->cheap && !touched(b, &b->E[which[k]])) {
+            rc = store_direct(b, which[k], k, &r[k], err);
+            continue;
+        }
+        hw[m] = which[k];
+        hk[m] = k;
+        hr[m++] = r[k];
+    }
+    b->which = hw;
+    b->drow_of = hk;
     if (rc == RAD_OK)
-        rc = hc_compute_points(hc, r, count, store_row, b, err);
-    b->rows_computed += count;
+        rc = hc_compute_points(hc, hr, m, store_row, b, err);
+    b->rows_computed += m;
+    el_rows_free(&b->drow);
+    free(hw);
+    free(hk);
+    free(hr);
     free(r);
     return rc;
 }
@@ -407,6 +540,17 @@ static int leaves_to_elements(const builder *b, rad_elements **out, uint32_t **n
             el = NULL;
         }
     }
+    if (el && b->cheap) {
+        const uint32_t np = b->s->mesh->patch_count;
+        el->interp = malloc(leaves ? leaves : 1);
+        el->direct = malloc(np ? np : 1);
+        if (!el->interp || !el->direct) {
+            rad_elements_destroy(el);
+            el = NULL;
+        } else {
+            memcpy(el->direct, b->src.direct, np);
+        }
+    }
     if (!el) {
         free(remap);
         free(of);
@@ -435,6 +579,8 @@ static int leaves_to_elements(const builder *b, rad_elements **out, uint32_t **n
         if (b->nl)
             memcpy(el->light_h + (size_t)k * b->nl, b->h + (size_t)of[k] * b->nl,
                    b->nl * sizeof *b->h);
+        if (el->interp)
+            el->interp[k] = n->interp;
     }
     free(remap);
     int rc = rad_elements_complete(el, b->s, "elements", err);
@@ -449,38 +595,6 @@ static int leaves_to_elements(const builder *b, rad_elements **out, uint32_t **n
     else
         free(of);
     return RAD_OK;
-}
-
-/* The value the renderer draws at point p of element k: the interpolant of
- * its fan [first, first + count) of the render mesh rm, in the triangle
- * that holds p (barycentric weights). */
-static void drawn_at(const rad_mesh *rm, const double *vB, uint32_t bands, uint32_t first,
-                     uint32_t count, const rad_patch *e, rad_vec3 p, double *out)
-{
-    const rad_patch *c = &rm->patches[first];
-    /* The fan triangle that holds p best (largest smallest weight). */
-    double best = -INFINITY, l[3] = {1 / 3., 1 / 3., 1 / 3.};
-    for (uint32_t t = first; t < first + count; t++) {
-        const rad_patch *f = &rm->patches[t];
-        rad_vec3 a = rm->vertices[f->v[0]], bb = rm->vertices[f->v[1]], cc = rm->vertices[f->v[2]];
-        double whole = rad_dot(rad_cross(rad_sub(bb, a), rad_sub(cc, a)), e->normal);
-        if (!(whole != 0.0))
-            continue;
-        double m[3] = {rad_dot(rad_cross(rad_sub(bb, p), rad_sub(cc, p)), e->normal) / whole,
-                       rad_dot(rad_cross(rad_sub(cc, p), rad_sub(a, p)), e->normal) / whole, 0};
-        m[2] = 1.0 - m[0] - m[1];
-        double lo = fmin(m[0], fmin(m[1], m[2]));
-        if (lo > best) {
-            best = lo;
-            c = f;
-            memcpy(l, m, sizeof l);
-        }
-    }
-    for (uint32_t b = 0; b < bands; b++) {
-        out[b] = 0.0;
-        for (int k = 0; k < 3; k++)
-            out[b] += l[k] * vB[(size_t)c->v[k] * bands + b];
-    }
 }
 
 /* The share of a leaf across a block's foot counted as missing its B (see
@@ -532,7 +646,8 @@ static int estimate(builder *b, const double *scale, double *eps, uint8_t *conta
         goto done;
     }
     for (uint32_t e = 0; e < nel; e++)
-        buried_leaf[e] = (uint8_t)el_sees_nothing(b->s, el->patch[e], el->level[e], el->row_count[e],
+        buried_leaf[e] = (uint8_t)el_sees_nothing(b->s, el->patch[e], el->level[e],
+                                                  el->interp ? el->interp[e] : 0, el->row_count[e],
                                                el->B + (size_t)e * bands);
     for (uint32_t k = 0; k < rm->patch_count; k++)
         for (int c = 0; c < rad_patch_corners(&rm->patches[k]); c++)
@@ -563,7 +678,7 @@ static int estimate(builder *b, const double *scale, double *eps, uint8_t *conta
             const double *Bk = b->B + (size_t)(n->kids + q) * bands;
             /* A probe that sees nothing is never seen either: its error
              * costs nothing. */
-            if (el_sees_nothing(b->s, kid->patch, kid->level, kid->cnt, Bk)) {
+            if (el_sees_nothing(b->s, kid->patch, kid->level, kid->interp, kid->cnt, Bk)) {
                 buried++;
                 continue;
             }
@@ -575,7 +690,7 @@ static int estimate(builder *b, const double *scale, double *eps, uint8_t *conta
             rad_vec3 p = rad_v3(0, 0, 0);
             for (int c = 0; c < corners; c++)
                 p = rad_add(p, rad_scale(el->mesh->vertices[ec->v[c]], w[c]));
-            drawn_at(rm, vB, bands, first, next - first, ec, p, at);
+            el_drawn_at(rm, vB, bands, first, next - first, ec->normal, p, at);
             for (uint32_t c = 0; c < bands; c++)
                 d[c] += 0.25 * fabs(Bk[c] - at[c]);
         }
@@ -719,16 +834,20 @@ int rad_elements_refine(rad_solution *s, hc_engine *hc, const rad_refine_options
     rad_refine_options opt = {0};
     if (options)
         opt = *options;
-    if (!(opt.threshold >= 0.0) || !isfinite(opt.threshold) ||
+    if (!isfinite(opt.threshold) ||
         !(opt.min_element_size >= 0.0) || !isfinite(opt.min_element_size) ||
         opt.levels > RAD_MAX_ELEMENT_LEVEL)
         return rad_fail(err, RAD_ERR_USAGE,
-                        "refine: threshold and minimum element size must be finite and >= 0, "
+                        "refine: threshold must be finite, minimum element size finite and >= 0, "
                         "levels at most %u", RAD_MAX_ELEMENT_LEVEL);
     if (s->scene->light_count && (!opt.lights || !opt.light_resolution))
         return rad_fail(err, RAD_ERR_USAGE, "rad_elements_refine: the scene's lights are missing");
     rad_elements_destroy(s->elements);
     s->elements = NULL;
+    if (opt.threshold == 0.0)
+        opt.threshold = RAD_DEFAULT_REFINE_THRESHOLD;
+    if (opt.levels)
+        opt.threshold = RAD_REFINE_OFF;
     if (!(opt.threshold > 0.0) && opt.levels == 0)
         return RAD_OK;
     if (!hc)
@@ -744,6 +863,29 @@ int rad_elements_refine(rad_solution *s, hc_engine *hc, const rad_refine_options
     if (rc != RAD_OK)
         return rc;
     b.Tr = Tr;
+    if (!uniform && !opt.element_hemicubes) {
+        /* Interpolated elements, unless the direct sources need more item
+         * buffers than hemi-cubes would cost. */
+        double *Hi = NULL;
+        if ((rc = el_sources_make(s, &b.src, err)) != RAD_OK)
+            goto done;
+        b.cheap = b.src.count <= EL_MAX_STRATA;
+        b.direct_R = opt.light_resolution ? opt.light_resolution : EL_DIRECT_RESOLUTION;
+        if (b.cheap) {
+            Hi = malloc(((size_t)np * bands + 1) * sizeof *Hi);
+            if (!Hi)
+                rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+        }
+        if (b.cheap && rc == RAD_OK) {
+            el_patch_indirect(s, b.src.direct, Hi);
+            rc = el_interp_make(s, Hi, &b.ip, err);
+        }
+        free(Hi);
+        if (b.cheap && rc == RAD_OK)
+            rc = el_contact_patches(s, &b.contact, err);
+        if (rc != RAD_OK)
+            goto done;
+    }
     min_edge = malloc((np ? np : 1) * sizeof *min_edge);
     if (!min_edge) {
         rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
@@ -790,6 +932,9 @@ int rad_elements_refine(rad_solution *s, hc_engine *hc, const rad_refine_options
         }
     }
 done:
+    el_sources_free(&b.src);
+    el_interp_free(&b.ip);
+    el_contacts_free(&b.contact);
     free(min_edge);
     free(Tr);
     free(b.h);

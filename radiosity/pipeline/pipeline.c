@@ -417,6 +417,12 @@ int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err)
     return rc;
 }
 
+/* Do the options ask for elements (adaptive by default, or uniform)? */
+static int refines(const rad_solve_options *opt)
+{
+    return !(opt->refine_threshold < 0.0) || opt->element_levels;
+}
+
 /* Refinement on the run's engine (started if the solve reused every row):
  * the element hemi-cubes count as form-factor time. */
 static int refine(run *c, rad_error *err)
@@ -435,8 +441,9 @@ static int refine(run *c, rad_error *err)
                                    .levels = opt->element_levels,
                                    .max_elements = opt->mesh.max_patches,
                                    .lights = lights,
-                                   .light_resolution = rad_light_resolution(opt)};
-    int rc = (ro.threshold > 0.0 || ro.levels) ? start_hemicube(c, err) : RAD_OK;
+                                   .light_resolution = rad_light_resolution(opt),
+                                   .element_hemicubes = opt->element_hemicubes};
+    int rc = refines(opt) ? start_hemicube(c, err) : RAD_OK;
     if (!rc)
         rc = rad_elements_refine(s, c->hc, &ro, err);
     free(lights);
@@ -488,7 +495,7 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
     /* Elements: split where what is drawn misses what finer elements
      * gather, from the patch solution (hemi-cubes at the elements' centres,
      * on the same engine as the rows). */
-    if (!rc && (opt->refine_threshold > 0.0 || opt->element_levels))
+    if (!rc && refines(opt))
         rc = refine(&c, err);
     run_end(&c);
     if (rc) {

@@ -44,11 +44,15 @@ typedef struct rad_solve_options {
      * (interpolated) radiosity at their centres, as a fraction of the
      * brightest non-emitting patch's B (any band), times the element's
      * area over its patch's, exceeds this threshold; until none does or
-     * they reach min_element_size.  0 = no elements (render the patches). */
+     * they reach min_element_size.  0 = RAD_DEFAULT_REFINE_THRESHOLD
+     * (elements.h); RAD_REFINE_OFF (any negative value) = no elements
+     * (render the patches). */
     double refine_threshold;
     double min_element_size; /* smallest element edge, scene units; 0 = 1/8 of its patch's */
-    uint32_t element_levels; /* with refine_threshold 0: split every reflecting patch this
-                              * many times (uniform elements: references, benchmarks) */
+    uint32_t element_levels; /* > 0: split every reflecting patch this many times instead,
+                              * whatever the threshold (uniform elements: references) */
+    int element_hemicubes;   /* 1 = every adaptive element's row from a hemi-cube of its own
+                              * (rad_refine_options: the slow reference) */
 } rad_solve_options;
 
 /* The whole computation for a scene file: load, mesh, form factors, solve.
@@ -69,7 +73,7 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
 int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err);
 
 /* Builds s->elements (replacing any) from the patch solution s->B, as
- * opt->refine_threshold, min_element_size and element_levels say (none:
+ * opt->refine_threshold, min_element_size and element_levels say (off:
  * removes them): rad_elements_refine on an engine of its own, with the
  * options' hemi-cube settings; emitters get exact factors unless
  * pixel_emitters.  (rad_solve_scene refines on the engine of its solve.) */

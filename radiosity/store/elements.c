@@ -54,6 +54,8 @@ void rad_elements_destroy(rad_elements *el)
     free(el->col);
     free(el->val);
     free(el->light_h);
+    free(el->interp);
+    free(el->direct);
     free(el);
 }
 
@@ -146,6 +148,23 @@ int rad_elements_check(const rad_elements *el, const rad_solution *s, const char
             }
     } else if (el->light_count) {
         return rad_fail(err, RAD_ERR_CORRUPT, "%s: elements: light count without direct light", name);
+    }
+    if ((el->interp != NULL) != (el->direct != NULL))
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: elements: interpolation flags without sources",
+                        name);
+    for (uint32_t j = 0; el->direct && j < pm->patch_count; j++)
+        if (el->direct[j] > 1)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: patch %u: direct-source flag %u", name, j,
+                            el->direct[j]);
+    for (uint32_t e = 0; el->interp && e < m->patch_count; e++) {
+        if (el->interp[e] > 1 || (el->interp[e] && el->level[e] == 0))
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: interpolation flag %u at level %u",
+                            name, e, el->interp[e], el->level[e]);
+        for (uint32_t q = 0; el->interp[e] && q < el->row_count[e]; q++)
+            if (!el->direct[el->col[el->row_start[e] + q]])
+                return rad_fail(err, RAD_ERR_CORRUPT,
+                                "%s: element %u: interpolated, but its row holds patch %u, "
+                                "not a direct source", name, e, el->col[el->row_start[e] + q]);
     }
     if (!(el->threshold >= 0.0) || !isfinite(el->threshold) || !(el->min_size >= 0.0) ||
         !isfinite(el->min_size))

@@ -196,8 +196,8 @@ static int parse_info(reader *r, rad_solution *s)
     if (r->version >= SOL_VERSION_SHEETS) {
         if (!get_u8(c, &r->announced))
             return TRUNC("truncated");
-        if (r->announced > 7)
-            return TRUNC("announced sections 0x%x: only bits 0-2 exist", r->announced);
+        if (r->announced > 15)
+            return TRUNC("announced sections 0x%x: only bits 0-3 exist", r->announced);
     }
     return sol_check_info(s, r->name, "section INFO", RAD_ERR_CORRUPT, r->err);
 }
@@ -800,10 +800,39 @@ static int parse_element_lights(reader *r, rad_solution *s)
     return RAD_OK;
 }
 
+/* ELEMENTINDIRECT: the counts must be the elements' and the patches', and
+ * the flags exactly fill the body; rad_elements_check applies the rules. */
+static int parse_element_indirect(reader *r, rad_solution *s)
+{
+    cursor *c = &r->c;
+    rad_elements *el = s->elements;
+    uint32_t ne, np;
+    if (!el)
+        return TRUNC("no elements");
+    if (!get_u32(c, &ne) || !get_u32(c, &np))
+        return TRUNC("truncated");
+    if (ne != el->mesh->patch_count || np != s->mesh->patch_count)
+        return TRUNC("%u elements and %u patches, but the solution has %u and %u", ne, np,
+                     el->mesh->patch_count, s->mesh->patch_count);
+    if ((uint64_t)ne + np != c->left)
+        return TRUNC("%u flags need as many bytes, %zu left", ne + np, c->left);
+    el->interp = malloc(ne ? ne : 1);
+    el->direct = malloc(np ? np : 1);
+    if (!el->interp || !el->direct)
+        return rfail(r, RAD_ERR_NOMEM, "out of memory for %u elements' flags", ne);
+    if (!get_bytes(c, el->interp, ne) || !get_bytes(c, el->direct, np))
+        return TRUNC("truncated");
+    rad_error sub;
+    if (rad_elements_check(el, s, "elements", &sub))
+        return rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
+    return RAD_OK;
+}
+
 typedef int (*parse_fn)(reader *, rad_solution *);
 static const parse_fn sec_parse[SEC_COUNT] = {parse_info,      parse_scene,  parse_mesh,
                                               parse_matrix,    parse_patchdata, parse_lights,
-                                              parse_elements,  parse_element_lights};
+                                              parse_elements,  parse_element_lights,
+                                              parse_element_indirect};
 
 static int known_section(const uint8_t tag[4])
 {

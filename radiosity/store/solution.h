@@ -82,7 +82,24 @@ typedef struct rad_light_power {
  * level > 0 has its row, with the invariants of a form-factor row (columns
  * strictly increasing, F_ej > 0, Σ_j F_ej <= 1 + 1e-3, column != patch[e]);
  * B >= 0 and finite; light_h, when present, has light_count == the scene's
- * light count > 0 and every h_le finite and >= 0, 0 at level 0. */
+ * light count > 0 and every h_le finite and >= 0, 0 at level 0.
+ *
+ * Interpolated elements (interp, with direct; issue 18).  Most of what an
+ * element adds over its patch is the direct light of the emitters and its
+ * shadows; the rest, light reflected by other surfaces, is smooth at the
+ * patches' scale.  An element with interp[e] = 1 therefore has a row that
+ * holds only the direct sources' entries (the patches j with direct[j] = 1,
+ * the emitters when it was made: F_ej × visibility, exact point-to-polygon
+ * factors over strata of j, each times its visibility from an item buffer
+ * rendered at the stratum), and takes the rest of its irradiance from the
+ * patches: H_i,p = Σ_{j: !direct[j]} F_pj B_j per patch, interpolated at the
+ * element's centre as the renderer draws a field of the patches (buried
+ * patches extrapolated, quadratic vertex fits, the fan of its patch):
+ *   B_e = E_p + ρ_p (Σ_j F_ej B_j + Ĥ_i(c_e) + H_d,e) + τ_p H_twin(p).
+ * Every quantity is stored or follows from stored rows, so a relight that
+ * scales an emitter's E rescales the direct entries exactly and renders
+ * nothing.  interp is 0 at level 0; an interpolated element's columns all
+ * have direct[j] = 1; an interpolated element never counts as buried. */
 #define RAD_MAX_ELEMENT_LEVEL 12
 
 typedef struct rad_elements {
@@ -93,6 +110,10 @@ typedef struct rad_elements {
     uint32_t light_count;  /* lights in light_h (0 when NULL) */
     float *light_h;        /* mesh->patch_count × light_count: h_le at [e·light_count + l],
                             * or NULL: no punctual lights, or a version 3 file (owned) */
+    uint8_t *interp;       /* mesh->patch_count: 1 = indirect light interpolated (above), or
+                            * NULL: every element's row covers all it sees (owned) */
+    uint8_t *direct;       /* the solution's patch count: the direct sources, present exactly
+                            * when interp is (owned) */
     uint64_t *row_start;   /* F_ej by rows, columns are patches: row e is entries */
     uint32_t *row_count;   /*   [row_start[e], row_start[e] + row_count[e]) (owned) */
     uint32_t *col;         /* patch j (owned) */

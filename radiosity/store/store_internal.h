@@ -14,10 +14,12 @@
  * section; version 4 = + the ELEMENTLIGHTS section (each element's own
  * direct light); version 5 = MESH may hold two-sided sheets (a transmitting
  * polygon's front cells followed by their back twins), with the sections of
- * versions 1-4 as its content needs them.  A file is written with the lowest
+ * versions 1-4 as its content needs them, and ELEMENTINDIRECT (which
+ * elements interpolate their indirect light, and the direct sources: issue
+ * 18) only in version 5.  A file is written with the lowest
  * version that holds what it has (1 without punctual lights or elements, 2
  * with lights, 3 with elements, 4 with elements that carry their own direct
- * light, 5 with sheets), so older programs still read what they understand,
+ * light, 5 with sheets or interpolated elements), so older programs still read what they understand,
  * and a file they would misread - skipping LIGHTS, ELEMENTS or ELEMENTLIGHTS
  * without a word, which for the last would relight the elements from their
  * patches' direct light, or taking a sheet's two sides for two unrelated
@@ -37,12 +39,13 @@
 /* The first five sections appear in every file; LIGHTS only when the scene
  * has punctual lights, ELEMENTS only when the solution has elements. */
 enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_ELEMENTS,
-       SEC_ELEMENT_LIGHTS, SEC_COUNT };
+       SEC_ELEMENT_LIGHTS, SEC_ELEMENT_INDIRECT, SEC_COUNT };
 extern const char sol_sec_tag[SEC_COUNT][4];
 extern const char *const sol_sec_name[SEC_COUNT];
 /* Sections each version may hold: 1 the first five, 2 + LIGHTS, 3 +
  * ELEMENTS (where LIGHTS is there exactly when the scene has lights), 4 +
- * ELEMENTLIGHTS (LIGHTS always), 5 any of them as the content needs. */
+ * ELEMENTLIGHTS (LIGHTS always), 5 any of them as the content needs,
+ * ELEMENTINDIRECT included. */
 extern const int sol_version_sections[SOL_VERSION + 1];
 
 /* Minimum encoded sizes of one element, used to bound counts before

@@ -129,7 +129,7 @@ static uint32_t version_of(const rad_solution *s);
 static int section_written(const rad_solution *s, int i);
 
 /* Version 5's INFO ends with the optional sections the file holds, one bit
- * each (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4): the reader then knows what
+ * each (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4, ELEMENTINDIRECT 8): the reader then knows what
  * must follow, and a file cut or stripped before one of them cannot pass
  * for a file without it. */
 static uint8_t announced_sections(const rad_solution *s)
@@ -301,6 +301,17 @@ static void emit_element_lights(sink *k, const rad_solution *s)
         put_f32(k, el->light_h[q]);
 }
 
+/* Which elements interpolate their indirect light, then which patches are
+ * direct sources: one byte each. */
+static void emit_element_indirect(sink *k, const rad_solution *s)
+{
+    const rad_elements *el = s->elements;
+    put_u32(k, el->mesh->patch_count);
+    put_u32(k, s->mesh->patch_count);
+    put(k, el->interp, el->mesh->patch_count);
+    put(k, el->direct, s->mesh->patch_count);
+}
+
 static void emit_patchdata(sink *k, const rad_solution *s)
 {
     uint32_t n = s->mesh->patch_count, nb = s->band_count;
@@ -350,10 +361,11 @@ static void emit_lights(sink *k, const rad_solution *s)
 typedef void (*emit_fn)(sink *, const rad_solution *);
 static const emit_fn sec_emit[SEC_COUNT] = {emit_info,      emit_scene,  emit_mesh,    emit_matrix,
                                             emit_patchdata, emit_lights, emit_elements,
-                                            emit_element_lights};
+                                            emit_element_lights, emit_element_indirect};
 
 /* LIGHTS is written only when there are lights, ELEMENTS when there are
- * elements, ELEMENTLIGHTS when the elements carry their own direct light. */
+ * elements, ELEMENTLIGHTS when the elements carry their own direct light,
+ * ELEMENTINDIRECT when some interpolate their indirect light. */
 static int section_written(const rad_solution *s, int i)
 {
     if (i == SEC_LIGHTS)
@@ -362,12 +374,14 @@ static int section_written(const rad_solution *s, int i)
         return s->elements != NULL;
     if (i == SEC_ELEMENT_LIGHTS)
         return s->elements && s->elements->light_h;
+    if (i == SEC_ELEMENT_INDIRECT)
+        return s->elements && s->elements->interp;
     return 1;
 }
 
 static uint32_t version_of(const rad_solution *s)
 {
-    if (s->mesh->twin)
+    if (s->mesh->twin || (s->elements && s->elements->interp))
         return SOL_VERSION_SHEETS;
     if (s->elements)
         return s->elements->light_h ? 4u : 3u;
