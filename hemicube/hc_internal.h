@@ -88,9 +88,10 @@ struct hc_engine {
 /* pool.c: worker k's stream is lost (EOF, garbage, a failed send).  Marks
  * the engine broken and fails with its message; err may be NULL. */
 int hc_pool_gone(hc_engine *e, uint32_t k, rad_error *err);
-/* pool.c: reads the len bytes of worker k's error text (the worker has
- * exited), marks the engine broken and fails with that text. */
-int hc_pool_error(hc_engine *e, uint32_t k, uint32_t len, rad_error *err);
+/* pool.c: reads the header (two words) of worker k's next reply: RAD_OK,
+ * or the engine is broken (the stream is lost, or the worker sent its error
+ * text in place of the reply and has exited). */
+int hc_pool_header(hc_engine *e, uint32_t k, uint32_t hdr[2], rad_error *err);
 /* pool.c: closes worker k's stream after a reply that could not be read:
  * nothing more is read from it (the engine is broken already). */
 void hc_pool_drop(hc_engine *e, uint32_t k);

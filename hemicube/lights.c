@@ -290,10 +290,9 @@ static int receive_light_header(hc_engine *e, uint32_t k, uint32_t tag, uint32_t
                                 rad_error *err)
 {
     uint32_t hdr[2];
-    if (hc_wire_recv(e->w[k].fd, hdr, sizeof hdr) != 0)
-        return hc_pool_gone(e, k, err);
-    if (hdr[0] == HC_MSG_ERROR)
-        return hc_pool_error(e, k, hdr[1], err);
+    int rc = hc_pool_header(e, k, hdr, err);
+    if (rc != RAD_OK)
+        return rc;
     if (hdr[0] != tag)
         return hc_pool_gone(e, k, err);
     *m = hdr[1];
@@ -306,7 +305,7 @@ static int receive_light(hc_engine *e, uint32_t k, double *power, double *rx, in
                          rad_error *err)
 {
     int fd = e->w[k].fd;
-    uint32_t m;
+    uint32_t m = 0;
     int rc = receive_light_header(e, k, HC_MSG_LIGHT, &m, err);
     if (rc != RAD_OK)
         return rc;
@@ -478,7 +477,7 @@ static int vis_part(const hc_light_req *q, rad_vec3 at)
 static int receive_vis(hc_engine *e, uint32_t k, const uint32_t *idx, uint32_t m, double *vis,
                        double *rx, int store, rad_error *err)
 {
-    uint32_t got;
+    uint32_t got = 0;
     int rc = receive_light_header(e, k, HC_MSG_VIS, &got, err);
     if (rc != RAD_OK)
         return rc;

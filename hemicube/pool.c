@@ -399,7 +399,9 @@ int hc_pool_gone(hc_engine *e, uint32_t k, rad_error *err)
     return rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
 }
 
-int hc_pool_error(hc_engine *e, uint32_t k, uint32_t len, rad_error *err)
+/* Reads the len bytes of worker k's error text (the worker has exited),
+ * marks the engine broken and fails with that text. */
+static int worker_error(hc_engine *e, uint32_t k, uint32_t len, rad_error *err)
 {
     char text[HC_MAX_MSG + 1] = "";
     if (hc_wire_recv_text(e->w[k].fd, len, text) != 0)
@@ -408,6 +410,15 @@ int hc_pool_error(hc_engine *e, uint32_t k, uint32_t len, rad_error *err)
     snprintf(e->broken_msg, sizeof e->broken_msg, "%s (worker %u)", text, k);
     e->w[k].in_flight = 0;
     return rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
+}
+
+int hc_pool_header(hc_engine *e, uint32_t k, uint32_t hdr[2], rad_error *err)
+{
+    if (hc_wire_recv(e->w[k].fd, hdr, 2 * sizeof *hdr) != 0)
+        return hc_pool_gone(e, k, err);
+    if (hdr[0] == HC_MSG_ERROR)
+        return worker_error(e, k, hdr[1], err);
+    return RAD_OK;
 }
 
 void hc_pool_drop(hc_engine *e, uint32_t k)
@@ -431,27 +442,19 @@ static void receive_batch(hc_engine *e, uint32_t k, const hc_job *job, int *rc, 
     int fd = e->w[k].fd;
     rad_error *first = *rc == RAD_OK ? err : NULL;
     uint32_t hdr[2];
-    if (hc_wire_recv(fd, hdr, sizeof hdr) != 0) {
-        keep_first(rc, hc_pool_gone(e, k, first));
-        return;
-    }
-    if (hdr[0] == HC_MSG_ERROR) {
-        keep_first(rc, hc_pool_error(e, k, hdr[1], first));
-        return;
-    }
-    if (hdr[0] != HC_MSG_BATCH || hdr[1] == 0 || hdr[1] > e->w[k].in_flight) {
-        keep_first(rc, hc_pool_gone(e, k, first));
+    int s = hc_pool_header(e, k, hdr, first);
+    if (s == RAD_OK && (hdr[0] != HC_MSG_BATCH || hdr[1] == 0 || hdr[1] > e->w[k].in_flight))
+        s = hc_pool_gone(e, k, first);
+    if (s != RAD_OK) {
+        keep_first(rc, s);
         return;
     }
     for (uint32_t r = 0; r < hdr[1]; r++) {
         first = *rc == RAD_OK ? err : NULL;
         uint32_t rh[2];
-        if (hc_wire_recv(fd, rh, sizeof rh) != 0) {
-            keep_first(rc, hc_pool_gone(e, k, first));
-            return;
-        }
-        if (rh[0] == HC_MSG_ERROR) {
-            keep_first(rc, hc_pool_error(e, k, rh[1], first));
+        s = hc_pool_header(e, k, rh, first);
+        if (s != RAD_OK) {
+            keep_first(rc, s);
             return;
         }
         /* i: the patch of a row, or the receiver number of a point. */
@@ -473,8 +476,8 @@ static void receive_batch(hc_engine *e, uint32_t k, const hc_job *job, int *rc, 
                 keep_first(rc, hc_pool_gone(e, k, err));
                 return;
             }
-        int s = job->recv ? job->store(job->user, i, cnt, e->rx_col, e->rx_val, err)
-                          : rad_matrix_set_row(job->F, i, cnt, e->rx_col, e->rx_val, err);
+        s = job->recv ? job->store(job->user, i, cnt, e->rx_col, e->rx_val, err)
+                      : rad_matrix_set_row(job->F, i, cnt, e->rx_col, e->rx_val, err);
         if (s != RAD_OK) {
             keep_first(rc, s);
             continue;
