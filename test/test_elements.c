@@ -343,7 +343,7 @@ static rad_solution *box_solution(double lo, double hi, const rad_solve_options 
         fprintf(stderr, "  parse: %s\n", err.message);
         return NULL;
     }
-    rad_solve_options none = {0};
+    rad_solve_options none = {.refine_threshold = RAD_REFINE_OFF};
     rad_solution *s = NULL;
     if (rad_solve_scene(scene, opt ? opt : &none, &s, &err)) {
         fprintf(stderr, "  solve: %s\n", err.message);

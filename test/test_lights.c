@@ -106,7 +106,7 @@ static void light(rad_scene *s, const char *name, rad_light_kind kind, double I,
 
 static rad_solution *solve(rad_scene *s, uint32_t light_resolution)
 {
-    rad_solve_options opt = {0};
+    rad_solve_options opt = {.refine_threshold = RAD_REFINE_OFF}; /* patches only */
     opt.light_resolution = light_resolution;
     rad_solution *sol = NULL;
     rad_error e = {0};

@@ -62,7 +62,7 @@ TEST(furnace_cube)
 {
     char text[8192];
     box_text(text, sizeof text, 1.0, "material m reflectance 0.5 emission 1", 6);
-    rad_solve_options opt = {0};
+    rad_solve_options opt = {.refine_threshold = RAD_REFINE_OFF}; /* patches only */
     rad_solution *s = solve_text(text, &opt);
     CHECK(s != NULL);
     if (!s)
@@ -84,7 +84,7 @@ TEST(parallel_squares_ff)
                        "material m reflectance 0.5\n"
                        "polygon bottom m subdivide 16 16\n 0 0 0  0 0 1  1 0 1  1 0 0\nend\n"
                        "polygon top m subdivide 16 16\n 0 1 0  1 1 0  1 1 1  0 1 1\nend\n";
-    rad_solve_options opt = {.all_rows = 1};
+    rad_solve_options opt = {.all_rows = 1, .refine_threshold = RAD_REFINE_OFF};
     rad_solution *s = solve_text(text, &opt);
     CHECK(s != NULL);
     if (!s)
@@ -101,7 +101,7 @@ TEST(parallel_squares_ff)
 static rad_solution *cornell(double patch_size)
 {
     rad_error err = {0};
-    rad_solve_options opt = {0};
+    rad_solve_options opt = {.refine_threshold = RAD_REFINE_OFF}; /* patches only */
     opt.mesh.patch_size = patch_size;
     rad_solution *s = NULL;
     if (rad_solve_scene_file("models/cornell.rad", &opt, &s, &err))
@@ -183,7 +183,7 @@ TEST(relight_cornell)
     double *B1 = malloc(nv * sizeof *B1);
     memcpy(B1, s->B, nv * sizeof *B1);
     rad_error err = {0};
-    rad_solve_options opt = {0};
+    rad_solve_options opt = {.refine_threshold = RAD_REFINE_OFF}; /* patches only */
     opt.solver.tolerance = 1e-9;
     CHECK(rad_resolve(s, &opt, &err) == RAD_OK);
     memcpy(B1, s->B, nv * sizeof *B1);
@@ -223,7 +223,7 @@ TEST(relight_cornell)
         scene->materials[white].rho[0] = 0.3;
         scene->materials[white].rho[1] = 0.4;
         scene->materials[white].rho[2] = 0.5;
-        rad_solve_options fresh_opt = {0};
+        rad_solve_options fresh_opt = {.refine_threshold = RAD_REFINE_OFF};
         fresh_opt.mesh.patch_size = 0.08;
         fresh_opt.solver.tolerance = 1e-9;
         rad_solution *fresh = NULL;
@@ -254,7 +254,7 @@ TEST(three_solvers_agree)
     if (!s)
         return;
     rad_error err = {0};
-    rad_solve_options opt = {.all_rows = 1};
+    rad_solve_options opt = {.all_rows = 1, .refine_threshold = RAD_REFINE_OFF};
     const double tol = 1e-5;
     opt.solver.tolerance = tol;
     size_t nv = (size_t)s->mesh->patch_count * 3;
@@ -321,7 +321,7 @@ TEST(economy_grey_and_black)
     box_text(grey3, sizeof grey3, 1.0, "material m reflectance 0.6 emission 1", 4);
     box_text(grey1, sizeof grey1, 1.0, "material m reflectance 0.6 emission 1", 4);
     memcpy(grey1, "bands 1", 7);
-    rad_solve_options opt = {0};
+    rad_solve_options opt = {.refine_threshold = RAD_REFINE_OFF}; /* patches only */
     rad_solution *a = solve_text(grey3, &opt), *b = solve_text(grey1, &opt);
     CHECK(a && b);
     if (a && b) {

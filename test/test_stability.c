@@ -134,7 +134,8 @@ static rad_solution *solve_text(const char *src, const rad_solve_options *opt)
         return NULL;
     }
     rad_solution *s = NULL;
-    if (rad_solve_scene(scene, opt, &s, &err) != RAD_OK) {
+    const rad_solve_options patches = {.refine_threshold = RAD_REFINE_OFF}; /* NULL: patches only */
+    if (rad_solve_scene(scene, opt ? opt : &patches, &s, &err) != RAD_OK) {
         fprintf(stderr, "  solve: %s\n", err.message);
         return NULL;
     }
@@ -240,7 +241,7 @@ static void cube_furnace(double rho, int no_acceleration)
     text t = {0};
     tx_add(&t, "bands 1\nmaterial m reflectance %.17g emission 1\n", rho);
     add_room(&t, "c", rad_v3(0, 0, 0), rad_v3(1, 1, 1), "m", 6);
-    rad_solve_options opt = {0};
+    rad_solve_options opt = {.refine_threshold = RAD_REFINE_OFF}; /* patches only */
     opt.solver.no_acceleration = no_acceleration;
     rad_solution *s = solve_text(t.s, &opt);
     tx_free(&t);
@@ -361,7 +362,7 @@ TEST(stopping_rule_slow_mixing)
         const unsigned sub[6] = {16, 16, 2, 2, 2, 2};
         /* x: 0..1, y: 0..1, z: 0..8; the z0 end emits. */
         add_box(&t, "c", rad_v3(0, 0, 0), rad_v3(1, 1, 8), 1, m, sub);
-        rad_solve_options opt = {0};
+        rad_solve_options opt = {.refine_threshold = RAD_REFINE_OFF}; /* patches only */
         opt.solver.tolerance = tols[k];
         rad_solution *s = solve_text(t.s, &opt);
         tx_free(&t);
@@ -483,7 +484,8 @@ TEST(proximity_parallel_plates)
                               rad_v3(0, gap, 1)};
     const double howell = hc_ff_parallel_rectangles(1, 1, gap);
     for (int near = 0; near < 2; near++) {
-        rad_solve_options opt = {.all_rows = 1, .exact_near = near};
+        rad_solve_options opt = {.all_rows = 1, .exact_near = near,
+                                 .refine_threshold = RAD_REFINE_OFF};
         rad_solution *s = solve_text(t.s, &opt);
         CHECK(s != NULL);
         if (!s)
@@ -627,7 +629,7 @@ TEST(dynamic_range)
     /* On the x = 0 wall, facing +x, a hair in front of it, bottom edge at 0.01. */
     add_quad(&t, "dim", "faint", 1, 1, rad_v3(0.001, 0.01, 0.9), rad_v3(0, 0.2, 0),
              rad_v3(0, 0, 0.2));
-    rad_solve_options opt = {0};
+    rad_solve_options opt = {.refine_threshold = RAD_REFINE_OFF}; /* patches only */
     opt.solver.tolerance = 1e-13;
     rad_solution *s = solve_text(t.s, &opt);
     tx_free(&t);
@@ -705,7 +707,7 @@ TEST(coincident_polygons_deterministic)
     double *first = NULL;
     size_t n = 0;
     for (int run = 0; run < 3; run++) {
-        rad_solve_options opt = {0};
+        rad_solve_options opt = {.refine_threshold = RAD_REFINE_OFF}; /* patches only */
         opt.hemicube.processes = procs[run];
         rad_solution *s = solve_text(t.s, &opt);
         CHECK(s != NULL);
@@ -813,7 +815,7 @@ TEST(tiny_triangles_polyfile)
     text tiny = {0};
     tx_add(&tiny, "%spolygon speck wall\n  0.5 0.5 0.5\n  0.5 0.5 %.17g\n  %.17g 0.5 0.5\nend\n",
            base.s, 0.5 + leg, 0.5 + leg);
-    rad_solve_options opt = {0};
+    rad_solve_options opt = {.refine_threshold = RAD_REFINE_OFF}; /* patches only */
     opt.solver.tolerance = 1e-9;
     rad_solution *with = solve_text(tiny.s, &opt), *without = solve_text(base.s, &opt);
     CHECK(with != NULL && without != NULL);
@@ -878,7 +880,7 @@ TEST(far_from_origin)
         /* An occluder inside, so visibility matters too. */
         add_quad(&t, "shelf", "wall", 3, 3, rad_add(o, rad_v3(0.25, 0.4, 0.25)), rad_v3(0.5, 0, 0),
                  rad_v3(0, 0, 0.5));
-        rad_solve_options opt = {0};
+        rad_solve_options opt = {.refine_threshold = RAD_REFINE_OFF}; /* patches only */
         opt.solver.tolerance = 1e-8;
         s[k] = solve_text(t.s, &opt);
         tx_free(&t);
@@ -970,7 +972,7 @@ static rad_solution *solve_gltf(const char *doc, size_t size, rad_error *err)
     if (rad_scene_parse_gltf(doc, size, "stability.gltf", NULL, &scene, err) != RAD_OK)
         return NULL;
     rad_solution *s = NULL;
-    rad_solve_options opt = {0};
+    rad_solve_options opt = {.refine_threshold = RAD_REFINE_OFF}; /* patches only */
     opt.mesh.patch_size = 0.0625; /* 16 patches along a unit edge */
     if (rad_solve_scene(scene, &opt, &s, err) != RAD_OK)
         return NULL;
@@ -1119,7 +1121,7 @@ TEST(gltf_double_sided)
     if (rc != RAD_OK)
         return;
     rad_solution *s = NULL;
-    rad_solve_options opt = {.all_rows = 1};
+    rad_solve_options opt = {.all_rows = 1, .refine_threshold = RAD_REFINE_OFF};
     rc = rad_solve_scene(scene, &opt, &s, &err);
     CHECK_MSG(rc == RAD_OK, "%s", err.message);
     if (rc != RAD_OK)
@@ -1286,7 +1288,7 @@ TEST(limit_matrix_memory)
     CHECK(rad_solution_create(sc, mesh, &s, &err) == RAD_OK);
     if (!s)
         return;
-    rad_solve_options opt = {0};
+    rad_solve_options opt = {.refine_threshold = RAD_REFINE_OFF}; /* patches only */
     opt.max_memory = 1 << 20; /* 1 MiB; 600² entries of 8 bytes need 2.9 MB */
     CHECK(rad_resolve(s, &opt, &err) == RAD_ERR_LIMIT);
     CHECK(s->F->rows_done == 0);

@@ -434,7 +434,7 @@ TEST(lamp_sheet_floor)
  * max B, so both stop near the same fixed point; we ask for 1e-10). */
 TEST(relight_sheet)
 {
-    rad_solve_options opt = {.solver = {.tolerance = 1e-10}};
+    rad_solve_options opt = {.solver = {.tolerance = 1e-10}, .refine_threshold = RAD_REFINE_OFF};
     rad_solution *s = solve_sheet("0", &opt);
     rad_solution *fresh = solve_sheet("0.3", &opt);
     CHECK(s && fresh);

@@ -11,8 +11,9 @@
 #include <stdio.h>
 #include <string.h>
 
-/* Parses polygon-file text (`name` in messages) and solves it; NULL, with
- * the message on stderr, on failure.  Caller owns the result. */
+/* Parses polygon-file text (`name` in messages) and solves it as opt says
+ * (NULL: defaults, but no elements: patches only); NULL, with the message
+ * on stderr, on failure.  Caller owns the result. */
 static inline rad_solution *test_solve_text(const char *text, const char *name,
                                             const rad_solve_options *opt)
 {
@@ -23,7 +24,8 @@ static inline rad_solution *test_solve_text(const char *text, const char *name,
         return NULL;
     }
     rad_solution *s = NULL;
-    if (rad_solve_scene(scene, opt, &s, &err)) {
+    const rad_solve_options patches = {.refine_threshold = RAD_REFINE_OFF};
+    if (rad_solve_scene(scene, opt ? opt : &patches, &s, &err)) {
         fprintf(stderr, "  solve: %s\n", err.message);
         return NULL;
     }

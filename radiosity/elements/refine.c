@@ -33,6 +33,7 @@ typedef struct enode {
     uint32_t v[4];     /* corners; v[3] == RAD_NONE for a triangle */
     uint32_t patch;
     uint32_t kids;     /* first of its four children (probes or split), RAD_NONE: none */
+    uint32_t parent;   /* RAD_NONE at level 0 */
     uint8_t level;
     uint8_t state;     /* NODE_* */
     uint8_t settled;   /* 1: not worth probing (see refine_adaptive) */
@@ -155,6 +156,7 @@ static int add_element(builder *b, const uint32_t v[4], uint32_t patch, uint32_t
     memcpy(n->v, v, sizeof n->v);
     n->patch = patch;
     n->kids = RAD_NONE;
+    n->parent = RAD_NONE;
     n->level = (uint8_t)level;
     n->state = (uint8_t)state;
     n->settled = 0;
@@ -201,9 +203,11 @@ static int split(builder *b, uint32_t e, int kid_state)
         memcpy(kids, q, sizeof kids);
     }
     uint32_t first = b->ne;
-    for (int k = 0; k < 4; k++)
+    for (int k = 0; k < 4; k++) {
         if (add_element(b, kids[k], n.patch, n.level + 1u, kid_state) != 0)
             return -1;
+        b->E[b->ne - 1].parent = e;
+    }
     b->E[e].kids = first;
     if (kid_state == NODE_LEAF)
         b->E[e].state = NODE_SPLIT;
@@ -341,6 +345,36 @@ static int store_row(void *user, uint32_t k, uint32_t count, const uint32_t *col
     return RAD_OK;
 }
 
+/* Is element e buried: a child that nothing meets, holding its parent's
+ * centre (a corner of each quad child, inside a triangle's middle child),
+ * of a parent that sees nothing?  Then all of it lies on the buried side of
+ * every contact, like that centre. */
+static int buried_child(const builder *b, uint32_t e)
+{
+    const enode *n = &b->E[e];
+    if (n->parent == RAD_NONE)
+        return 0;
+    const enode *p = &b->E[n->parent];
+    if (p->v[3] == RAD_NONE && e - p->kids != 3)
+        return 0;
+    const size_t pb = (size_t)n->patch * b->bands;
+    return p->level == 0 ? el_sees_nothing(b->s, n->patch, 0, 0, 0, b->s->B + pb)
+                         : el_sees_nothing(b->s, n->patch, p->level, p->interp, p->cnt,
+                                           b->B + (size_t)n->parent * b->bands);
+}
+
+/* A buried element's row: none, and B = E (it sees nothing). */
+static void store_buried(builder *b, uint32_t e)
+{
+    enode *n = &b->E[e];
+    n->start = b->nnz;
+    n->cnt = 0;
+    for (uint32_t l = 0; l < b->nl; l++)
+        b->h[(size_t)e * b->nl + l] = 0.0f;
+    memcpy(b->B + (size_t)e * b->bands, b->s->emission + (size_t)n->patch * b->bands,
+           b->bands * sizeof *b->B);
+}
+
 /* An interpolated element's row: its direct row, receiver k of the batch. */
 static int store_direct(builder *b, uint32_t e, uint32_t k, const hc_receiver *at, rad_error *err)
 {
@@ -445,7 +479,10 @@ static int compute_rows_of(builder *b, hc_engine *hc, const uint32_t *which, uin
         rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
     for (uint32_t k = 0; k < count && rc == RAD_OK; k++) {
         if (b->cheap && !touched(b, &b->E[which[k]])) {
-            rc = store_direct(b, which[k], k, &r[k], err);
+            if (buried_child(b, which[k]))
+                store_buried(b, which[k]);
+            else
+                rc = store_direct(b, which[k], k, &r[k], err);
             continue;
         }
         hw[m] = which[k];
