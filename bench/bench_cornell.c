@@ -116,6 +116,8 @@ static void run(row *r, int repeat)
         opt.element_hemicubes = r->hemicubes;
         if (getenv("BENCH_PATCH_SIZE"))
             opt.mesh.patch_size = atof(getenv("BENCH_PATCH_SIZE"));
+        if (getenv("BENCH_EXACT_NEAR"))
+            opt.exact_near = atoi(getenv("BENCH_EXACT_NEAR"));
         if (getenv("BENCH_TOLERANCE"))
             opt.solver.tolerance = atof(getenv("BENCH_TOLERANCE"));
         rad_solution *s = NULL;

@@ -77,7 +77,15 @@ struct hc_engine {
     double *radius;    /* n: largest distance from patch centre to a corner */
     double bradius;    /* every corner lies within this distance of the origin */
     uint8_t *exact;    /* n: copy of opt->exact, or NULL */
-    int any_exact;     /* rows have candidates: exact marks or exact_near */
+    int any_exact;     /* rows may have candidates: exact marks, exact_near or small
+                        * polygons (any mesh of two patches or more) */
+    /* Per polygon of the mesh (the largest polygon index + 1): the summed
+     * area of its patches and their area-weighted centre - origin, to tell
+     * a polygon too small on the cube for its pixels to be counted (rows.c). */
+    uint32_t npoly;
+    uint32_t *poly_patches; /* patches of each polygon */
+    double *poly_area;
+    rad_vec3 *poly_center;
     hc_worker *w;
     int broken;        /* a worker is gone: every later call fails */
     char broken_msg[HC_MAX_MSG + 64];

@@ -77,6 +77,9 @@ void hc_destroy(hc_engine *e)
     free(e->center);
     free(e->ncorner);
     free(e->bsphere);
+    free(e->poly_area);
+    free(e->poly_patches);
+    free(e->poly_center);
     free(e->radius);
     free(e->exact);
     free(e->rx_col);
@@ -233,6 +236,12 @@ static int engine_alloc(const rad_mesh *mesh, const hc_options *o, long cpus, hc
     e->ncorner = malloc(n ? n : 1);
     e->bsphere = malloc(((size_t)n / HC_BLOCK + 1) * 4 * sizeof *e->bsphere);
     e->radius = malloc((n ? n : 1) * sizeof *e->radius);
+    e->npoly = 0;
+    for (uint32_t j = 0; j < n; j++)
+        e->npoly = mesh->patches[j].polygon >= e->npoly ? mesh->patches[j].polygon + 1 : e->npoly;
+    e->poly_area = calloc((size_t)e->npoly + 1, sizeof *e->poly_area);
+    e->poly_patches = calloc((size_t)e->npoly + 1, sizeof *e->poly_patches);
+    e->poly_center = calloc((size_t)e->npoly + 1, sizeof *e->poly_center);
     e->rx_col = malloc((n ? n : 1) * sizeof *e->rx_col);
     e->rx_val = malloc((n ? n : 1) * sizeof *e->rx_val);
     e->w = calloc(e->nproc, sizeof *e->w);
@@ -246,9 +255,10 @@ static int engine_alloc(const rad_mesh *mesh, const hc_options *o, long cpus, hc
                 e->any_exact = e->exact[j] != 0;
         }
     }
-    e->any_exact |= o->exact_near != 0 && n > 1;
+    e->any_exact |= n > 1; /* small polygons get exact entries (rows.c) */
     e->opt.exact = e->exact;
     if (!e->dff || !e->corner || !e->center || !e->ncorner || !e->bsphere || !e->radius ||
+        !e->poly_area || !e->poly_center || !e->poly_patches ||
         !e->rx_col || !e->rx_val || !e->w || (o->exact && n && !e->exact)) {
         hc_destroy(e);
         return rad_fail(err, RAD_ERR_NOMEM, "hc_create: out of memory for %u patches at resolution %u",
@@ -297,7 +307,14 @@ static void prepare_geometry(hc_engine *e, rad_vec3 lo, rad_vec3 hi)
         }
         e->radius[j] = sqrt(r2);
         e->bradius = fmax(e->bradius, sqrt(b2));
+        e->poly_area[p->polygon] += p->area;
+        e->poly_patches[p->polygon]++;
+        e->poly_center[p->polygon] =
+            rad_add(e->poly_center[p->polygon], rad_scale(e->center[j], p->area));
     }
+    for (uint32_t q = 0; q < e->npoly; q++)
+        if (e->poly_area[q] > 0.0)
+            e->poly_center[q] = rad_scale(e->poly_center[q], 1.0 / e->poly_area[q]);
 }
 
 /* The bounding sphere of every HC_BLOCK consecutive patches (rows.c culls

@@ -372,12 +372,14 @@ static double monitor_q(const band_monitor *m)
  * E + ρ F src, one more term of the Neumann series.  D holds the previous
  * change of every value and receives the new one; per band, dmax[b] gets
  * max |ΔB_k| and cosine[b] the cosine between ΔB_k and ΔB_k-1 (0 when
- * either is zero).  Returns max B. */
+ * either is zero), and *rmax max (B − E), the largest reflected radiosity.
+ * Returns max B. */
 static double sweep(const sv_system *s, const double *src, double *dst, double *D, double *dmax,
-                    double *cosine)
+                    double *cosine, double *rmax)
 {
     const uint32_t nb = s->bands;
     double bmax = 0.0, g[RAD_MAX_BANDS];
+    *rmax = 0.0;
     double dot[RAD_MAX_BANDS], now[RAD_MAX_BANDS], before[RAD_MAX_BANDS];
     for (uint32_t b = 0; b < nb; b++)
         dmax[b] = dot[b] = now[b] = before[b] = 0.0;
@@ -397,6 +399,8 @@ static double sweep(const sv_system *s, const double *src, double *dst, double *
                 dmax[b] = fabs(d);
             if (!(nv <= bmax)) /* NaN or overflow propagates to the caller's check */
                 bmax = nv;
+            if (nv - s->emission[o + b] > *rmax)
+                *rmax = nv - s->emission[o + b];
         }
     }
     for (uint32_t b = 0; b < nb; b++)
@@ -455,7 +459,7 @@ static int solve_sweeps(const sv_system *s, const sv_options *o, double tol, dou
     uint32_t k = 0;
     int rc = RAD_OK;
     for (k = 1; k <= max_sweeps; k++) {
-        double bmax = sweep(s, cur, nxt, D, dmax, cosine);
+        double rmax, bmax = sweep(s, cur, nxt, D, dmax, cosine, &rmax);
         if (jacobi) {
             double *t = cur;
             cur = nxt;
@@ -467,7 +471,12 @@ static int solve_sweeps(const sv_system *s, const sv_options *o, double tol, dou
             break;
         }
 
-        /* The stopping rule: δ = max|ΔB|/max B, remaining error ≈ δ·q/(1-q). */
+        /* The stopping rule: δ = max|ΔB| / max (B − E), remaining error ≈
+         * δ·q/(1-q).  Relative to the light the solve computes, not to the
+         * emitters' own E: a lamp a hundred times brighter than the walls
+         * would otherwise let the walls stop a per cent short (a closed
+         * room then absorbed 0.9 % less than it emitted). */
+        const double scale = rmax > 0.0 ? rmax : bmax;
         double e = 0.0, qmax = 0.0;
         int known = 1;
         for (uint32_t b = 0; b < nb; b++) {
@@ -482,7 +491,7 @@ static int solve_sweeps(const sv_system *s, const sv_options *o, double tol, dou
                 e = INFINITY;
                 continue;
             }
-            double eb = q < 1.0 ? dmax[b] / bmax * q / (1.0 - q) : INFINITY;
+            double eb = q < 1.0 ? dmax[b] / scale * q / (1.0 - q) : INFINITY;
             if (!(eb <= e))
                 e = eb;
         }

@@ -48,8 +48,10 @@ typedef enum sv_method {
 typedef struct sv_options {
     sv_method method;
     /* Stop when the estimated remaining relative error is below this.
-     * Gauss-Seidel/Jacobi: max_i |B_i - B_i*| / max(B_i) estimated from the
-     * last change and the observed contraction rate q: change · q / (1 - q).
+     * Gauss-Seidel/Jacobi: max_i |B_i - B_i*| / max_i (B_i - E_i) (the
+     * largest reflected radiosity: emitters' own E do not loosen it)
+     * estimated from the last change and the observed contraction rate q:
+     * change · q / (1 - q).
      * Progressive: unshot power / emitted power.  0 = SV_DEFAULT_TOLERANCE. */
     double tolerance;
     uint32_t max_iterations; /* sweeps (or shots for progressive); 0 = 10000 (progressive: 100·n) */

@@ -11,7 +11,9 @@
  *     included (the vertex fits);
  *   - elements buried under a box resting on the floor do not darken the
  *     visible floor beside it;
- *   - a relight gathers the elements again without a hemi-cube.
+ *   - a relight gathers the elements again without a hemi-cube;
+ *   - at the defaults, a block's shadow under a small lamp is drawn within
+ *     0.5 % of the exact visible part of the lamp (issue 18).
  */
 #include "../radiosity/pipeline/pipeline.h"
 #include "test.h"
@@ -473,7 +475,8 @@ TEST(refinement_splits_across_the_foot_of_a_block)
 
 /* A relight: the lamp ×2 doubles every element's B (within 1e-6 relative:
  * the gather is linear in B and E) with no hemi-cube for patches or
- * elements. */
+ * elements and no item buffer (the refinement's elements are interpolated
+ * ones: their lamp entries, strata × visibility, are stored). */
 TEST(relight_gathers_elements_again)
 {
     rad_solution *s = shadow_solution();
@@ -505,7 +508,162 @@ TEST(relight_gathers_elements_again)
     CHECK(worst < 1e-6);
     CHECK(s->rows_computed == 0);
     CHECK(s->elements->rows_computed == 0);
+    CHECK(s->lights_computed == 0); /* no item buffer either: the strata's are stored */
     free(before);
+    rad_solution_destroy(s);
+}
+
+
+/* ----------------------------------------------- a block's shadow at defaults */
+
+/* The floating block's scene: a 2×2 floor (ρ = 0.5) in z = 0, a lamp of
+ * side 0.3 at z = 1.2 over (1, 1) facing down (radiance 1: E = π, ρ = 0),
+ * and a black block [0.3,0.6]×[0.4,0.7]×[0.1,0.4] between them.  Nothing
+ * but the floor reflects and the floor does not see itself, so its B is
+ * ρ E F(x → the part of the lamp x sees), which geometry gives exactly. */
+#define BLOCK_LAMP_Z 1.2
+static const double block_lo[3] = {0.3, 0.4, 0.1}, block_hi[3] = {0.6, 0.7, 0.4};
+
+static const char *block_scene_text(void)
+{
+    return "bands 1\n"
+           "material white reflectance 0.5\n"
+           "material lamp emission 3.141592653589793\n"
+           "material black reflectance 0\n"
+           "polygon floor white 0 0 0  2 0 0  2 2 0  0 2 0 end\n"
+           "polygon lamp lamp 0.85 0.85 1.2  0.85 1.15 1.2  1.15 1.15 1.2  1.15 0.85 1.2 end\n"
+           "group block\n"
+           " polygon bottom black 0.3 0.4 0.1  0.3 0.7 0.1  0.6 0.7 0.1  0.6 0.4 0.1 end\n"
+           " polygon top black 0.3 0.4 0.4  0.6 0.4 0.4  0.6 0.7 0.4  0.3 0.7 0.4 end\n"
+           " polygon south black 0.3 0.4 0.1  0.6 0.4 0.1  0.6 0.4 0.4  0.3 0.4 0.4 end\n"
+           " polygon north black 0.3 0.7 0.1  0.3 0.7 0.4  0.6 0.7 0.4  0.6 0.7 0.1 end\n"
+           " polygon west black 0.3 0.4 0.1  0.3 0.4 0.4  0.3 0.7 0.4  0.3 0.7 0.1 end\n"
+           " polygon east black 0.6 0.4 0.1  0.6 0.7 0.1  0.6 0.7 0.4  0.6 0.4 0.4 end\n"
+           "end\n";
+}
+
+/* Clips the convex polygon P (n points, in the plane z = const) to the
+ * half-plane left of a→b; returns the new count. */
+static int clip_left(rad_vec3 *P, int n, rad_vec3 a, rad_vec3 b)
+{
+    rad_vec3 out[32];
+    int m = 0;
+    for (int k = 0; k < n && m < 30; k++) {
+        rad_vec3 p = P[k], q = P[(k + 1) % n];
+        double sp = (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x);
+        double sq = (b.x - a.x) * (q.y - a.y) - (b.y - a.y) * (q.x - a.x);
+        if (sp >= 0)
+            out[m++] = p;
+        if ((sp >= 0) != (sq >= 0))
+            out[m++] = rad_add(p, rad_scale(rad_sub(q, p), sp / (sp - sq)));
+    }
+    memcpy(P, out, (size_t)m * sizeof *P);
+    return m;
+}
+
+/* The form factor from floor point x (normal +z) to the part of the lamp
+ * that the block does not hide: the lamp's factor minus that of its
+ * intersection with the block's shadow on the lamp's plane, the convex hull
+ * of the block's corners projected from x (every corner lies above x). */
+static double lamp_seen(rad_vec3 x, double *whole)
+{
+    const rad_vec3 up = rad_v3(0, 0, 1);
+    rad_vec3 lamp[4] = {{0.85, 0.85, BLOCK_LAMP_Z}, {1.15, 0.85, BLOCK_LAMP_Z},
+                        {1.15, 1.15, BLOCK_LAMP_Z}, {0.85, 1.15, BLOCK_LAMP_Z}};
+    *whole = hc_ff_point_polygon(x, up, lamp, 4);
+    rad_vec3 c[8];
+    for (int k = 0; k < 8; k++) {
+        rad_vec3 v = rad_v3((k & 1) ? block_hi[0] : block_lo[0], (k & 2) ? block_hi[1] : block_lo[1],
+                            (k & 4) ? block_hi[2] : block_lo[2]);
+        c[k] = rad_add(x, rad_scale(rad_sub(v, x), (BLOCK_LAMP_Z - x.z) / (v.z - x.z)));
+    }
+    /* convex hull (gift wrapping, counter-clockwise) of the 8 points */
+    rad_vec3 hull[8];
+    int nh = 0, start = 0;
+    for (int k = 1; k < 8; k++)
+        if (c[k].x < c[start].x || (c[k].x == c[start].x && c[k].y < c[start].y))
+            start = k;
+    int p = start;
+    do {
+        hull[nh++] = c[p];
+        int q = (p + 1) % 8;
+        for (int k = 0; k < 8; k++) {
+            double cr = (c[q].x - c[p].x) * (c[k].y - c[p].y) - (c[q].y - c[p].y) * (c[k].x - c[p].x);
+            if (cr < 0)
+                q = k;
+        }
+        p = q;
+    } while (p != start && nh < 8);
+    rad_vec3 P[32];
+    memcpy(P, lamp, sizeof lamp);
+    int n = 4;
+    for (int k = 0; k < nh && n > 0; k++)
+        n = clip_left(P, n, hull[k], hull[(k + 1) % nh]);
+    double hidden = n >= 3 ? hc_ff_point_polygon(x, up, P, (uint32_t)n) : 0.0;
+    return *whole - hidden;
+}
+
+/* The shadow of a block under a small lamp, drawn at the defaults (elements
+ * by the default refinement): seen from straight above, the mean radiance
+ * over the floor pixels in the block's shadow (some of the lamp hidden),
+ * over its penumbra alone and over the lit floor, against ρ E F/π with the
+ * exact visible part of the lamp at each pixel's point.  The issue asks for
+ * 2 %; measured +0.04 % (shadow), -0.12 % (penumbra), -0.03 % (lit), so
+ * 0.5 % each.  Patches alone (no elements): shadow +40 %, penumbra +12 %,
+ * lit -1.1 %.  Cost: about
+ * 1 s of CPU. */
+TEST(block_shadow_at_defaults)
+{
+    rad_solution *s = test_solve_text(block_scene_text(), "block.rad",
+                                      &(rad_solve_options){0}); /* the defaults */
+    CHECK(s && s->elements);
+    if (!s)
+        return;
+    const uint32_t W = 256;
+    const double dist = 20.0, half = 1.0;
+    rn_camera cam = {.eye = {1.0, 1.0, dist}, .target = {1.0, 1.0, 0.0}, .up = {0, 1, 0},
+                     .yfov_deg = 2.0 * atan(half / dist) * 180.0 / M_PI, .width = W, .height = W};
+    rn_image *img = NULL;
+    rad_error err = {0};
+    CHECK(rad_render_solution(s, &cam, &img, &err) == RAD_OK);
+    const uint32_t floor = object_named(s, "floor");
+    double got[3] = {0}, want[3] = {0};
+    uint32_t count[3] = {0};
+    /* the renderer's pinhole: pixel (i, j) looks along f + a r + b u */
+    const double k = 0.5 * W / (half / dist);
+    for (uint32_t j = 0; img && j < W; j++)
+        for (uint32_t i = 0; i < W; i++) {
+            uint32_t id = img->patch[(size_t)j * W + i];
+            if (id == RAD_NONE)
+                continue;
+            if (s->mesh->patches[id].object != floor) /* the image names patches */
+                continue;
+            /* camera right = f × up = (0,0,-1) × (0,1,0) = (1,0,0); up = (0,1,0) */
+            double a = (i + 0.5 - 0.5 * W) / k, b = (0.5 * W - j - 0.5) / k;
+            rad_vec3 x = rad_v3(1.0 + a * dist, 1.0 + b * dist, 0.0);
+            if (x.x < 0.02 || x.x > 1.98 || x.y < 0.02 || x.y > 1.98)
+                continue; /* the floor's outline pixels are extrapolated */
+            double whole, seen = lamp_seen(x, &whole);
+            /* 0: the shadow (some of the lamp hidden), 1: its penumbra (some
+             * of the lamp seen too), 2: the lit floor */
+            const int lit = seen >= whole * (1 - 1e-12), penumbra = !lit && seen > 0.0;
+            const double L = 0.5 * seen; /* ρ E F / π, E = π */
+            const float px = img->pixels[(size_t)j * W + i];
+            for (int c = 0; c < 3; c++)
+                if (c == 0 ? !lit : c == 1 ? penumbra : lit) {
+                    got[c] += px;
+                    want[c] += L;
+                    count[c]++;
+                }
+        }
+    const char *what[3] = {"shadow", "penumbra", "lit floor"};
+    for (int c = 0; c < 3; c++) {
+        CHECK(count[c] > 500);
+        printf("  %-9s %6u pixels: mean L %.6f, exact %.6f (%+.2f %%)\n", what[c], count[c],
+               got[c] / count[c], want[c] / count[c], 100 * (got[c] / want[c] - 1));
+        CHECK_REL(got[c], want[c], 5e-3);
+    }
+    rn_image_destroy(img);
     rad_solution_destroy(s);
 }
 
@@ -518,5 +676,6 @@ int main(void)
     RUN(buried_elements_do_not_darken_their_neighbours);
     RUN(refinement_splits_across_the_foot_of_a_block);
     RUN(relight_gathers_elements_again);
+    RUN(block_shadow_at_defaults);
     return test_finish("test_elements");
 }

@@ -1403,6 +1403,117 @@ static rad_solution *make_elements(void)
     return s;
 }
 
+/* The rgb room with adaptive elements at the default threshold: most of
+ * them interpolated (issue 18), so the file holds ELEMENTINDIRECT. */
+static rad_solution *make_interp(void)
+{
+    rad_solution *s = make_rgb();
+    rad_solve_options opt = {0};
+    opt.hemicube.resolution = 32;
+    rad_error e;
+    if (s && rad_refine_solution(s, &opt, &e) != RAD_OK) {
+        fprintf(stderr, "  refine: %s\n", e.message);
+        rad_solution_destroy(s);
+        return NULL;
+    }
+    return s;
+}
+
+/* ELEMENTINDIRECT (interpolated elements, issue 18): the file is version 5
+ * with the section announced; a round trip keeps the flags and every
+ * element's B bit for bit, and gathering again from the read solution
+ * gives the same B to rounding (the interpolation is recomputed from the
+ * stored rows and patches, nothing is rendered); a cut anywhere in the
+ * section is refused, and so is (checksum off) a flag that is not 0 or 1 or
+ * an interpolated element whose row holds a patch that is not a direct
+ * source. */
+TEST(interpolated_elements_round_trip)
+{
+    rad_solution *a = make_interp();
+    CHECK(a && a->elements && a->elements->interp && a->elements->direct);
+    if (!a || !a->elements || !a->elements->interp) {
+        rad_solution_destroy(a);
+        return;
+    }
+    const rad_elements *x = a->elements;
+    uint32_t ne = x->mesh->patch_count, interp = 0, nb = a->band_count;
+    for (uint32_t k = 0; k < ne; k++)
+        interp += x->interp[k];
+    char path[600];
+    path_in(path, sizeof path, "interp.sol");
+    rad_error e = {0};
+    CHECK(rad_solution_write(a, path, &e) == RAD_OK);
+    size_t size = 0;
+    uint8_t *buf = slurp(path, &size);
+    uint64_t len = 0;
+    size_t at = buf ? find_section(buf, size, "ELIN", &len) : 0;
+    CHECK(buf && rd32(buf + 8) == 5);
+    CHECK(at > 0 && len == 8 + (uint64_t)ne + a->mesh->patch_count && at + len == size);
+    printf("  %u elements, %u interpolated; ELEMENTINDIRECT %llu bytes\n", ne, interp,
+           (unsigned long long)len);
+    CHECK(interp > 0 && interp < ne);
+    rad_solution *b = NULL;
+    CHECK(rad_solution_read(path, &b, &e) == RAD_OK);
+    const rad_elements *y = b ? b->elements : NULL;
+    CHECK(y && y->interp && y->direct);
+    if (y && y->interp && y->direct && y->mesh->patch_count == ne) {
+        CHECK(same_bits(x->interp, y->interp, ne));
+        CHECK(same_bits(x->direct, y->direct, a->mesh->patch_count));
+        CHECK(same_bits(x->B, y->B, (size_t)ne * nb * sizeof *x->B));
+        double *B0 = malloc((size_t)ne * nb * sizeof *B0);
+        if (B0) {
+            memcpy(B0, y->B, (size_t)ne * nb * sizeof *B0);
+            CHECK(rad_elements_gather(b, b->elements, &e) == RAD_OK);
+            double worst = 0.0;
+            for (size_t q = 0; q < (size_t)ne * nb; q++)
+                worst = fmax(worst, fabs(y->B[q] - B0[q]) / fmax(B0[q], 1e-300));
+            printf("  gathered again: worst |ΔB|/B = %.1e\n", worst);
+            CHECK(worst <= 1e-12);
+            free(B0);
+        }
+    }
+    rad_solution_destroy(b);
+    /* every cut inside the section, the header made to agree */
+    size_t cut_ok = 0;
+    uint8_t *cbuf = buf ? malloc(size) : NULL;
+    for (size_t k = at; cbuf && k < size; k++) {
+        memcpy(cbuf, buf, k);
+        fix_header(cbuf, k);
+        rad_solution *s = NULL;
+        if (rad_solution_parse(cbuf, k, "cut", 1, &s, &e) == RAD_OK || s)
+            cut_ok++;
+        rad_solution_destroy(s);
+    }
+    CHECK(cut_ok == 0);
+    /* a bad flag, and an interpolated element that did not interpolate a
+     * patch it holds: both refused by the rules, checksum off */
+    size_t flags = at + 12 + 8; /* section header, then the two counts */
+    uint32_t first = UINT32_MAX, holder = UINT32_MAX;
+    for (uint32_t k = 0; k < ne && (first == UINT32_MAX || holder == UINT32_MAX); k++) {
+        if (x->interp[k] && first == UINT32_MAX)
+            first = k;
+        if (!x->interp[k] && x->level[k] > 0 && x->row_count[k] > 0 && holder == UINT32_MAX)
+            for (uint32_t q = 0; q < x->row_count[k]; q++)
+                holder = !x->direct[x->col[x->row_start[k] + q]] ? k : holder;
+    }
+    if (buf && first != UINT32_MAX) {
+        rad_solution *s = NULL;
+        buf[flags + first] = 2;
+        CHECK(rad_solution_parse(buf, size, "flag", 0, &s, &e) == RAD_ERR_CORRUPT && !s);
+        buf[flags + first] = 1;
+    }
+    if (buf && holder != UINT32_MAX) {
+        rad_solution *s = NULL;
+        buf[flags + holder] = 1;
+        CHECK(rad_solution_parse(buf, size, "holder", 0, &s, &e) == RAD_ERR_CORRUPT && !s);
+        CHECK(strstr(e.message, "not a direct source") != NULL);
+    }
+    CHECK(holder != UINT32_MAX);
+    free(cbuf);
+    free(buf);
+    rad_solution_destroy(a);
+}
+
 /* ELEMENTS and ELEMENTLIGHTS (format version 4: the fixture has punctual
  * lights, so its elements carry their own direct light): a round trip keeps
  * every element bit for bit, h_le included; every cut of the file is
@@ -1593,9 +1704,11 @@ TEST(version_3_elements_file_still_reads)
 
 static int write_seeds(const char *dir)
 {
-    rad_solution *(*make[5])(void) = {make_rgb, make_grey, make_wide, make_elements, make_sheets};
-    const char *names[5] = {"rgb-room", "grey-box", "wide-floor", "elements-room", "sheets-room"};
-    for (int v = 0; v < 5; v++) {
+    rad_solution *(*make[6])(void) = {make_rgb,      make_grey,   make_wide,
+                                      make_elements, make_sheets, make_interp};
+    const char *names[6] = {"rgb-room",    "grey-box",    "wide-floor",
+                            "elements-room", "sheets-room", "interp-room"};
+    for (int v = 0; v < 6; v++) {
         rad_solution *s = make[v]();
         char p[600];
         snprintf(p, sizeof p, "%s/%s", dir, names[v]);
@@ -1628,6 +1741,7 @@ int main(int argc, char **argv)
     RUN(every_truncation_is_refused);
     RUN(every_byte_flip_is_refused);
     RUN(elements_round_trip_and_damage);
+    RUN(interpolated_elements_round_trip);
     RUN(version_3_elements_file_still_reads);
     RUN(sheets_are_version_5);
     RUN(newer_version_and_foreign_files);

@@ -156,7 +156,7 @@ TEST(error_falls_with_resolution)
     struct { rad_val_case c; uint32_t lo, hi; } t[] = {
         {{.config = RAD_VAL_ELEMENT}, 32, 256},
         {{.config = RAD_VAL_ELEMENT, .c = 0.1}, 32, 512},
-        {{.config = RAD_VAL_ELEMENT, .c = 10}, 64, 1024},
+        {{.config = RAD_VAL_ELEMENT, .c = 3}, 64, 1024},
         {{.config = RAD_VAL_ELEMENT, .a = 10}, 32, 256},
     };
     for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
@@ -166,6 +166,29 @@ TEST(error_falls_with_resolution)
         rad_val_result ra = run(a), rb = run(b);
         CHECK_MSG(fabs(rb.rel_error) < fabs(ra.rel_error) / 3, "%s: R=%u %.3g, R=%u %.3g", ra.name,
                   t[k].lo, ra.rel_error, t[k].hi, rb.rel_error);
+    }
+}
+
+/* Small surfaces far away (issue 18): a far polygon covering fewer than 64
+ * hemi-cube pixels is too small for its pixels to be counted, and its
+ * patches get exact entries (the point-to-polygon factor times the visible
+ * fraction, as emitters do).  At the defaults (R = 128) held-out cases with
+ * a gap 10-40 times the surfaces' size, which pixel counts had 6-12 % off
+ * (parallel 0.5×2 at 20: -6.6 %, element at 20: -12 %, parallel 1×1 at
+ * 40: -12 %), now within 2e-5 of the catalog (measured: at most 4.4e-6,
+ * the collocation of the receiving patches' centres).  Cost: about 2 s. */
+TEST(small_far_surfaces_exact)
+{
+    const rad_val_case t[] = {
+        {.config = RAD_VAL_PARALLEL, .a = 0.5, .b = 2, .c = 20},
+        {.config = RAD_VAL_PARALLEL, .c = 40},
+        {.config = RAD_VAL_ELEMENT, .c = 20},
+        {.config = RAD_VAL_DISKS, .a = 0.5, .b = 0.5, .c = 20},
+    };
+    for (size_t k = 0; k < sizeof t / sizeof t[0]; k++) {
+        rad_val_result r = run(t[k]);
+        printf("  %-36s %5u patches: %+.2e\n", r.name, r.patches, r.rel_error);
+        CHECK_MSG(fabs(r.rel_error) <= 2e-5, "%s: %.3g", r.name, r.rel_error);
     }
 }
 
@@ -249,6 +272,7 @@ int main(void)
     RUN(plates_two_by_two);
     RUN(error_falls_with_subdivision);
     RUN(error_falls_with_resolution);
+    RUN(small_far_surfaces_exact);
     RUN(disks_discretisation_error);
     RUN(cube_lamp);
     RUN(bad_cases);

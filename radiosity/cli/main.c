@@ -170,6 +170,10 @@ int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt)
         opt->exact_near = 1;
         return 1;
     }
+    if (!strcmp(a, "--pixel-near")) {
+        opt->exact_near = -1;
+        return 1;
+    }
     if (!strcmp(a, "--solver")) {
         if (!v || sv_method_parse(v, &opt->solver.method)) {
             cli_usage_error("--solver: '%s' is not gauss-seidel, jacobi or progressive", v ? v : "");
@@ -225,7 +229,8 @@ static const char usage[] =
     "      --max-iterations N       solver iteration limit\n"
     "      --max-memory SIZE        limit for the form-factor matrix (e.g. 4G)\n"
     "      --pixel-emitters         form factors to emitters by pixel counts, not exactly\n"
-    "      --exact-near             near patches (closer than their size) exactly too\n"
+    "      --exact-near             near patches (closer than their size) exactly (default)\n"
+    "      --pixel-near             near patches by pixel counts, like the others\n"
     "      --refine-threshold T     elements: split where the drawn B misses the B of the\n"
     "                               element's four children by more than T × the brightest\n"
     "                               reflecting patch's B, weighted by area (e.g. 0.0001)\n"

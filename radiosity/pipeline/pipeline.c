@@ -67,7 +67,7 @@ static int start_hemicube(run *c, rad_error *err)
     if (c->hc)
         return RAD_OK;
     hc_options ho = c->opt->hemicube;
-    ho.exact_near = c->opt->exact_near;
+    ho.exact_near = c->opt->exact_near >= 0; /* on unless asked off */
     uint32_t n = c->s->mesh->patch_count, nb = c->s->band_count;
     if (!c->opt->pixel_emitters && !ho.exact) {
         /* Emitters get exact factors: their few pixels are where aliasing hurts. */
