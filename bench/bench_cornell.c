@@ -14,8 +14,13 @@
  * 3e-3,1e-3,3e-4,1e-4; "off" and "default" are accepted too).  Each row is
  * one run (BENCH_REPEAT runs: the fastest is kept), wall-clock time of
  * solve + render on a machine shared with others: the times are noisy, the
- * errors are not.  BENCH_REGIONS=1 also prints every region's error for
- * each row.  Nothing here asserts anything.
+ * errors are not; the CPU seconds (this process and the hemi-cube workers)
+ * are steadier.  A T followed by "h" (e.g. 1e-3h) gives every element a
+ * hemi-cube of its own (rad_solve_options.element_hemicubes).
+ * BENCH_REGIONS=1 also prints every region's error for each row;
+ * BENCH_SVG=FILE writes the curve (worst and RMS region error against CPU
+ * seconds); BENCH_PATCH_SIZE, BENCH_TOLERANCE and BENCH_EXACT_NEAR set
+ * those options for every row.  Nothing here asserts anything.
  */
 #include "../radiosity/pipeline/pipeline.h"
 
@@ -179,6 +184,57 @@ static void run(row *r, int repeat)
     }
 }
 
+/* The error-versus-time curve as SVG: worst and RMS region error (log)
+ * against CPU seconds (log), one point each per row, labelled. */
+static void write_svg(const char *path, const row *rows, int n)
+{
+    FILE *f = fopen(path, "w");
+    if (!f)
+        die(path, "cannot write");
+    const double W = 720, H = 420, x0 = 70, x1 = 690, y0 = 370, y1 = 40;
+    double tmin = INFINITY, tmax = 0, emin = INFINITY, emax = 0;
+    for (int k = 0; k < n; k++) {
+        tmin = fmin(tmin, rows[k].cpu);
+        tmax = fmax(tmax, rows[k].cpu);
+        emin = fmin(emin, rows[k].rms);
+        emax = fmax(emax, rows[k].worst);
+    }
+    double lt0 = floor(log10(tmin)), lt1 = ceil(log10(tmax)), le0 = floor(log10(emin)),
+           le1 = ceil(log10(emax));
+#define SX(t) (x0 + (log10(t) - lt0) / (lt1 - lt0) * (x1 - x0))
+#define SY(e) (y0 - (log10(e) - le0) / (le1 - le0) * (y0 - y1))
+    fprintf(f, "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"%.0f\" height=\"%.0f\" "
+               "font-family=\"sans-serif\" font-size=\"11\">\n<rect width=\"100%%\" "
+               "height=\"100%%\" fill=\"white\"/>\n", W, H);
+    fprintf(f, "<text x=\"%.0f\" y=\"22\" font-size=\"14\" font-weight=\"bold\">glTF Cornell "
+               "box: region error vs CPU seconds (solve + render)</text>\n", x0);
+    for (double d = lt0; d <= lt1; d++)
+        fprintf(f, "<line x1=\"%.1f\" y1=\"%.0f\" x2=\"%.1f\" y2=\"%.0f\" stroke=\"#ccc\"/>"
+                   "<text x=\"%.1f\" y=\"%.0f\" text-anchor=\"middle\">%g s</text>\n",
+                SX(pow(10, d)), y0, SX(pow(10, d)), y1, SX(pow(10, d)), y0 + 16, pow(10, d));
+    for (double d = le0; d <= le1; d++)
+        fprintf(f, "<line x1=\"%.0f\" y1=\"%.1f\" x2=\"%.0f\" y2=\"%.1f\" stroke=\"#ccc\"/>"
+                   "<text x=\"%.0f\" y=\"%.1f\" text-anchor=\"end\">%g %%</text>\n",
+                x0, SY(pow(10, d)), x1, SY(pow(10, d)), x0 - 4, SY(pow(10, d)) + 4, 100 * pow(10, d));
+    for (int k = 0; k < n; k++) {
+        const row *r = &rows[k];
+        fprintf(f, "<circle cx=\"%.1f\" cy=\"%.1f\" r=\"4\" fill=\"#c33\"/>"
+                   "<circle cx=\"%.1f\" cy=\"%.1f\" r=\"4\" fill=\"#36c\"/>"
+                   "<text x=\"%.1f\" y=\"%.1f\">%s</text>\n",
+                SX(r->cpu), SY(r->worst), SX(r->cpu), SY(r->rms), SX(r->cpu) + 6, SY(r->worst) - 4,
+                r->label);
+    }
+    fprintf(f, "<circle cx=\"%.0f\" cy=\"%.0f\" r=\"4\" fill=\"#c33\"/><text x=\"%.0f\" "
+               "y=\"%.0f\">worst region</text><circle cx=\"%.0f\" cy=\"%.0f\" r=\"4\" "
+               "fill=\"#36c\"/><text x=\"%.0f\" y=\"%.0f\">RMS over the regions</text>\n"
+               "</svg>\n",
+            x1 - 150, y1 + 10, x1 - 140, y1 + 14, x1 - 150, y1 + 28, x1 - 140, y1 + 32);
+#undef SX
+#undef SY
+    if (fclose(f))
+        die(path, "cannot write");
+}
+
 int main(void)
 {
     read_reference();
@@ -228,6 +284,8 @@ int main(void)
                r->worst_at >= 0 ? reg[r->worst_at].name : "-", 100 * r->rms, 100 * r->worst_band);
         fflush(stdout);
     }
+    if (getenv("BENCH_SVG") && *getenv("BENCH_SVG"))
+        write_svg(getenv("BENCH_SVG"), rows, nrows);
     if (getenv("BENCH_REGIONS") && atoi(getenv("BENCH_REGIONS"))) {
         printf("\n| region | pixels' reference (R+G+B) | ± |");
         for (int k = 0; k < nrows; k++)

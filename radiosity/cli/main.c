@@ -170,6 +170,10 @@ int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt)
         opt->exact_near = 1;
         return 1;
     }
+    if (!strcmp(a, "--element-hemicubes")) {
+        opt->element_hemicubes = 1;
+        return 1;
+    }
     if (!strcmp(a, "--pixel-near")) {
         opt->exact_near = -1;
         return 1;
@@ -233,7 +237,9 @@ static const char usage[] =
     "      --pixel-near             near patches by pixel counts, like the others\n"
     "      --refine-threshold T     elements: split where the drawn B misses the B of the\n"
     "                               element's four children by more than T × the brightest\n"
-    "                               reflecting patch's B, weighted by area (e.g. 0.0001)\n"
+    "                               reflecting patch's B, weighted by area (default "
+    CLI_STR(RAD_DEFAULT_REFINE_THRESHOLD) "; 0: no elements)\n"
+    "      --element-hemicubes      every element's row from a hemi-cube of its own (slow)\n"
     "      --min-element-size S     smallest element edge (default: 1/8 of its patch)\n"
     "      --element-levels L       uniform elements: split every patch L times\n"
     "      --preview-every K        progressive: write a preview image every K shots\n"
