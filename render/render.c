@@ -11,6 +11,10 @@
  * (near plane and a guard band around the screen), projected, snapped to a
  * fixed-point grid and filled with exact integer edge functions under a
  * top-left rule, so a shared edge is owned by exactly one of its two patches.
+ * Perspective and orthographic cameras differ only in the projection
+ * (x/z or x), the depth kept (1/z or a constant minus z, both affine on
+ * the screen over a plane), the back-face test and the pixel ray (from the
+ * eye, or parallel to the view from the pixel's point of the window).
  */
 #include "rn_internal.h"
 
@@ -496,23 +500,32 @@ void rn_vertex_radiosity_fit(const rad_mesh *mesh, uint32_t bands, const double 
 
 /* ---------------------------------------------------------------- camera */
 
-/* Right-handed camera frame: f forward, r right, u up; a pixel (i, j) looks
- * along f + a·r + b·u with a = (i + ½ − cx)/k, b = (cy − j − ½)/k. */
+/* Right-handed camera frame: f forward, r right, u up; with
+ * a = (i + ½ − cx)/k, b = (cy − j − ½)/k, a pixel (i, j) looks along
+ * f + a·r + b·u from the eye (perspective), or along f from eye + a·r + b·u
+ * (orthographic). */
 typedef struct frame {
     rad_vec3 eye, f, r, u;
-    double k;      /* pixels per unit of x/z: (H/2) / tan(yfov/2) */
+    double k;      /* pixels per unit of x/z: (H/2) / tan(yfov/2); orthographic: per unit
+                    * of x, (H/2) / ymag */
     double cx, cy; /* image centre in pixels */
     uint32_t w, h;
+    int ortho;     /* orthographic projection */
 } frame;
 
 static int camera_frame(const rn_camera *cam, frame *fr, rad_error *err)
 {
     if (!cam)
         return rad_fail(err, RAD_ERR_USAGE, "render: camera: none given");
+    fr->ortho = cam->orthographic != 0;
     if (!rad_finite3(cam->eye) || !rad_finite3(cam->target) || !rad_finite3(cam->up) ||
-        !isfinite(cam->yfov_deg))
+        (!fr->ortho && !isfinite(cam->yfov_deg)))
         return rad_fail(err, RAD_ERR_USAGE, "render: camera: eye, target, up and fov must be finite");
-    if (!(cam->yfov_deg > 0.0 && cam->yfov_deg < 180.0))
+    if (fr->ortho && !(cam->ymag > 0.0 && isfinite(cam->ymag)))
+        return rad_fail(err, RAD_ERR_USAGE,
+                        "render: camera: orthographic half-height %g must be finite and > 0",
+                        cam->ymag);
+    if (!fr->ortho && !(cam->yfov_deg > 0.0 && cam->yfov_deg < 180.0))
         return rad_fail(err, RAD_ERR_USAGE, "render: camera: field of view %g not in (0, 180) degrees",
                         cam->yfov_deg);
     if (cam->width < 1 || cam->height < 1 || cam->width > RN_MAX_SIDE || cam->height > RN_MAX_SIDE)
@@ -537,6 +550,13 @@ static int camera_frame(const rn_camera *cam, frame *fr, rad_error *err)
     fr->h = cam->height;
     fr->cx = 0.5 * cam->width;
     fr->cy = 0.5 * cam->height;
+    if (fr->ortho) {
+        fr->k = fr->cy / cam->ymag;
+        if (!(fr->k > 0.0) || !isfinite(fr->k))
+            return rad_fail(err, RAD_ERR_USAGE, "render: camera: orthographic half-height %g unusable",
+                            cam->ymag);
+        return RAD_OK;
+    }
     fr->k = fr->cy / tan(0.5 * cam->yfov_deg * (M_PI / 180.0));
     if (!(fr->k > 0.0) || !isfinite(fr->k))
         return rad_fail(err, RAD_ERR_USAGE, "render: camera: field of view %g unusable", cam->yfov_deg);
@@ -683,6 +703,7 @@ static void raster_triangle(ibuf *ib, const int64_t *X, const int64_t *Y, int i0
 typedef struct shade_setup {
     uint32_t patch;
     int corners;
+    int ortho;             /* rays parallel to f from the window, not from the eye */
     double Dn;             /* n·(centre − eye) */
     double nf, nr, nu;     /* n·f, n·r, n·u */
     double of1, of2;       /* (eye − v0)·e1, ·e2 */
@@ -702,6 +723,7 @@ static void shade_prepare(shade_setup *s, const rad_mesh *m, uint32_t patch, con
     rad_vec3 e2 = rad_cross(n, e1);
     rad_vec3 o = rad_sub(fr->eye, v0);
     s->patch = patch;
+    s->ortho = fr->ortho;
     s->corners = rad_patch_corners(pa);
     s->Dn = rad_dot(n, rad_sub(pa->center, fr->eye));
     s->nf = rad_dot(n, fr->f);
@@ -784,10 +806,17 @@ static void inverse_bilinear(const shade_setup *s, double hx, double hy, double 
  * (clamped, renormalised) for triangles. */
 static void shade_weights(const shade_setup *s, double a, double b, double *w)
 {
-    double dn = s->nf + a * s->nr + b * s->nu;
-    double t = dn != 0.0 ? s->Dn / dn : 0.0;
-    double hx = s->of1 + t * (s->f1 + a * s->r1 + b * s->u1);
-    double hy = s->of2 + t * (s->f2 + a * s->r2 + b * s->u2);
+    double hx, hy;
+    if (s->ortho) { /* eye + a·r + b·u + t·f */
+        double t = s->nf != 0.0 ? (s->Dn - a * s->nr - b * s->nu) / s->nf : 0.0;
+        hx = s->of1 + a * s->r1 + b * s->u1 + t * s->f1;
+        hy = s->of2 + a * s->r2 + b * s->u2 + t * s->f2;
+    } else { /* eye + t·(f + a·r + b·u) */
+        double dn = s->nf + a * s->nr + b * s->nu;
+        double t = dn != 0.0 ? s->Dn / dn : 0.0;
+        hx = s->of1 + t * (s->f1 + a * s->r1 + b * s->u1);
+        hy = s->of2 + t * (s->f2 + a * s->r2 + b * s->u2);
+    }
     if (!isfinite(hx) || !isfinite(hy))
         hx = hy = 0.0;
     if (s->corners == 4) {
@@ -893,15 +922,23 @@ int rn_render(const rad_mesh *mesh, uint32_t bands, const double *vertex_B, cons
 
     /* Near plane, then a guard band one image size wide around the screen:
      * it bounds the snapped coordinates (|x| < 3·16384 < 2^16 pixels) so the
-     * edge functions are exact in int64, and the cuts it makes lie off screen. */
+     * edge functions are exact in int64, and the cuts it makes lie off screen.
+     * A perspective band scales with z (sx = cx + k·x/z), an orthographic
+     * one does not (sx = cx + k·x): its constant goes to the z or the 1
+     * coefficient. */
     double G = fr.w > fr.h ? fr.w : fr.h;
+    double zc = fr.ortho ? 0.0 : 1.0, oc = fr.ortho ? 1.0 : 0.0;
     plane4 planes[5] = {
         {0, 0, 1, -znear},
-        {fr.k, 0, fr.cx + G, 0},           /* sx >= -G */
-        {-fr.k, 0, fr.w + G - fr.cx, 0},   /* sx <= W + G */
-        {0, -fr.k, fr.cy + G, 0},          /* sy >= -G */
-        {0, fr.k, fr.h + G - fr.cy, 0},    /* sy <= H + G */
+        {fr.k, 0, zc * (fr.cx + G), oc * (fr.cx + G)},                   /* sx >= -G */
+        {-fr.k, 0, zc * (fr.w + G - fr.cx), oc * (fr.w + G - fr.cx)},    /* sx <= W + G */
+        {0, -fr.k, zc * (fr.cy + G), oc * (fr.cy + G)},                  /* sy >= -G */
+        {0, fr.k, zc * (fr.h + G - fr.cy), oc * (fr.h + G - fr.cy)},     /* sy <= H + G */
     };
+    /* Orthographic depth: zfar − z, positive for everything in front of
+     * the eye up to the scene's extent, so that "larger is nearer" and "0
+     * is background" hold as for 1/z. */
+    double zfar = 2.0 * extent > DBL_MIN ? 2.0 * extent : 1.0;
 
     ibuf ib = {invz, img->patch, fr.w, fr.h};
     rad_vec3 bufa[CLIP_MAX], bufb[CLIP_MAX];
@@ -911,11 +948,18 @@ int rn_render(const rad_mesh *mesh, uint32_t bands, const double *vertex_B, cons
         rad_vec3 n = pa->normal;
         /* One-sided patch: seen only from the side its normal points to. */
         double Dn = rad_dot(n, rad_sub(pa->center, fr.eye));
-        if (!(Dn < 0.0))
-            continue;
         double nf = rad_dot(n, fr.f), nr = rad_dot(n, fr.r), nu = rad_dot(n, fr.u);
-        depth_plane dp = {nr / (fr.k * Dn), -nu / (fr.k * Dn),
-                          (nf + (0.5 - fr.cx) / fr.k * nr + (fr.cy - 0.5) / fr.k * nu) / Dn};
+        if (fr.ortho ? !(nf < 0.0) : !(Dn < 0.0))
+            continue;
+        depth_plane dp;
+        if (fr.ortho) { /* zfar − z, z = (Dn − x·nr − y·nu)/nf */
+            double q = 1.0 / (fr.k * nf);
+            dp = (depth_plane){nr * q, -nu * q,
+                               zfar - Dn / nf + (0.5 - fr.cx) * nr * q + (fr.cy - 0.5) * nu * q};
+        } else {
+            dp = (depth_plane){nr / (fr.k * Dn), -nu / (fr.k * Dn),
+                               (nf + (0.5 - fr.cx) / fr.k * nr + (fr.cy - 0.5) / fr.k * nu) / Dn};
+        }
         int nc = rad_patch_corners(pa);
         for (int c = 0; c < nc; c++)
             bufa[c] = cv[pa->v[c]];
@@ -930,8 +974,8 @@ int rn_render(const rad_mesh *mesh, uint32_t bands, const double *vertex_B, cons
             continue;
         int ok = 1;
         for (int c = 0; c < nc; c++) {
-            double sx = fr.cx + fr.k * cur[c].x / cur[c].z;
-            double sy = fr.cy - fr.k * cur[c].y / cur[c].z;
+            double sx = fr.ortho ? fr.cx + fr.k * cur[c].x : fr.cx + fr.k * cur[c].x / cur[c].z;
+            double sy = fr.ortho ? fr.cy - fr.k * cur[c].y : fr.cy - fr.k * cur[c].y / cur[c].z;
             if (!(fabs(sx) < 65536.0) || !(fabs(sy) < 65536.0)) { /* unreachable after the guard band */
                 ok = 0;
                 break;

@@ -17,11 +17,18 @@
 
 #include "../radiosity/core/rad.h"
 
+/* A perspective camera spans yfov_deg vertically from the eye; an
+ * orthographic one (orthographic = 1) projects along the view direction
+ * onto a window 2·ymag high centred on the eye's line of sight, its width
+ * from the image's (square pixels), and sees what lies in front of the eye
+ * along the view direction. */
 typedef struct rn_camera {
     rad_vec3 eye, target, up;
-    double yfov_deg;   /* vertical field of view, degrees, (0, 180) */
+    double yfov_deg;   /* vertical field of view, degrees, (0, 180); unused when orthographic */
     uint32_t width;    /* pixels */
     uint32_t height;
+    int orthographic;  /* 0 = perspective (appended: {0} keeps the old meaning) */
+    double ymag;       /* orthographic: half-height of the view, scene units, > 0 */
 } rn_camera;
 
 /* A float image, channels interleaved, row 0 at the top. */

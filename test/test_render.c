@@ -156,7 +156,7 @@ static int patch_at(const rad_mesh *m, rad_vec3 x, int *any)
 
 static rn_camera camera(rad_vec3 eye, rad_vec3 target, rad_vec3 up, double fov, uint32_t w, uint32_t h)
 {
-    rn_camera c = {eye, target, up, fov, w, h};
+    rn_camera c = {.eye = eye, .target = target, .up = up, .yfov_deg = fov, .width = w, .height = h};
     return c;
 }
 

@@ -48,9 +48,10 @@ void cli_enable_progress(rad_solve_options *opt);
 /* Camera options shared by render and relight --render. */
 typedef struct cli_view {
     const char *camera;
-    int have_eye, have_target, have_up, have_fov;
+    int have_eye, have_target, have_up, have_fov, have_ortho;
     rad_vec3 eye, target, up;
     double fov;
+    double ortho; /* --ortho: half-height of an orthographic view */
     uint32_t width, height;
     const char *png;
     double exposure;

@@ -302,6 +302,7 @@ int cli_ff(int argc, char **argv)
     rad_solution *s = NULL;
     opt.all_rows = 1; /* every row: F_BA needs B's rows even where B is black */
     opt.load.allow_no_emitter = 1;
+    opt.load.warn = cli_warn;
     cli_enable_progress(&opt);
     if (has_suffix(in, ".sol")) {
         if (rad_solution_read(in, &s, &err) || rad_resolve(s, &opt, &err)) {

@@ -26,6 +26,8 @@ int cli_view_option(int argc, char **argv, int *i, cli_view *v)
         rc = cli_parse_vec3(a, val, &v->up), v->have_up = 1;
     } else if (!strcmp(a, "--fov")) {
         rc = cli_parse_double(a, val, 0.01, 179.99, &v->fov), v->have_fov = 1;
+    } else if (!strcmp(a, "--ortho")) {
+        rc = cli_parse_double(a, val, 1e-12, 1e12, &v->ortho), v->have_ortho = 1;
     } else if (!strcmp(a, "--size")) {
         unsigned w, h;
         char tail;
@@ -54,6 +56,8 @@ int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *ex
     rad_error err = {0};
     rn_camera cam;
     uint32_t w = v->width ? v->width : 512, h = v->height ? v->height : 512;
+    if (v->have_fov && v->have_ortho)
+        return cli_usage_error("--fov and --ortho exclude each other");
     if (v->have_eye || v->have_target) {
         if (!v->have_eye || !v->have_target)
             return cli_usage_error("--eye and --target go together");
@@ -67,9 +71,11 @@ int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *ex
             return cli_error(&err);
         if (v->have_up)
             cam.up = v->up;
-        if (v->have_fov)
-            cam.yfov_deg = v->fov;
+        if (v->have_fov) /* a field of view makes any camera perspective */
+            cam.yfov_deg = v->fov, cam.orthographic = 0;
     }
+    if (v->have_ortho)
+        cam.orthographic = 1, cam.ymag = v->ortho;
     if (cli_check_output_dir(exr_path) || (png_path && cli_check_output_dir(png_path)))
         return 2;
     rn_image *img = NULL;
@@ -153,6 +159,7 @@ int cli_solve(int argc, char **argv)
         opt.preview_user = &ps;
     }
     cli_enable_progress(&opt);
+    opt.load.warn = cli_warn;
 
     rad_error err = {0};
     rad_solution *s = NULL;

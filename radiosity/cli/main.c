@@ -163,6 +163,10 @@ int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt)
         opt->exact_near = 1;
         return 1;
     }
+    if (!strcmp(a, "--strict")) {
+        opt->load.strict = 1;
+        return 1;
+    }
     if (!strcmp(a, "--solver")) {
         if (!v || sv_method_parse(v, &opt->solver.method)) {
             cli_usage_error("--solver: '%s' is not gauss-seidel, jacobi or progressive", v ? v : "");
@@ -219,6 +223,9 @@ static const char usage[] =
     "      --max-memory SIZE        limit for the form-factor matrix (e.g. 4G)\n"
     "      --pixel-emitters         form factors to emitters by pixel counts, not exactly\n"
     "      --exact-near             near patches (closer than their size) exactly too\n"
+    "      --strict                 glTF: refuse reflectance >= 1, primitives without a\n"
+    "                               material or area, unreadable textures (default: clamp\n"
+    "                               to 0.95, glTF's default material, skip, warn)\n"
     "      --refine-threshold T     elements: split where the drawn B misses the B of the\n"
     "                               element's four children by more than T × the brightest\n"
     "                               reflecting patch's B, weighted by area (e.g. 0.0001)\n"
@@ -231,6 +238,7 @@ static const char usage[] =
     "      --exposure EV            PNG exposure in stops (default 0)\n"
     "      --camera NAME            a camera of the scene (default: the first)\n"
     "      --eye X,Y,Z --target X,Y,Z --up X,Y,Z --fov DEG   an explicit camera\n"
+    "      --ortho H                orthographic, a view 2H high (scene units)\n"
     "      --size WxH               image size (default 512x512)\n"
     "  report SOLUTION [--json]     per-object power balance, solver and stage times\n"
     "  relight SOLUTION -o OUT      re-solve with changed lights or colours, no new hemi-cubes\n"

@@ -565,6 +565,14 @@ done:
     return rc;
 }
 
+/* The renderer's camera for scene camera c (the size is the caller's). */
+static void scene_camera(const rad_camera *c, rn_camera *cam)
+{
+    cam->eye = c->eye, cam->target = c->target, cam->up = c->up, cam->yfov_deg = c->yfov_deg;
+    cam->orthographic = c->orthographic;
+    cam->ymag = c->ymag;
+}
+
 int rad_camera_from_scene(const rad_scene *scene, const char *name, uint32_t width,
                           uint32_t height, rn_camera *cam, rad_error *err)
 {
@@ -583,13 +591,11 @@ int rad_camera_from_scene(const rad_scene *scene, const char *name, uint32_t wid
             return rad_fail(err, RAD_ERR_NOTFOUND, "%s: camera '%s' not found (cameras: %s)",
                             scene->source, name, scene->camera_count ? list : "none");
         }
-        const rad_camera *c = &scene->cameras[k];
-        cam->eye = c->eye, cam->target = c->target, cam->up = c->up, cam->yfov_deg = c->yfov_deg;
+        scene_camera(&scene->cameras[k], cam);
         return RAD_OK;
     }
     if (scene->camera_count) {
-        const rad_camera *c = &scene->cameras[0];
-        cam->eye = c->eye, cam->target = c->target, cam->up = c->up, cam->yfov_deg = c->yfov_deg;
+        scene_camera(&scene->cameras[0], cam);
         return RAD_OK;
     }
     /* No camera: look at the bounds' centre from -z, far enough to see it all. */
