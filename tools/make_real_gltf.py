@@ -38,7 +38,12 @@ and the tests can compute what the images hold independently:
                      1.5); the dark half names KHR_materials_transmission
                      and KHR_materials_volume
 
-Usage: tools/make_real_gltf.py [-o test/data/real]
+With --fuzz-corpus DIR it also writes seeds for the glTF fuzz target:
+textured-embedded.gltf (textured.gltf with both images as data URIs, so
+that a fuzzer without files reaches the PNG and JPEG decoders),
+vertex-colors.glb and ortho.gltf.
+
+Usage: tools/make_real_gltf.py [-o test/data/real] [--fuzz-corpus test/fuzz/corpus/gltf]
 Python 3 standard library only.
 """
 import argparse
@@ -294,10 +299,16 @@ PERSPECTIVE = {'name': 'front', 'type': 'perspective',
                'perspective': {'yfov': 0.9, 'znear': 0.05, 'aspectRatio': 1.0}}
 
 
-def textured():
+def data_uri(mime, payload):
+    return 'data:%s;base64,%s' % (mime, base64.b64encode(payload).decode())
+
+
+def textured(embedded=False):
     d = Doc('textured')
-    d.j['images'] = [{'uri': 'checker.png', 'name': 'checker'},
-                     {'uri': 'bricks.jpg', 'name': 'bricks'},
+    d.j['images'] = [{'uri': data_uri('image/png', png(16, 16, 4, checker_pixel))
+                             if embedded else 'checker.png', 'name': 'checker'},
+                     {'uri': data_uri('image/jpeg', jpeg(16, 16, bricks_pixel))
+                             if embedded else 'bricks.jpg', 'name': 'bricks'},
                      {'uri': 'data:image/png;base64,' +
                              base64.b64encode(png(4, 4, 3, lambda x, y: (255, 230, 200))).decode(),
                       'name': 'glow'}]
@@ -423,7 +434,9 @@ def write(path, payload):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     ap.add_argument('-o', default='test/data/real', help='output directory')
-    out = ap.parse_args().o
+    ap.add_argument('--fuzz-corpus', help='also write fuzz seeds into this directory')
+    args = ap.parse_args()
+    out = args.o
     os.makedirs(out, exist_ok=True)
     write(os.path.join(out, 'checker.png'), png(16, 16, 4, checker_pixel))
     write(os.path.join(out, 'bricks.jpg'), jpeg(16, 16, bricks_pixel))
@@ -431,6 +444,11 @@ def main():
     write(os.path.join(out, 'no-material.gltf'), no_material().gltf())
     write(os.path.join(out, 'vertex-colors.glb'), vertex_colors().glb())
     write(os.path.join(out, 'ortho.gltf'), ortho().gltf())
+    if args.fuzz_corpus:
+        seeds = args.fuzz_corpus
+        write(os.path.join(seeds, 'textured-embedded.gltf'), textured(embedded=True).gltf())
+        write(os.path.join(seeds, 'vertex-colors.glb'), vertex_colors().glb())
+        write(os.path.join(seeds, 'ortho.gltf'), ortho().gltf())
 
 
 if __name__ == '__main__':
