@@ -215,6 +215,59 @@ TEST(vertex_colors_glb)
     CHECK(c.count == 0); /* a failed load says only why */
 }
 
+/* The solution keeps what the solve uses: each patch takes its polygon's
+ * ρ (vertex colours), PATCHDATA carries it through the file, and a relight
+ * `--reflectance MATERIAL=v` sets every patch of the material to v,
+ * replacing the colours (the scene keeps the nominal material). */
+TEST(solution_keeps_polygon_rho)
+{
+    caught c;
+    rad_error err;
+    rad_scene *s = load(REAL "vertex-colors.glb", 0, &c, &err);
+    if (!s)
+        return;
+    rad_mesh_options mo = {.patch_size = 0.5};
+    rad_mesh *m = NULL;
+    rad_solution *sol = NULL;
+    if (rad_mesh_build(s, &mo, &m, &err) || rad_solution_create(s, m, &sol, &err)) {
+        CHECK_MSG(0, "%s", err.message);
+        return;
+    }
+    uint32_t painted = rad_scene_find_material(sol->scene, "painted"), n = 0;
+    for (uint32_t i = 0; i < sol->mesh->patch_count; i++) {
+        const rad_patch *pa = &sol->mesh->patches[i];
+        const double *want = rad_polygon_rho(sol->scene, pa->polygon);
+        for (int b = 0; b < 3; b++)
+            CHECK(sol->rho[(size_t)i * 3 + b] == want[b]);
+        n += pa->material == painted;
+    }
+    CHECK(n >= 4);
+    char path[] = "/tmp/test_real_XXXXXX";
+    int fd = mkstemp(path);
+    CHECK(fd >= 0);
+    close(fd);
+    rad_solution *back = NULL;
+    CHECK(rad_solution_write(sol, path, &err) == RAD_OK);
+    CHECK_MSG(rad_solution_read(path, &back, &err) == RAD_OK, "%s", err.message);
+    unlink(path);
+    if (back) {
+        CHECK(back->mesh->patch_count == sol->mesh->patch_count);
+        for (size_t k = 0; k < (size_t)sol->mesh->patch_count * 3; k++)
+            CHECK(back->rho[k] == sol->rho[k]);
+        rad_edit e;
+        CHECK(rad_edit_parse(RAD_EDIT_REFLECTANCE, "painted=0.4", &e, &err) == RAD_OK);
+        CHECK_MSG(rad_solution_apply_edits(back, &e, 1, &err) == RAD_OK, "%s", err.message);
+        for (uint32_t i = 0; i < back->mesh->patch_count; i++) {
+            int mine = back->mesh->patches[i].material == painted;
+            for (int b = 0; b < 3; b++)
+                CHECK(back->rho[(size_t)i * 3 + b] ==
+                      (mine ? 0.4 : sol->rho[(size_t)i * 3 + b]));
+        }
+    }
+    rad_solution_destroy(back);
+    rad_solution_destroy(sol);
+}
+
 /* A primitive without a material gets glTF's default (white, clamped to
  * 0.95); loose edges are skipped; what a diffuse scene ignores is named. */
 TEST(defaults_and_ignored)
@@ -338,6 +391,7 @@ int main(void)
 {
     RUN(textures_average);
     RUN(vertex_colors_glb);
+    RUN(solution_keeps_polygon_rho);
     RUN(defaults_and_ignored);
     RUN(orthographic_render);
     return test_finish("test_real");
