@@ -1,31 +1,60 @@
 /* gltf.c - rad_scene_parse_gltf: a glTF 2.0 document -> a rad_scene.
  *
- * The glTF bridge (gltf_bridge.cpp, gltf_vet.cpp: tinygltf) reads and checks
- * the document; this file applies the radiosity rules to what it returns.
- * Invariant: the scene holds exactly
- * the surfaces of the displayed glTF scene, in world space, obeying scene.h,
- * or the call fails with "FILE: WHERE: WHAT" and leaves nothing behind.
+ * The glTF bridge (gltf_bridge.cpp, gltf_vet.cpp, gltf_texture.cpp:
+ * tinygltf; gltf_image.c: stb_image) reads and checks the document; this
+ * file applies the radiosity rules to what it returns.  Invariant: the
+ * scene holds exactly the surfaces of the displayed glTF scene, in world
+ * space, obeying scene.h, or the call fails with "FILE: WHERE: WHAT" and
+ * leaves nothing behind (and says nothing else: warnings go out only on
+ * success).  Everything repaired or ignored on the way is named in one
+ * warning line per kind (rad_load_options.warn), never dropped silently.
  *
- * The rules:
+ * The rules, for files as Blender, three.js and the Khronos samples write
+ * them:
  *   - Three bands named R, G, B.
- *   - ρ = baseColorFactor RGB, which must lie in [0, 1): a surface that
- *     reflects all it receives has no place in an energy balance, and glTF's
- *     default material (white 1.0) is therefore refused, as is a primitive
- *     without a material.
+ *   - ρ = baseColorFactor RGB × the mean linear colour of baseColorTexture
+ *     (gltf_image.c: every texel sRGB-decoded, alpha ignored; a patch has
+ *     one ρ, so texture coordinates, samplers and KHR_texture_transform are
+ *     not read, and the warning says so) × COLOR_0 (below).  A texture the
+ *     engine cannot read counts as white (the factor alone), with a
+ *     warning.
+ *   - ρ must lie in [0, 1): a surface that reflects all it receives has no
+ *     place in an energy balance.  glTF's default base colour is 1, and
+ *     exporters leave it on every textured material and on plain white
+ *     ones, so a value >= 1 is clamped to MAX_REFLECTANCE (0.95), per band,
+ *     with a warning naming the material.  A primitive without a material
+ *     gets glTF's default material (white, so 0.95; not emitting;
+ *     single-sided), named "default", with a warning naming the mesh.
+ *   - COLOR_0 (vertex colours, linear, alpha dropped) multiplies the base
+ *     colour per polygon: a triangle takes the mean of its three corners'
+ *     colours (the mean of the colour glTF interpolates over it), a merged
+ *     quad the mean of its two triangles'; the polygon's ρ is set on it
+ *     (rad_scene_set_polygon_rho) and clamped like a material's.  A
+ *     polygon the mesher subdivides gives every patch that mean.
+ *   - --strict (rad_load_options.strict) refuses instead of repairing: ρ >=
+ *     1 anywhere, a primitive without a material, an unreadable texture,
+ *     points and lines.
  *   - E = π · emissiveFactor · emissiveStrength (KHR_materials_emissive_
- *     strength, default 1).  glTF's emissive value is a radiance L_e; a
- *     Lambertian emitter's exitance is π L_e, so an emitter seen directly
- *     renders with pixel value emissiveFactor × strength.
+ *     strength, default 1) · the mean of emissiveTexture (as for ρ).
+ *     glTF's emissive value is a radiance L_e; a Lambertian emitter's
+ *     exitance is π L_e, so an emitter seen directly renders with pixel
+ *     value emissiveFactor × strength.
  *   - KHR_materials_diffuse_transmission (factor t, colour c, default 0
  *     and white; textures ignored) splits the diffuse lobe as the extension
  *     does: ρ = (1 − t)·baseColor, τ = t·c per band.  A transmitting
  *     material makes thin two-sided sheets (mesh twins), whatever
  *     doubleSided says; ρ + τ must stay below 1 in every band.
- *   - Only TRIANGLES primitives; extensionsRequired may only name
+ *   - TRIANGLES primitives become polygons; POINTS and LINES (Blender's
+ *     loose edges) have no area and are skipped with a warning; strips and
+ *     fans are refused.  extensionsRequired may only name
  *     KHR_materials_emissive_strength, KHR_materials_diffuse_transmission
- *     and KHR_lights_punctual.  Other
- *     extensions in extensionsUsed (Blender writes KHR_materials_specular,
- *     KHR_materials_ior) are ignored.
+ *     and KHR_lights_punctual.  Other extensions in extensionsUsed (Blender
+ *     writes KHR_materials_specular, KHR_materials_ior) are ignored and
+ *     named; so are normal, occlusion and metallic-roughness textures, a
+ *     stated metallicFactor > 0 (glTF's default metal, 1, is what exporters
+ *     leave on diffuse surfaces, so only a stated one is named), alphaMode
+ *     other than OPAQUE, animations, skins and morph targets, and a light's
+ *     range (the bridge's notes).
  *   - KHR_lights_punctual lights placed by nodes of the scene become scene
  *     lights: position = the node's world origin, direction (spot,
  *     directional) = the node's world -Z, normalised.  Units: glTF gives a
@@ -64,10 +93,11 @@
  *   - A doubleSided opaque material gives each polygon a second, reversed
  *     copy in the same object, right after it, so that both faces take part
  *     in the exchange; a single-sided polygon has only its front face.
- *   - Perspective cameras become scene cameras (eye at the node's world
- *     origin, looking along its -Z, up its +Y, yfov in degrees, aspectRatio
- *     or 0); orthographic ones are skipped (a hemi-cube renderer has no use
- *     for them).  Name: camera name, else node name, else "camera<index>".
+ *   - Cameras become scene cameras (eye at the node's world origin, looking
+ *     along its -Z, up its +Y): perspective ones with yfov in degrees and
+ *     aspectRatio or 0, orthographic ones with xmag and ymag (the renderer
+ *     draws them; znear and zfar are not used).  Name: camera name, else
+ *     node name, else "camera<index>".
  *   - Polygons are named "mesh/primitive/triangle" for messages.
  */
 #include "gltf_bridge.h"
