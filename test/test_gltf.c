@@ -147,7 +147,8 @@ static unsigned char *build(const spec *given, size_t *size)
     size_t tail_at = b.n;
     if (sp->tail_size > sizeof b.d - b.n)
         abort();
-    memcpy(b.d + b.n, sp->tail, sp->tail_size);
+    if (sp->tail_size)
+        memcpy(b.d + b.n, sp->tail, sp->tail_size);
     b.n += sp->tail_size;
     while (b.n % 4)
         b.d[b.n++] = 0;
