@@ -9,6 +9,7 @@
 #include "../radiosity/mesh/mesh.h"
 #include "../radiosity/scene/scene.h"
 #include "test.h"
+#include "util.h"
 
 #include <stdarg.h>
 #include <stdint.h>
@@ -227,19 +228,7 @@ static unsigned char *build(const spec *given, size_t *size)
     return out;
 }
 
-/* Warning lines caught from a parse. */
-typedef struct caught {
-    char line[8][1024];
-    int count;
-} caught;
-
-static void catch_warning(void *user, const char *message)
-{
-    caught *c = user;
-    if (c->count < 8)
-        snprintf(c->line[c->count], sizeof c->line[0], "%s", message);
-    c->count++;
-}
+typedef test_warnings caught;
 
 /* Parses sp as "test.gltf" with the warnings into *c (may be NULL);
  * returns the result code, the scene in *out. */
@@ -250,7 +239,8 @@ static int parse_warn(const spec *sp, rad_scene **out, rad_error *err, caught *c
     memset(err, 0, sizeof *err);
     if (c)
         memset(c, 0, sizeof *c);
-    rad_load_options opt = {.strict = sp->strict, .warn = c ? catch_warning : NULL, .warn_user = c};
+    rad_load_options opt = {.strict = sp->strict, .warn = c ? test_catch_warning : NULL,
+                            .warn_user = c};
     int rc = rad_scene_parse_gltf(d, n, sp->glb ? "test.glb" : "test.gltf", &opt, out, err);
     free(d);
     return rc;

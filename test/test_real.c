@@ -12,6 +12,7 @@
  */
 #include "../radiosity/pipeline/pipeline.h"
 #include "test.h"
+#include "util.h"
 
 #include <stdint.h>
 #include <stdlib.h>
@@ -58,18 +59,7 @@ static void bricks_mean(double mean[3])
         mean[b] = s[b] / 256.0;
 }
 
-typedef struct caught {
-    char line[16][1024];
-    int count;
-} caught;
-
-static void catch_warning(void *user, const char *message)
-{
-    caught *c = user;
-    if (c->count < 16)
-        snprintf(c->line[c->count], sizeof c->line[0], "%s", message);
-    c->count++;
-}
+typedef test_warnings caught;
 
 /* The one caught line holding every needle (NULL-terminated), or NULL. */
 static const char *find_line(const caught *c, const char *const *needles)
@@ -94,11 +84,29 @@ static rad_scene *load(const char *path, int strict, caught *c, rad_error *err)
 {
     memset(c, 0, sizeof *c);
     memset(err, 0, sizeof *err);
-    rad_load_options opt = {.warn = catch_warning, .warn_user = c, .strict = strict};
+    rad_load_options opt = {.warn = test_catch_warning, .warn_user = c, .strict = strict};
     rad_scene *s = NULL;
     int rc = rad_scene_load(path, &opt, &s, err);
     CHECK_MSG(strict || rc == RAD_OK, "%s", err->message);
     return rc == RAD_OK ? s : NULL;
+}
+
+/* sol written to a temporary file and read back (NULL, a check failed,
+ * when either step fails); the caller owns the result. */
+static rad_solution *through_file(const rad_solution *sol)
+{
+    char path[] = "/tmp/test_real_XXXXXX";
+    int fd = mkstemp(path);
+    CHECK(fd >= 0);
+    if (fd < 0)
+        return NULL;
+    close(fd);
+    rad_error err = {0};
+    rad_solution *back = NULL;
+    CHECK_MSG(rad_solution_write(sol, path, &err) == RAD_OK, "%s", err.message);
+    CHECK_MSG(rad_solution_read(path, &back, &err) == RAD_OK, "%s", err.message);
+    unlink(path);
+    return back;
 }
 
 static uint32_t material(const rad_scene *s, const char *name)
@@ -242,14 +250,7 @@ TEST(solution_keeps_polygon_rho)
         n += pa->material == painted;
     }
     CHECK(n >= 4);
-    char path[] = "/tmp/test_real_XXXXXX";
-    int fd = mkstemp(path);
-    CHECK(fd >= 0);
-    close(fd);
-    rad_solution *back = NULL;
-    CHECK(rad_solution_write(sol, path, &err) == RAD_OK);
-    CHECK_MSG(rad_solution_read(path, &back, &err) == RAD_OK, "%s", err.message);
-    unlink(path);
+    rad_solution *back = through_file(sol);
     if (back) {
         CHECK(back->mesh->patch_count == sol->mesh->patch_count);
         for (size_t k = 0; k < (size_t)sol->mesh->patch_count * 3; k++)
@@ -331,14 +332,7 @@ TEST(orthographic_render)
         return;
     }
     /* through the file: the CAMS section keeps the projection */
-    char path[] = "/tmp/test_real_XXXXXX";
-    int fd = mkstemp(path);
-    CHECK(fd >= 0);
-    close(fd);
-    rad_solution *back = NULL;
-    CHECK(rad_solution_write(sol, path, &err) == RAD_OK);
-    CHECK_MSG(rad_solution_read(path, &back, &err) == RAD_OK, "%s", err.message);
-    unlink(path);
+    rad_solution *back = through_file(sol);
     rad_solution_destroy(sol);
     if (!back)
         return;

@@ -30,6 +30,21 @@ static inline rad_solution *test_solve_text(const char *text, const char *name,
     return s;
 }
 
+/* Warning lines caught through rad_load_options.warn: the first 16 kept,
+ * all counted. */
+typedef struct test_warnings {
+    char line[16][1024];
+    int count;
+} test_warnings;
+
+static inline void test_catch_warning(void *user, const char *message)
+{
+    test_warnings *w = user;
+    if (w->count < 16)
+        snprintf(w->line[w->count], sizeof w->line[0], "%s", message);
+    w->count++;
+}
+
 /* Solves A x = b in place by Gaussian elimination with partial pivoting:
  * A is n×n row-major and is destroyed, x holds b on entry and the solution
  * on return.  The independent reference for iterative solvers; small n. */

@@ -147,15 +147,6 @@ tinygltf::Model parse_model(const vetted_doc &doc, fs_context &fs, const char *b
 
 /* ----------------------------------------------------------- raw ownership */
 
-char *dup_c(const std::string &s)
-{
-    char *p = static_cast<char *>(malloc(s.size() + 1));
-    if (!p)
-        throw std::bad_alloc();
-    memcpy(p, s.c_str(), s.size() + 1);
-    return p;
-}
-
 template <typename T> T *calloc_n(size_t n)
 {
     T *p = static_cast<T *>(calloc(n ? n : 1, sizeof(T)));

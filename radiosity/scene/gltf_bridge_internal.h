@@ -30,7 +30,10 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <map>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -86,6 +89,17 @@ inline std::string first_line(const std::string &s)
     size_t b = s.find_first_of("\n\r", a);
     std::string line = s.substr(a, b == std::string::npos ? std::string::npos : b - a);
     return line.size() > 300 ? line.substr(0, 297) + "..." : line;
+}
+
+/* A malloc'ed copy of s for the plain-C rad_gltf_raw (freed by
+ * rad_gltf_raw_free); throws std::bad_alloc when memory runs out. */
+inline char *dup_c(const std::string &s)
+{
+    char *p = static_cast<char *>(malloc(s.size() + 1));
+    if (!p)
+        throw std::bad_alloc();
+    memcpy(p, s.c_str(), s.size() + 1);
+    return p;
 }
 
 /* Little-endian 32-bit word, as .glb headers and glTF buffers store them. */

@@ -164,15 +164,6 @@ image_result read_image(const tinygltf::Model &m, const vetted_doc &doc, const f
     return r;
 }
 
-char *dup_msg(const std::string &s)
-{
-    char *p = static_cast<char *>(malloc(s.size() + 1));
-    if (!p)
-        throw std::bad_alloc();
-    memcpy(p, s.c_str(), s.size() + 1);
-    return p;
-}
-
 /* One material texture slot: texture index `t` (-1: none) resolved through
  * the cache of images already averaged. */
 void fill_texture(const tinygltf::Model &m, const vetted_doc &doc, const fs_context &fs, int t,
@@ -203,7 +194,7 @@ void fill_texture(const tinygltf::Model &m, const vetted_doc &doc, const fs_cont
         problem = it->second.problem;
     }
     dst.state = RAD_GLTF_TEXTURE_UNREADABLE;
-    dst.problem = dup_msg(problem);
+    dst.problem = dup_c(problem);
 }
 
 } /* namespace */

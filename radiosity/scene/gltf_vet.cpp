@@ -335,6 +335,15 @@ std::vector<light_def> parse_lights(const nlohmann::json &doc)
 
 /* ------------------------------------------------------- images, textures */
 
+/* doc's member `what` when it is an array, else nullptr (absent, or of
+ * another type: these members are read for what they can give, and a
+ * malformed one gives nothing). */
+const nlohmann::json *array_member(const nlohmann::json &doc, const char *what)
+{
+    auto it = doc.find(what);
+    return it != doc.end() && it->is_array() ? &*it : nullptr;
+}
+
 /* A non-negative integer member into *out (untouched when absent); false
  * when it is present but not one. */
 bool json_index(const nlohmann::json &o, const char *what, int64_t *out)
@@ -353,10 +362,9 @@ bool json_index(const nlohmann::json &o, const char *what, int64_t *out)
 std::vector<image_def> parse_images(const nlohmann::json &doc)
 {
     std::vector<image_def> out;
-    auto arr = doc.find("images");
-    if (arr == doc.end() || !arr->is_array())
-        return out;
-    for (const auto &o : *arr) {
+    const nlohmann::json *arr = array_member(doc, "images");
+    for (size_t k = 0; arr && k < arr->size(); k++) {
+        const nlohmann::json &o = (*arr)[k];
         image_def d;
         if (!o.is_object()) {
             d.problem = "not a JSON object";
@@ -387,10 +395,9 @@ std::vector<image_def> parse_images(const nlohmann::json &doc)
 std::vector<texture_def> parse_textures(const nlohmann::json &doc)
 {
     std::vector<texture_def> out;
-    auto arr = doc.find("textures");
-    if (arr == doc.end() || !arr->is_array())
-        return out;
-    for (const auto &o : *arr) {
+    const nlohmann::json *arr = array_member(doc, "textures");
+    for (size_t k = 0; arr && k < arr->size(); k++) {
+        const nlohmann::json &o = (*arr)[k];
         texture_def d;
         if (!o.is_object())
             d.problem = "not a JSON object";
@@ -409,10 +416,9 @@ std::vector<texture_def> parse_textures(const nlohmann::json &doc)
 std::vector<bool> parse_metallic(const nlohmann::json &doc)
 {
     std::vector<bool> out;
-    auto arr = doc.find("materials");
-    if (arr == doc.end() || !arr->is_array())
-        return out;
-    for (const auto &o : *arr) {
+    const nlohmann::json *arr = array_member(doc, "materials");
+    for (size_t k = 0; arr && k < arr->size(); k++) {
+        const nlohmann::json &o = (*arr)[k];
         bool metal = false;
         if (o.is_object()) {
             auto pbr = o.find("pbrMetallicRoughness");
@@ -428,8 +434,8 @@ std::vector<bool> parse_metallic(const nlohmann::json &doc)
 
 size_t array_size(const nlohmann::json &doc, const char *what)
 {
-    auto it = doc.find(what);
-    return it != doc.end() && it->is_array() ? it->size() : 0;
+    const nlohmann::json *arr = array_member(doc, what);
+    return arr ? arr->size() : 0;
 }
 
 } /* namespace */
