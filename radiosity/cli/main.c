@@ -3,6 +3,7 @@
  *
  *   radiosity solve    SCENE -o SOLUTION [options]
  *   radiosity render   SOLUTION -o IMAGE.exr [--png FILE] [camera options]
+ *   radiosity render   SOLUTION -o DIR --all-cameras | --camera A,B | --path FILE
  *   radiosity report   SOLUTION [--json]
  *   radiosity relight  SOLUTION -o OUT [--light N=off|on|S] [--emission N=v,..]
  *                      [--reflectance N=v,..] [--variations FILE [--render]]
@@ -185,6 +186,45 @@ int cli_other_arg(const char *cmd, const char *what, const char *arg, const char
     return 0;
 }
 
+int cli_read_text(const char *path, char **text, size_t *size, rad_error *err)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return rad_fail(err, RAD_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    char *buf = NULL;
+    size_t len = 0, cap = 0;
+    for (;;) {
+        if (len == cap) {
+            cap = cap ? cap * 2 : 4096;
+            if (cap > (64u << 20)) {
+                free(buf);
+                fclose(f);
+                return rad_fail(err, RAD_ERR_LIMIT, "%s: larger than 64 MiB", path);
+            }
+            char *nb = realloc(buf, cap);
+            if (!nb) {
+                free(buf);
+                fclose(f);
+                return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", path);
+            }
+            buf = nb;
+        }
+        size_t got = fread(buf + len, 1, cap - len, f);
+        len += got;
+        if (got == 0)
+            break;
+    }
+    int bad = ferror(f);
+    fclose(f);
+    if (bad) {
+        free(buf);
+        return rad_fail(err, RAD_ERR_IO, "%s: read error", path);
+    }
+    *text = buf;
+    *size = len;
+    return RAD_OK;
+}
+
 /* Checks that an output's directory exists, so the error names it plainly
  * instead of surfacing as a failed temporary file. */
 int cli_check_output_dir(const char *path)
@@ -200,6 +240,14 @@ int cli_check_output_dir(const char *path)
     struct stat st;
     if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode))
         return cli_usage_error("%s: directory '%s' does not exist", path, dir);
+    return 0;
+}
+
+int cli_need_dir(const char *what, const char *path)
+{
+    struct stat st;
+    if (stat(path, &st) != 0 || !S_ISDIR(st.st_mode))
+        return cli_usage_error("%s: -o '%s' must be an existing directory", what, path);
     return 0;
 }
 
@@ -232,6 +280,14 @@ static const char usage[] =
     "      --camera NAME            a camera of the scene (default: the first)\n"
     "      --eye X,Y,Z --target X,Y,Z --up X,Y,Z --fov DEG   an explicit camera\n"
     "      --size WxH               image size (default 512x512)\n"
+    "  render SOLUTION -o DIR VIEWS many views from one load, on every CPU: DIR/NAME.exr\n"
+    "                               and DIR/NAME.png for each (DIR must exist)\n"
+    "      --all-cameras            every camera of the scene (NAME: the camera's)\n"
+    "      --camera A,B,C           these cameras (or --camera repeated)\n"
+    "      --path FILE              a fly-through, one view per line (NAME: frame-0001..):\n"
+    "                               eye X,Y,Z target X,Y,Z [up X,Y,Z] [fov DEG]\n"
+    "      --threads N              drawing threads (default: CPUs)\n"
+    "      --no-png                 EXR only\n"
     "  report SOLUTION [--json]     per-object power balance, solver and stage times\n"
     "  relight SOLUTION -o OUT      re-solve with changed lights or colours, no new hemi-cubes\n"
     "      --light NAME=off|on|S    switch or scale an emitting object, punctual light or material\n"
