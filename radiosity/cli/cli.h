@@ -17,6 +17,7 @@ int cli_report(int argc, char **argv);
 int cli_relight(int argc, char **argv);
 int cli_ff(int argc, char **argv);
 int cli_validate(int argc, char **argv);
+int cli_export(int argc, char **argv);
 
 /* Prints "radiosity: error: MESSAGE" and returns the exit status for it. */
 int cli_error(const rad_error *err);

@@ -9,6 +9,7 @@
  *                      [--reflectance N=v,..] [--variations FILE [--render]]
  *   radiosity ff       SCENE_OR_SOLUTION --from A --to B [--json] [--matrix]
  *   radiosity validate [--json] [--quick]
+ *   radiosity export   SOLUTION -o DIR
  *
  * Errors print one line "radiosity: error: FILE: WHERE: WHAT" and exit 2 for
  * bad input or usage, 1 for failures of the machine (memory, GL).  Outputs
@@ -298,6 +299,9 @@ static const char usage[] =
     "  ff SCENE_OR_SOLUTION --from A --to B [--json] | --matrix\n"
     "                               object-to-object form factors\n"
     "  validate [--json] [--quick]  form factors against analytic catalog values\n"
+    "  export SOLUTION -o DIR       open data: DIR/patches.csv (ρ, E, B per patch), F.mtx\n"
+    "                               (Matrix Market), elements.csv and elements-F.mtx\n"
+    "                               (docs/export.md; DIR must exist)\n"
     "\n"
     "  --help, --version\n";
 
@@ -326,5 +330,7 @@ int main(int argc, char **argv)
         return cli_ff(argc - 2, argv + 2);
     if (!strcmp(cmd, "validate"))
         return cli_validate(argc - 2, argv + 2);
+    if (!strcmp(cmd, "export"))
+        return cli_export(argc - 2, argv + 2);
     return cli_usage_error("unknown command '%s'", cmd);
 }
