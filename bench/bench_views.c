@@ -15,6 +15,7 @@
  * time of that run, peak RSS the largest of the three.
  */
 #include "../radiosity/pipeline/pipeline.h"
+#include "bench_util.h"
 
 #include <fcntl.h>
 #include <spawn.h>
@@ -27,20 +28,6 @@
 #include <unistd.h>
 
 extern char **environ;
-
-static double patch_size_for(const rad_scene *scene, uint32_t target)
-{
-    double lo = 1e-4, hi = 1.0;
-    for (int it = 0; it < 60; it++) {
-        double mid = sqrt(lo * hi);
-        rad_mesh_options mo = {.patch_size = mid};
-        if (rad_mesh_count(scene, &mo) > target)
-            lo = mid;
-        else
-            hi = mid;
-    }
-    return hi;
-}
 
 static int fail(const char *what, const rad_error *err)
 {
@@ -58,7 +45,7 @@ static int make_solution(const char *model, uint32_t target, int synthetic, cons
     if (rad_scene_load(model, NULL, &scene, &err))
         return fail(model, &err);
     rad_solve_options opt = {0};
-    opt.mesh.patch_size = patch_size_for(scene, target);
+    opt.mesh.patch_size = bench_patch_size_for(scene, target);
     rad_solution *s = NULL;
     if (!synthetic) {
         opt.hemicube.resolution = 128;

@@ -72,6 +72,17 @@ static int keep(void *user, uint32_t k, const rn_image *img, rad_error *err)
     return RAD_OK;
 }
 
+/* The room solved at R = 32, with `levels` uniform element levels. */
+static rad_solution *solve_room(uint32_t levels)
+{
+    rad_solve_options opt = {0};
+    opt.hemicube.resolution = 32;
+    opt.element_levels = levels;
+    rad_solution *s = test_solve_text(room, "room.rad", &opt);
+    CHECK(s != NULL && (levels == 0) == (s->elements == NULL));
+    return s;
+}
+
 static void same_as_one_at_a_time(const rad_solution *s, uint32_t threads)
 {
     rn_camera cams[VIEWS];
@@ -116,10 +127,7 @@ static void same_as_one_at_a_time(const rad_solution *s, uint32_t threads)
 
 TEST(threads_draw_what_one_view_at_a_time_draws)
 {
-    rad_solve_options opt = {0};
-    opt.hemicube.resolution = 32;
-    rad_solution *s = test_solve_text(room, "room.rad", &opt);
-    CHECK(s != NULL);
+    rad_solution *s = solve_room(0);
     if (!s)
         return;
     same_as_one_at_a_time(s, 3);
@@ -129,11 +137,7 @@ TEST(threads_draw_what_one_view_at_a_time_draws)
 
 TEST(elements_draw_the_same_on_threads)
 {
-    rad_solve_options opt = {0};
-    opt.hemicube.resolution = 32;
-    opt.element_levels = 1;
-    rad_solution *s = test_solve_text(room, "room.rad", &opt);
-    CHECK(s != NULL && s->elements != NULL);
+    rad_solution *s = solve_room(1);
     if (!s)
         return;
     same_as_one_at_a_time(s, 2);
@@ -142,10 +146,7 @@ TEST(elements_draw_the_same_on_threads)
 
 TEST(a_failed_view_stops_the_run)
 {
-    rad_solve_options opt = {0};
-    opt.hemicube.resolution = 32;
-    rad_solution *s = test_solve_text(room, "room.rad", &opt);
-    CHECK(s != NULL);
+    rad_solution *s = solve_room(0);
     if (!s)
         return;
     rn_camera cams[VIEWS];
