@@ -916,16 +916,13 @@ int rn_render(const rad_mesh *mesh, uint32_t bands, const double *vertex_B, cons
     if (!out)
         return rad_fail(err, RAD_ERR_USAGE, "render: no output pointer");
     *out = NULL;
-    rn_canvas c = {0};
-    rn_image *img = NULL;
-    int rc = rn_canvas_draw(&c, mesh, bands, vertex_B, cam, &img, err);
-    if (!rc) {
-        *out = c.img; /* the caller takes the image, the rest goes */
-        c.img = NULL;
-    }
-    rn_image_destroy(c.img);
-    free(c.invz);
-    free(c.cv);
+    rn_canvas *c = rn_canvas_create();
+    if (!c)
+        return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory");
+    int rc = rn_canvas_draw(c, mesh, bands, vertex_B, cam, out, err);
+    if (!rc)
+        c->img = NULL; /* the caller takes the image, the rest goes */
+    rn_canvas_destroy(c);
     return rc;
 }
 
