@@ -843,7 +843,14 @@ static int mesh_check(const rad_mesh *m, rad_error *err)
 int rn_camera_check(const rn_camera *cam, rad_error *err)
 {
     frame fr;
-    return camera_frame(cam, &fr, err);
+    rad_error why;
+    int rc = camera_frame(cam, &fr, &why);
+    if (!rc)
+        return RAD_OK;
+    /* The reason alone: the caller says which camera. */
+    const char *prefix = "render: camera: ";
+    size_t n = strlen(prefix);
+    return rad_fail(err, rc, "%s", strncmp(why.message, prefix, n) ? why.message : why.message + n);
 }
 
 /* What a canvas keeps between views: the image drawn last, its depth buffer

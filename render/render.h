@@ -89,8 +89,9 @@ int rn_canvas_draw(rn_canvas *c, const rad_mesh *mesh, uint32_t bands, const dou
 
 /* RAD_OK when rn_render can draw from cam (finite, eye != target, up not
  * along the view, field of view in (0, 180) degrees, 1..16384 pixels a
- * side), else RAD_ERR_USAGE saying why: many views checked before any is
- * drawn. */
+ * side), else RAD_ERR_USAGE with the reason alone ("eye and target
+ * coincide"), for the caller to say which camera: many views are checked
+ * before any is drawn. */
 int rn_camera_check(const rn_camera *cam, rad_error *err);
 
 /* Writes linear radiance as OpenEXR (float channels R,G,B for 3 bands, Y for

@@ -188,7 +188,7 @@ int rad_drawing_views(const rad_drawing *d, const rn_camera *cams, uint32_t coun
     for (uint32_t k = 0; k < count; k++) {
         rad_error why;
         if (rn_camera_check(&cams[k], &why))
-            return rad_fail(err, RAD_ERR_USAGE, "view %u: %s", k + 1, why.message);
+            return rad_fail(err, RAD_ERR_USAGE, "render: view %u: %s", k + 1, why.message);
     }
     views_run r = {.d = d, .cams = cams, .count = count, .done = done, .user = user,
                    .failed = count};
@@ -280,10 +280,7 @@ static int parse_view(char *line, const char *name, uint32_t lno, const rn_camer
                         lno);
     rad_error why;
     if (rn_camera_check(cam, &why))
-        /* "render: camera: WHAT" -> "FILE: line N: WHAT" */
-        return rad_fail(err, RAD_ERR_INVALID, "%s: line %u: %s", name, lno,
-                        strncmp(why.message, "render: camera: ", 16) ? why.message
-                                                                     : why.message + 16);
+        return rad_fail(err, RAD_ERR_INVALID, "%s: line %u: %s", name, lno, why.message);
     *got = 1;
     return RAD_OK;
 }
