@@ -3,8 +3,9 @@
  *
  * Runs the `radiosity` program itself (argv[1], else $RADIOSITY_BIN, else
  * build/release/radiosity), so each time is a whole command: start, load,
- * preparing the drawing, drawing, writing the files.  Two solutions:
- *   - the Cornell box at about 2,000 patches, solved for real (F stored);
+ * preparing the drawing, drawing, writing the files.  Three solutions:
+ *   - the Cornell box at about 2,000 and 8,000 patches, solved for real
+ *     (F stored: 5 and 130 MB files, read whole by `render`);
  *   - the Cornell box meshed at about 32,000 patches with a smooth synthetic
  *     B and no rows of F: what the 32k-patch case costs to draw, with next
  *     to nothing to load, the hardest case for the ratio.
@@ -151,14 +152,18 @@ int main(int argc, char **argv)
         uint32_t target;
         int synthetic;
         const char *what;
-    } cases[] = {{2000, 0, "solved"}, {32000, 1, "synthetic B, no F"}};
+    } cases[] = {{2000, 0, "solved"}, {8000, 0, "solved"}, {32000, 1, "synthetic B, no F"}};
     struct {
         char *size;
         int png;
     } runs[] = {{"512x512", 1}, {"1024x1024", 1}, {"1024x1024", 0}};
     long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    double load[3] = {0};
+    getloadavg(load, 3);
     printf("render: one view vs ten views in one call (whole command: start, load, draw, write);\n"
-           "fastest wall of 3 runs, its CPU (user + sys), peak RSS; %ld CPUs\n\n", cpus);
+           "fastest wall of 3 runs, its CPU (user + sys), peak RSS; %ld CPUs, load average %.1f\n"
+           "at the start (other work on the machine stretches the wall times, not the CPU)\n\n",
+           cpus, load[0]);
     printf("| solution | patches | size | files | one view s (CPU) | ten views, 1 thread s (CPU) "
            "| ten views, %ld threads s (CPU) | ten / one | peak MiB one / ten |\n", cpus);
     printf("|---|--:|---|---|--:|--:|--:|--:|--:|\n");
@@ -203,6 +208,8 @@ int main(int argc, char **argv)
             fflush(stdout);
         }
     }
+    getloadavg(load, 3);
+    printf("\nload average at the end: %.1f\n", load[0]);
     /* Leave nothing behind. */
     char cmd[600];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
