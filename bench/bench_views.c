@@ -5,7 +5,7 @@
  * build/release/radiosity), so each time is a whole command: start, load,
  * preparing the drawing, drawing, writing the files.  Three solutions:
  *   - the Cornell box at about 2,000 and 8,000 patches, solved for real
- *     (F stored: 5 and 130 MB files, read whole by `render`);
+ *     (F stored, and read whole by `render`: the table gives the file size);
  *   - the Cornell box meshed at about 32,000 patches with a smooth synthetic
  *     B and no rows of F: what the 32k-patch case costs to draw, with next
  *     to nothing to load, the hardest case for the ratio.
@@ -164,9 +164,9 @@ int main(int argc, char **argv)
            "fastest wall of 3 runs, its CPU (user + sys), peak RSS; %ld CPUs, load average %.1f\n"
            "at the start (other work on the machine stretches the wall times, not the CPU)\n\n",
            cpus, load[0]);
-    printf("| solution | patches | size | files | one view s (CPU) | ten views, 1 thread s (CPU) "
-           "| ten views, %ld threads s (CPU) | ten / one | peak MiB one / ten |\n", cpus);
-    printf("|---|--:|---|---|--:|--:|--:|--:|--:|\n");
+    printf("| solution | patches | file MB | size | files | one view s (CPU) | ten views, 1 thread "
+           "s (CPU) | ten views, %ld threads s (CPU) | ten / one | peak MiB one / ten |\n", cpus);
+    printf("|---|--:|--:|---|---|--:|--:|--:|--:|--:|\n");
     int rc = 0;
     for (size_t c = 0; c < sizeof cases / sizeof cases[0] && !rc; c++) {
         char sol[512], path[512], one[512], png[512], eye[128], target[128];
@@ -179,6 +179,8 @@ int main(int argc, char **argv)
         rc = make_solution(model, cases[c].target, cases[c].synthetic, sol, &patches);
         if (!rc)
             rc = write_path(sol, path, &e, &t);
+        struct stat st;
+        double file_mb = stat(sol, &st) == 0 ? st.st_size / 1048576.0 : 0.0;
         snprintf(eye, sizeof eye, "%.9g,%.9g,%.9g", e.x, e.y, e.z);
         snprintf(target, sizeof target, "%.9g,%.9g,%.9g", t.x, t.y, t.z);
         for (size_t z = 0; z < sizeof runs / sizeof runs[0] && !rc; z++) {
@@ -200,9 +202,10 @@ int main(int argc, char **argv)
             rc = measure(one_argv, &r1) || measure(ten1_argv, &r10a) || measure(ten_argv, &r10);
             if (rc)
                 break;
-            printf("| Cornell, %s | %u | %s | %s | %.3f (%.3f) | %.3f (%.3f) | %.3f (%.3f) | %.2f "
-                   "| %.0f / %.0f |\n",
-                   cases[c].what, patches, size, runs[z].png ? "EXR + PNG" : "EXR", r1.wall, r1.cpu,
+            printf("| Cornell, %s | %u | %.1f | %s | %s | %.3f (%.3f) | %.3f (%.3f) | %.3f (%.3f) "
+                   "| %.2f | %.0f / %.0f |\n",
+                   cases[c].what, patches, file_mb, size, runs[z].png ? "EXR + PNG" : "EXR", r1.wall,
+                   r1.cpu,
                    r10a.wall, r10a.cpu, r10.wall, r10.cpu, r10.wall / r1.wall, r1.peak_mib,
                    r10.peak_mib);
             fflush(stdout);
