@@ -139,6 +139,40 @@ static int write_path(const char *sol, const char *path, rad_vec3 *eye0, rad_vec
     return fclose(f) ? fail(path, NULL) : 0;
 }
 
+/* What a case needs from its solution: made (make_solution) and its path
+ * written (write_path) in a child process, so that this one stays small: a
+ * spawned command's peak RSS starts from its parent's (Linux keeps the
+ * old address space's high-water mark across exec). */
+typedef struct prepared {
+    uint32_t patches;
+    rad_vec3 eye, target;
+} prepared;
+
+static int prepare_apart(const char *model, uint32_t target, int synthetic, const char *sol,
+                         const char *path, prepared *out)
+{
+    int fd[2];
+    if (pipe(fd))
+        return fail("pipe", NULL);
+    fflush(NULL);
+    pid_t pid = fork();
+    if (pid < 0)
+        return fail("fork", NULL);
+    if (pid == 0) {
+        close(fd[0]);
+        prepared p = {0};
+        int rc = make_solution(model, target, synthetic, sol, &p.patches) ||
+                 write_path(sol, path, &p.eye, &p.target);
+        _exit(rc || write(fd[1], &p, sizeof p) != (ssize_t)sizeof p);
+    }
+    close(fd[1]);
+    ssize_t got = read(fd[0], out, sizeof *out);
+    close(fd[0]);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    return got == (ssize_t)sizeof *out && WIFEXITED(status) && !WEXITSTATUS(status) ? 0 : 1;
+}
+
 int main(int argc, char **argv)
 {
     const char *bin = argc > 1 ? argv[1] : getenv("RADIOSITY_BIN");
@@ -174,11 +208,10 @@ int main(int argc, char **argv)
         snprintf(path, sizeof path, "%s/ten.txt", dir);
         snprintf(one, sizeof one, "%s/one.exr", dir);
         snprintf(png, sizeof png, "%s/one.png", dir);
-        uint32_t patches = 0;
-        rad_vec3 e = {0}, t = {0};
-        rc = make_solution(model, cases[c].target, cases[c].synthetic, sol, &patches);
-        if (!rc)
-            rc = write_path(sol, path, &e, &t);
+        prepared p = {0};
+        rc = prepare_apart(model, cases[c].target, cases[c].synthetic, sol, path, &p);
+        rad_vec3 e = p.eye, t = p.target;
+        uint32_t patches = p.patches;
         struct stat st;
         double file_mb = stat(sol, &st) == 0 ? st.st_size / 1048576.0 : 0.0;
         snprintf(eye, sizeof eye, "%.9g,%.9g,%.9g", e.x, e.y, e.z);
