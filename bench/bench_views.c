@@ -173,6 +173,63 @@ static int prepare_apart(const char *model, uint32_t target, int synthetic, cons
     return got == (ssize_t)sizeof *out && WIFEXITED(status) && !WEXITSTATUS(status) ? 0 : 1;
 }
 
+static double cpu_seconds(void)
+{
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    return ru.ru_utime.tv_sec + 1e-6 * ru.ru_utime.tv_usec + ru.ru_stime.tv_sec +
+           1e-6 * ru.ru_stime.tv_usec;
+}
+
+/* Where one call's time goes, in this process, on one thread (CPU seconds,
+ * so other work on the machine matters less): reading the solution,
+ * preparing the drawing, and per view (mean of ten, one canvas) drawing,
+ * writing the EXR and writing the PNG, at 1024². */
+static int per_view_costs(const char *dir, const char *name)
+{
+    char sol[512], exr[512], png[512];
+    snprintf(sol, sizeof sol, "%s/%s", dir, name);
+    snprintf(exr, sizeof exr, "%s/cost.exr", dir);
+    snprintf(png, sizeof png, "%s/cost.png", dir);
+    rad_error err = {0};
+    rad_solution *s = NULL;
+    rad_drawing *d = NULL;
+    rn_canvas *c = rn_canvas_create();
+    double t0 = cpu_seconds();
+    if (!c || rad_solution_read(sol, &s, &err))
+        return fail(sol, &err);
+    double t1 = cpu_seconds();
+    if (rad_drawing_create(s, &d, &err))
+        return fail("drawing", &err);
+    double t2 = cpu_seconds(), draw = 0, write_exr = 0, write_png = 0;
+    rn_camera cam;
+    if (rad_camera_from_scene(s->scene, NULL, 1024, 1024, &cam, &err))
+        return fail("camera", &err);
+    for (int k = 0; k < 10; k++) {
+        rn_image *img = NULL;
+        double a = cpu_seconds();
+        if (rad_drawing_draw(d, c, &cam, &img, &err))
+            return fail("draw", &err);
+        double b = cpu_seconds();
+        if (rn_write_exr(img, exr, &err))
+            return fail(exr, &err);
+        double e = cpu_seconds();
+        if (rn_write_png(img, png, 0.0, &err))
+            return fail(png, &err);
+        draw += b - a;
+        write_exr += e - b;
+        write_png += cpu_seconds() - e;
+    }
+    printf("\nwhere the time goes (%u patches, 1024x1024, CPU s in one process): read %.3f, "
+           "prepare the drawing %.3f;\nper view (mean of 10, one canvas): draw %.3f, EXR %.3f, "
+           "PNG %.3f\n",
+           s->mesh->patch_count, t1 - t0, t2 - t1, draw / 10, write_exr / 10, write_png / 10);
+    rn_canvas_destroy(c);
+    rad_drawing_destroy(d);
+    rad_solution_destroy(s);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     const char *bin = argc > 1 ? argv[1] : getenv("RADIOSITY_BIN");
@@ -244,6 +301,8 @@ int main(int argc, char **argv)
             fflush(stdout);
         }
     }
+    if (!rc)
+        rc = per_view_costs(dir, "case2.sol");
     getloadavg(load, 3);
     printf("\nload average at the end: %.1f\n", load[0]);
     /* Leave nothing behind. */
