@@ -885,7 +885,7 @@ static void section_proximity(void)
  * a square lamp of side s at height 1, centred and facing down; with a > 0
  * also an occluder square of side a at height ½, centred and facing the
  * floor.  One quad occludes from both sides: in the item buffer a back side
- * still hides what lies beyond it and only counts for no patch (hemicube.c,
+ * still hides what lies beyond it and only counts for no patch (hemicube/gl.c,
  * fs_src). */
 enum { LAMP_FLOOR_N = 17 }; /* the floor's patches an edge in 6.3 and 6.4 */
 
