@@ -1,7 +1,8 @@
 /* render.c - vertex radiosities, the item buffer and the interpolated image.
  *
- * Owns rn_vertex_radiosity, rn_render and rn_image_destroy, plus the small
- * helpers the two writers share (rn_internal.h).  Invariant of an image made
+ * Owns rn_vertex_radiosity, rn_render, rn_canvas (the buffers kept from one
+ * view to the next) and rn_image_destroy, plus the small helpers the two
+ * writers share (rn_internal.h).  Invariant of an image made
  * here: each pixel is either background (patch RAD_NONE, every band 0) or the
  * radiance L = B/π of the one front-facing patch nearest along the pixel's
  * eye ray, B interpolated from the vertex radiosities at the point X where
@@ -868,12 +869,108 @@ static int mesh_check(const rad_mesh *m, rad_error *err)
     return RAD_OK;
 }
 
+int rn_camera_check(const rn_camera *cam, rad_error *err)
+{
+    frame fr;
+    rad_error why;
+    int rc = camera_frame(cam, &fr, &why);
+    if (!rc)
+        return RAD_OK;
+    /* The reason alone: the caller says which camera. */
+    const char *prefix = "render: camera: ";
+    size_t n = strlen(prefix);
+    return rad_fail(err, rc, "%s", strncmp(why.message, prefix, n) ? why.message : why.message + n);
+}
+
+/* What a canvas keeps between views: the image drawn last, its depth buffer
+ * (1/z per pixel) and room for the camera-space vertices. */
+struct rn_canvas {
+    rn_image *img;
+    double *invz;      /* img->width × img->height */
+    rad_vec3 *cv;      /* cv_cap entries */
+    uint32_t cv_cap;
+};
+
+rn_canvas *rn_canvas_create(void) { return calloc(1, sizeof(rn_canvas)); }
+
+void rn_canvas_destroy(rn_canvas *c)
+{
+    if (!c)
+        return;
+    rn_image_destroy(c->img);
+    free(c->invz);
+    free(c->cv);
+    free(c);
+}
+
+/* Makes c's buffers fit a w×h image of `bands` channels and a mesh of nv
+ * vertices, and clears them: every pixel background, every depth 0 (at
+ * infinity).  Buffers of the right size are kept; new ones are written
+ * here first, so each page is faulted in once, not read as the shared
+ * zero page and copied on the first depth test. */
+static int canvas_prepare(rn_canvas *c, uint32_t w, uint32_t h, uint32_t bands, uint32_t nv,
+                          rad_error *err)
+{
+    size_t npix = (size_t)w * h;
+    rn_image *img = c->img;
+    if (!img || img->width != w || img->height != h || img->channels != bands) {
+        uint64_t need = (uint64_t)npix * (4u * bands + sizeof(uint32_t) + sizeof(double)) +
+                        (uint64_t)nv * sizeof(rad_vec3);
+        uint64_t avail = rad_available_memory();
+        if (avail && need > avail)
+            return rad_fail(err, RAD_ERR_LIMIT,
+                            "render: a %ux%u image of %u bands needs %llu bytes, %llu available", w,
+                            h, bands, (unsigned long long)need, (unsigned long long)avail);
+        rn_image_destroy(c->img);
+        free(c->invz);
+        c->img = NULL;
+        c->invz = malloc(npix * sizeof *c->invz);
+        img = c->invz ? rn_image_alloc(w, h, bands) : NULL;
+        if (!img)
+            return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory for a %ux%u image", w, h);
+        c->img = img;
+    } else {
+        memset(img->pixels, 0, npix * bands * sizeof *img->pixels);
+        for (size_t k = 0; k < npix; k++)
+            img->patch[k] = RAD_NONE;
+    }
+    memset(c->invz, 0, npix * sizeof *c->invz);
+    if (c->cv_cap < nv + 1) {
+        free(c->cv);
+        c->cv_cap = 0;
+        c->cv = malloc(((size_t)nv + 1) * sizeof *c->cv);
+        if (!c->cv)
+            return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory for %u vertices", nv);
+        c->cv_cap = nv + 1;
+    }
+    return RAD_OK;
+}
+
 int rn_render(const rad_mesh *mesh, uint32_t bands, const double *vertex_B, const rn_camera *cam,
               rn_image **out, rad_error *err)
 {
     if (!out)
         return rad_fail(err, RAD_ERR_USAGE, "render: no output pointer");
     *out = NULL;
+    rn_canvas *c = rn_canvas_create();
+    if (!c)
+        return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory");
+    int rc = rn_canvas_draw(c, mesh, bands, vertex_B, cam, out, err);
+    if (!rc)
+        c->img = NULL; /* the caller takes the image, the rest goes */
+    rn_canvas_destroy(c);
+    return rc;
+}
+
+int rn_canvas_draw(rn_canvas *canvas, const rad_mesh *mesh, uint32_t bands,
+                   const double *vertex_B, const rn_camera *cam, rn_image **out,
+                   rad_error *err)
+{
+    if (!out)
+        return rad_fail(err, RAD_ERR_USAGE, "render: no output pointer");
+    *out = NULL;
+    if (!canvas)
+        return rad_fail(err, RAD_ERR_USAGE, "render: no canvas");
     if (!mesh)
         return rad_fail(err, RAD_ERR_USAGE, "render: no mesh");
     if (bands == 0 || bands > RAD_MAX_BANDS)
@@ -888,24 +985,12 @@ int rn_render(const rad_mesh *mesh, uint32_t bands, const double *vertex_B, cons
     rc = mesh_check(mesh, err);
     if (rc)
         return rc;
-
-    uint64_t npix = (uint64_t)fr.w * fr.h;
-    uint64_t need = npix * (4u * bands + sizeof(uint32_t) + sizeof(double)) +
-                    (uint64_t)mesh->vertex_count * sizeof(rad_vec3);
-    uint64_t avail = rad_available_memory();
-    if (avail && need > avail)
-        return rad_fail(err, RAD_ERR_LIMIT, "render: a %ux%u image of %u bands needs %llu bytes, %llu available",
-                        fr.w, fr.h, bands, (unsigned long long)need, (unsigned long long)avail);
-
-    rn_image *img = rn_image_alloc(fr.w, fr.h, bands);
-    double *invz = calloc((size_t)npix, sizeof *invz);
-    rad_vec3 *cv = malloc(((size_t)mesh->vertex_count + 1) * sizeof *cv);
-    if (!img || !invz || !cv) {
-        rn_image_destroy(img);
-        free(invz);
-        free(cv);
-        return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory for a %ux%u image", fr.w, fr.h);
-    }
+    rc = canvas_prepare(canvas, fr.w, fr.h, bands, mesh->vertex_count, err);
+    if (rc)
+        return rc;
+    rn_image *img = canvas->img;
+    double *invz = canvas->invz;
+    rad_vec3 *cv = canvas->cv;
 
     /* Camera-space vertices, once each, so shared corners stay identical. */
     double extent = 0.0;
@@ -1016,8 +1101,6 @@ int rn_render(const rad_mesh *mesh, uint32_t bands, const double *vertex_B, cons
             }
         }
     }
-    free(invz);
-    free(cv);
     *out = img;
     return RAD_OK;
 }

@@ -17,7 +17,10 @@ int cli_view_option(int argc, char **argv, int *i, cli_view *v)
     if (!strcmp(a, "--camera")) {
         if (!val)
             return cli_usage_error("--camera needs a name"), -1;
-        v->camera = val;
+        if (v->camera_args == CLI_MAX_CAMERA_ARGS)
+            return cli_usage_error("--camera given more than %d times (list cameras as A,B,C)",
+                                   CLI_MAX_CAMERA_ARGS), -1;
+        v->camera = v->cameras[v->camera_args++] = val;
     } else if (!strcmp(a, "--eye")) {
         rc = cli_parse_vec3(a, val, &v->eye), v->have_eye = 1;
     } else if (!strcmp(a, "--target")) {
@@ -196,9 +199,12 @@ int cli_render(int argc, char **argv)
 {
     const char *in = NULL, *out = NULL;
     cli_view view = {0};
+    cli_many many = {0};
     int rc;
     for (int i = 0; i < argc; i++) {
         int r = cli_view_option(argc, argv, &i, &view);
+        if (!r)
+            r = cli_many_option(argc, argv, &i, &many);
         if (r < 0)
             return 2;
         if (r > 0)
@@ -210,11 +216,19 @@ int cli_render(int argc, char **argv)
     }
     if (!in || !out)
         return cli_usage_error("usage: radiosity render SOLUTION -o IMAGE.exr [options]");
+    if (cli_many_views(&view, &many, NULL) && cli_need_dir("render", out))
+        return 2;
     rad_error err = {0};
     rad_solution *s = NULL;
     if (rad_solution_read(in, &s, &err))
         return cli_error(&err);
-    rc = cli_render_to_files(s, &view, out, view.png);
+    if (cli_many_views(&view, &many, s->scene))
+        rc = cli_render_many(s, &view, &many, out);
+    else if (many.threads || many.no_png)
+        rc = cli_usage_error("render: --threads and --no-png go with several views "
+                             "(--all-cameras, --path or --camera A,B)");
+    else
+        rc = cli_render_to_files(s, &view, out, view.png);
     rad_solution_destroy(s);
     return rc;
 }
