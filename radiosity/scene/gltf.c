@@ -517,7 +517,16 @@ static int add_material(gltf_ctx *c, const rad_gltf_raw_material *m, uint32_t *i
     if (!name)
         return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
     snprintf(where, sizeof where, "material '%.200s'", name);
-    int rc = rad_scene_add_material(c->s, name, rho, e, tau, where, index, c->err);
+    uint32_t k;
+    int rc = rad_scene_add_material(c->s, name, rho, e, tau, where, &k, c->err);
+    /* pbrMetallicRoughness: the glossy lobe of the gather renderer (scene.h
+     * gives the mapping).  An unstated metallicFactor counts as 0, not
+     * glTF's 1: this engine has always read baseColorFactor as a diffuse ρ,
+     * and a document that says nothing of metals keeps that meaning. */
+    if (!rc && (m->metallic != 0.0 || m->roughness != 1.0))
+        rc = rad_scene_set_material_gloss(c->s, k, m->metallic, m->roughness, where, c->err);
+    if (!rc && index)
+        *index = k;
     free(name);
     return rc;
 }

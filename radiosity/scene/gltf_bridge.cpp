@@ -773,6 +773,11 @@ void convert(const tinygltf::Model &m, const std::vector<light_def> &lights,
             }
         }
         dst.double_sided = src.doubleSided ? 1 : 0;
+        /* tinygltf fills pbrMetallicRoughness with glTF's defaults; `values`
+         * holds only the keys the document wrote. */
+        dst.metallic = src.values.count("metallicFactor") ? src.pbrMetallicRoughness.metallicFactor
+                                                          : 0.0;
+        dst.roughness = src.pbrMetallicRoughness.roughnessFactor;
     }
 
     /* Node hierarchy: each node has at most one parent and no cycles, as
