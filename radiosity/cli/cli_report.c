@@ -175,7 +175,9 @@ static void report_json(FILE *f, const report *r)
     for (int k = 0; k < RAD_STAGE_COUNT; k++)
         fprintf(f, "%s\"%s\": %s", k ? ", " : "", rad_stage_name(k),
                 s->stages[k].reused ? "true" : "false");
-    fprintf(f, "}}\n");
+    fprintf(f, "},\n \"gather_cache\": ");
+    cli_report_cache(f, in, s, 1);
+    fprintf(f, "}\n");
 }
 
 static void report_text(FILE *f, const report *r)
@@ -247,6 +249,7 @@ static void report_text(FILE *f, const report *r)
         fprintf(f, "  %s %.3f s%s", rad_stage_name(k), s->stages[k].seconds,
                 s->stages[k].reused ? " (reused)" : "");
     fputc('\n', f);
+    cli_report_cache(f, in, s, 0);
 }
 
 int cli_report(int argc, char **argv)

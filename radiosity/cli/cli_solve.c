@@ -48,8 +48,7 @@ int cli_view_option(int argc, char **argv, int *i, cli_view *v)
     return 1;
 }
 
-int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *exr_path,
-                        const char *png_path)
+int cli_view_camera(const rad_solution *s, const cli_view *v, rn_camera *out)
 {
     rad_error err = {0};
     rn_camera cam;
@@ -70,10 +69,22 @@ int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *ex
         if (v->have_fov)
             cam.yfov_deg = v->fov;
     }
+    *out = cam;
+    return 0;
+}
+
+int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *exr_path,
+                        const char *png_path)
+{
+    rad_error err = {0};
+    rn_camera cam;
+    int rc = cli_view_camera(s, v, &cam);
+    if (rc)
+        return rc;
     if (cli_check_output_dir(exr_path) || (png_path && cli_check_output_dir(png_path)))
         return 2;
     rn_image *img = NULL;
-    int rc = rad_render_solution(s, &cam, &img, &err);
+    rc = rad_render_solution(s, &cam, &img, &err);
     if (!rc)
         rc = rn_write_exr(img, exr_path, &err);
     if (!rc && png_path)
@@ -189,9 +200,12 @@ int cli_render(int argc, char **argv)
 {
     const char *in = NULL, *out = NULL;
     cli_view view = {0};
+    cli_gather gather = {0};
     int rc;
     for (int i = 0; i < argc; i++) {
         int r = cli_view_option(argc, argv, &i, &view);
+        if (r == 0)
+            r = cli_gather_option(argc, argv, &i, &gather);
         if (r < 0)
             return 2;
         if (r > 0)
@@ -203,11 +217,14 @@ int cli_render(int argc, char **argv)
     }
     if (!in || !out)
         return cli_usage_error("usage: radiosity render SOLUTION -o IMAGE.exr [options]");
+    if (gather.given && !gather.on)
+        return cli_usage_error("render: %s is a --gather option", gather.given);
     rad_error err = {0};
     rad_solution *s = NULL;
     if (rad_solution_read(in, &s, &err))
         return cli_error(&err);
-    rc = cli_render_to_files(s, &view, out, view.png);
+    rc = gather.on ? cli_gather_to_files(s, in, &view, &gather, out)
+                   : cli_render_to_files(s, &view, out, view.png);
     rad_solution_destroy(s);
     return rc;
 }
