@@ -79,6 +79,8 @@ int cli_gather_option(int argc, char **argv, int *i, cli_gather *g);
  * and v->png; prints one line of statistics. */
 int cli_gather_to_files(const rad_solution *s, const char *sol_path, const cli_view *v,
                         const cli_gather *g, const char *exr_path);
+/* Writes s as a JSON string (quotes, escapes). */
+void cli_json_string(FILE *f, const char *s);
 /* The cache beside sol_path, if any, for report (text or JSON member). */
 void cli_report_cache(FILE *f, const char *sol_path, const rad_solution *s, int json);
 

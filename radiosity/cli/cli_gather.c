@@ -151,10 +151,12 @@ void cli_report_cache(FILE *f, const char *sol_path, const rad_solution *s, int 
         rad_gather_scene_destroy(g);
     }
     if (json) {
-        fprintf(f, "{\"file\": \"%s\", \"state\": \"%s\", \"records\": %llu, \"gathers\": %llu, "
+        fputs("{\"file\": ", f);
+        cli_json_string(f, path);
+        fprintf(f, ", \"state\": \"%s\", \"records\": %llu, \"gathers\": %llu, "
                    "\"runs\": %llu, \"epsilon\": %.6g, \"gather_rays\": %u, \"gradients\": %s, "
                    "\"min_radius_px\": %.6g, \"mean_radius\": %.6g}",
-                path, state, (unsigned long long)in.records, (unsigned long long)in.gathers,
+                state, (unsigned long long)in.records, (unsigned long long)in.gathers,
                 (unsigned long long)in.runs, in.epsilon, in.gather_rays,
                 in.gradients ? "true" : "false", in.min_radius_px, in.mean_radius);
         return;
