@@ -36,42 +36,6 @@ static double mean_difference(const rn_image *a, const rn_image *ref)
     return den > 0 ? num / den : 0.0;
 }
 
-/* Per-object relative error of the means, worst and area-weighted mean
- * (weighted by the object's pixel count) over objects with pixels. */
-static void region_error(const rad_solution *s, const rn_image *a, const rn_image *v, double *worst,
-                         double *mean)
-{
-    uint32_t no = s->scene->object_count, nb = a->channels;
-    double *sa = calloc(no, sizeof *sa), *sv = calloc(no, sizeof *sv);
-    uint64_t *cnt = calloc(no, sizeof *cnt);
-    for (size_t q = 0; q < (size_t)a->width * a->height; q++) {
-        if (a->patch[q] == RAD_NONE || v->patch[q] == RAD_NONE)
-            continue;
-        uint32_t oa = s->mesh->patches[a->patch[q]].object, ov = s->mesh->patches[v->patch[q]].object;
-        if (oa != ov)
-            continue;
-        for (uint32_t b = 0; b < nb; b++) {
-            sa[oa] += a->pixels[q * nb + b];
-            sv[oa] += v->pixels[q * nb + b];
-        }
-        cnt[oa]++;
-    }
-    *worst = 0;
-    double wsum = 0, esum = 0;
-    for (uint32_t o = 0; o < no; o++) {
-        if (!cnt[o] || !(sv[o] > 0))
-            continue;
-        double e = fabs(sa[o] - sv[o]) / sv[o];
-        *worst = fmax(*worst, e);
-        esum += e * (double)cnt[o];
-        wsum += (double)cnt[o];
-    }
-    *mean = wsum > 0 ? esum / wsum : 0.0;
-    free(sa);
-    free(sv);
-    free(cnt);
-}
-
 /* Mean radiance (bands summed) per object over the pixels where a and v
  * see the same object, into ma[o], mv[o]; counts into n[o]. */
 static void object_means(const rad_solution *s, const rn_image *a, const rn_image *v, double *ma,
@@ -95,6 +59,31 @@ static void object_means(const rad_solution *s, const rn_image *a, const rn_imag
     for (uint32_t o = 0; o < no; o++)
         if (n[o])
             ma[o] /= (double)n[o], mv[o] /= (double)n[o];
+}
+
+/* Per-object relative error of the means, worst and pixel-weighted mean
+ * over objects with pixels. */
+static void region_error(const rad_solution *s, const rn_image *a, const rn_image *v, double *worst,
+                         double *mean)
+{
+    uint32_t no = s->scene->object_count;
+    double *ma = calloc(no, sizeof *ma), *mv = calloc(no, sizeof *mv);
+    uint64_t *cnt = calloc(no, sizeof *cnt);
+    object_means(s, a, v, ma, mv, cnt);
+    *worst = 0;
+    double wsum = 0, esum = 0;
+    for (uint32_t o = 0; o < no; o++) {
+        if (!cnt[o] || !(mv[o] > 0))
+            continue;
+        double e = fabs(ma[o] - mv[o]) / mv[o];
+        *worst = fmax(*worst, e);
+        esum += e * (double)cnt[o];
+        wsum += (double)cnt[o];
+    }
+    *mean = wsum > 0 ? esum / wsum : 0.0;
+    free(ma);
+    free(mv);
+    free(cnt);
 }
 
 static double cpu_seconds(void) { return (double)clock() / CLOCKS_PER_SEC; }
@@ -167,7 +156,7 @@ int main(int argc, char **argv)
            st.seconds, cpu, (unsigned long long)st.gathers, (double)st.gathers / st.pixels, worst,
            mean);
     const double eps[3] = {0.05, 0.1, 0.2};
-    rn_image *keep = NULL;
+    rn_image *keep[3][2] = {{NULL}};
     for (int e = 0; e < 3; e++) {
         uint64_t alone = 0;
         for (int grad = 1; grad >= 0; grad--) {
@@ -190,38 +179,46 @@ int main(int argc, char **argv)
                    (double)s1.gathers / s1.pixels, (unsigned long long)s1.records,
                    mean_difference(img, ref), worst, mean, (unsigned long long)s2.gathers,
                    (unsigned long long)alone);
-            if (e == 1 && grad)
-                keep = img;
-            else
-                rn_image_destroy(img);
+            keep[e][grad] = img;
             rn_image_destroy(img2);
             rn_icache_destroy(cache);
         }
     }
 
     /* Per object: mean radiance (bands summed) of the vertex render, and the
-     * relative difference of the reference and of the cached gather (ε =
-     * 0.1, gradients) from it. */
+     * relative difference of the reference and of the cached gathers from
+     * it. */
     uint32_t no = s->scene->object_count;
     double *ma = calloc(no, sizeof *ma), *mv = calloc(no, sizeof *mv);
     double *mk = calloc(no, sizeof *mk), *mv2 = calloc(no, sizeof *mv2);
     uint64_t *n = calloc(no, sizeof *n), *n2 = calloc(no, sizeof *n2);
     object_means(s, ref, vert, ma, mv, n);
-    object_means(s, keep, vert, mk, mv2, n2);
-    printf("\n| object | pixels | vertex mean L | reference vs vertex | cached (0.1, gradients) vs vertex |\n");
-    printf("|---|---:|---:|---:|---:|\n");
-    for (uint32_t o = 0; o < no; o++)
-        if (n[o] && mv[o] > 0)
-            printf("| %s | %llu | %.5f | %+.2f %% | %+.2f %% |\n", s->scene->objects[o].name,
-                   (unsigned long long)n[o], mv[o], 100 * (ma[o] - mv[o]) / mv[o],
-                   mv2[o] > 0 ? 100 * (mk[o] - mv2[o]) / mv2[o] : 0.0);
+    printf("\n| object | pixels | vertex mean L | reference vs vertex |");
+    for (int e = 0; e < 3; e++)
+        for (int grad = 1; grad >= 0; grad--)
+            printf(" %.2f%s |", eps[e], grad ? " grad" : "");
+    printf("\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    for (uint32_t o = 0; o < no; o++) {
+        if (!n[o] || !(mv[o] > 0))
+            continue;
+        printf("| %s | %llu | %.5f | %+.2f %% |", s->scene->objects[o].name,
+               (unsigned long long)n[o], mv[o], 100 * (ma[o] - mv[o]) / mv[o]);
+        for (int e = 0; e < 3; e++)
+            for (int grad = 1; grad >= 0; grad--) {
+                object_means(s, keep[e][grad], vert, mk, mv2, n2);
+                printf(" %+.2f %% |", mv2[o] > 0 ? 100 * (mk[o] - mv2[o]) / mv2[o] : 0.0);
+            }
+        printf("\n");
+    }
     free(ma);
     free(mv);
     free(mk);
     free(mv2);
     free(n);
     free(n2);
-    rn_image_destroy(keep);
+    for (int e = 0; e < 3; e++)
+        for (int grad = 0; grad < 2; grad++)
+            rn_image_destroy(keep[e][grad]);
     rn_image_destroy(vert);
     rn_image_destroy(ref);
     rad_gather_scene_destroy(g);

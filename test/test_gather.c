@@ -18,25 +18,30 @@
 
 /* ------------------------------------------------------------ helpers */
 
-/* A closed unit room (grey, ρ = 0.5) lit by a 0.2 × 0.2 lamp set into the
- * middle of its ceiling; the ceiling is cut around the lamp. */
-static const char room_text[] =
-    "bands 1\n"
-    "material wall reflectance 0.5\n"
-    "material lamp reflectance 0 emission 10\n"
-    "polygon floor wall 0 0 0  0 0 1  1 0 1  1 0 0 end\n"
-    "polygon back wall 0 0 1  0 1 1  1 1 1  1 0 1 end\n"
-    "polygon front wall 0 0 0  1 0 0  1 1 0  0 1 0 end\n"
-    "polygon left wall 0 0 0  0 1 0  0 1 1  0 0 1 end\n"
-    "polygon right wall 1 0 0  1 0 1  1 1 1  1 1 0 end\n"
-    "group ceiling\n"
-    "  polygon c1 wall 0 1 0  1 1 0  1 1 0.4  0 1 0.4 end\n"
-    "  polygon c2 wall 0 1 0.6  1 1 0.6  1 1 1  0 1 1 end\n"
-    "  polygon c3 wall 0 1 0.4  0.4 1 0.4  0.4 1 0.6  0 1 0.6 end\n"
-    "  polygon c4 wall 0.6 1 0.4  1 1 0.4  1 1 0.6  0.6 1 0.6 end\n"
-    "end\n"
+/* A unit room without its front wall (z = 0), lit by a 0.2 × 0.2 lamp set
+ * into the middle of its ceiling, the ceiling cut around the lamp; the
+ * floor's material is FLOOR, the rest are "wall" and "lamp". */
+#define OPEN_ROOM(FLOOR)                                                            \
+    "polygon floor " FLOOR " 0 0 0  0 0 1  1 0 1  1 0 0 end\n"                      \
+    "polygon back wall 0 0 1  0 1 1  1 1 1  1 0 1 end\n"                            \
+    "polygon left wall 0 0 0  0 1 0  0 1 1  0 0 1 end\n"                            \
+    "polygon right wall 1 0 0  1 0 1  1 1 1  1 1 0 end\n"                           \
+    "group ceiling\n"                                                               \
+    "  polygon c1 wall 0 1 0  1 1 0  1 1 0.4  0 1 0.4 end\n"                        \
+    "  polygon c2 wall 0 1 0.6  1 1 0.6  1 1 1  0 1 1 end\n"                        \
+    "  polygon c3 wall 0 1 0.4  0.4 1 0.4  0.4 1 0.6  0 1 0.6 end\n"                \
+    "  polygon c4 wall 0.6 1 0.4  1 1 0.4  1 1 0.6  0.6 1 0.6 end\n"                \
+    "end\n"                                                                         \
     "polygon lamp lamp 0.4 1 0.4  0.6 1 0.4  0.6 1 0.6  0.4 1 0.6 end\n"
-    "camera inside eye 0.5 0.5 0.02 target 0.5 0.42 1 up 0 1 0 fov 75\n";
+
+/* The closed room: grey (ρ = 0.5), its front wall in place. */
+#define CLOSED_ROOM(FLOOR)                                                          \
+    OPEN_ROOM(FLOOR) "polygon front wall 0 0 0  1 0 0  1 1 0  0 1 0 end\n"          \
+    "camera inside eye 0.5 0.5 0.02 target 0.5 0.42 1 up 0 1 0 fov 75\n"
+
+static const char room_text[] = "bands 1\n"
+                                "material wall reflectance 0.5\n"
+                                "material lamp reflectance 0 emission 10\n" CLOSED_ROOM("wall");
 
 static rad_solution *solve(const char *text, double patch_size)
 {
@@ -48,6 +53,18 @@ static rad_solution *solve(const char *text, double patch_size)
     opt.solver.tolerance = 1e-8;
     opt.hemicube.processes = 1; /* tiny scenes: one worker starts faster than two */
     return test_solve_text(text, "gather-test", &opt);
+}
+
+/* Solves text and builds its gather scene; NULL (printed) on failure, with
+ * *out the solution or NULL.  The caller destroys both. */
+static rad_gather_scene *prepare(const char *text, double patch_size, rad_solution **out)
+{
+    *out = solve(text, patch_size);
+    rad_gather_scene *g = NULL;
+    rad_error err = {0};
+    if (*out && rad_gather_scene_create(*out, &g, &err))
+        fprintf(stderr, "  gather scene: %s\n", err.message);
+    return g;
 }
 
 static rn_camera scene_camera(const rad_solution *s, uint32_t w, uint32_t h)
@@ -173,13 +190,13 @@ TEST(direct_light_of_a_lamp_and_punctual_lights)
         "light bulb point 0.3 0.4 0 intensity 0.02\n"
         "light beam spot -0.4 0.45 0.1 direction 0 -1 0 inner 15 outer 30 intensity 0.03\n"
         "camera top eye 0 1.2 -1.2 target 0 0 0 up 0 1 0 fov 50\n";
-    rad_solution *s = solve(text, 0.25);
-    CHECK(s != NULL);
-    if (!s)
+    rad_solution *s = NULL;
+    rad_gather_scene *g = prepare(text, 0.25, &s);
+    CHECK(g != NULL);
+    if (!g) {
+        rad_solution_destroy(s);
         return;
-    rad_error err = {0};
-    rad_gather_scene *g = NULL;
-    CHECK(rad_gather_scene_create(s, &g, &err) == RAD_OK);
+    }
     rn_camera cam = scene_camera(s, 48, 48);
     rn_gather_options opt = {0};
     rn_image *a = gather(g, &cam, &opt, NULL, NULL);
@@ -372,32 +389,22 @@ TEST(mirror_floor_reflects_the_blocks)
         "bands 1\n"
         "material wall reflectance 0.6\n"
         "material mirror reflectance 0.9 metallic 1 roughness 0\n"
-        "material lamp reflectance 0 emission 30\n"
-        "polygon floor mirror 0 0 0  0 0 1  1 0 1  1 0 0 end\n"
-        "polygon back wall 0 0 1  0 1 1  1 1 1  1 0 1 end\n"
-        "polygon left wall 0 0 0  0 1 0  0 1 1  0 0 1 end\n"
-        "polygon right wall 1 0 0  1 0 1  1 1 1  1 1 0 end\n"
-        "group ceiling\n"
-        "  polygon c1 wall 0 1 0  1 1 0  1 1 0.4  0 1 0.4 end\n"
-        "  polygon c2 wall 0 1 0.6  1 1 0.6  1 1 1  0 1 1 end\n"
-        "  polygon c3 wall 0 1 0.4  0.4 1 0.4  0.4 1 0.6  0 1 0.6 end\n"
-        "  polygon c4 wall 0.6 1 0.4  1 1 0.4  1 1 0.6  0.6 1 0.6 end\n"
-        "end\n"
-        "polygon lamp lamp 0.4 1 0.4  0.6 1 0.4  0.6 1 0.6  0.4 1 0.6 end\n"
+        "material lamp reflectance 0 emission 30\n" OPEN_ROOM("mirror")
         "group block\n"
         "  polygon top wall 0.3 0.3 0.5  0.3 0.3 0.7  0.5 0.3 0.7  0.5 0.3 0.5 end\n"
         "  polygon face wall 0.3 0 0.5  0.3 0.3 0.5  0.5 0.3 0.5  0.5 0 0.5 end\n"
         "  polygon west wall 0.3 0 0.5  0.3 0 0.7  0.3 0.3 0.7  0.3 0.3 0.5 end\n"
         "  polygon east wall 0.5 0 0.5  0.5 0.3 0.5  0.5 0.3 0.7  0.5 0 0.7 end\n"
         "end\n";
-    rad_solution *s = solve(text, 0.1);
-    CHECK(s != NULL);
-    if (!s)
+    rad_solution *s = NULL;
+    rad_gather_scene *g = prepare(text, 0.1, &s);
+    CHECK(g != NULL);
+    if (!g) {
+        rad_solution_destroy(s);
         return;
+    }
     CHECK(s->scene->materials[1].specular[0] == 0.9 && s->scene->materials[1].rho[0] == 0.0);
     rad_error err = {0};
-    rad_gather_scene *g = NULL;
-    CHECK(rad_gather_scene_create(s, &g, &err) == RAD_OK);
     const uint32_t W = 64;
     rn_camera a = {.eye = rad_v3(0.55, 0.3, -0.3), .target = rad_v3(0.42, 0.02, 0.5),
                    .up = rad_v3(0, 1, 0), .yfov_deg = 50, .width = W, .height = W};
@@ -446,28 +453,17 @@ TEST(mirror_floor_reflects_the_blocks)
  * sampling), so an error in either shows.  Cost ~0.5 s. */
 TEST(glossy_light_vector_against_lobe_sampling)
 {
-    char text[sizeof room_text + 128];
-    snprintf(text, sizeof text, "%s", room_text);
-    char *w = strstr(text, "material wall reflectance 0.5\n");
-    CHECK(w != NULL);
-    if (!w)
+    static const char buf[] = "bands 1\n"
+                              "material wall reflectance 0.5\n"
+                              "material satin reflectance 0.5 metallic 0.5 roughness 0.6\n"
+                              "material lamp reflectance 0 emission 10\n" CLOSED_ROOM("satin");
+    rad_solution *s = NULL;
+    rad_gather_scene *g = prepare(buf, 0.125, &s);
+    CHECK(g != NULL);
+    if (!g) {
+        rad_solution_destroy(s);
         return;
-    /* The floor gets a lobe: insert a material and point the floor at it. */
-    char buf[sizeof text + 128];
-    size_t head = (size_t)(w - text);
-    snprintf(buf, sizeof buf, "%.*smaterial satin reflectance 0.5 metallic 0.5 roughness 0.6\n%s",
-             (int)head, text, w);
-    char *fl = strstr(buf, "polygon floor wall");
-    memcpy(fl, "polygon floor satn", 18);
-    char *mat = strstr(buf, "material satin");
-    memcpy(mat, "material satn ", 14);
-    rad_solution *s = solve(buf, 0.125);
-    CHECK(s != NULL);
-    if (!s)
-        return;
-    rad_error err = {0};
-    rad_gather_scene *g = NULL;
-    CHECK(rad_gather_scene_create(s, &g, &err) == RAD_OK);
+    }
     rn_camera cam = scene_camera(s, 48, 48);
     rn_gather_options lv = {.glossy = RN_GLOSSY_LIGHT_VECTOR};
     rn_gather_options sm = {.glossy = RN_GLOSSY_SAMPLE, .glossy_rays = 256};
@@ -724,15 +720,15 @@ TEST(glossy_direct_light_of_a_point_light)
         "polygon floor floor -1 0 -1  -1 0 1  1 0 1  1 0 -1 end\n"
         "light bulb point 0.1 0.5 0.2 intensity 2\n"
         "camera top eye 0 0.8 -1.0 target 0 0 0.2 up 0 1 0 fov 60\n";
-    rad_solution *s = solve(text, 0.5);
-    CHECK(s != NULL);
-    if (!s)
+    rad_solution *s = NULL;
+    rad_gather_scene *g = prepare(text, 0.5, &s);
+    CHECK(g != NULL);
+    if (!g) {
+        rad_solution_destroy(s);
         return;
+    }
     const rad_material *mt = &s->scene->materials[0];
     double rho = mt->rho[0], rs = mt->specular[0], a = mt->roughness * mt->roughness;
-    rad_error err = {0};
-    rad_gather_scene *g = NULL;
-    CHECK(rad_gather_scene_create(s, &g, &err) == RAD_OK);
     rn_camera cam = scene_camera(s, 40, 40);
     rn_gather_options opt = {.glossy = RN_GLOSSY_SAMPLE};
     rn_image *img = gather(g, &cam, &opt, NULL, NULL);
