@@ -23,6 +23,7 @@
 
 #include <errno.h>
 #include <stdio.h>
+#include <sys/stat.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -424,6 +425,16 @@ int rn_icache_read(const char *path, uint64_t key, rn_icache **out, rad_error *e
                         "writes",
                         path, version, bands, (unsigned long long)count);
     }
+    /* The records must fill the file exactly: checked before allocating, so
+     * a damaged count cannot ask for more memory than the file holds. */
+    uint64_t want = HEAD_BYTES + count * record_bytes(bands) + 8u;
+    struct stat st;
+    if (fstat(fileno(f), &st) != 0 || (uint64_t)st.st_size != want) {
+        fclose(f);
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: %llu records need %llu bytes, the file has %lld",
+                        path, (unsigned long long)count, (unsigned long long)want,
+                        (long long)st.st_size);
+    }
     uint64_t file_key = get64(head + 16);
     if (key && file_key != key) {
         fclose(f);
@@ -477,14 +488,13 @@ int rn_icache_read(const char *path, uint64_t key, rn_icache **out, rad_error *e
             r->gr[b] = getv(q + 32);
         }
     }
-    uint8_t tail[9];
+    uint8_t tail[8];
     size_t got = fread(tail, 1, sizeof tail, f);
     fclose(f);
     if (got != 8 || get64(tail) != h) {
         rn_icache_destroy(c);
         return rad_fail(err, RAD_ERR_CORRUPT, "%s: %s", path,
-                        got < 8 ? "truncated" : got > 8 ? "bytes after the checksum"
-                                                        : "checksum mismatch");
+                        got < 8 ? "truncated" : "checksum mismatch");
     }
     for (uint64_t i = 0; i < count; i++)
         if (record_bad(&c->rec[i], bands)) {

@@ -367,6 +367,12 @@ TEST(cache_file_serves_a_second_view)
     }
     rn_icache *ic = NULL;
     CHECK(rn_icache_read(path, 0, &ic, &err) == RAD_ERR_CORRUPT);
+    CHECK_MSG(strstr(err.message, "checksum mismatch") != NULL, "%s", err.message);
+    /* Cut short: refused by its size before anything is allocated. */
+    CHECK(truncate(path, 200) == 0);
+    CHECK(rn_icache_read(path, 0, &ic, &err) == RAD_ERR_CORRUPT);
+    CHECK_MSG(strstr(err.message, "records need") != NULL, "%s", err.message);
+    CHECK(ic == NULL);
     unlink(path);
     rn_image_destroy(a);
     rn_image_destroy(b);
