@@ -14,9 +14,10 @@
  * section; version 4 = + the ELEMENTLIGHTS section (each element's own
  * direct light); version 5 = MESH may hold two-sided sheets (a transmitting
  * polygon's front cells followed by their back twins), with the sections of
- * versions 1-4 as its content needs them, and ELEMENTINDIRECT (which
- * elements interpolate their indirect light, and the direct sources: issue
- * 18) only in version 5.  A file is written with the lowest
+ * versions 1-4 as its content needs them, CAMERAS when the scene has
+ * orthographic cameras, and ELEMENTINDIRECT (which elements interpolate
+ * the light reflected onto them, and the direct sources: issue 18).  A
+ * file is written with the lowest
  * version that holds what it has (1 without punctual lights or elements, 2
  * with lights, 3 with elements, 4 with elements that carry their own direct
  * light, 5 with sheets or interpolated elements), so older programs still read what they understand,
@@ -37,22 +38,26 @@
 #define SOL_ROW_SUM_MAX (1.0 + 1e-3)
 
 /* The first five sections appear in every file; LIGHTS only when the scene
- * has punctual lights, ELEMENTS only when the solution has elements. */
+ * has punctual lights, ELEMENTS only when the solution has elements,
+ * CAMERAS (version 5 only) only when the scene has orthographic cameras,
+ * SURFACE (version 5 only) only when a material has a glossy lobe
+ * (rad_material's specular and roughness, which only the gather renderer
+ * reads). */
 enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_ELEMENTS,
-       SEC_ELEMENT_LIGHTS, SEC_ELEMENT_INDIRECT, SEC_COUNT };
+       SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_SURFACE, SEC_ELEMENT_INDIRECT, SEC_COUNT };
 extern const char sol_sec_tag[SEC_COUNT][4];
 extern const char *const sol_sec_name[SEC_COUNT];
 /* Sections each version may hold: 1 the first five, 2 + LIGHTS, 3 +
  * ELEMENTS (where LIGHTS is there exactly when the scene has lights), 4 +
- * ELEMENTLIGHTS (LIGHTS always), 5 any of them as the content needs,
- * ELEMENTINDIRECT included. */
+ * ELEMENTLIGHTS (LIGHTS always), 5 any of them (SURFACE and
+ * ELEMENTINDIRECT included) as the content needs. */
 extern const int sol_version_sections[SOL_VERSION + 1];
 
 /* Minimum encoded sizes of one element, used to bound counts before
  * allocating: a count of k elements needs at least k × this many bytes. */
 #define MIN_STRING 4u
 #define MIN_CAMERA (MIN_STRING + 11u * 8u)
-#define MIN_POLYGON (MIN_STRING + 6u * 4u + 3u * 24u)
+#define MIN_POLYGON (MIN_STRING + 5u * 4u + 3u * 24u) /* material, object, subdivisions, count */
 #define PATCH_BYTES (7u * 4u + 7u * 8u)
 #define VERTEX_BYTES (3u * 8u + 1u)
 #define MIN_ROW (2u * 4u)
@@ -62,6 +67,8 @@ extern const int sol_version_sections[SOL_VERSION + 1];
 #define ELEMENT_VERTEX_BYTES (3u * 8u + 1u)
 /* patch, level, four corners, row count; + 8 per band */
 #define MIN_ELEMENT (4u + 1u + 16u + 4u)
+/* camera index, projection, xmag, ymag */
+#define ORTHO_CAMERA_BYTES (4u + 1u + 16u)
 
 
 /* ------------------------------------------------- checksum (format.c) */
