@@ -1387,12 +1387,14 @@ TEST(writer_refuses_what_reader_would)
 }
 
 /* The fuzzer's seeds: the three fixtures. */
-/* The rgb room with elements one split deep (hemi-cubes at their centres). */
-static rad_solution *make_elements(void)
+/* The rgb room refined with `levels` uniform splits (hemi-cubes at the
+ * elements' centres), or with 0 adaptively at the default threshold (most
+ * elements interpolated, issue 18). */
+static rad_solution *make_refined(uint32_t levels)
 {
     rad_solution *s = make_rgb();
     rad_solve_options opt = {0};
-    opt.element_levels = 1;
+    opt.element_levels = levels;
     opt.hemicube.resolution = 32;
     rad_error e;
     if (s && rad_refine_solution(s, &opt, &e) != RAD_OK) {
@@ -1403,21 +1405,10 @@ static rad_solution *make_elements(void)
     return s;
 }
 
-/* The rgb room with adaptive elements at the default threshold: most of
- * them interpolated (issue 18), so the file holds ELEMENTINDIRECT. */
-static rad_solution *make_interp(void)
-{
-    rad_solution *s = make_rgb();
-    rad_solve_options opt = {0};
-    opt.hemicube.resolution = 32;
-    rad_error e;
-    if (s && rad_refine_solution(s, &opt, &e) != RAD_OK) {
-        fprintf(stderr, "  refine: %s\n", e.message);
-        rad_solution_destroy(s);
-        return NULL;
-    }
-    return s;
-}
+/* The rgb room with elements one split deep. */
+static rad_solution *make_elements(void) { return make_refined(1); }
+/* The rgb room with adaptive elements, ELEMENTINDIRECT in its file. */
+static rad_solution *make_interp(void) { return make_refined(0); }
 
 /* ELEMENTINDIRECT (interpolated elements, issue 18): the file is version 5
  * with the section announced; a round trip keeps the flags and every
