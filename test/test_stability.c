@@ -303,8 +303,13 @@ TEST(reflectance_0_999)
  * closed form per patch, but energy conservation fixes the mean.  Every
  * watt emitted is absorbed, Σ A_i (1 − ρ) H_i = Σ A_i E_i, and B = E + ρH,
  * so the area-weighted mean B is (Σ A_i E_i / Σ A_i)/(1 − ρ) = (1/6)/(1 − ρ).
- * Within 0.1 % at ρ = 0.99 and 0.999 (measured +2.1e-4 and +2.0e-4; issue
- * 5's tolerance is 0.5 %).  This is the harder test of the two: the
+ * Within 0.3 % at ρ = 0.99 and 0.999 (measured +1.04e-3 at both; issue
+ * 5's tolerance is 0.5 %).  With near factors counted in pixels, as before
+ * issue 18, it was +2.1e-4: the exact near factors, now the default, bring
+ * a closed room lit by a small lamp from +1.2e-3 to +2e-4
+ * (energy_balance_closed_lamp), but on these coarse faces (6×6 patches)
+ * the pixel entries rescaled to fill their rows shift the columns by
+ * +1e-3.  This is the harder test of the two: the
  * emitter's entries of each row are computed differently from the rest
  * (exactly, by the contour integral), and a row that then sums to 1 − δ
  * loses δ of the light at every bounce, an error of about δ/(1 − ρ) in the
@@ -342,7 +347,7 @@ static void cube_lamp(double rho, int pixel_emitters)
     CHECK_MSG(lo >= 1.0 - 1e-6 && hi <= 1.0 + 1e-6, "rho %g: row sums in [1 - %.3g, 1 + %.3g]",
               rho, 1 - lo, hi - 1);
     double mean = sum_ab / sum_a, expect = (1.0 / 6.0) / (1.0 - rho);
-    double tol = pixel_emitters ? 3e-4 : 1e-3; /* see the tests */
+    double tol = pixel_emitters ? 3e-4 : 3e-3; /* see the tests */
     CHECK_MSG(fabs(mean / expect - 1.0) <= tol, "rho %g: mean B %.6g, energy says %.6g (%+.3g)",
               rho, mean, expect, mean / expect - 1);
     /* And the stopping rule, as above, against the direct solution. */
