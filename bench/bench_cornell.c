@@ -9,9 +9,9 @@
  * both) is printed apart and left out of the scores: the worst region and
  * the RMS over the 13 others.
  *
- * Rows: "defaults" (rad_solve_options {0}), "off" (no elements), then each
- * threshold T of BENCH_THRESHOLDS (comma-separated, default
- * 3e-3,1e-3,3e-4,1e-4; "off" and "default" are accepted too).  Each row is
+ * Rows: each entry of BENCH_THRESHOLDS (comma-separated, default
+ * off,1e-2,3e-3,default,3e-4,1e-4,1e-3h): "default" (rad_solve_options
+ * {0}), "off" (no elements) or a threshold T.  Each row is
  * one run (BENCH_REPEAT runs: the fastest is kept), wall-clock time of
  * solve + render on a machine shared with others: the times are noisy, the
  * errors are not; the CPU seconds (this process and the hemi-cube workers)
@@ -240,7 +240,7 @@ int main(void)
     read_reference();
     const char *env = getenv("BENCH_THRESHOLDS");
     char list[512];
-    snprintf(list, sizeof list, "%s", env && *env ? env : "default,off,3e-3,1e-3,3e-4,1e-4");
+    snprintf(list, sizeof list, "%s", env && *env ? env : "off,1e-2,3e-3,default,3e-4,1e-4,1e-3h");
     int repeat = getenv("BENCH_REPEAT") ? atoi(getenv("BENCH_REPEAT")) : 1;
     repeat = repeat < 1 ? 1 : repeat;
     row rows[MAX_ROWS];

@@ -47,7 +47,9 @@
  * the file does not record them); BENCH_MAPS, a directory that gets each
  * set's error maps (write_maps) and whose area MAE is printed per surface;
  * BENCH_ONLY_ADAPTIVE, no uniform sets (to try a rule against a uniform
- * curve measured before).
+ * curve measured before); BENCH_INTERP=1, the adaptive sets with
+ * interpolated elements (the default since issue 18) instead of a
+ * hemi-cube per element (what this study measured).
  * Hemi-cubes are the element rows rendered (adaptive refinement renders
  * four per leaf it tests).  Times are wall-clock, one run each; nothing here
  * asserts anything.
@@ -248,8 +250,13 @@ static run refine(rad_solution *s, const char *name, double threshold, uint32_t 
 {
     rad_solve_options o = {0};
     o.hemicube.resolution = scored_only && levels == REF_LEVELS ? REF_R : SET_R;
-    o.refine_threshold = threshold;
+    /* threshold 0 and no levels: the patches (0 would be the default) */
+    o.refine_threshold = threshold > 0.0 || levels ? threshold : RAD_REFINE_OFF;
     o.element_levels = levels;
+    /* The study is of the rule and the drawing, with a hemi-cube per
+     * element as when it was measured; BENCH_INTERP=1 uses the default
+     * interpolated elements instead (issue 18). */
+    o.element_hemicubes = !(getenv("BENCH_INTERP") && atoi(getenv("BENCH_INTERP")));
     o.min_element_size = min_size;
     o.mesh.max_patches = 20000000u; /* a reference 7 splits deep counts 4.3 million nodes */
     const size_t n = (size_t)s->mesh->patch_count * s->band_count;

@@ -105,10 +105,11 @@ typedef struct rad_refine_options {
 } rad_refine_options;
 
 /* Builds s->elements (replacing any) from the patch solution s->B, as opt
- * says (threshold < 0 and levels 0: removes them).  Renders one hemi-cube per
- * new element on hc, an engine for s->mesh (whose exact marks decide which
- * element-to-patch factors are exact), and the lights' visibility at the
- * elements. */
+ * says (threshold < 0 and levels 0: removes them).  Renders on hc, an
+ * engine for s->mesh (whose exact marks decide which element-to-patch
+ * factors are exact): the lights' visibility at the elements, one item
+ * buffer per emitter stratum and refinement pass, and a hemi-cube for each
+ * element that is not interpolated (refine.c says which). */
 int rad_elements_refine(rad_solution *s, hc_engine *hc, const rad_refine_options *opt,
                         rad_error *err);
 

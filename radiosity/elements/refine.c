@@ -1,18 +1,29 @@
 /* refine.c - adaptive refinement: which elements a solution needs.
  *
  * Refinement splits where the drawn radiosity misses what a finer element
- * gathers: each leaf is probed (its four children gathered through
- * hemi-cubes at their centres) and split when the children's B differ from
- * what the renderer draws at their centres by more than the threshold,
- * weighted by the leaf's area, or when it lies across the foot of a block,
- * part seen and part buried (see estimate).  An element is its patch split
- * `level` times as a quadtree.  The hemi-cube engine is the caller's (the
- * pipeline's, shared with the patch rows).
+ * gathers: each leaf is probed (its four children gathered) and split when
+ * the children's B differ from what the renderer draws at their centres by
+ * more than the threshold, weighted by the leaf's area, or when it lies
+ * across the foot of a block, part seen and part buried (see estimate).  An
+ * element is its patch split `level` times as a quadtree.  The hemi-cube
+ * engine is the caller's (the pipeline's, shared with the patch rows).
  *
- * Invariant: a leaf element of level k > 0 has its own row F_ej from a
- * hemi-cube at its centre, and (when the scene has punctual lights) its own
- * h_le, computed before its B_e is gathered, so the refinement rule sees
- * shadow edges finer than the patches.
+ * How a new element (probe or leaf) gets its row (issue 18):
+ *   - adaptive, by default: an interpolated element (solution.h) - its row
+ *     is the emitters' strata entries (direct.c: one item buffer per
+ *     stratum and pass, for every element of the pass), and its reflected
+ *     light is read from the patches' field (gather.c's el_interp);
+ *   - where another surface meets it (contact.c), a hemi-cube at its
+ *     centre, whose entries for the emitters are replaced by the strata's
+ *     so that both kinds agree on the direct light;
+ *   - a child that nothing meets, holding the centre of a parent that sees
+ *     nothing, is buried: no row, B = E;
+ *   - uniform levels, element_hemicubes, or more strata than EL_MAX_STRATA:
+ *     a hemi-cube for every element, as before issue 18.
+ *
+ * Invariant: a leaf element of level k > 0 has its own row (and, when the
+ * scene has punctual lights, its own h_le), computed before its B_e is
+ * gathered, so the refinement rule sees shadow edges finer than the patches.
  */
 #include "el_internal.h"
 
