@@ -100,6 +100,11 @@ static rn_image *timed(const rad_gather_scene *g, const rn_camera *cam, const rn
         exit(1);
     }
     *cpu = cpu_seconds() - c0;
+    /* rn_gather names the cells it drew (elements, by default since issue
+     * 18); the regions are the patches' objects (as rad_gather names them). */
+    for (size_t q = 0; q < (size_t)img->width * img->height; q++)
+        if (img->patch[q] != RAD_NONE)
+            img->patch[q] = g->cell_patch[img->patch[q]];
     return img;
 }
 
