@@ -10,6 +10,7 @@
  */
 #include "../hemicube/hemicube.h"
 #include "test.h"
+#include "util.h"
 
 #include <dirent.h>
 #include <signal.h>
@@ -143,10 +144,12 @@ static double entry(const rad_matrix *F, uint32_t i, uint32_t j)
 {
     if (!F->row_done[i])
         return NAN;
-    const uint32_t *c = F->col + F->row_start[i];
-    for (uint32_t k = 0; k < F->row_count[i]; k++)
+    const uint32_t *c;
+    const float *v;
+    uint32_t cnt = test_row(F, i, 0, &c, &v);
+    for (uint32_t k = 0; k < cnt; k++)
         if (c[k] == j)
-            return F->val[F->row_start[i] + k];
+            return v[k];
     return 0.0;
 }
 
@@ -157,9 +160,10 @@ static double polygon_ff(const builder *b, const rad_matrix *F, uint32_t a0, uin
     double s = 0.0, area = 0.0;
     for (uint32_t i = a0; i < a1; i++) {
         area += b->m.patches[i].area;
-        const uint32_t *c = F->col + F->row_start[i];
-        const float *v = F->val + F->row_start[i];
-        for (uint32_t k = 0; k < F->row_count[i]; k++)
+        const uint32_t *c;
+        const float *v;
+        uint32_t cnt = test_row(F, i, 0, &c, &v);
+        for (uint32_t k = 0; k < cnt; k++)
             if (c[k] >= b0 && c[k] < b1)
                 s += b->m.patches[i].area * v[k];
     }
@@ -255,9 +259,13 @@ TEST(closed_cube_rows_sum_to_one)
         }
         printf("     closed cube: worst |row sum - 1| = %.3g\n", worst);
         /* Coplanar patches (same face) never appear. */
-        for (uint32_t i = 0; i < b.m.patch_count; i++)
-            for (uint32_t k = 0; k < F->row_count[i]; k++)
-                CHECK(b.m.patches[F->col[F->row_start[i] + k]].polygon != b.m.patches[i].polygon);
+        for (uint32_t i = 0; i < b.m.patch_count; i++) {
+            const uint32_t *c;
+            const float *v;
+            uint32_t cnt = test_row(F, i, 0, &c, &v);
+            for (uint32_t k = 0; k < cnt; k++)
+                CHECK(b.m.patches[c[k]].polygon != b.m.patches[i].polygon);
+        }
     }
     rad_matrix_destroy(F);
     builder_free(&b);
@@ -374,10 +382,13 @@ TEST(no_self_no_behind)
         uint32_t bad = 0, seen_straddle = 0;
         for (uint32_t i = 0; i < b.m.patch_count; i++) {
             const rad_patch *pi = &b.m.patches[i];
-            for (uint32_t k = 0; k < F->row_count[i]; k++) {
-                uint32_t j = F->col[F->row_start[i] + k];
+            const uint32_t *col;
+            const float *val;
+            uint32_t cnt = test_row(F, i, 0, &col, &val);
+            for (uint32_t k = 0; k < cnt; k++) {
+                uint32_t j = col[k];
                 CHECK(j != i);
-                CHECK(F->val[F->row_start[i] + k] > 0.0f);
+                CHECK(val[k] > 0.0f);
                 const rad_patch *pj = &b.m.patches[j];
                 int front = 0;
                 for (int c = 0; c < 4; c++)
@@ -389,9 +400,9 @@ TEST(no_self_no_behind)
             /* The lower square's rows never hold the square behind it nor
              * the back of polygon 4. */
             if (i < 64)
-                for (uint32_t k = 0; k < F->row_count[i]; k++) {
-                    CHECK(b.m.patches[F->col[F->row_start[i] + k]].polygon != 2);
-                    CHECK(b.m.patches[F->col[F->row_start[i] + k]].polygon != 4);
+                for (uint32_t k = 0; k < cnt; k++) {
+                    CHECK(b.m.patches[col[k]].polygon != 2);
+                    CHECK(b.m.patches[col[k]].polygon != 4);
                 }
         }
         CHECK(bad == 0);
@@ -408,9 +419,11 @@ static int rows_identical(const rad_matrix *A, const rad_matrix *B)
     for (uint32_t i = 0; i < A->n; i++) {
         if (A->row_done[i] != B->row_done[i] || A->row_count[i] != B->row_count[i])
             return 0;
-        size_t c = A->row_count[i];
-        if (memcmp(A->col + A->row_start[i], B->col + B->row_start[i], c * sizeof *A->col) ||
-            memcmp(A->val + A->row_start[i], B->val + B->row_start[i], c * sizeof *A->val))
+        const uint32_t *ca, *cb;
+        const float *va, *vb;
+        size_t c = test_row(A, i, 0, &ca, &va);
+        test_row(B, i, 1, &cb, &vb);
+        if (memcmp(ca, cb, c * sizeof *ca) || memcmp(va, vb, c * sizeof *va))
             return 0;
     }
     return 1;
@@ -453,12 +466,14 @@ TEST(determinism)
          * polygon 6 and no part of its exact twin 7. */
         double f6 = 0, f7 = 0;
         for (uint32_t i = 0; i < 36; i++) {
-            const uint32_t *c = A->col + A->row_start[i];
-            for (uint32_t k = 0; k < A->row_count[i]; k++) {
+            const uint32_t *c;
+            const float *v;
+            uint32_t cnt = test_row(A, i, 0, &c, &v);
+            for (uint32_t k = 0; k < cnt; k++) {
                 if (b.m.patches[c[k]].polygon == 6)
-                    f6 += A->val[A->row_start[i] + k];
+                    f6 += v[k];
                 if (b.m.patches[c[k]].polygon == 7)
-                    f7 += A->val[A->row_start[i] + k];
+                    f7 += v[k];
             }
         }
         CHECK(f6 > 0.0);
@@ -768,9 +783,7 @@ static double worst_row_excess(const rad_matrix *F)
 {
     double worst = -INFINITY;
     for (uint32_t i = 0; i < F->n; i++) {
-        double s = 0.0;
-        for (uint32_t k = 0; k < F->row_count[i]; k++)
-            s += F->val[F->row_start[i] + k];
+        double s = rad_matrix_row_sum(F, i);
         worst = fmax(worst, s - 1.0);
     }
     return worst;

@@ -9,7 +9,35 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+
+/* Row i of F decoded into arrays (F keeps its rows packed, rad.h); slot 0
+ * or 1 holds two rows at once, each valid until the next call with that
+ * slot.  Returns the entry count (0 for a missing row). */
+static inline uint32_t test_row(const rad_matrix *F, uint32_t i, int slot, const uint32_t **col,
+                                const float **val)
+{
+    static uint32_t *c[2];
+    static float *v[2];
+    static uint32_t cap[2];
+    uint32_t need = F->row_count[i] + 1;
+    if (need > cap[slot]) {
+        uint32_t *nc = realloc(c[slot], need * sizeof *nc);
+        float *nv = realloc(v[slot], need * sizeof *nv);
+        if (nc)
+            c[slot] = nc;
+        if (nv)
+            v[slot] = nv;
+        if (!nc || !nv)
+            abort(); /* a test machine out of memory: nothing sensible to check */
+        cap[slot] = need;
+    }
+    uint32_t n = rad_matrix_get_row(F, i, c[slot], v[slot]);
+    *col = c[slot];
+    *val = v[slot];
+    return n;
+}
 
 /* Parses polygon-file text (`name` in messages) and solves it; NULL, with
  * the message on stderr, on failure.  Caller owns the result. */

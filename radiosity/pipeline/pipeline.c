@@ -41,6 +41,8 @@ typedef struct run {
     uint64_t lights_computed;
     uint64_t max_memory;
     double ff_seconds;    /* time inside the hemi-cube, counted apart from the solve */
+    rad_row_sink inner_sink; /* F's own sink while stop_sink stands in for it */
+    void *inner_user;
 } run;
 
 static void run_begin(run *c, rad_solution *s, const rad_solve_options *opt)
@@ -62,24 +64,61 @@ static void run_end(run *c)
     c->exact = NULL;
 }
 
+/* The patches whose incoming factors are exact, into c->exact (NULL when
+ * none are: pixel_emitters, or the caller's own marks): emitters, whose few
+ * pixels are where aliasing hurts. */
+static int mark_exact(run *c, rad_error *err)
+{
+    if (c->exact || c->opt->pixel_emitters || c->opt->hemicube.exact)
+        return RAD_OK;
+    uint32_t n = c->s->mesh->patch_count, nb = c->s->band_count;
+    c->exact = calloc((size_t)n + 1, 1);
+    if (!c->exact)
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", c->s->scene->source);
+    for (uint32_t i = 0; i < n; i++)
+        for (uint32_t b = 0; b < nb; b++)
+            c->exact[i] |= c->s->emission[(size_t)i * nb + b] > 0.0;
+    return RAD_OK;
+}
+
 static int start_hemicube(run *c, rad_error *err)
 {
     if (c->hc)
         return RAD_OK;
     hc_options ho = c->opt->hemicube;
     ho.exact_near = c->opt->exact_near;
-    uint32_t n = c->s->mesh->patch_count, nb = c->s->band_count;
-    if (!c->opt->pixel_emitters && !ho.exact) {
-        /* Emitters get exact factors: their few pixels are where aliasing hurts. */
-        c->exact = calloc((size_t)n + 1, 1);
-        if (!c->exact)
-            return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", c->s->scene->source);
-        for (uint32_t i = 0; i < n; i++)
-            for (uint32_t b = 0; b < nb; b++)
-                c->exact[i] |= c->s->emission[(size_t)i * nb + b] > 0.0;
+    int rc = mark_exact(c, err);
+    if (rc)
+        return rc;
+    if (c->exact)
         ho.exact = c->exact; /* lives as long as the engine */
-    }
     return hc_create(c->s->mesh, &ho, &c->hc, err);
+}
+
+/* The rows key of this run (rad_rows_key): mesh, R, exact marks and the
+ * options that change rows. */
+static int rows_key(run *c, uint64_t *key, rad_error *err)
+{
+    int rc = mark_exact(c, err);
+    if (rc)
+        return rc;
+    const rad_solve_options *o = c->opt;
+    uint32_t R = o->hemicube.resolution ? o->hemicube.resolution : HC_DEFAULT_RESOLUTION;
+    uint32_t flags = (o->exact_near ? 1u : 0u) | (o->pixel_emitters ? 2u : 0u);
+    *key = rad_rows_key(c->s->mesh, R, c->exact ? c->exact : o->hemicube.exact, flags);
+    return RAD_OK;
+}
+
+/* F's sink while rows are computed with a stop flag: the row goes on to
+ * the journal's sink (if any), then the flag is looked at. */
+static int stop_sink(void *user, uint32_t i, const uint8_t *record, size_t bytes, rad_error *err)
+{
+    run *c = user;
+    int rc = c->inner_sink ? c->inner_sink(c->inner_user, i, record, bytes, err) : RAD_OK;
+    if (!rc && *c->opt->stop)
+        rc = rad_fail(err, RAD_ERR_INTERRUPTED, "%s: form factors: interrupted",
+                      c->s->scene->source);
+    return rc;
 }
 
 static int compute_rows(run *c, const uint32_t *rows, uint32_t count, rad_error *err)
@@ -87,9 +126,23 @@ static int compute_rows(run *c, const uint32_t *rows, uint32_t count, rad_error 
     if (count == 0)
         return RAD_OK;
     double t0 = rad_seconds();
+    rad_matrix *F = c->s->F;
+    if (c->opt->stop && *c->opt->stop)
+        return rad_fail(err, RAD_ERR_INTERRUPTED, "%s: form factors: interrupted",
+                        c->s->scene->source);
     int rc = start_hemicube(c, err);
+    if (c->opt->stop) {
+        c->inner_sink = F->sink;
+        c->inner_user = F->sink_user;
+        F->sink = stop_sink;
+        F->sink_user = c;
+    }
     if (!rc)
-        rc = hc_compute_rows(c->hc, rows, count, c->s->F, err);
+        rc = hc_compute_rows(c->hc, rows, count, F, err);
+    if (c->opt->stop) {
+        F->sink = c->inner_sink;
+        F->sink_user = c->inner_user;
+    }
     if (!rc)
         c->rows_computed += count;
     c->ff_seconds += rad_seconds() - t0;
@@ -111,7 +164,7 @@ static const char *human_bytes(double bytes, char *buf, size_t size)
 static int need_row(void *user, uint32_t i, rad_error *err)
 {
     run *c = user;
-    uint64_t used = c->s->F->capacity * (sizeof(uint32_t) + sizeof(float));
+    uint64_t used = c->s->F->capacity;
     if (used > c->max_memory) {
         char a[32], b[32];
         return rad_fail(err, RAD_ERR_LIMIT,
@@ -165,7 +218,7 @@ static int patch_tau(const rad_solution *s, double **out, rad_error *err)
 static int check_memory(const rad_solution *s, uint32_t rows, uint64_t limit, rad_error *err)
 {
     uint32_t n = s->mesh->patch_count;
-    double bytes = (double)rows * (double)n * (sizeof(uint32_t) + sizeof(float));
+    double bytes = (double)rad_matrix_pool_estimate(rows, (uint64_t)rows * n);
     if (bytes <= (double)limit)
         return RAD_OK;
     char need[32], have[32];
@@ -363,6 +416,10 @@ static int resolve(run *c, rad_error *err)
     rad_solution *s = c->s;
     const uint32_t n = s->mesh->patch_count;
     double *tau = NULL, *src = NULL;
+    if (!s->F->entries_loaded)
+        return rad_fail(err, RAD_ERR_USAGE,
+                        "%s: the form factors were not read (rad_solution_load_matrix)",
+                        s->scene->source);
     int rc = patch_tau(s, &tau, err);
     if (rc)
         return rc;
@@ -482,8 +539,16 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
 
     run c;
     run_begin(&c, s, opt);
+    /* Rows kept from an earlier run of the same mesh and options. */
+    if (opt->journal) {
+        uint64_t key = 0;
+        rc = rows_key(&c, &key, err);
+        if (!rc)
+            rc = rad_journal_attach(opt->journal, s->F, key, err);
+    }
     /* Form factors and solve. */
-    rc = resolve(&c, err);
+    if (!rc)
+        rc = resolve(&c, err);
 
     /* Elements: split where what is drawn misses what finer elements
      * gather, from the patch solution (hemi-cubes at the elements' centres,
@@ -492,6 +557,8 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
         rc = refine(&c, err);
     run_end(&c);
     if (rc) {
+        if (opt->journal)
+            rad_journal_detach(opt->journal); /* its rows stay in the file */
         rad_solution_destroy(s);
         return rc;
     }

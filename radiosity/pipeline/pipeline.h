@@ -13,6 +13,8 @@
 #include "../scene/scene.h"
 #include "../store/solution.h"
 
+#include <signal.h>
+
 /* {0} means defaults. */
 typedef struct rad_solve_options {
     rad_load_options load;
@@ -49,6 +51,16 @@ typedef struct rad_solve_options {
     double min_element_size; /* smallest element edge, scene units; 0 = 1/8 of its patch's */
     uint32_t element_levels; /* with refine_threshold 0: split every reflecting patch this
                               * many times (uniform elements: references, benchmarks) */
+    /* rad_solve_scene only, may be NULL: the solve's output file in progress
+     * (rad_journal in solution.h).  Rows it already holds for this mesh and
+     * these options are reused, every new row is appended to it as soon as
+     * it is computed; the caller commits it with the solution. */
+    rad_journal *journal;
+    /* May be NULL: a flag the caller sets (from a signal handler, say) to
+     * stop the form factors; they then fail with RAD_ERR_INTERRUPTED at the
+     * next finished row, every row finished before it stored (and in the
+     * journal). */
+    const volatile sig_atomic_t *stop;
 } rad_solve_options;
 
 /* The whole computation for a scene file: load, mesh, form factors, solve.
