@@ -235,7 +235,7 @@ int rad_journal_commit(rad_journal *j, const rad_solution *s, rad_error *err)
     const char *path = j->path;
     int rc = (!s || !j->out || s->F != j->F) ? rad_fail(err, RAD_ERR_USAGE,
                                              "%s: rad_journal_commit: not the attached matrix", path)
-                                  : sol_validate_for_write(s, path, err);
+                                  : sol_validate_for_write(s, path, 1, err);
     sol_write_ctx w = {.s = s};
     if (!rc)
         rc = sol_irradiance_for_write(s, &w.H, err);

@@ -292,14 +292,16 @@ typedef struct sol_file {
     int fd;
     uint64_t size;
     const char *name;
+    int errnum;  /* why open failed */
 } sol_file;
 
 static int file_open(sol_file *f, const char *path, rad_error *err)
 {
     f->name = path;
     f->fd = open(path, O_RDONLY | O_CLOEXEC);
+    f->errnum = f->fd < 0 ? errno : 0;
     if (f->fd < 0)
-        return rad_fail(err, RAD_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+        return rad_fail(err, RAD_ERR_IO, "%s: cannot open: %s", path, strerror(f->errnum));
     struct stat st;
     if (fstat(f->fd, &st) < 0 || !S_ISREG(st.st_mode)) {
         int e = errno;
@@ -470,18 +472,19 @@ static int open_matrixref(sol_reader *r, const char *path, sol_file *f, char *wh
 {
     const sol_matrixref *m = &r->ref;
     beside(path, m->name, where, size);
-    rad_error first;
-    if (file_open(f, where, &first) == RAD_OK)
+    if (file_open(f, where, NULL) == RAD_OK)
         return RAD_OK;
-    if (strcmp(where, m->abs) != 0 && file_open(f, m->abs, NULL) == RAD_OK) {
+    int first = f->errnum;
+    int other = strcmp(where, m->abs) != 0;
+    if (other && file_open(f, m->abs, NULL) == RAD_OK) {
         snprintf(where, size, "%s", m->abs);
         return RAD_OK;
     }
     return sol_rfail(r, RAD_ERR_NOTFOUND,
-                     "the matrix it shares is gone: %s%s%s: %s; render and report still work, "
-                     "a relight needs the scene solved again",
-                     where, strcmp(where, m->abs) ? " (nor " : "",
-                     strcmp(where, m->abs) ? m->abs : "", first.message);
+                     "the matrix it shares is gone: cannot open %s%s%s%s: %s; render and report "
+                     "still work, a relight needs the scene solved again",
+                     where, other ? " (nor " : "", other ? m->abs : "", other ? ")" : "",
+                     strerror(first ? first : ENOENT));
 }
 
 /* Follows s's MATRIXREF: the named file's MATRIX section must be the one

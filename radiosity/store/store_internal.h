@@ -221,8 +221,11 @@ typedef struct sol_write_ctx {
     char ref_name[SOL_MAX_STRING + 1];
 } sol_write_ctx;
 
-/* The reader's rules, applied before a file is created. */
-int sol_validate_for_write(const rad_solution *s, const char *path, rad_error *err);
+/* The reader's rules, applied before a file is created (F's rows only when
+ * check_matrix: a matrix that is referenced, not written, was checked when
+ * it was read). */
+int sol_validate_for_write(const rad_solution *s, const char *path, int check_matrix,
+                           rad_error *err);
 
 /* H of s for IRRADIANCE into a new array (caller frees). */
 int sol_irradiance_for_write(const rad_solution *s, double **H, rad_error *err);

@@ -370,7 +370,8 @@ static int check_string(const char *str, const char *file, const char *what, uin
 }
 
 /* Everything the reader will check, checked before a file is created. */
-int sol_validate_for_write(const rad_solution *s, const char *path, rad_error *err)
+int sol_validate_for_write(const rad_solution *s, const char *path, int check_matrix,
+                           rad_error *err)
 {
     if (!s || !s->scene || !s->mesh || !s->F || !s->rho || !s->emission || !s->B)
         return rad_fail(err, RAD_ERR_USAGE, "%s: cannot write: incomplete solution", path);
@@ -425,7 +426,7 @@ int sol_validate_for_write(const rad_solution *s, const char *path, rad_error *e
     rad_error sub;
     if (rad_mesh_check(m, sc->polygon_count, sc->object_count, sc->material_count, &sub))
         return rad_fail(err, RAD_ERR_INVALID, "%s: cannot write: mesh: %s", path, sub.message);
-    if (rad_matrix_check(s->F, &sub))
+    if (check_matrix && rad_matrix_check(s->F, &sub))
         return rad_fail(err, RAD_ERR_INVALID, "%s: cannot write: %s", path, sub.message);
     if (s->elements && rad_elements_check(s->elements, s, "elements", &sub))
         return rad_fail(err, RAD_ERR_INVALID, "%s: cannot write: %s", path, sub.message);
@@ -659,14 +660,16 @@ int rad_solution_write_opts(const rad_solution *s, const char *path, const rad_w
     memset(info, 0, sizeof *info);
     if (!path || !*path)
         return rad_fail(err, RAD_ERR_USAGE, "rad_solution_write: no path");
-    int rc = sol_validate_for_write(s, path, err);
+    /* A matrix shared, not written, was checked when it was read and has
+     * not changed since. */
+    int shared = opt->share_matrix && s && s->F && s->matrix_file.path &&
+                 s->F->bytes == s->matrix_file.bytes && strlen(s->matrix_file.path) <= SOL_MAX_STRING;
+    int rc = sol_validate_for_write(s, path, !shared, err);
     if (rc)
         return rc;
     sol_write_ctx w = {.s = s};
     if ((rc = sol_irradiance_for_write(s, &w.H, err)))
         return rc;
-    int shared = opt->share_matrix && s->matrix_file.path && s->F->bytes == s->matrix_file.bytes &&
-                 strlen(s->matrix_file.path) <= SOL_MAX_STRING;
     if (shared)
         share_matrix(s, path, &w, info);
 
