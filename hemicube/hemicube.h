@@ -101,8 +101,14 @@ typedef struct hc_light {
     double outer_cone;   /* spot: radians, zero outside; glTF's smooth falloff between */
 } hc_light;
 
+/* The light views' resolution when none is given (resolution 0 in
+ * hc_light_power and hc_light_visibility). */
+#define HC_DEFAULT_LIGHT_RESOLUTION 512
+
 /* Power each patch receives from a light of unit strength, front sides only
- * and with occlusion, into power[mesh->patch_count] (caller's buffer):
+ * and with occlusion, into power[mesh->patch_count] (caller's buffer), the
+ * light's views R×R with R = resolution (even, 8..4096; 0 =
+ * HC_DEFAULT_LIGHT_RESOLUTION):
  *   point, spot: unit intensity (1 per steradian); an item-buffer cube (six
  *     R×R faces; the spot's cone faces only) rendered at the light,
  *     Φ_j = Σ over pixels showing j of the pixel's solid angle × the spot

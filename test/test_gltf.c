@@ -1,4 +1,4 @@
-/* test_gltf.c - the glTF loader (radiosity/gltf.c over gltf_bridge.cpp).
+/* test_gltf.c - the glTF loader (radiosity/scene/gltf.c over the glTF bridge).
  *
  * Every document is built here, in memory: a small JSON writer takes the
  * arrays a test gives it and embeds them as a base64 data URI (or as the BIN

@@ -6,7 +6,7 @@
  * and shadow geometry, option checking and killed workers.
  *
  * Meshes are built here by hand (n×m grids of quads per rectangle) so the
- * test depends on nothing but rad.c and hemicube.c.
+ * test depends on nothing but the core and the hemicube module.
  */
 #include "../hemicube/hemicube.h"
 #include "test.h"

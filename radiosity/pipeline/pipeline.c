@@ -251,7 +251,8 @@ uint32_t rad_light_resolution(const rad_solve_options *opt)
 {
     if (opt->light_resolution)
         return opt->light_resolution;
-    return opt->hemicube.resolution > 512 ? opt->hemicube.resolution : 512;
+    const uint32_t R = opt->hemicube.resolution;
+    return R > HC_DEFAULT_LIGHT_RESOLUTION ? R : HC_DEFAULT_LIGHT_RESOLUTION;
 }
 
 /* A scene light as the hemi-cube module takes it. */

@@ -1,7 +1,8 @@
 /* gltf.c - rad_scene_parse_gltf: a glTF 2.0 document -> a rad_scene.
  *
- * gltf_bridge.cpp reads and checks the document (tinygltf); this file applies
- * the radiosity rules to what it returns.  Invariant: the scene holds exactly
+ * The glTF bridge (gltf_bridge.cpp, gltf_vet.cpp: tinygltf) reads and checks
+ * the document; this file applies the radiosity rules to what it returns.
+ * Invariant: the scene holds exactly
  * the surfaces of the displayed glTF scene, in world space, obeying scene.h,
  * or the call fails with "FILE: WHERE: WHAT" and leaves nothing behind.
  *

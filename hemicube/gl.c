@@ -1,0 +1,392 @@
+/* gl.c - OSMesa/GL for the hemi-cube workers: the only file of the project
+ * that includes a GL header.
+ *
+ * Owns a worker's GL context (OSMesa, llvmpipe), the shaders, the one
+ * vertex buffer holding every patch (patch j's triangles contiguous,
+ * positions relative to the bounding-box centre, each vertex carrying its
+ * patch id), the render targets (the hemi-cube's item-buffer atlas, R wide
+ * and 3R tall, and an R×R light view) and the calls rows.c and lights.c
+ * draw and read with (hc_gl_* in hc_internal.h).  Only a worker process
+ * ever makes a context, so the caller can fork freely.
+ *
+ * Invariants: depth is reversed Z with an infinite far plane (depth =
+ * near/distance, the target cleared to 0, GL_GREATER); the item target
+ * holds patch ids, HC_NO_PATCH where nothing or only a back side shows;
+ * between calls the program is in item mode (mode 0) with the depth test on.
+ */
+#define GL_GLEXT_PROTOTYPES 1
+#include "hc_internal.h"
+
+#include <GL/osmesa.h>
+#include <GL/gl.h>
+#include <GL/glext.h>
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* hc_internal.h keeps GL types out: draw lists are int, as GLint and GLsizei. */
+_Static_assert(_Generic((GLint)0, int: 1, default: 0) && _Generic((GLsizei)0, int: 1, default: 0),
+               "GLint and GLsizei must be int");
+
+struct hc_gl {
+    OSMesaContext ctx;
+    unsigned char dummy[16];
+    GLuint fbo, rb[2], prog, vao, vbo;
+    GLint loc_m, loc_eye, loc_mode;
+    /* Light target, R×R, made on the first light request of that size. */
+    GLuint lfbo, lrb[2];
+    uint32_t lR;
+};
+
+static const char *vs_src =
+    "#version 450 core\n"
+    "layout(location = 0) in vec3 pos;\n"
+    "layout(location = 1) in uint id;\n"
+    "uniform mat4 m;\n"
+    "uniform vec3 eye;\n"
+    "flat out uint vid;\n"
+    "void main() { vid = id; gl_Position = m * vec4(pos - eye, 1.0); }\n";
+
+/* A patch seen from behind still hides what lies beyond it, but its back
+ * side is no patch: it neither sends nor receives (one-sided patches), so its
+ * pixels keep "no patch" and reciprocity A_i F_ij = A_j F_ji holds.  A back
+ * side also gives up depth ties: it is pushed 1e-5 (relative) farther, so
+ * the front of a coincident surface (a glTF double-sided copy, back to back
+ * with its original) wins whatever the drawing order.  depth_less: the
+ * written depth is never nearer (reversed-Z), so early depth tests stay valid.
+ * mode 1 is the candidates' OR pass: a front side sets bit (id mod 32). */
+static const char *fs_src =
+    "#version 450 core\n"
+    "flat in uint vid;\n"
+    "uniform uint mode;\n"
+    "layout(location = 0) out uint item;\n"
+    "layout(depth_less) out float gl_FragDepth;\n"
+    "void main() {\n"
+    "    gl_FragDepth = gl_FrontFacing ? gl_FragCoord.z : gl_FragCoord.z * 0.99999;\n"
+    "    if (mode == 0u) item = gl_FrontFacing ? vid : 0xFFFFFFFFu;\n"
+    "    else item = gl_FrontFacing ? (1u << (vid & 31u)) : 0u;\n"
+    "}\n";
+
+int hc_gl_check(const char *where, char *msg)
+{
+    GLenum e = glGetError();
+    if (e == GL_NO_ERROR)
+        return 0;
+    snprintf(msg, HC_MAX_MSG, "hemi-cube: %s: GL error 0x%04x", where, (unsigned)e);
+    return -1;
+}
+
+static GLuint compile(GLenum type, const char *src, char *msg)
+{
+    GLuint s = glCreateShader(type);
+    glShaderSource(s, 1, &src, NULL);
+    glCompileShader(s);
+    GLint ok = 0;
+    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+        char log[512] = "";
+        glGetShaderInfoLog(s, sizeof log, NULL, log);
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: shader compile failed: %s", log);
+        glDeleteShader(s);
+        return 0;
+    }
+    return s;
+}
+
+/* ----------------------------------------------------------------- set-up */
+
+/* The context and the atlas FBO (R wide, 3R tall: item buffer and depth),
+ * with the fixed state every view uses. */
+static int context_and_atlas(hc_gl *g, uint32_t Ru, char *msg)
+{
+    const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 0,
+                           OSMESA_STENCIL_BITS, 0, OSMESA_ACCUM_BITS, 0,
+                           OSMESA_PROFILE, OSMESA_CORE_PROFILE,
+                           OSMESA_CONTEXT_MAJOR_VERSION, 4, OSMESA_CONTEXT_MINOR_VERSION, 5, 0};
+    g->ctx = OSMesaCreateContextAttribs(attribs, NULL);
+    if (!g->ctx) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: OSMesa could not create a GL 4.5 core context");
+        return -1;
+    }
+    if (!OSMesaMakeCurrent(g->ctx, g->dummy, GL_UNSIGNED_BYTE, 1, 1)) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: OSMesaMakeCurrent failed");
+        return -1;
+    }
+    GLsizei R = (GLsizei)Ru;
+    GLint max_rb = 0;
+    glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
+    if (max_rb < 3 * R) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: resolution %d needs a %d-pixel render buffer, GL allows %d",
+                 (int)R, (int)(3 * R), (int)max_rb);
+        return -1;
+    }
+    glGenFramebuffers(1, &g->fbo);
+    glBindFramebuffer(GL_FRAMEBUFFER, g->fbo);
+    glGenRenderbuffers(2, g->rb);
+    glBindRenderbuffer(GL_RENDERBUFFER, g->rb[0]);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_R32UI, R, 3 * R);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, g->rb[0]);
+    glBindRenderbuffer(GL_RENDERBUFFER, g->rb[1]);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, R, 3 * R);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, g->rb[1]);
+    GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    if (status != GL_FRAMEBUFFER_COMPLETE) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: item-buffer framebuffer incomplete (0x%04x)",
+                 (unsigned)status);
+        return -1;
+    }
+    const GLenum draw = GL_COLOR_ATTACHMENT0;
+    glDrawBuffers(1, &draw);
+    glReadBuffer(GL_COLOR_ATTACHMENT0);
+    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    /* Reversed Z with an infinite far plane: depth = near/distance in a
+     * float buffer keeps ~24 bits of relative precision at every distance,
+     * so surfaces a hundredth of a patch apart still resolve.  (libOSMesa
+     * exports every GL entry point but glClipControl.) */
+    PFNGLCLIPCONTROLPROC clip_control = (PFNGLCLIPCONTROLPROC)OSMesaGetProcAddress("glClipControl");
+    if (!clip_control) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: glClipControl is not available");
+        return -1;
+    }
+    clip_control(GL_LOWER_LEFT, GL_ZERO_TO_ONE);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_GREATER);
+    glEnable(GL_SCISSOR_TEST);
+    glDisable(GL_CULL_FACE);
+    glDisable(GL_DITHER);
+    glDisable(GL_BLEND);
+    return hc_gl_check("framebuffer set-up", msg);
+}
+
+/* Compiles, links and binds the item-buffer program, in mode 0. */
+static int program(hc_gl *g, char *msg)
+{
+    GLuint vs = compile(GL_VERTEX_SHADER, vs_src, msg);
+    if (!vs)
+        return -1;
+    GLuint fs = compile(GL_FRAGMENT_SHADER, fs_src, msg);
+    if (!fs)
+        return -1;
+    g->prog = glCreateProgram();
+    glAttachShader(g->prog, vs);
+    glAttachShader(g->prog, fs);
+    glLinkProgram(g->prog);
+    GLint ok = 0;
+    glGetProgramiv(g->prog, GL_LINK_STATUS, &ok);
+    if (!ok) {
+        char log[512] = "";
+        glGetProgramInfoLog(g->prog, sizeof log, NULL, log);
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: shader link failed: %s", log);
+        return -1;
+    }
+    glDeleteShader(vs);
+    glDeleteShader(fs);
+    glUseProgram(g->prog);
+    g->loc_m = glGetUniformLocation(g->prog, "m");
+    g->loc_eye = glGetUniformLocation(g->prog, "eye");
+    g->loc_mode = glGetUniformLocation(g->prog, "mode");
+    glUniform1ui(g->loc_mode, 0u);
+    return 0;
+}
+
+/* The one VBO holding every patch; fills w's vertex layout.  Vertex: float
+ * x, y, z relative to the origin, then uint32 patch id. */
+static int upload(const hc_engine *e, hc_gl *g, hc_work *w, char *msg)
+{
+    uint32_t n = e->n;
+    size_t nv = 0;
+    for (uint32_t j = 0; j < n; j++) {
+        w->vfirst[j] = (GLint)nv;
+        w->vcount[j] = e->ncorner[j] == 4 ? 6 : 3;
+        nv += (size_t)w->vcount[j];
+    }
+    w->nvert = (uint32_t)nv;
+    glGenVertexArrays(1, &g->vao);
+    glBindVertexArray(g->vao);
+    glGenBuffers(1, &g->vbo);
+    glBindBuffer(GL_ARRAY_BUFFER, g->vbo);
+    if (nv) {
+        struct vtx { float p[3]; uint32_t id; } *buf = malloc(nv * sizeof *buf);
+        if (!buf) {
+            snprintf(msg, HC_MAX_MSG, "hemi-cube: out of memory for %zu vertices", nv);
+            return -1;
+        }
+        static const int tri[2][3] = {{0, 1, 2}, {0, 2, 3}};
+        size_t k = 0;
+        for (uint32_t j = 0; j < n; j++) {
+            const double *c = e->corner + (size_t)j * 12;
+            for (int t = 0; t < (e->ncorner[j] == 4 ? 2 : 1); t++)
+                for (int s = 0; s < 3; s++) {
+                    const double *p = c + 3 * tri[t][s];
+                    buf[k].p[0] = (float)p[0];
+                    buf[k].p[1] = (float)p[1];
+                    buf[k].p[2] = (float)p[2];
+                    buf[k].id = j;
+                    k++;
+                }
+        }
+        glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(nv * sizeof *buf), buf, GL_STATIC_DRAW);
+        free(buf);
+    }
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 16, (const void *)0);
+    glVertexAttribIPointer(1, 1, GL_UNSIGNED_INT, 16, (const void *)12);
+    glEnableVertexAttribArray(0);
+    glEnableVertexAttribArray(1);
+    return hc_gl_check("geometry upload", msg);
+}
+
+/* The context lives until the worker's _exit, which frees it with the
+ * process: a worker never destroys it. */
+int hc_gl_create(const hc_engine *e, hc_work *w, char *msg)
+{
+    hc_gl *g = hc_alloc(1, sizeof *g, msg);
+    if (!g)
+        return -1;
+    w->gl = g;
+    if (!(w->vfirst = hc_alloc(e->n, sizeof *w->vfirst, msg)) ||
+        !(w->vcount = hc_alloc(e->n, sizeof *w->vcount, msg)))
+        return -1;
+    if (context_and_atlas(g, e->R, msg) != 0 || program(g, msg) != 0)
+        return -1;
+    return upload(e, g, w, msg);
+}
+
+int hc_gl_light_target(hc_gl *g, uint32_t R, char *msg)
+{
+    if (g->lR == R) {
+        glBindFramebuffer(GL_FRAMEBUFFER, g->lfbo);
+        return 0;
+    }
+    GLint max_rb = 0;
+    glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
+    if (max_rb < (GLint)R) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: light resolution %u exceeds GL's %d", R, (int)max_rb);
+        return -1;
+    }
+    g->lR = 0;
+    if (!g->lfbo) {
+        glGenFramebuffers(1, &g->lfbo);
+        glGenRenderbuffers(2, g->lrb);
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, g->lfbo);
+    glBindRenderbuffer(GL_RENDERBUFFER, g->lrb[0]);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_R32UI, (GLsizei)R, (GLsizei)R);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, g->lrb[0]);
+    glBindRenderbuffer(GL_RENDERBUFFER, g->lrb[1]);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, (GLsizei)R, (GLsizei)R);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, g->lrb[1]);
+    const GLenum draw = GL_COLOR_ATTACHMENT0;
+    glDrawBuffers(1, &draw);
+    glReadBuffer(GL_COLOR_ATTACHMENT0);
+    GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    if (status != GL_FRAMEBUFFER_COMPLETE) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: light framebuffer incomplete (0x%04x)", (unsigned)status);
+        return -1;
+    }
+    if (hc_gl_check("light framebuffer set-up", msg) != 0)
+        return -1;
+    g->lR = R;
+    return 0;
+}
+
+/* ------------------------------------------------------------------ views */
+
+void hc_gl_projection(double m[16], rad_vec3 right, rad_vec3 up, rad_vec3 d, int side, double near)
+{
+    /* Row-major P·V for a camera looking along d (eye space: x right, y up,
+     * -z forward).  Top face: x, y in [-1, 1] at distance 1; side faces:
+     * x in [-1, 1], "up" in [0, 1].  Reversed-Z infinite projection:
+     * clip z = near, clip w = distance along d. */
+    double ys = side ? 2.0 : 1.0;
+    double r0[4] = {right.x, right.y, right.z, 0};
+    double r1[4] = {ys * up.x - (side ? d.x : 0), ys * up.y - (side ? d.y : 0),
+                    ys * up.z - (side ? d.z : 0), 0};
+    double r2[4] = {0, 0, 0, near};
+    double r3[4] = {d.x, d.y, d.z, 0};
+    memcpy(m, r0, sizeof r0);
+    memcpy(m + 4, r1, sizeof r1);
+    memcpy(m + 8, r2, sizeof r2);
+    memcpy(m + 12, r3, sizeof r3);
+}
+
+void hc_gl_eye(hc_gl *g, rad_vec3 eye)
+{
+    glUniform3f(g->loc_eye, (float)eye.x, (float)eye.y, (float)eye.z);
+}
+
+void hc_gl_atlas_begin(hc_gl *g, uint32_t R, rad_vec3 eye)
+{
+    const GLuint clear_id[4] = {HC_NO_PATCH, 0, 0, 0};
+    const GLfloat clear_depth = 0.0f;
+    glBindFramebuffer(GL_FRAMEBUFFER, g->fbo);
+    glScissor(0, 0, (GLsizei)R, (GLsizei)(3 * R));
+    glClearBufferuiv(GL_COLOR, 0, clear_id);
+    glClearBufferfv(GL_DEPTH, 0, &clear_depth);
+    hc_gl_eye(g, eye);
+}
+
+void hc_gl_clear_items(hc_gl *g, uint32_t w, uint32_t h, uint32_t value)
+{
+    (void)g;
+    const GLuint clear_id[4] = {value, 0, 0, 0};
+    glScissor(0, 0, (GLsizei)w, (GLsizei)h);
+    glClearBufferuiv(GL_COLOR, 0, clear_id);
+}
+
+void hc_gl_view(hc_gl *g, uint32_t y0, uint32_t w, uint32_t h, const float m[16])
+{
+    glViewport(0, (GLint)y0, (GLsizei)w, (GLsizei)h);
+    glScissor(0, (GLint)y0, (GLsizei)w, (GLsizei)h);
+    glUniformMatrix4fv(g->loc_m, 1, GL_TRUE, m);
+}
+
+void hc_gl_square_view(hc_gl *g, const double m[16], uint32_t R, uint32_t y0)
+{
+    float mf[16];
+    for (int k = 0; k < 16; k++)
+        mf[k] = (float)m[k];
+    const GLuint clear_id[4] = {HC_NO_PATCH, 0, 0, 0};
+    const GLfloat clear_depth = 0.0f;
+    glViewport(0, (GLint)y0, (GLsizei)R, (GLsizei)R);
+    glScissor(0, (GLint)y0, (GLsizei)R, (GLsizei)R);
+    glClearBufferuiv(GL_COLOR, 0, clear_id);
+    glClearBufferfv(GL_DEPTH, 0, &clear_depth);
+    glUniformMatrix4fv(g->loc_m, 1, GL_TRUE, mf);
+}
+
+void hc_gl_or_mode(hc_gl *g, int on)
+{
+    if (on) {
+        glUniform1ui(g->loc_mode, 1u);
+        glDisable(GL_DEPTH_TEST);
+        glEnable(GL_COLOR_LOGIC_OP);
+        glLogicOp(GL_OR);
+    } else {
+        glUniform1ui(g->loc_mode, 0u);
+        glDisable(GL_COLOR_LOGIC_OP);
+        glEnable(GL_DEPTH_TEST);
+    }
+}
+
+/* ---------------------------------------------------------- draw and read */
+
+void hc_gl_draw(hc_gl *g, const int *first, const int *count, int nr)
+{
+    (void)g;
+    glMultiDrawArrays(GL_TRIANGLES, first, count, nr);
+}
+
+void hc_gl_read_items(hc_gl *g, uint32_t w, uint32_t h, uint32_t *dst)
+{
+    (void)g;
+    glReadPixels(0, 0, (GLsizei)w, (GLsizei)h, GL_RED_INTEGER, GL_UNSIGNED_INT, dst);
+}
+
+float hc_gl_read_depth(hc_gl *g, uint32_t x, uint32_t y)
+{
+    (void)g;
+    GLfloat D = 0.0f;
+    glReadPixels((GLint)x, (GLint)y, 1, 1, GL_DEPTH_COMPONENT, GL_FLOAT, &D);
+    return D;
+}

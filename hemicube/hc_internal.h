@@ -1,0 +1,310 @@
+/* hc_internal.h - what the files of hemicube/ share with one another; no
+ * file outside hemicube/ includes it (the public header is hemicube.h).
+ *
+ * The rooms, each owning one concern:
+ *   pool.c     the caller's side: the engine, its worker processes, jobs of
+ *              rows handed out in chunks and the answers collected;
+ *   wire.c     the protocol between the caller and a worker over a byte
+ *              stream (today a socketpair): framing, requests, replies;
+ *   worker.c   a worker process: its buffers and its request loop;
+ *   gl.c       OSMesa/GL, the only file that includes a GL header: the
+ *              context, the shaders, the vertex buffer of every patch,
+ *              views, drawing into an item buffer, readback;
+ *   rows.c     one hemi-cube row F_ij (or a point receiver's F_ej), with
+ *              its exact entries, computed in a worker;
+ *   lights.c   punctual lights: the public calls and their worker side;
+ *   analytic.c closed-form factors.
+ * Dependencies point one way: pool.c -> wire.c, worker.c; worker.c ->
+ * wire.c, rows.c, lights.c, gl.c; rows.c, lights.c -> gl.c (through the
+ * hc_gl_* calls below, so no GL type or header appears outside gl.c).
+ *
+ * Invariant of the shared data: the engine (struct hc_engine) is filled in
+ * the caller before the fork and read-only afterwards, so every worker holds
+ * the same copy; a worker's scratch (hc_work) is its own.
+ */
+#ifndef HC_INTERNAL_H
+#define HC_INTERNAL_H
+
+#include "hemicube.h"
+
+#include <stddef.h>
+#include <stdint.h>
+#include <sys/types.h>
+
+#define HC_NO_PATCH 0xFFFFFFFFu /* item-buffer clear value */
+#define HC_MAX_MSG 900u         /* longest error text a worker sends */
+#define HC_MAX_CHUNK 32u        /* rows or points per row request */
+#define HC_VIS_CHUNK 4096u      /* points per visibility request */
+/* Consecutive patches culled together against i's plane by a bounding
+ * sphere: half the scene is usually behind the plane. */
+#define HC_BLOCK 16u
+
+static inline int hc_resolution_ok(uint32_t R) { return R >= 8 && R <= 4096 && R % 2 == 0; }
+
+/* Deterministic orthonormal basis (u, v, n) with u × v = n. */
+static inline void hc_basis(rad_vec3 n, rad_vec3 *u, rad_vec3 *v)
+{
+    double ax = fabs(n.x), ay = fabs(n.y), az = fabs(n.z);
+    rad_vec3 a = ax <= ay && ax <= az ? rad_v3(1, 0, 0) : ay <= az ? rad_v3(0, 1, 0) : rad_v3(0, 0, 1);
+    *u = rad_normalize(rad_cross(n, a));
+    *v = rad_cross(n, *u);
+}
+
+/* ------------------------------------------------------------ the engine */
+
+typedef struct hc_worker {
+    pid_t pid;
+    int fd;             /* the caller's end of the worker's stream */
+    uint32_t in_flight; /* rows sent and not yet answered */
+} hc_worker;
+
+struct hc_engine {
+    const rad_mesh *mesh;
+    uint32_t n;       /* patches */
+    uint32_t R;       /* resolution */
+    uint32_t nproc;
+    uint32_t lp_threads; /* llvmpipe threads per worker (0: none) */
+    hc_options opt;
+    double *dff;      /* normalised ΔF_q, 3R² (atlas order) */
+    /* Geometry relative to the bounding-box centre, in double, prepared before
+     * the fork so every worker shares it copy-on-write. */
+    rad_vec3 origin;
+    double tol;        /* "strictly in front" margin, scene-relative */
+    double *corner;    /* n × 4 × 3: patch corners - origin */
+    rad_vec3 *center;  /* n: patch centre - origin */
+    uint8_t *ncorner;  /* n: 3 or 4 */
+    double *bsphere;   /* per HC_BLOCK consecutive patches: centre - origin, radius */
+    double *radius;    /* n: largest distance from patch centre to a corner */
+    double bradius;    /* every corner lies within this distance of the origin */
+    uint8_t *exact;    /* n: copy of opt->exact, or NULL */
+    int any_exact;     /* rows have candidates: exact marks or exact_near */
+    hc_worker *w;
+    int broken;        /* a worker is gone: every later call fails */
+    char broken_msg[HC_MAX_MSG + 64];
+    uint32_t *rx_col;  /* receive buffers in the caller */
+    float *rx_val;
+};
+
+/* pool.c: worker k's stream is lost (EOF, garbage, a failed send).  Marks
+ * the engine broken and fails with its message; err may be NULL. */
+int hc_pool_gone(hc_engine *e, uint32_t k, rad_error *err);
+/* pool.c: reads the header (two words) of worker k's next reply: RAD_OK,
+ * or the engine is broken (the stream is lost, or the worker sent its error
+ * text in place of the reply and has exited). */
+int hc_pool_header(hc_engine *e, uint32_t k, uint32_t hdr[2], rad_error *err);
+/* pool.c: closes worker k's stream after a reply that could not be read:
+ * nothing more is read from it (the engine is broken already). */
+void hc_pool_drop(hc_engine *e, uint32_t k);
+
+/* -------------------------------------------------------------- the wire */
+
+/* Message words (wire.c describes the protocol).  A row request starts with
+ * its row count (1..HC_MAX_CHUNK), any other request with one of the
+ * HC_REQ_ words; a reply starts with one of the HC_MSG_ words. */
+#define HC_MSG_READY 0u           /* a worker's start-up report: 0, 0 */
+#define HC_MSG_ERROR 0xFFFFFFFFu  /* row field of a worker's error message */
+#define HC_MSG_BATCH 0xFFFFFFFEu  /* header of the answer to one request */
+#define HC_MSG_LIGHT 0xFFFFFFFDu  /* header of the answer to one light part */
+#define HC_MSG_VIS 0xFFFFFFFCu    /* header of the answer to one visibility chunk */
+#define HC_REQ_LIGHT 0xFFFFFFF0u  /* request word of a light part (else: a row count) */
+#define HC_REQ_POINTS 0xFFFFFFF1u /* request word of a chunk of point receivers */
+#define HC_REQ_VIS 0xFFFFFFF2u    /* request word of a chunk of points seen from a light part */
+
+/* One point receiver of a HC_REQ_POINTS chunk: the cube sits at `at`
+ * (relative to the scene origin) on patch `patch`; `index` is the caller's
+ * receiver number, echoed in the answer. */
+typedef struct hc_point_req {
+    uint32_t index, patch;
+    double at[3];
+} hc_point_req;
+
+/* One part of a light request.  pos is relative to the scene origin. */
+typedef struct hc_light_req {
+    uint32_t resolution, kind, part, pad;
+    double pos[3], dir[3];
+    double cos_inner, cos_outer;
+} hc_light_req;
+
+/* A request as a worker reads it (hc_wire_recv_request). */
+typedef enum hc_req_kind {
+    HC_RQ_END = 0, /* the caller closed the stream */
+    HC_RQ_BAD,     /* a stream out of step or cut */
+    HC_RQ_ROWS,    /* rows[0..count) */
+    HC_RQ_POINTS,  /* pts[0..count) */
+    HC_RQ_LIGHT,   /* light */
+    HC_RQ_VIS      /* light, then count points to read with hc_wire_recv_points */
+} hc_req_kind;
+
+typedef struct hc_request {
+    hc_req_kind kind;
+    uint32_t count;
+    uint32_t rows[HC_MAX_CHUNK];
+    hc_point_req pts[HC_MAX_CHUNK];
+    hc_light_req light;
+} hc_request;
+
+/* A worker's reply to a row request, collected so that it goes out in one
+ * piece (or in pieces of about a megabyte). */
+typedef struct hc_reply {
+    unsigned char *buf;
+    size_t len, cap;
+} hc_reply;
+
+/* Transport: 0, or -1 on error or end of stream. */
+int hc_wire_send(int fd, const void *p, size_t len);
+int hc_wire_recv(int fd, void *p, size_t len);
+
+/* Caller -> worker requests; 0 or -1 (the stream is lost). */
+int hc_wire_send_rows(int fd, const uint32_t *rows, uint32_t count);
+int hc_wire_send_points(int fd, const hc_point_req *pts, uint32_t count);
+int hc_wire_send_light(int fd, const hc_light_req *q);
+int hc_wire_send_vis(int fd, const hc_light_req *q, const hc_point_req *pts, uint32_t m);
+
+/* Worker side: the next request, and the points of a HC_RQ_VIS (0 or -1). */
+hc_req_kind hc_wire_recv_request(int fd, hc_request *rq);
+int hc_wire_recv_points(int fd, hc_point_req *pts, uint32_t m);
+
+/* Worker -> caller: a tagged text (an error, or the start-up report with
+ * tag HC_MSG_READY and ""), cut at HC_MAX_MSG bytes; failures are ignored
+ * (the worker exits after an error anyway). */
+void hc_wire_send_text(int fd, uint32_t tag, const char *text);
+/* Caller side: reads the len bytes of such a text into text[HC_MAX_MSG + 1]
+ * and ends it with '\0'; 0, or -1 (len too long, or the stream is lost). */
+int hc_wire_recv_text(int fd, uint32_t len, char *text);
+
+/* The reply to a row request: hc_wire_reply_init once (0, or -1 when out of
+ * memory), then per request _begin, one _row per row (0 or -1: the stream
+ * is lost), then _end, which sends what is left (0 or -1), or _fail. */
+int hc_wire_reply_init(hc_reply *r, uint32_t n);
+void hc_wire_reply_begin(hc_reply *r, uint32_t count);
+int hc_wire_reply_row(int fd, hc_reply *r, uint32_t index, uint32_t cnt, const uint32_t *col,
+                      const float *val);
+int hc_wire_reply_end(int fd, hc_reply *r);
+/* A row failed: sends the rows collected so far, then the error text in
+ * place of the next row's header (the worker exits after). */
+void hc_wire_reply_fail(int fd, hc_reply *r, const char *text);
+/* Replies to one light part (m entries j, Φ_j) and to one visibility chunk. */
+int hc_wire_send_light_reply(int fd, uint32_t m, const uint32_t *col, const double *val);
+int hc_wire_send_vis_reply(int fd, uint32_t m, const double *vis);
+
+/* ------------------------------------------------------------ the worker */
+
+typedef struct hc_gl hc_gl;     /* gl.c */
+typedef struct hc_cand hc_cand; /* rows.c */
+
+/* A worker's scratch: made once at start-up (the light and visibility
+ * buffers on the first such request), reused by every request. */
+typedef struct hc_work {
+    hc_gl *gl;
+    /* The vertex buffer's layout (gl.c): patch j's triangles are the
+     * vcount[j] (3 or 6) vertices from vfirst[j], nvert in all. */
+    int *vfirst;
+    int *vcount;
+    uint32_t nvert;
+    uint32_t *pixels;  /* 3R²: the item-buffer atlas read back */
+    double *acc;       /* n: F_ij (or Φ_j) accumulators, zero between requests */
+    uint32_t *front;   /* patches in front of the current plane, ascending */
+    int *first[5];     /* per face: merged vertex ranges of a draw list */
+    int *count[5];
+    uint32_t *col;     /* one row's entries */
+    float *val;
+    /* Exact entries (rows.c, when the engine's any_exact), n each: */
+    hc_cand *cand;     /* the current row's candidates */
+    uint32_t *order;   /* candidates of one OR pass, then the patches of one focused view */
+    uint8_t *mark;     /* 1 for the current row's candidates, else 0 */
+    uint32_t *fslot;   /* 2n: a focused view's candidates (indices into cand),
+                        * then their pixel counts */
+    double *fsum;      /* 3n: a focused view's sums S, S° and visibilities */
+    /* Lights (lights.c): */
+    uint32_t lR;       /* size of lpixels and lweight (0: none yet) */
+    hc_light_req lkey; /* the part whose item buffer lpixels holds, when lkey_valid */
+    int lkey_valid;
+    uint32_t *lpixels; /* lR²: a light view's item buffer */
+    double *lweight;   /* lR²: pixel solid angle of a cube face, 6 faces sum to 4π */
+    double *lval;      /* n: Φ_j of one answer */
+    hc_point_req *vpts; /* HC_VIS_CHUNK: the points of a visibility request */
+    double *vis;       /* HC_VIS_CHUNK: their visibilities */
+    hc_reply out;      /* replies not yet sent */
+} hc_work;
+
+/* worker.c: the worker process's body, from the fork to its _exit. */
+void hc_worker_main(const hc_engine *e, int fd) __attribute__((noreturn));
+/* worker.c: calloc of at least one element; NULL with msg set on failure. */
+void *hc_alloc(size_t count, size_t size, char *msg);
+
+/* Appends patch j's vertices to a draw list of merged ranges (first[],
+ * count[], *nr of them), extending the last range when j follows *last. */
+static inline void hc_push_range(const hc_work *w, int *first, int *count, int *nr,
+                                 uint32_t *last, uint32_t j)
+{
+    if (*nr > 0 && *last + 1 == j) {
+        count[*nr - 1] += w->vcount[j];
+    } else {
+        first[*nr] = w->vfirst[j];
+        count[*nr] = w->vcount[j];
+        (*nr)++;
+    }
+    *last = j;
+}
+
+/* ---------------------------------------------------------------- rows.c */
+
+/* Allocates the exact entries' scratch of w (when e->any_exact); 0, or -1
+ * with msg set. */
+int hc_rows_init(const hc_engine *e, hc_work *w, char *msg);
+/* Computes row i into w->col/w->val; returns the entry count, or -1 with
+ * msg set on a GL error.  `at` (relative to the origin) moves the cube from
+ * i's centre to a point of i: an element's row F_ej (hc_compute_points). */
+long hc_row(const hc_engine *e, hc_work *w, uint32_t i, const rad_vec3 *at, char *msg);
+
+/* -------------------------------------------------------------- lights.c */
+
+/* Renders part q->part of a light and leaves Φ_j > 0 in w->col/w->lval;
+ * returns the entry count or -1 with msg set. */
+long hc_light_part(const hc_engine *e, hc_work *w, const hc_light_req *q, char *msg);
+/* Visibility of pts[0..m) (patches checked by the caller) from part
+ * q->part of a light into vis[0..m); 0, or -1 with msg set. */
+int hc_light_points(const hc_engine *e, hc_work *w, const hc_light_req *q,
+                    const hc_point_req *pts, uint32_t m, double *vis, char *msg);
+
+/* ------------------------------------------------------------------ gl.c */
+
+/* Makes the worker's OSMesa context, the 3R×R item-buffer atlas, the
+ * shaders and the vertex buffer of every patch (filling w->gl, w->vfirst,
+ * w->vcount, w->nvert); 0, or -1 with msg set. */
+int hc_gl_create(const hc_engine *e, hc_work *w, char *msg);
+/* 0, or -1 with msg "hemi-cube: WHERE: GL error ..." when GL flagged one. */
+int hc_gl_check(const char *where, char *msg);
+
+/* Row-major P·V for a camera looking along d, with the depth convention of
+ * gl.c (reversed Z, infinite far plane, clip z = near).  side 0: x, y in
+ * [-1, 1] at distance 1; side 1 (a half face): "up" in [0, 1]. */
+void hc_gl_projection(double m[16], rad_vec3 right, rad_vec3 up, rad_vec3 d, int side, double near);
+
+/* Binds the atlas, clears its 3R×R items to HC_NO_PATCH and its depth, and
+ * places the eye (relative to the origin). */
+void hc_gl_atlas_begin(hc_gl *g, uint32_t R, rad_vec3 eye);
+/* Places the eye without clearing anything. */
+void hc_gl_eye(hc_gl *g, rad_vec3 eye);
+/* Clears the items of rows [0, h) of the bound target to `value`. */
+void hc_gl_clear_items(hc_gl *g, uint32_t w, uint32_t h, uint32_t value);
+/* Makes rows [y0, y0 + h) of the bound target the current view, with the
+ * row-major projection m (float). */
+void hc_gl_view(hc_gl *g, uint32_t y0, uint32_t w, uint32_t h, const float m[16]);
+/* Makes an R×R view at row y0 current with the row-major projection m, and
+ * clears its item and depth buffers. */
+void hc_gl_square_view(hc_gl *g, const double m[16], uint32_t R, uint32_t y0);
+/* Draws the nr vertex ranges first[k], count[k] into the current view. */
+void hc_gl_draw(hc_gl *g, const int *first, const int *count, int nr);
+/* Reads the items of rows [0, h) of the bound target into dst (w × h,
+ * bottom row first). */
+void hc_gl_read_items(hc_gl *g, uint32_t w, uint32_t h, uint32_t *dst);
+/* The depth at pixel (x, y) of the bound target (near / distance). */
+float hc_gl_read_depth(hc_gl *g, uint32_t x, uint32_t y);
+/* on = 1: the candidates' OR passes (a front side sets bit id mod 32, no
+ * depth test); on = 0: back to the item buffer with depth test. */
+void hc_gl_or_mode(hc_gl *g, int on);
+/* Makes (or keeps) the R×R light target and binds it; 0, or -1 with msg. */
+int hc_gl_light_target(hc_gl *g, uint32_t R, char *msg);
+
+#endif /* HC_INTERNAL_H */
