@@ -1442,6 +1442,56 @@ static int kill_children(void)
     return killed;
 }
 
+/* Kills one child of this process (a worker of the engine): its pid, or 0. */
+static int kill_one_child(void)
+{
+    DIR *d = opendir("/proc");
+    if (!d)
+        return 0;
+    struct dirent *de;
+    int pid = 0;
+    while (!pid && (de = readdir(d))) {
+        char path[300], buf[512];
+        if (de->d_name[0] < '0' || de->d_name[0] > '9')
+            continue;
+        snprintf(path, sizeof path, "/proc/%s/stat", de->d_name);
+        FILE *f = fopen(path, "r");
+        if (!f)
+            continue;
+        size_t len = fread(buf, 1, sizeof buf - 1, f);
+        fclose(f);
+        buf[len] = '\0';
+        char *close_paren = strrchr(buf, ')');
+        int ppid = 0;
+        char state;
+        if (close_paren && sscanf(close_paren + 1, " %c %d", &state, &ppid) == 2 &&
+            ppid == (int)getpid() && state != 'Z') {
+            pid = atoi(de->d_name);
+            kill((pid_t)pid, SIGKILL);
+        }
+    }
+    closedir(d);
+    return pid;
+}
+
+/* The progress callback of worker_killed_mid_job: kills a worker once. */
+typedef struct killer {
+    uint32_t at;
+    int pid;
+} killer;
+
+static void kill_at(void *user, uint32_t done, uint32_t total)
+{
+    (void)total;
+    killer *k = user;
+    if (done == k->at && !k->pid)
+        k->pid = kill_one_child();
+}
+
+/* Workers killed before a job of rows: others take their place and the rows
+ * come out as an undisturbed engine computes them.  Killed before a light
+ * request (which does not replace workers), the request fails cleanly, and
+ * so does every later call. */
 TEST(dead_worker)
 {
     builder b = {0};
@@ -1449,25 +1499,78 @@ TEST(dead_worker)
     hc_options o = {.resolution = 16, .processes = 2};
     hc_engine *e = NULL;
     rad_error err = {0};
+    rad_matrix *ref = compute_all(&b, 16, 2);
     CHECK(hc_create(&b.m, &o, &e, &err) == RAD_OK);
     CHECK(kill_children() == 2);
     rad_matrix *F = rad_matrix_create(b.m.patch_count);
     uint32_t *rows = all_rows(b.m.patch_count);
-    /* No SIGPIPE, no hang: a clean RAD_ERR_GL naming a worker. */
-    CHECK(hc_compute_rows(e, rows, b.m.patch_count, F, &err) == RAD_ERR_GL);
-    CHECK(strstr(err.message, "worker") != NULL);
-    CHECK(hc_compute_rows(e, rows, 1, F, &err) == RAD_ERR_GL);
+    CHECK_MSG(hc_compute_rows(e, rows, b.m.patch_count, F, &err) == RAD_OK, "%s", err.message);
+    CHECK(ref && rows_identical(ref, F));
     double pw[32];
     hc_light l = {.kind = HC_LIGHT_POINT, .position = rad_v3(0.5, 0.5, 0.5)};
-    CHECK(hc_light_power(e, &l, 16, pw, &err) == RAD_ERR_GL);
+    CHECK_MSG(hc_light_power(e, &l, 16, pw, &err) == RAD_OK, "%s", err.message);
     hc_destroy(e);
-    /* Workers killed before a light request: the request itself fails
-     * cleanly, and so does every later one. */
     CHECK(hc_create(&b.m, &o, &e, &err) == RAD_OK);
     CHECK(kill_children() == 2);
     CHECK(hc_light_power(e, &l, 16, pw, &err) == RAD_ERR_GL);
     CHECK(strstr(err.message, "worker") != NULL);
     CHECK(hc_compute_rows(e, rows, 1, F, &err) == RAD_ERR_GL);
+    free(rows);
+    hc_destroy(e);
+    rad_matrix_destroy(F);
+    rad_matrix_destroy(ref);
+    builder_free(&b);
+}
+
+/* A worker killed in the middle of a job costs the rows it held, not the
+ * job: they are computed again and the matrix is the undisturbed one. */
+TEST(worker_killed_mid_job)
+{
+    builder b = {0};
+    parallel_squares(&b, 8, rad_v3(0, 0, 0));
+    rad_matrix *ref = compute_all(&b, 32, 2);
+    killer k = {.at = b.m.patch_count / 3};
+    hc_options o = {.resolution = 32, .processes = 2, .progress = kill_at, .progress_user = &k};
+    hc_engine *e = NULL;
+    rad_error err = {0};
+    CHECK(hc_create(&b.m, &o, &e, &err) == RAD_OK);
+    rad_matrix *F = rad_matrix_create(b.m.patch_count);
+    uint32_t *rows = all_rows(b.m.patch_count);
+    CHECK_MSG(e && hc_compute_rows(e, rows, b.m.patch_count, F, &err) == RAD_OK, "%s",
+              err.message);
+    CHECK(k.pid > 0);
+    CHECK(ref && rows_identical(ref, F) && F->rows_done == b.m.patch_count);
+    /* the engine is whole: another job runs on it */
+    rad_matrix *G = rad_matrix_create(b.m.patch_count);
+    CHECK(e && hc_compute_rows(e, rows, b.m.patch_count, G, &err) == RAD_OK);
+    CHECK(rows_identical(F, G));
+    free(rows);
+    hc_destroy(e);
+    rad_matrix_destroy(F);
+    rad_matrix_destroy(G);
+    rad_matrix_destroy(ref);
+    builder_free(&b);
+}
+
+/* A row that stops every worker asked for it (RADIOSITY_TEST_CRASH_ROW)
+ * stops two, then the job fails naming its patch; the rows finished before
+ * stay stored. */
+TEST(a_row_that_stops_two_workers)
+{
+    builder b = {0};
+    parallel_squares(&b, 4, rad_v3(0, 0, 0));
+    setenv("RADIOSITY_TEST_CRASH_ROW", "20", 1);
+    hc_options o = {.resolution = 16, .processes = 2};
+    hc_engine *e = NULL;
+    rad_error err = {0};
+    CHECK(hc_create(&b.m, &o, &e, &err) == RAD_OK);
+    rad_matrix *F = rad_matrix_create(b.m.patch_count);
+    uint32_t *rows = all_rows(b.m.patch_count);
+    CHECK(e && hc_compute_rows(e, rows, b.m.patch_count, F, &err) == RAD_ERR_GL);
+    unsetenv("RADIOSITY_TEST_CRASH_ROW"); /* read by every worker started, replacements too */
+    CHECK_MSG(strstr(err.message, "the row of patch 20 stopped two workers (the last killed by "
+                                  "signal 9)"), "%s", err.message);
+    CHECK(!F->row_done[20] && F->rows_done > 0);
     free(rows);
     hc_destroy(e);
     rad_matrix_destroy(F);
@@ -1497,5 +1600,7 @@ int main(void)
     RUN(bad_options);
     RUN(progress_reports);
     RUN(dead_worker);
+    RUN(worker_killed_mid_job);
+    RUN(a_row_that_stops_two_workers);
     return test_finish("test_hemicube");
 }
