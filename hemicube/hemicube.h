@@ -23,6 +23,8 @@
 
 #include "../radiosity/core/rad.h"
 
+#include <signal.h>
+
 /* The default hemi-cube resolution R (hc_options.resolution 0), the one
  * place it is written. */
 #define HC_DEFAULT_RESOLUTION 128
@@ -47,6 +49,11 @@ typedef struct hc_options {
     /* 1 = also treat exactly every patch j nearer to i's centre than j's own
      * size (the proximity case, where point sampling of i is the weak part). */
     int exact_near;
+    /* May be NULL: a flag the caller sets (from a signal handler, say) to
+     * stop a job of rows: no new row is handed out, the rows the workers
+     * hold are still received and stored, and the call then fails with
+     * RAD_ERR_INTERRUPTED.  Read in the caller's process only. */
+    const volatile sig_atomic_t *stop;
 } hc_options;
 
 typedef struct hc_engine hc_engine;

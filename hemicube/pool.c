@@ -531,6 +531,8 @@ static void top_up(hc_engine *e, hc_run *run, uint32_t k, rad_error *err)
 {
     const hc_job *job = run->job;
     hc_range *held = run->held + (size_t)k * HC_MAX_HELD;
+    if (e->opt.stop && *e->opt.stop)
+        return; /* asked to stop: what is held is still collected */
     while (run->rc == RAD_OK && e->w[k].in_flight <= run->chunk && run->nheld[k] < HC_MAX_HELD) {
         hc_range r;
         if (run->retry_len) {
@@ -769,6 +771,9 @@ static int run_job(hc_engine *e, const hc_job *job, rad_error *err)
     }
     if (e->broken && run.rc == RAD_OK)
         run.rc = rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
+    if (run.rc == RAD_OK && run.done < count)
+        run.rc = rad_fail(err, RAD_ERR_INTERRUPTED, "hemi-cube: stopped after %u of %u rows",
+                          run.done, count);
     free(pf);
     free(who);
     run_free(&run);

@@ -41,8 +41,6 @@ typedef struct run {
     uint64_t lights_computed;
     uint64_t max_memory;
     double ff_seconds;    /* time inside the hemi-cube, counted apart from the solve */
-    rad_row_sink inner_sink; /* F's own sink while stop_sink stands in for it */
-    void *inner_user;
 } run;
 
 static void run_begin(run *c, rad_solution *s, const rad_solve_options *opt)
@@ -87,6 +85,7 @@ static int start_hemicube(run *c, rad_error *err)
         return RAD_OK;
     hc_options ho = c->opt->hemicube;
     ho.exact_near = c->opt->exact_near;
+    ho.stop = c->opt->stop;
     int rc = mark_exact(c, err);
     if (rc)
         return rc;
@@ -109,40 +108,17 @@ static int rows_key(run *c, uint64_t *key, rad_error *err)
     return RAD_OK;
 }
 
-/* F's sink while rows are computed with a stop flag: the row goes on to
- * the journal's sink (if any), then the flag is looked at. */
-static int stop_sink(void *user, uint32_t i, const uint8_t *record, size_t bytes, rad_error *err)
-{
-    run *c = user;
-    int rc = c->inner_sink ? c->inner_sink(c->inner_user, i, record, bytes, err) : RAD_OK;
-    if (!rc && *c->opt->stop)
-        rc = rad_fail(err, RAD_ERR_INTERRUPTED, "%s: form factors: interrupted",
-                      c->s->scene->source);
-    return rc;
-}
-
 static int compute_rows(run *c, const uint32_t *rows, uint32_t count, rad_error *err)
 {
     if (count == 0)
         return RAD_OK;
     double t0 = rad_seconds();
-    rad_matrix *F = c->s->F;
-    if (c->opt->stop && *c->opt->stop)
-        return rad_fail(err, RAD_ERR_INTERRUPTED, "%s: form factors: interrupted",
-                        c->s->scene->source);
     int rc = start_hemicube(c, err);
-    if (c->opt->stop) {
-        c->inner_sink = F->sink;
-        c->inner_user = F->sink_user;
-        F->sink = stop_sink;
-        F->sink_user = c;
-    }
+    /* the engine stops at the flag, keeping every row its workers finished */
     if (!rc)
-        rc = hc_compute_rows(c->hc, rows, count, F, err);
-    if (c->opt->stop) {
-        F->sink = c->inner_sink;
-        F->sink_user = c->inner_user;
-    }
+        rc = hc_compute_rows(c->hc, rows, count, c->s->F, err);
+    if (rc == RAD_ERR_INTERRUPTED)
+        rad_fail(err, rc, "%s: form factors: interrupted", c->s->scene->source);
     if (!rc)
         c->rows_computed += count;
     c->ff_seconds += rad_seconds() - t0;

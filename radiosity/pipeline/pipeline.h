@@ -57,9 +57,9 @@ typedef struct rad_solve_options {
      * it is computed; the caller commits it with the solution. */
     rad_journal *journal;
     /* May be NULL: a flag the caller sets (from a signal handler, say) to
-     * stop the form factors; they then fail with RAD_ERR_INTERRUPTED at the
-     * next finished row, every row finished before it stored (and in the
-     * journal). */
+     * stop the form factors (hc_options.stop): no new row is started, the
+     * rows the workers are computing are still stored (and journaled), and
+     * the call fails with RAD_ERR_INTERRUPTED. */
     const volatile sig_atomic_t *stop;
 } rad_solve_options;
 
