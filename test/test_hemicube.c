@@ -1410,47 +1410,16 @@ TEST(progress_reports)
     builder_free(&b);
 }
 
-/* Kills this process's children (the engine's workers) through /proc. */
-static int kill_children(void)
+/* Kills up to `most` live children of this process (the engine's workers)
+ * through /proc; how many, and the last one's pid in *pid (may be NULL). */
+static int kill_children_upto(int most, int *pid)
 {
     int killed = 0;
     DIR *d = opendir("/proc");
     if (!d)
         return 0;
     struct dirent *de;
-    while ((de = readdir(d))) {
-        char path[300], buf[512];
-        if (de->d_name[0] < '0' || de->d_name[0] > '9')
-            continue;
-        snprintf(path, sizeof path, "/proc/%s/stat", de->d_name);
-        FILE *f = fopen(path, "r");
-        if (!f)
-            continue;
-        size_t len = fread(buf, 1, sizeof buf - 1, f);
-        fclose(f);
-        buf[len] = '\0';
-        char *close_paren = strrchr(buf, ')');
-        int ppid = 0;
-        char state;
-        if (close_paren && sscanf(close_paren + 1, " %c %d", &state, &ppid) == 2 &&
-            ppid == (int)getpid()) {
-            kill((pid_t)atoi(de->d_name), SIGKILL);
-            killed++;
-        }
-    }
-    closedir(d);
-    return killed;
-}
-
-/* Kills one child of this process (a worker of the engine): its pid, or 0. */
-static int kill_one_child(void)
-{
-    DIR *d = opendir("/proc");
-    if (!d)
-        return 0;
-    struct dirent *de;
-    int pid = 0;
-    while (!pid && (de = readdir(d))) {
+    while (killed < most && (de = readdir(d))) {
         char path[300], buf[512];
         if (de->d_name[0] < '0' || de->d_name[0] > '9')
             continue;
@@ -1466,13 +1435,17 @@ static int kill_one_child(void)
         char state;
         if (close_paren && sscanf(close_paren + 1, " %c %d", &state, &ppid) == 2 &&
             ppid == (int)getpid() && state != 'Z') {
-            pid = atoi(de->d_name);
-            kill((pid_t)pid, SIGKILL);
+            kill((pid_t)atoi(de->d_name), SIGKILL);
+            if (pid)
+                *pid = atoi(de->d_name);
+            killed++;
         }
     }
     closedir(d);
-    return pid;
+    return killed;
 }
+
+static int kill_children(void) { return kill_children_upto(1 << 30, NULL); }
 
 /* The progress callback of worker_killed_mid_job: kills a worker once. */
 typedef struct killer {
@@ -1485,7 +1458,7 @@ static void kill_at(void *user, uint32_t done, uint32_t total)
     (void)total;
     killer *k = user;
     if (done == k->at && !k->pid)
-        k->pid = kill_one_child();
+        kill_children_upto(1, &k->pid);
 }
 
 /* Workers killed before a job of rows: others take their place and the rows

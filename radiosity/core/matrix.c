@@ -81,13 +81,13 @@ uint8_t *rad_matrix_reserve(rad_matrix *m, uint64_t more, rad_error *err)
     return m->data + m->bytes;
 }
 
-static size_t put_varint(uint8_t *p, uint32_t v)
+size_t rad_varint_put(uint8_t out[5], uint32_t v)
 {
     size_t n = 0;
     do {
         uint8_t byte = v & 0x7f;
         v >>= 7;
-        p[n++] = v ? (uint8_t)(byte | 0x80) : byte;
+        out[n++] = v ? (uint8_t)(byte | 0x80) : byte;
     } while (v);
     return n;
 }
@@ -132,7 +132,7 @@ int rad_matrix_set_row(rad_matrix *m, uint32_t i, uint32_t count, const uint32_t
         memcpy(p + at, val, (size_t)count * sizeof *val);
         at += 4 * (size_t)count;
         for (uint32_t k = 0; k < count; k++)
-            at += put_varint(p + at, k ? col[k] - col[k - 1] : col[0]);
+            at += rad_varint_put(p + at, k ? col[k] - col[k - 1] : col[0]);
     }
     uint64_t record = m->bytes;
     m->bytes += at;

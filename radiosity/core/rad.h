@@ -270,6 +270,11 @@ static inline uint32_t rad_row_next(const uint8_t **p, uint32_t prev)
     return prev + v;
 }
 
+/* Writes v as an unsigned LEB128 varint (7 bits a byte, low bits first,
+ * the high bit set on every byte but the last) into out; returns its 1 to 5
+ * bytes.  The one encoder of the format's varints. */
+size_t rad_varint_put(uint8_t out[5], uint32_t v);
+
 /* Decodes row i into col[] and val[] (caller's buffers of row_count[i]
  * entries each; either may be NULL); returns its entry count (0 for a
  * missing row). */

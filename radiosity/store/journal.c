@@ -134,48 +134,35 @@ static void start_head(uint8_t *h, uint32_t n, uint64_t key)
     sol_store_le(h + SOL_HEADER_BYTES + 8, key, 8);
 }
 
-/* The valid blocks of the existing file, from byte `pos`, into F: each
- * block's CRC and rows checked, the first bad one and all after it are the
- * torn tail.  Returns where the valid blocks end. */
-static uint64_t resume_blocks(rad_journal *j, rad_matrix *F, uint64_t pos)
+/* The blocks of the existing file from byte `pos`.  With F: the valid
+ * ones into F, each block's CRC and rows checked, the first bad one and
+ * all after it being the torn tail.  Without: only counted (the rows of
+ * another key, about to be dropped).  Returns where the blocks walked end;
+ * *rows: how many rows they hold. */
+static uint64_t walk_blocks(rad_journal *j, rad_matrix *F, uint64_t pos, uint64_t *rows)
 {
     sol_reader r = {.name = rad_journal_path(j), .section = "MATRIX"};
     uint8_t head[SOL_BLOCK_HEAD];
-    while (pos + SOL_BLOCK_HEAD <= j->existing) {
-        uint32_t rows;
-        uint64_t len, crc;
-        if (rad_output_read_at(j->out, head, sizeof head, pos) != 0 ||
-            sol_block_head(&r, head, pos, j->existing - pos, &rows, &len, &crc) != RAD_OK)
-            break;
-        uint8_t *p = rad_matrix_reserve(F, len, NULL);
-        if (!p || rad_output_read_at(j->out, p, (size_t)len, pos + SOL_BLOCK_HEAD) != 0 ||
-            (sol_crc64_update(j->tab, ~0ull, p, (size_t)len) ^ ~0ull) != crc)
-            break;
-        if (rad_matrix_add_records(F, len, rows, NULL, NULL) != RAD_OK)
-            break;
-        j->crc = sol_crc64_update(j->tab, j->crc, head, sizeof head);
-        j->crc = sol_crc64_update(j->tab, j->crc, p, (size_t)len);
-        pos += SOL_BLOCK_HEAD + len;
-    }
-    return pos;
-}
-
-/* Rows a file under another key holds, counted from the block heads. */
-static uint32_t count_rows(rad_journal *j, uint64_t pos)
-{
-    sol_reader r = {.name = rad_journal_path(j), .section = "MATRIX"};
-    uint8_t head[SOL_BLOCK_HEAD];
-    uint64_t rows = 0;
+    *rows = 0;
     while (pos + SOL_BLOCK_HEAD <= j->existing) {
         uint32_t nrows;
         uint64_t len, crc;
         if (rad_output_read_at(j->out, head, sizeof head, pos) != 0 ||
             sol_block_head(&r, head, pos, j->existing - pos, &nrows, &len, &crc) != RAD_OK)
             break;
-        rows += nrows;
+        if (F) {
+            uint8_t *p = rad_matrix_reserve(F, len, NULL);
+            if (!p || rad_output_read_at(j->out, p, (size_t)len, pos + SOL_BLOCK_HEAD) != 0 ||
+                (sol_crc64_update(j->tab, ~0ull, p, (size_t)len) ^ ~0ull) != crc ||
+                rad_matrix_add_records(F, len, nrows, NULL, NULL) != RAD_OK)
+                break;
+            j->crc = sol_crc64_update(j->tab, j->crc, head, sizeof head);
+            j->crc = sol_crc64_update(j->tab, j->crc, p, (size_t)len);
+        }
+        *rows += nrows;
         pos += SOL_BLOCK_HEAD + len;
     }
-    return rows > UINT32_MAX ? UINT32_MAX : (uint32_t)rows;
+    return pos;
 }
 
 int rad_journal_attach(rad_journal *j, rad_matrix *F, uint64_t key, rad_error *err)
@@ -195,12 +182,15 @@ int rad_journal_attach(rad_journal *j, rad_matrix *F, uint64_t key, rad_error *e
     if (!j->fresh && j->existing >= start &&
         rad_output_read_at(j->out, have, sizeof have, 0) == 0 && memcmp(have, want, 16) == 0 &&
         memcmp(have + SOL_HEADER_BYTES, want + SOL_HEADER_BYTES, SOL_MATRIX_HEAD) == 0) {
-        keep = resume_blocks(j, F, start);
+        uint64_t rows;
+        keep = walk_blocks(j, F, start, &rows);
         j->stats.resumed = F->rows_done;
         j->stats.torn_bytes = j->existing - keep;
     } else if (j->existing >= start && rad_output_read_at(j->out, have, sizeof have, 0) == 0 &&
                memcmp(have, want, 12) == 0) {
-        j->stats.discarded = count_rows(j, start);
+        uint64_t rows;
+        walk_blocks(j, NULL, start, &rows);
+        j->stats.discarded = rows > UINT32_MAX ? UINT32_MAX : (uint32_t)rows;
     }
     j->stats.kept = j->stats.resumed;
     if (keep == 0) {

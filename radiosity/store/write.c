@@ -130,17 +130,10 @@ static void put_vec3(sol_sink *k, rad_vec3 v)
     put_f64(k, v.z);
 }
 
-/* LEB128: 7 bits a byte, low bits first, high bit = more follows. */
 static void put_varint(sol_sink *k, uint32_t v)
 {
     uint8_t b[5];
-    size_t n = 0;
-    do {
-        uint8_t byte = v & 0x7f;
-        v >>= 7;
-        b[n++] = v ? (uint8_t)(byte | 0x80) : byte;
-    } while (v);
-    put(k, b, n);
+    put(k, b, rad_varint_put(b, v));
 }
 
 /* Lengths were checked against SOL_MAX_STRING before writing began. */
