@@ -675,7 +675,8 @@ static uint8_t *v6_splice(const uint8_t *img, size_t size, size_t body, size_t a
 {
     uint8_t *b = malloc(size - cut + n + 1);
     memcpy(b, img, at);
-    memcpy(b + at, bytes, n);
+    if (n)
+        memcpy(b + at, bytes, n);
     memcpy(b + at + n, img + at + cut, size - at - cut);
     *out_size = size - cut + n;
     size_t x = v6_index_at(img) - cut + n;
