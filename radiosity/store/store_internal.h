@@ -80,9 +80,9 @@ extern const int sol_version_sections[SOL_VERSION_SHEETS + 1];
 
 /* ------------------------------------------------- checksum (format.c) */
 
-/* CRC-64/XZ lookup tables (slicing by 8). */
+/* CRC-64/XZ lookup tables (slicing by 16). */
 typedef struct sol_crc64_tables {
-    uint64_t t[8][256];
+    uint64_t t[16][256];
 } sol_crc64_tables;
 
 void sol_crc64_init(sol_crc64_tables *c);
