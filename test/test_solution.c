@@ -38,11 +38,20 @@ static uint64_t crc_step(uint64_t reg, uint8_t byte)
     return reg;
 }
 
+/* A byte at a time through a table made by crc_step (the byte tests below
+ * recompute CRCs of thousands of images). */
 static uint64_t crc64_xz(const uint8_t *p, size_t n)
 {
+    static uint64_t table[256];
+    static int ready;
+    if (!ready) {
+        for (uint32_t b = 0; b < 256; b++)
+            table[b] = crc_step(0, (uint8_t)b);
+        ready = 1;
+    }
     uint64_t reg = ~0ull;
     for (size_t i = 0; i < n; i++)
-        reg = crc_step(reg, p[i]);
+        reg = table[(reg ^ p[i]) & 0xff] ^ (reg >> 8);
     return reg ^ ~0ull;
 }
 
