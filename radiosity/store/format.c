@@ -19,14 +19,14 @@
 const char sol_sec_tag[SEC_COUNT][4] = {
     {'I', 'N', 'F', 'O'}, {'S', 'C', 'E', 'N'}, {'M', 'E', 'S', 'H'}, {'M', 'T', 'R', 'X'},
     {'P', 'D', 'A', 'T'}, {'L', 'G', 'H', 'T'}, {'E', 'L', 'E', 'M'}, {'E', 'L', 'G', 'T'},
-    {'R', 'O', 'W', 'S'}, {'I', 'R', 'R', 'D'}, {'M', 'R', 'E', 'F'}};
+    {'C', 'A', 'M', 'S'}, {'R', 'O', 'W', 'S'}, {'I', 'R', 'R', 'D'}, {'M', 'R', 'E', 'F'}};
 
 const char *const sol_sec_name[SEC_COUNT] = {
-    "INFO",   "SCENE",    "MESH",          "MATRIX", "PATCHDATA", "LIGHTS",
-    "ELEMENTS", "ELEMENTLIGHTS", "ROWS", "IRRADIANCE", "MATRIXREF"};
+    "INFO",     "SCENE",         "MESH",    "MATRIX", "PATCHDATA",  "LIGHTS",
+    "ELEMENTS", "ELEMENTLIGHTS", "CAMERAS", "ROWS",   "IRRADIANCE", "MATRIXREF"};
 
 const int sol_version_sections[SOL_VERSION_SHEETS + 1] = {0, SEC_LIGHTS, SEC_ELEMENTS,
-                                                          SEC_ELEMENT_LIGHTS, SEC_COUNT_V5,
+                                                          SEC_ELEMENT_LIGHTS, SEC_CAMERAS,
                                                           SEC_COUNT_V5};
 
 /* ------------------------------------------------------------- CRC-64/XZ */

@@ -168,8 +168,8 @@ static int parse_info(sol_reader *r, rad_solution *s)
     if (r->version >= SOL_VERSION_SHEETS) {
         if (!sol_get_u8(c, &r->announced))
             return TRUNC("truncated");
-        if (r->announced > 7)
-            return TRUNC("announced sections 0x%x: only bits 0-2 exist", r->announced);
+        if (r->announced > 15)
+            return TRUNC("announced sections 0x%x: only bits 0-3 exist", r->announced);
     }
     return sol_check_info(s, r->name, "section INFO", RAD_ERR_CORRUPT, r->err);
 }
@@ -307,7 +307,7 @@ static int parse_polygons(sol_reader *r, rad_scene *sc)
     return rc;
 }
 
-static int parse_cameras(sol_reader *r, rad_scene *sc)
+static int parse_scene_cameras(sol_reader *r, rad_scene *sc)
 {
     sol_cursor *c = &r->c;
     uint32_t count;
@@ -339,7 +339,7 @@ static int parse_scene(sol_reader *r, rad_solution *s)
         return sol_rfail(r, RAD_ERR_NOMEM, "out of memory");
     if (!(rc = parse_bands(r, s)) && !(rc = parse_materials(r, s->scene)) &&
         !(rc = parse_objects(r, s->scene)) && !(rc = parse_polygons(r, s->scene)) &&
-        !(rc = parse_cameras(r, s->scene))) {
+        !(rc = parse_scene_cameras(r, s->scene))) {
         free(s->scene->source);
         s->scene->source = source;
         source = NULL;
@@ -938,13 +938,50 @@ static int parse_matrix_blocks(sol_reader *r, rad_solution *s)
     return sol_matrix_install(r, s, G, records, rows);
 }
 
+/* CAMERAS: which of SCENE's cameras are orthographic, in increasing order. */
+static int parse_ortho_cameras(sol_reader *r, rad_solution *s)
+{
+    sol_cursor *c = &r->c;
+    rad_scene *sc = s->scene;
+    uint32_t n;
+    if (!sol_get_u32(c, &n))
+        return TRUNC("truncated");
+    int rc = check_count(r, n, ORTHO_CAMERA_BYTES, "orthographic cameras");
+    if (rc)
+        return rc;
+    if (n == 0)
+        return TRUNC("no orthographic camera (the section is written only for some)");
+    for (uint32_t k = 0, last = 0; k < n; k++) {
+        uint32_t i = 0;
+        uint8_t projection = 0;
+        double xmag = 0.0, ymag = 0.0;
+        if (!sol_get_u32(c, &i) || !sol_get_u8(c, &projection) || !sol_get_f64(c, &xmag) ||
+            !sol_get_f64(c, &ymag)) /* cannot fail after check_count, said for the compiler */
+            return TRUNC("camera %u of %u: truncated", k, n);
+        if (i >= sc->camera_count || (k > 0 && i <= last))
+            return TRUNC("camera %u: out of range or out of order (%u cameras)", i,
+                         sc->camera_count);
+        if (projection != 1)
+            return TRUNC("camera %u: projection %u is not 1 (orthographic)", i, projection);
+        last = i;
+        /* scene.c names the file being read, as in parse_scene */
+        char *stored_source = sc->source;
+        sc->source = (char *)r->name;
+        rc = rad_scene_set_camera_ortho(sc, i, xmag, ymag, "section CAMERAS", r->err);
+        sc->source = stored_source;
+        if (rc)
+            return scene_rc(r, rc);
+    }
+    return RAD_OK;
+}
+
 /* ---------------------------------------------------------------- dispatch */
 
 typedef int (*parse_fn)(sol_reader *, rad_solution *);
 static const parse_fn sec_parse[SEC_COUNT] = {
     parse_info,     parse_scene,       parse_mesh, parse_matrix,     parse_patchdata,
-    parse_lights,   parse_elements,    parse_element_lights,         parse_rows,
-    parse_irradiance, parse_matrixref};
+    parse_lights,   parse_elements,    parse_element_lights,         parse_ortho_cameras,
+    parse_rows,     parse_irradiance,  parse_matrixref};
 
 int sol_parse_section(sol_reader *r, int sec, rad_solution *s)
 {

@@ -272,7 +272,7 @@ static int parse_index(const uint8_t *d, uint64_t len, uint64_t at, const char *
 /* The optional sections must be exactly those INFO announces. */
 static int check_announced(const sol_reader *r, const sol_index *x)
 {
-    for (int k = SEC_LIGHTS; k <= SEC_ELEMENT_LIGHTS; k++)
+    for (int k = SEC_LIGHTS; k <= SEC_LAST_ANNOUNCED; k++)
         if ((x->at[k] >= 0) != announced(r, k))
             return rad_fail(r->err, RAD_ERR_CORRUPT, "%s: section %s %s", r->name,
                             sol_sec_name[k],
@@ -281,9 +281,9 @@ static int check_announced(const sol_reader *r, const sol_index *x)
 }
 
 /* The order sections are parsed in (each needs those before it). */
-static const int parse_order[] = {SEC_INFO,       SEC_SCENE,  SEC_MESH,     SEC_ROWS,
+static const int parse_order[] = {SEC_INFO,       SEC_SCENE,      SEC_MESH,   SEC_ROWS,
                                   SEC_PATCHDATA,  SEC_IRRADIANCE, SEC_LIGHTS, SEC_ELEMENTS,
-                                  SEC_ELEMENT_LIGHTS};
+                                  SEC_ELEMENT_LIGHTS, SEC_CAMERAS};
 
 /* ------------------------------------------- version 6 from a file */
 

@@ -1,11 +1,11 @@
 /* write.c - rad_solution_write: the solution file of
  * docs/solution-format.md, format version 6.  A header, the sections each
  * with its own CRC-64 (MATRIX or MATRIXREF, INFO, SCENE, MESH, ROWS,
- * PATCHDATA, IRRADIANCE, then LIGHTS, ELEMENTS and ELEMENTLIGHTS as the
- * solution has them), and at the end the index that lists them, whose CRC
- * the header holds.  The index comes last so that a solve can stream its
- * matrix first, one row block per finished row (journal.c), and add the rest
- * when it is done; this file writes the same layout in one go.
+ * PATCHDATA, IRRADIANCE, then LIGHTS, ELEMENTS, ELEMENTLIGHTS and CAMERAS
+ * as the solution has them), and at the end the index that lists them,
+ * whose CRC the header holds.  The index comes last so that a solve can
+ * stream its matrix first, one row block per finished row (journal.c), and
+ * add the rest when it is done; this file writes the same layout in one go.
  *
  * Invariant: the writer applies the reader's rules before it creates a
  * file, so it never writes a file the reader would refuse, and it never
@@ -149,13 +149,13 @@ static void put_str(sol_sink *k, const char *s)
 static int section_written(const rad_solution *s, int i);
 
 /* Version 5's INFO ends with the optional sections the file holds, one bit
- * each (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4): the reader then knows what
+ * each (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4, CAMERAS 8): the reader then knows what
  * must follow, and a file cut or stripped before one of them cannot pass
  * for a file without it. */
 static uint8_t announced_sections(const rad_solution *s)
 {
     uint8_t bits = 0;
-    for (int i = SEC_LIGHTS; i <= SEC_ELEMENT_LIGHTS; i++)
+    for (int i = SEC_LIGHTS; i <= SEC_LAST_ANNOUNCED; i++)
         if (section_written(s, i))
             bits |= (uint8_t)(1u << (i - SEC_LIGHTS));
     return bits;
@@ -353,6 +353,34 @@ static void emit_lights(sol_sink *k, const sol_write_ctx *w)
     }
 }
 
+/* The orthographic cameras: SCENE holds every camera as a perspective one
+ * (what a reader that knows no other takes), this says which are not. */
+static void emit_cameras(sol_sink *k, const sol_write_ctx *w)
+{
+    const rad_scene *sc = w->s->scene;
+    uint32_t n = 0;
+    for (uint32_t i = 0; i < sc->camera_count; i++)
+        n += sc->cameras[i].orthographic != 0;
+    put_u32(k, n);
+    for (uint32_t i = 0; i < sc->camera_count; i++) {
+        const rad_camera *c = &sc->cameras[i];
+        if (!c->orthographic)
+            continue;
+        put_u32(k, i);
+        put_u8(k, 1); /* projection: 1 = orthographic, the only other one */
+        put_f64(k, c->xmag);
+        put_f64(k, c->ymag);
+    }
+}
+
+static int has_ortho_camera(const rad_scene *sc)
+{
+    for (uint32_t i = 0; i < sc->camera_count; i++)
+        if (sc->cameras[i].orthographic)
+            return 1;
+    return 0;
+}
+
 static int check_string(const char *str, const char *file, const char *what, uint32_t i,
                         rad_error *err)
 {
@@ -513,13 +541,17 @@ void sol_put_matrix_head(sol_sink *k, uint32_t n, uint64_t key)
 
 typedef void (*emit_fn)(sol_sink *, const sol_write_ctx *);
 static const emit_fn sec_emit[SEC_COUNT] = {
-    emit_info,   emit_scene,    emit_mesh,      emit_matrix,   emit_patchdata, emit_lights,
-    emit_elements, emit_element_lights, emit_rows, emit_irradiance, emit_matrixref};
+    emit_info,     emit_scene,          emit_mesh,    emit_matrix, emit_patchdata,
+    emit_lights,   emit_elements,       emit_element_lights,       emit_cameras,
+    emit_rows,     emit_irradiance,     emit_matrixref};
 
 /* LIGHTS is written only when there are lights, ELEMENTS when there are
- * elements, ELEMENTLIGHTS when the elements carry their own direct light. */
+ * elements, ELEMENTLIGHTS when the elements carry their own direct light,
+ * CAMERAS when a camera is orthographic. */
 static int section_written(const rad_solution *s, int i)
 {
+    if (i == SEC_CAMERAS)
+        return has_ortho_camera(s->scene);
     if (i == SEC_LIGHTS)
         return s->scene->light_count > 0;
     if (i == SEC_ELEMENTS)
@@ -532,9 +564,9 @@ static int section_written(const rad_solution *s, int i)
 /* ------------------------------------------------------------------- file */
 
 /* The sections after the matrix, in the order written. */
-static const int rest_order[] = {SEC_INFO,       SEC_SCENE,  SEC_MESH,     SEC_ROWS,
+static const int rest_order[] = {SEC_INFO,       SEC_SCENE,      SEC_MESH,   SEC_ROWS,
                                  SEC_PATCHDATA,  SEC_IRRADIANCE, SEC_LIGHTS, SEC_ELEMENTS,
-                                 SEC_ELEMENT_LIGHTS};
+                                 SEC_ELEMENT_LIGHTS, SEC_CAMERAS};
 
 uint64_t sol_rows_crc(sol_sink *k, const rad_mesh *m)
 {
