@@ -1692,7 +1692,8 @@ TEST(older_versions_still_read)
         rad_solution *(*make)(void);
     } files[] = {{"grey-box", 1, make_grey},         {"wide-floor", 1, make_wide},
                  {"rgb-room", 2, make_rgb},          {"elements-room-v3", 3, NULL},
-                 {"elements-room", 4, NULL},         {"sheets-room", 5, make_sheets}};
+                 {"elements-room", 4, NULL},         {"sheets-room", 5, make_sheets},
+                 {"ortho-camera", 5, NULL}};
     for (size_t k = 0; k < sizeof files / sizeof files[0]; k++) {
         char p[300];
         snprintf(p, sizeof p, CORPUS "%s", files[k].name);
@@ -1705,6 +1706,10 @@ TEST(older_versions_still_read)
             rad_error e = {0};
             CHECK_MSG(rad_solution_read_parts(p, parts, &s, &e) == RAD_OK, "%s", e.message);
             CHECK(s && invariants_hold(s) && s->F->entries_loaded);
+            int ortho = 0; /* version 5's CAMERAS section, read */
+            for (uint32_t c = 0; s && c < s->scene->camera_count; c++)
+                ortho += s->scene->cameras[c].orthographic != 0;
+            CHECK(ortho == (strcmp(files[k].name, "ortho-camera") == 0));
             if (s && files[k].make) {
                 rad_solution *ref = files[k].make();
                 check_same(ref, s);
