@@ -1357,6 +1357,16 @@ TEST(newer_version_and_foreign_files)
     path_in(p, sizeof p, "");
     CHECK(rad_solution_read(p, &s, &e) == RAD_ERR_IO); /* a directory */
 
+    /* An index offset far from the end: refused before the index is read */
+    uint8_t *early = malloc(golden_size);
+    memcpy(early, golden, golden_size);
+    wr64(early + 16, 32);
+    path_in(p, sizeof p, "early.sol");
+    CHECK(spit(p, early, golden_size) == 0);
+    CHECK(rad_solution_read_parts(p, 0, &s, &e) == RAD_ERR_CORRUPT);
+    CHECK_MSG(strstr(e.message, "more than 64 sections take"), "%s", e.message);
+    free(early);
+
     /* > 64 GiB refused before reading: a sparse file costs no disk. */
     path_in(p, sizeof p, "huge.sol");
     int fd = open(p, O_WRONLY | O_CREAT | O_TRUNC, 0644);

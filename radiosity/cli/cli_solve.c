@@ -230,10 +230,14 @@ int cli_solve(int argc, char **argv)
     opt.stop = &cli_stop;
     rad_solution *s = NULL;
     rc = rad_solve_scene_file(scene, &opt, &s, &err);
-    if (rc || cli_stop || ps.failed) {
+    if (rc || cli_stop) {
         rad_solution_destroy(s);
-        return ps.failed && !rc && !cli_stop ? (rad_journal_close(j), 2)
-                                             : solve_stopped(j, &err, rc);
+        return solve_stopped(j, &err, rc);
+    }
+    if (ps.failed) { /* a preview could not be written (printed): the rows stay */
+        rad_solution_destroy(s);
+        rad_journal_close(j);
+        return 2;
     }
     rad_journal_stats st = rad_journal_stats_of(j);
     double t0 = rad_seconds();

@@ -362,13 +362,15 @@ static int file_index(const sol_file *f, const uint8_t head[SOL_HEADER_BYTES], i
     if ((rc = index_extent(&h, f->size, f->name, &len, err)))
         return rc;
     if (len > SOL_INDEX_HEAD + (uint64_t)SOL_MAX_SECTIONS * SOL_INDEX_ENTRY)
-        len = SOL_INDEX_HEAD + (uint64_t)SOL_MAX_SECTIONS * SOL_INDEX_ENTRY + 1; /* too long */
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: index: %llu bytes from byte %llu to the end, "
+                        "more than %u sections take", f->name, (unsigned long long)len,
+                        (unsigned long long)h.a, SOL_MAX_SECTIONS);
     uint8_t *buf = malloc((size_t)len);
     if (!buf)
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", f->name);
     rc = file_read(f, buf, (size_t)len, h.a, err);
     if (!rc)
-        rc = parse_index(buf, f->size - h.a, h.a, f->name, check_sum, h.b, x, err);
+        rc = parse_index(buf, len, h.a, f->name, check_sum, h.b, x, err);
     free(buf);
     return rc;
 }
