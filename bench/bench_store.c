@@ -46,6 +46,7 @@ typedef struct run {
 static run run_cmd(const char *const *argv)
 {
     run r = {0, 0, -1};
+    fflush(stdout); /* else the child's freopen would write the table's pending lines again */
     double t0 = now();
     pid_t pid = fork();
     if (pid == 0) {
