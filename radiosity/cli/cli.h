@@ -44,6 +44,11 @@ int cli_other_arg(const char *cmd, const char *what, const char *arg, const char
 int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt);
 /* Turns on the progress bar when stderr is a terminal. */
 void cli_enable_progress(rad_solve_options *opt);
+/* Prints the form factors' estimate (rad_estimate) on stdout before they
+ * are computed. */
+void cli_enable_estimate(rad_solve_options *opt);
+/* "12.3 MiB": a size in messages. */
+const char *cli_bytes(double bytes, char *buf, size_t size);
 
 /* Camera options shared by render and relight --render. */
 typedef struct cli_view {

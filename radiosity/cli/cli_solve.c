@@ -153,6 +153,7 @@ int cli_solve(int argc, char **argv)
         opt.preview_user = &ps;
     }
     cli_enable_progress(&opt);
+    cli_enable_estimate(&opt);
 
     rad_error err = {0};
     rad_solution *s = NULL;

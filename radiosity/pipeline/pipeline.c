@@ -159,22 +159,75 @@ static int patch_tau(const rad_solution *s, double **out, rad_error *err)
     return RAD_OK;
 }
 
-/* Refuses, before allocating, a matrix that would not fit: the estimate
- * assumes every entry of the needed rows is non-zero (a closed room comes
- * close), so it is an upper bound. */
-static int check_memory(const rad_solution *s, uint32_t rows, uint64_t limit, rad_error *err)
+/* Bytes the file takes for the entries of row i: a varint per column gap
+ * and a float each (write.c's put_row). */
+static uint64_t row_file_bytes(const rad_matrix *F, uint32_t i)
 {
-    uint32_t n = s->mesh->patch_count;
-    double bytes = (double)rows * (double)n * (sizeof(uint32_t) + sizeof(float));
-    if (bytes <= (double)limit)
+    uint64_t bytes = 8; /* index and count */
+    const uint32_t *col = F->col + F->row_start[i];
+    for (uint32_t k = 0; k < F->row_count[i]; k++) {
+        uint32_t gap = k ? col[k] - col[k - 1] : col[0];
+        bytes += 4 + (gap < 1u << 7 ? 1 : gap < 1u << 14 ? 2 : gap < 1u << 21 ? 3 : gap < 1u << 28 ? 4 : 5);
+    }
+    return bytes;
+}
+
+/* The estimate once the sample rows are in F: `left` rows still to
+ * compute, each taken to hold the samples' mean count of entries. */
+static void estimate(const run *c, const uint32_t *sample, uint32_t k, uint32_t left,
+                     rad_estimate *e)
+{
+    const rad_solution *s = c->s;
+    const rad_matrix *F = s->F;
+    const uint32_t n = s->mesh->patch_count, nb = s->band_count;
+    uint64_t entries = 0, file = 0;
+    for (uint32_t q = 0; q < k; q++) {
+        entries += F->row_count[sample[q]];
+        file += row_file_bytes(F, sample[q]);
+    }
+    const double mean = k ? (double)entries / k : 0.0, per_file = k ? (double)file / k : 8.0;
+    const double more = (double)left * mean * (sizeof(uint32_t) + sizeof(float));
+    *e = (rad_estimate){.patches = n,
+                        .cells = s->mesh->cell_first ? s->mesh->cell_count : n,
+                        .rows = F->rows_done + left,
+                        .sample_rows = k,
+                        .entries_per_row = mean,
+                        .limit_bytes = c->max_memory};
+    e->matrix_bytes = (uint64_t)((double)F->nnz * (sizeof(uint32_t) + sizeof(float)) + more) +
+                      (uint64_t)n * (sizeof(uint64_t) + sizeof(uint32_t) + 1);
+    /* The process now (scene, mesh, solution arrays, F so far), the rest of
+     * F, and the solve's own arrays (a few per patch and band). */
+    e->peak_bytes = rad_process_memory(0) + (uint64_t)more + (uint64_t)n * (32u * nb + 16u);
+    e->file_bytes = rad_solution_file_bytes(s) + (uint64_t)((double)left * per_file);
+}
+
+/* Refuses a matrix that would not fit in c->max_memory, before computing
+ * the rows that would fill it, with a patch size that would: F grows about
+ * as N² (N rows, each seeing a share of the N patches), so N' = N
+ * sqrt(0.7 L / F) patches fit with a margin, and rad_mesh_size_for finds
+ * the size that meshes into at most N'.  Also names the memory that would
+ * do, when the machine has it. */
+static int check_memory(const run *c, const rad_estimate *e, rad_error *err)
+{
+    if (e->matrix_bytes <= c->max_memory)
         return RAD_OK;
-    char need[32], have[32];
+    const rad_solution *s = c->s;
+    char need[32], have[32], mem[32], raise[96] = "";
+    double fit = (double)e->patches * sqrt(0.7 * (double)c->max_memory / (double)e->matrix_bytes);
+    uint64_t target = fit < 1.0 ? 1 : (uint64_t)fit;
+    double size = rad_mesh_size_for(s->scene, &c->opt->mesh, target);
+    uint64_t avail = rad_available_memory();
+    if (e->peak_bytes < avail)
+        snprintf(raise, sizeof raise, ", or --max-memory %s",
+                 human_bytes((double)e->matrix_bytes * 1.1, mem, sizeof mem));
     return rad_fail(err, RAD_ERR_LIMIT,
-                    "%s: form factors for %u patches need up to %s, more than the %s "
-                    "allowed; use --solver progressive (rows on demand), a larger --patch-size, "
-                    "or --max-memory",
-                    s->scene->source, n, human_bytes(bytes, need, sizeof need),
-                    human_bytes((double)limit, have, sizeof have));
+                    "%s: form factors for %u patches need about %s (%.0f entries a row, "
+                    "measured on %u rows), more than the %s allowed; use --patch-size %.3g "
+                    "(at most %llu patches)%s",
+                    s->scene->source, e->patches,
+                    human_bytes((double)e->matrix_bytes, need, sizeof need), e->entries_per_row,
+                    e->sample_rows, human_bytes((double)c->max_memory, have, sizeof have), size,
+                    (unsigned long long)target, raise);
 }
 
 int rad_solution_is_grey(const rad_solution *s)
@@ -233,9 +286,25 @@ static int compute_missing_rows(run *c, const sv_system *all, rad_error *err)
     for (uint32_t i = 0; i < n; i++)
         if (!s->F->row_done[i] && (opt->all_rows || sv_row_needed(all, i)))
             missing[count++] = i;
-    int rc = check_memory(s, s->F->rows_done + count, c->max_memory, err);
+    /* A few rows spread over the patches first, to measure what the rest
+     * will take (they stay: the solve needs them). */
+    uint32_t sample[RAD_ESTIMATE_SAMPLES], k = count < RAD_ESTIMATE_SAMPLES ? count : RAD_ESTIMATE_SAMPLES;
+    for (uint32_t q = 0; q < k; q++)
+        sample[q] = missing[(uint64_t)q * count / k];
+    int rc = compute_rows(c, sample, k, err);
+    uint32_t left = 0;
+    for (uint32_t q = 0; q < count; q++)
+        if (!s->F->row_done[missing[q]])
+            missing[left++] = missing[q];
+    rad_estimate e;
+    if (!rc && count) {
+        estimate(c, sample, k, left, &e);
+        if (opt->on_estimate)
+            opt->on_estimate(opt->estimate_user, &e);
+        rc = check_memory(c, &e, err);
+    }
     if (!rc)
-        rc = compute_rows(c, missing, count, err);
+        rc = compute_rows(c, missing, left, err);
     free(missing);
     return rc;
 }
@@ -532,12 +601,21 @@ int rad_render_solution(const rad_solution *s, const rn_camera *cam, rn_image **
     uint32_t *cell_element = NULL;
     double *vertex_B = NULL;
     const uint32_t nb = s->band_count;
+    const rad_elements *el = s->elements;
+    rad_elements *of_cells = NULL;
     int rc = RAD_OK;
-    if (s->elements) {
-        /* Elements: the crack-free mesh of their cells. */
-        rc = rad_elements_render_mesh(s->elements, &cells, &cell_element, err);
+    /* Clusters without elements: drawn as their cells, level-0 elements. */
+    if (!el && s->mesh->cell_first) {
+        rc = rad_elements_of_cells(s, &of_cells, err);
         if (rc != RAD_OK)
             return rc;
+        el = of_cells;
+    }
+    if (el) {
+        /* Elements: the crack-free mesh of their cells. */
+        rc = rad_elements_render_mesh(el, &cells, &cell_element, err);
+        if (rc != RAD_OK)
+            goto done;
         mesh = cells;
     }
     /* What each element (or patch) is drawn with - its B, buried ones
@@ -548,7 +626,7 @@ int rad_render_solution(const rad_solution *s, const rn_camera *cam, rn_image **
         rc = rad_fail(err, RAD_ERR_NOMEM, "render: out of memory");
         goto done;
     }
-    rc = rad_elements_vertex_radiosity(s, s->elements, mesh, cell_element, NULL, vertex_B, err);
+    rc = rad_elements_vertex_radiosity(s, el, mesh, cell_element, NULL, vertex_B, err);
     if (rc != RAD_OK)
         goto done;
     rc = rn_render(mesh, nb, vertex_B, cam, out, err);
@@ -557,12 +635,13 @@ int rad_render_solution(const rad_solution *s, const rn_camera *cam, rn_image **
         uint32_t *id = (*out)->patch;
         for (size_t q = 0; q < (size_t)(*out)->width * (*out)->height; q++)
             if (id[q] != RAD_NONE)
-                id[q] = s->elements->patch[cell_element[id[q]]];
+                id[q] = el->patch[cell_element[id[q]]];
     }
 done:
     free(vertex_B);
     free(cell_element);
     rad_mesh_destroy(cells);
+    rad_elements_destroy(of_cells);
     return rc;
 }
 

@@ -35,14 +35,17 @@
 #define SOL_ROW_SUM_MAX (1.0 + 1e-3)
 
 /* The first five sections appear in every file; LIGHTS only when the scene
- * has punctual lights, ELEMENTS only when the solution has elements. */
+ * has punctual lights, ELEMENTS only when the solution has elements,
+ * CLUSTERS (version 5 only) only when the mesh has a cell layer (patches of
+ * several cells, rad.h). */
 enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_ELEMENTS,
-       SEC_ELEMENT_LIGHTS, SEC_COUNT };
+       SEC_ELEMENT_LIGHTS, SEC_CLUSTERS, SEC_COUNT };
 extern const char sol_sec_tag[SEC_COUNT][4];
 extern const char *const sol_sec_name[SEC_COUNT];
 /* Sections each version may hold: 1 the first five, 2 + LIGHTS, 3 +
  * ELEMENTS (where LIGHTS is there exactly when the scene has lights), 4 +
- * ELEMENTLIGHTS (LIGHTS always), 5 any of them as the content needs. */
+ * ELEMENTLIGHTS (LIGHTS always), 5 any of them as the content needs,
+ * CLUSTERS included. */
 extern const int sol_version_sections[SOL_VERSION + 1];
 
 /* Minimum encoded sizes of one element, used to bound counts before
@@ -59,6 +62,8 @@ extern const int sol_version_sections[SOL_VERSION + 1];
 #define ELEMENT_VERTEX_BYTES (3u * 8u + 1u)
 /* patch, level, four corners, row count; + 8 per band */
 #define MIN_ELEMENT (4u + 1u + 16u + 4u)
+/* four corners and a polygon */
+#define CLUSTER_CELL_BYTES (5u * 4u)
 
 
 /* ------------------------------------------------- checksum (format.c) */
