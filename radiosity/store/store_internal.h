@@ -52,7 +52,8 @@ extern const int sol_version_sections[SOL_VERSION + 1];
  * allocating: a count of k elements needs at least k × this many bytes. */
 #define MIN_STRING 4u
 #define MIN_CAMERA (MIN_STRING + 11u * 8u)
-#define MIN_POLYGON (MIN_STRING + 6u * 4u + 3u * 24u)
+/* name, material, object, subdivisions u and v, point count, three points */
+#define MIN_POLYGON (MIN_STRING + 5u * 4u + 3u * 24u)
 #define PATCH_BYTES (7u * 4u + 7u * 8u)
 #define VERTEX_BYTES (3u * 8u + 1u)
 #define MIN_ROW (2u * 4u)
