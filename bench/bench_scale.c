@@ -15,12 +15,16 @@
  * and shows what the estimate says of it (only the 64 sample rows are
  * rendered; it is refused or not as the solve would).
  *
- *   bench_scale [sizes...]        (default 0.6 0.45 0.36)
+ *   bench_scale [sizes...]        (default 0.36 0.45 0.6: N about 19,500, 10,000, 6,400)
  *   BENCH_SCALE_FINE=f            tessellation factor of the hall (default 1)
  *   BENCH_SCALE_KEEP=DIR          write the scene and solutions there and keep them
  *
  * Times are wall-clock, one run each, on a machine that may be shared: the
- * load average is printed before and after.  Nothing here asserts anything.
+ * load average is printed before and after, and the CPU seconds of the
+ * hemi-cube workers (all of them) and of the solving process are given,
+ * which a shared machine inflates far less: on an idle machine with W
+ * workers the form factors take about their CPU seconds / W.  Nothing here
+ * asserts anything.
  */
 #include "../radiosity/pipeline/pipeline.h"
 #include "hall.h"
@@ -41,8 +45,15 @@ typedef struct result {
     int have_est;
     uint32_t patches, cells, rows;
     double ff_s, solve_s, wall_s;
+    double cpu_main, cpu_workers; /* CPU seconds, user + system */
     uint64_t peak_main, peak_worker, file;
 } result;
+
+static double cpu_seconds(const struct rusage *u)
+{
+    return (double)u->ru_utime.tv_sec + 1e-6 * (double)u->ru_utime.tv_usec +
+           (double)u->ru_stime.tv_sec + 1e-6 * (double)u->ru_stime.tv_usec;
+}
 
 static void on_estimate(void *user, const rad_estimate *e)
 {
@@ -94,10 +105,13 @@ static void run_child(const char *scene, const char *sol, double size, int no_cl
         r->solve_s = s->stages[RAD_STAGE_SOLVE].seconds;
     }
     rad_solution_destroy(s);
-    struct rusage kids;
+    struct rusage self, kids;
+    getrusage(RUSAGE_SELF, &self);
     getrusage(RUSAGE_CHILDREN, &kids);
     r->peak_main = rad_process_memory(1);
     r->peak_worker = (uint64_t)kids.ru_maxrss * 1024u;
+    r->cpu_main = cpu_seconds(&self);
+    r->cpu_workers = cpu_seconds(&kids);
 }
 
 static int solve_in_child(const char *scene, const char *sol, double size, int no_clusters,
@@ -137,7 +151,7 @@ static double mib(uint64_t b) { return (double)b / 1048576.0; }
 
 int main(int argc, char **argv)
 {
-    double sizes[8] = {0.6, 0.45, 0.36};
+    double sizes[8] = {0.36, 0.45, 0.6};
     int nsizes = 3;
     if (argc > 1) {
         nsizes = 0;
@@ -167,10 +181,10 @@ int main(int argc, char **argv)
            "windows; defaults: R = %u, Gauss-Seidel, %ld worker processes\n",
            (unsigned long long)hs.triangles, hs.objects, HC_DEFAULT_RESOLUTION, cpus);
     load_average("before");
-    printf("\n| patch size | patches N | cells | form factors s | solve s | estimate: F MiB | "
-           "estimate: peak MiB | peak MiB (main) | peak MiB (worker) | estimate: file MiB | "
-           "file MiB |\n");
-    printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    printf("\n| patch size | patches N | cells | form factors s | solve s | CPU s (workers) | "
+           "CPU s (main) | estimate: F MiB | estimate: peak MiB | peak MiB (main) | "
+           "peak MiB (worker) | estimate: file MiB | file MiB |\n");
+    printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     for (int k = 0; k <= nsizes; k++) {
         const int baseline = k == nsizes;
         result r;
@@ -190,8 +204,10 @@ int main(int argc, char **argv)
             printf("| %.3g | failed: %s |\n", sizes[k], r.message);
             continue;
         }
-        printf("| %.3g | %u | %u | %.1f | %.1f | %.0f | %.0f | %.0f | %.0f | %.0f | %.0f |\n",
-               sizes[k], r.patches, r.cells, r.ff_s, r.solve_s, mib(r.est.matrix_bytes),
+        printf("| %.3g | %u | %u | %.1f | %.1f | %.1f | %.1f | %.0f | %.0f | %.0f | %.0f | %.0f | "
+               "%.0f |\n",
+               sizes[k], r.patches, r.cells, r.ff_s, r.solve_s, r.cpu_workers, r.cpu_main,
+               mib(r.est.matrix_bytes),
                mib(r.est.peak_bytes), mib(r.peak_main), mib(r.peak_worker),
                mib(r.est.file_bytes), mib(r.file));
         fflush(stdout);
