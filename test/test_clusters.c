@@ -153,6 +153,23 @@ static rad_solution *solve_box(uint32_t n, double size, int no_clusters)
     return sol;
 }
 
+/* s written to a temporary file and read back (NULL on failure). */
+static rad_solution *round_trip(const rad_solution *s)
+{
+    char path[] = "/tmp/test_clusters.XXXXXX";
+    int fd = mkstemp(path);
+    CHECK(fd >= 0);
+    if (fd < 0)
+        return NULL;
+    close(fd);
+    rad_solution *r = NULL;
+    rad_error err = {0};
+    CHECK_MSG(rad_solution_write(s, path, &err) == RAD_OK, "%s", err.message);
+    CHECK_MSG(rad_solution_read(path, &r, &err) == RAD_OK, "%s", err.message);
+    unlink(path);
+    return r;
+}
+
 TEST(closed_box_of_triangles)
 {
     /* 8 × 8 × 2 triangles a face, clusters of 2 × 2 × 2 at size 0.25:
@@ -219,15 +236,7 @@ TEST(closed_box_of_triangles)
     rad_solution_destroy(t);
 
     /* The solution file keeps the cells, and draws the same image. */
-    char path[] = "/tmp/test_clusters.XXXXXX";
-    int fd = mkstemp(path);
-    CHECK(fd >= 0);
-    if (fd >= 0)
-        close(fd);
-    rad_solution *r = NULL;
-    CHECK_MSG(rad_solution_write(s, path, &err) == RAD_OK, "%s", err.message);
-    CHECK_MSG(rad_solution_read(path, &r, &err) == RAD_OK, "%s", err.message);
-    unlink(path);
+    rad_solution *r = round_trip(s);
     if (r) {
         CHECK(r->mesh->cell_first && r->mesh->cell_count == s->mesh->cell_count);
         int same = r->mesh->cell_first != NULL;
@@ -297,14 +306,7 @@ TEST(elements_in_clusters)
     /* Elements of a cluster lie in its cells: polygon and normal the cell's. */
     CHECK(rad_elements_check(el, s, "elements", &err) == RAD_OK);
     /* and they survive the file */
-    char path[] = "/tmp/test_clusters.XXXXXX";
-    int fd = mkstemp(path);
-    if (fd >= 0)
-        close(fd);
-    rad_solution *r = NULL;
-    CHECK_MSG(rad_solution_write(s, path, &err) == RAD_OK, "%s", err.message);
-    CHECK_MSG(rad_solution_read(path, &r, &err) == RAD_OK, "%s", err.message);
-    unlink(path);
+    rad_solution *r = round_trip(s);
     CHECK(r && r->elements && r->elements->mesh->patch_count == el->mesh->patch_count);
     int same = r && r->elements;
     for (uint32_t e = 0; same && e < el->mesh->patch_count; e++)

@@ -47,8 +47,6 @@ void cli_enable_progress(rad_solve_options *opt);
 /* Prints the form factors' estimate (rad_estimate) on stdout before they
  * are computed. */
 void cli_enable_estimate(rad_solve_options *opt);
-/* "12.3 MiB": a size in messages. */
-const char *cli_bytes(double bytes, char *buf, size_t size);
 
 /* Camera options shared by render and relight --render. */
 typedef struct cli_view {

@@ -134,10 +134,10 @@ static void print_estimate(void *user, const rad_estimate *e)
     printf("estimate: %u patches (%u cells), %u rows of about %.0f entries (measured on %u): "
            "form factors %s, peak memory %s, solution file %s (form factors may take %s)\n",
            e->patches, e->cells, e->rows, e->entries_per_row, e->sample_rows,
-           cli_bytes((double)e->matrix_bytes, f, sizeof f),
-           cli_bytes((double)e->peak_bytes, p, sizeof p),
-           cli_bytes((double)e->file_bytes, s, sizeof s),
-           cli_bytes((double)e->limit_bytes, l, sizeof l));
+           rad_human_bytes((double)e->matrix_bytes, f, sizeof f),
+           rad_human_bytes((double)e->peak_bytes, p, sizeof p),
+           rad_human_bytes((double)e->file_bytes, s, sizeof s),
+           rad_human_bytes((double)e->limit_bytes, l, sizeof l));
     fflush(stdout);
 }
 
@@ -145,17 +145,6 @@ void cli_enable_estimate(rad_solve_options *opt)
 {
     opt->on_estimate = print_estimate;
     opt->estimate_user = NULL;
-}
-
-const char *cli_bytes(double bytes, char *buf, size_t size)
-{
-    if (bytes >= 1073741824.0)
-        snprintf(buf, size, "%.2f GiB", bytes / 1073741824.0);
-    else if (bytes >= 1048576.0)
-        snprintf(buf, size, "%.1f MiB", bytes / 1048576.0);
-    else
-        snprintf(buf, size, "%.1f KiB", bytes / 1024.0);
-    return buf;
 }
 
 /* Shared by solve, relight and ff: meshing, hemi-cube and solver options.

@@ -101,6 +101,17 @@ uint64_t rad_process_memory(int peak)
     return proc_kb("/proc/self/status", peak ? "VmHWM" : "VmRSS");
 }
 
+const char *rad_human_bytes(double bytes, char *buf, size_t size)
+{
+    if (bytes >= 1073741824.0)
+        snprintf(buf, size, "%.1f GiB", bytes / 1073741824.0);
+    else if (bytes >= 1048576.0)
+        snprintf(buf, size, "%.1f MiB", bytes / 1048576.0);
+    else
+        snprintf(buf, size, "%.1f KiB", bytes / 1024.0);
+    return buf;
+}
+
 double rad_seconds(void)
 {
     struct timespec ts;

@@ -236,6 +236,10 @@ uint64_t rad_available_memory(void);
  * had (peak 1, the high-water mark); 0 if unknown. */
 uint64_t rad_process_memory(int peak);
 
+/* "12.3 MiB", "4.5 GiB": a size for messages, in a unit that shows digits;
+ * returns buf. */
+const char *rad_human_bytes(double bytes, char *buf, size_t size);
+
 /* Wall-clock seconds from a monotonic clock, for stage timings. */
 double rad_seconds(void);
 

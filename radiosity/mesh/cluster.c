@@ -69,6 +69,24 @@ typedef struct table {
     size_t mask;
 } table;
 
+/* The id of the entry with this hash that same(ctx, id) finds equal, or a
+ * new id (*count, then incremented; *made = 1) when there is none. */
+static uint32_t intern(table *t, uint64_t hash, int (*same)(const void *ctx, uint32_t id),
+                       const void *ctx, uint32_t *count, int *made)
+{
+    *made = 0;
+    for (size_t h = hash & t->mask;; h = (h + 1) & t->mask) {
+        uint32_t sl = t->slot[h];
+        if (!sl) {
+            *made = 1;
+            t->slot[h] = ++*count;
+            return *count - 1;
+        }
+        if (same(ctx, sl - 1))
+            return sl - 1;
+    }
+}
+
 static int table_init(table *t, size_t entries)
 {
     size_t cap = 16;
@@ -137,6 +155,30 @@ static int compatible(const rad_scene *s, uint32_t p, uint32_t q)
            rad_dot(a->normal, b->normal) >= CLUSTER_COS;
 }
 
+typedef struct pos_ctx {
+    const rad_vec3 *points;
+    const uint32_t *first; /* id -> the first point holding it */
+    rad_vec3 p;
+} pos_ctx;
+
+static int same_pos(const void *ctx, uint32_t id)
+{
+    const pos_ctx *c = ctx;
+    rad_vec3 q = c->points[c->first[id]];
+    return q.x == c->p.x && q.y == c->p.y && q.z == c->p.z;
+}
+
+typedef struct key_ctx {
+    const uint64_t *keys;
+    uint64_t key;
+} key_ctx;
+
+static int same_key(const void *ctx, uint32_t id)
+{
+    const key_ctx *c = ctx;
+    return c->keys[id] == c->key;
+}
+
 /* Position ids: equal coordinates, equal id. */
 static int positions(work *w)
 {
@@ -161,23 +203,12 @@ static int positions(work *w)
         if (!w->elig[i])
             continue;
         for (uint32_t k = 0; k < pg->point_count; k++) {
-            uint32_t pt = pg->first_point + k;
-            rad_vec3 p = s->points[pt];
-            size_t h = pos_hash(p) & t.mask;
-            for (;; h = (h + 1) & t.mask) {
-                uint32_t sl = t.slot[h];
-                if (!sl) {
-                    first[ids] = pt;
-                    t.slot[h] = ++ids;
-                    w->pos[pt] = ids - 1;
-                    break;
-                }
-                rad_vec3 q = s->points[first[sl - 1]];
-                if (q.x == p.x && q.y == p.y && q.z == p.z) {
-                    w->pos[pt] = sl - 1;
-                    break;
-                }
-            }
+            const uint32_t pt = pg->first_point + k;
+            const pos_ctx ctx = {s->points, first, s->points[pt]};
+            int made;
+            w->pos[pt] = intern(&t, pos_hash(ctx.p), same_pos, &ctx, &ids, &made);
+            if (made)
+                first[w->pos[pt]] = pt;
         }
     }
     free(t.slot);
@@ -456,22 +487,12 @@ static int vertices(work *w, mesh_clusters *out)
         const rad_polygon *pg = &s->polygons[i];
         uint64_t surf = find(w->surf, i);
         for (uint32_t k = 0; k < pg->point_count; k++) {
-            uint32_t pt = pg->first_point + k;
-            uint64_t key = surf << 32 | w->pos[pt];
-            size_t h = mix(key) & t.mask;
-            for (;; h = (h + 1) & t.mask) {
-                uint32_t sl = t.slot[h];
-                if (!sl) {
-                    keys[n] = key;
-                    t.slot[h] = ++n;
-                    out->vkey[pt] = n - 1;
-                    break;
-                }
-                if (keys[sl - 1] == key) {
-                    out->vkey[pt] = sl - 1;
-                    break;
-                }
-            }
+            const uint32_t pt = pg->first_point + k;
+            const key_ctx ctx = {keys, surf << 32 | w->pos[pt]};
+            int made;
+            out->vkey[pt] = intern(&t, mix(ctx.key), same_key, &ctx, &n, &made);
+            if (made)
+                keys[out->vkey[pt]] = ctx.key;
         }
         for (uint32_t k = 0; k < pg->point_count; k++)
             if (w->nb[4 * (size_t)i + k] == RAD_NONE) {

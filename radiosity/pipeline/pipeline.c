@@ -96,18 +96,6 @@ static int compute_rows(run *c, const uint32_t *rows, uint32_t count, rad_error 
     return rc;
 }
 
-/* "12.3 MiB" / "4.5 GiB": sizes in messages, in a unit that shows digits. */
-static const char *human_bytes(double bytes, char *buf, size_t size)
-{
-    if (bytes >= 1073741824.0)
-        snprintf(buf, size, "%.1f GiB", bytes / 1073741824.0);
-    else if (bytes >= 1048576.0)
-        snprintf(buf, size, "%.1f MiB", bytes / 1048576.0);
-    else
-        snprintf(buf, size, "%.1f KiB", bytes / 1024.0);
-    return buf;
-}
-
 static int need_row(void *user, uint32_t i, rad_error *err)
 {
     run *c = user;
@@ -117,8 +105,8 @@ static int need_row(void *user, uint32_t i, rad_error *err)
         return rad_fail(err, RAD_ERR_LIMIT,
                         "%s: form factors: the matrix has grown to %s, over the limit of %s; "
                         "use a larger --patch-size or raise --max-memory",
-                        c->s->scene->source, human_bytes((double)used, a, sizeof a),
-                        human_bytes((double)c->max_memory, b, sizeof b));
+                        c->s->scene->source, rad_human_bytes((double)used, a, sizeof a),
+                        rad_human_bytes((double)c->max_memory, b, sizeof b));
     }
     return compute_rows(c, &i, 1, err);
 }
@@ -219,14 +207,14 @@ static int check_memory(const run *c, const rad_estimate *e, rad_error *err)
     uint64_t avail = rad_available_memory();
     if (e->peak_bytes < avail)
         snprintf(raise, sizeof raise, ", or --max-memory %s",
-                 human_bytes((double)e->matrix_bytes * 1.1, mem, sizeof mem));
+                 rad_human_bytes((double)e->matrix_bytes * 1.1, mem, sizeof mem));
     return rad_fail(err, RAD_ERR_LIMIT,
                     "%s: form factors for %u patches need about %s (%.0f entries a row, "
                     "measured on %u rows), more than the %s allowed; use --patch-size %.3g "
                     "(at most %llu patches)%s",
                     s->scene->source, e->patches,
-                    human_bytes((double)e->matrix_bytes, need, sizeof need), e->entries_per_row,
-                    e->sample_rows, human_bytes((double)c->max_memory, have, sizeof have), size,
+                    rad_human_bytes((double)e->matrix_bytes, need, sizeof need), e->entries_per_row,
+                    e->sample_rows, rad_human_bytes((double)c->max_memory, have, sizeof have), size,
                     (unsigned long long)target, raise);
 }
 
