@@ -2,7 +2,8 @@
  * the patch size sets the patch count, clustered rows keep their sums and
  * reciprocity in a closed box of small triangles against the catalog's
  * factors, the cells survive the solution file, and elements refine them.
- * Cost: about 6 s (release, on a loaded 2-core machine), 15 s (ASan). */
+ * Cost: about 8 s (release) and 25 s (ASan) on the 2-core machine under a
+ * load of 12-16. */
 #include "../radiosity/pipeline/pipeline.h"
 #include "test.h"
 
@@ -267,9 +268,10 @@ TEST(closed_box_of_triangles)
 
 TEST(elements_in_clusters)
 {
-    /* 4 × 4 × 2 triangles a face, clusters of 8 at size 0.5: 24 patches,
-     * 192 cells; one uniform split makes 768 elements, each with a row. */
-    rad_solution *s = solve_box(4, 0.5, 0);
+    /* 3 × 3 × 2 triangles a face, 4 clusters a face at size 0.5: 24
+     * patches, 108 cells; one uniform split makes 432 elements, each with
+     * a row. */
+    rad_solution *s = solve_box(3, 0.5, 0);
     CHECK(s != NULL);
     if (!s)
         return;
@@ -283,9 +285,9 @@ TEST(elements_in_clusters)
         return;
     }
     /* the lamp does not reflect much, but reflects: every cell splits */
-    CHECK(el->mesh->patch_count == 4 * 192);
+    CHECK(s->mesh->patch_count == 24 && el->mesh->patch_count == 4 * 108);
     /* The elements of a cluster cover it: their areas sum to its area, and
-     * their area-weighted mean B is its B (measured 2.7 % at most: the
+     * their area-weighted mean B is its B (measured 3.6 % at most: the
      * elements gather at their own centres, the patch at one point). */
     const uint32_t np = s->mesh->patch_count;
     double *a = calloc(np, sizeof *a), *b = calloc(np, sizeof *b), worst_a = 0, worst_b = 0;
@@ -300,7 +302,7 @@ TEST(elements_in_clusters)
             worst_b = fmax(worst_b, fabs(b[i] / a[i] - s->emission[i] - reflected) / s->B[i]);
     }
     CHECK_NEAR(worst_a, 0.0, 1e-12);
-    CHECK_NEAR(worst_b, 0.0, 0.06);
+    CHECK_NEAR(worst_b, 0.0, 0.08);
     free(a);
     free(b);
     /* Elements of a cluster lie in its cells: polygon and normal the cell's. */
