@@ -17,11 +17,18 @@
 
 #include "../radiosity/core/rad.h"
 
+/* A perspective camera spans yfov_deg vertically from the eye; an
+ * orthographic one (orthographic = 1) projects along the view direction
+ * onto a window 2·ymag high centred on the eye's line of sight, its width
+ * from the image's (square pixels), and sees what lies in front of the eye
+ * along the view direction. */
 typedef struct rn_camera {
     rad_vec3 eye, target, up;
-    double yfov_deg;   /* vertical field of view, degrees, (0, 180) */
+    double yfov_deg;   /* vertical field of view, degrees, (0, 180); unused when orthographic */
     uint32_t width;    /* pixels */
     uint32_t height;
+    int orthographic;  /* 0 = perspective (appended: {0} keeps the old meaning) */
+    double ymag;       /* orthographic: half-height of the view, scene units, > 0 */
 } rn_camera;
 
 /* A float image, channels interleaved, row 0 at the top. */
@@ -68,6 +75,31 @@ int rn_render(const rad_mesh *mesh, uint32_t bands, const double *vertex_B, cons
               rn_image **out, rad_error *err);
 
 void rn_image_destroy(rn_image *img); /* NULL does nothing */
+
+/* Many views of one mesh: a canvas keeps its image, depth buffer and
+ * camera-space vertices from one view to the next, so a view of the same
+ * size draws over memory already mapped (at 1024² the page faults of fresh
+ * buffers cost about as much as the drawing).  One canvas per thread; any
+ * number of canvases may draw the same mesh at once (rn_render reads the
+ * mesh and vertex_B only). */
+typedef struct rn_canvas rn_canvas;
+
+/* NULL when memory runs out.  Caller owns (rn_canvas_destroy). */
+rn_canvas *rn_canvas_create(void);
+void rn_canvas_destroy(rn_canvas *c); /* NULL does nothing; frees its image too */
+
+/* rn_render into the canvas: *out is the canvas's image, valid until its
+ * next draw or destruction (the canvas owns it and the caller may change
+ * its pixels and ids meanwhile; NULL on failure). */
+int rn_canvas_draw(rn_canvas *c, const rad_mesh *mesh, uint32_t bands, const double *vertex_B,
+                   const rn_camera *cam, rn_image **out, rad_error *err);
+
+/* RAD_OK when rn_render can draw from cam (finite, eye != target, up not
+ * along the view, field of view in (0, 180) degrees, 1..16384 pixels a
+ * side), else RAD_ERR_USAGE with the reason alone ("eye and target
+ * coincide"), for the caller to say which camera: many views are checked
+ * before any is drawn. */
+int rn_camera_check(const rn_camera *cam, rad_error *err);
 
 /* Writes linear radiance as OpenEXR (float channels R,G,B for 3 bands, Y for
  * 1, B0..Bk otherwise), through a temporary file renamed into place. */

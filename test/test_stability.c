@@ -433,7 +433,8 @@ TEST(stopping_rule_slow_mixing)
 }
 
 /* ρ >= 1 is refused when the file is read, naming the file, line, material
- * and band; ρ just below 1 is accepted. */
+ * and band (glTF: under --strict; without it, clamped with a warning); ρ
+ * just below 1 is accepted. */
 TEST(reflectance_one_refused)
 {
     const char *bad[3] = {"1", "1.5", "0.5 1 0.5"};
@@ -454,7 +455,8 @@ TEST(reflectance_one_refused)
         tx_free(&t);
     }
     /* glTF: baseColorFactor is ρ, so white 1.0 (also glTF's default
-     * material) is refused too. */
+     * material) is refused too under --strict; without it, clamped to 0.95
+     * with a warning naming the material (exporters leave 1.0 everywhere). */
     const char *gltf =
         "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
         "\"nodes\":[{\"mesh\":0}],\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},"
@@ -467,11 +469,20 @@ TEST(reflectance_one_refused)
         "\"min\":[0,0,0],\"max\":[1,0,1]}]}";
     rad_error gerr = {0};
     rad_scene *gs = NULL;
-    CHECK(rad_scene_parse_gltf(gltf, strlen(gltf), "white.gltf", NULL, &gs, &gerr) == RAD_ERR_INVALID);
+    rad_load_options strict = {.strict = 1};
+    CHECK(rad_scene_parse_gltf(gltf, strlen(gltf), "white.gltf", &strict, &gs, &gerr) ==
+          RAD_ERR_INVALID);
     CHECK(gs == NULL);
     CHECK_MSG(strstr(gerr.message, "white.gltf") && strstr(gerr.message, "snow"), "message: %s",
               gerr.message);
-    printf("  glTF white: \"%s\"\n", gerr.message);
+    printf("  glTF white, --strict: \"%s\"\n", gerr.message);
+    test_warnings w = {0};
+    rad_load_options lenient = {.warn = test_catch_warning, .warn_user = &w};
+    CHECK(rad_scene_parse_gltf(gltf, strlen(gltf), "white.gltf", &lenient, &gs, &gerr) == RAD_OK);
+    CHECK(gs && gs->materials[0].rho[0] == 0.95);
+    CHECK_MSG(w.count == 1 && strstr(w.line[0], "white.gltf: material 'snow': reflectance >= 1 "
+                                                "clamped to 0.95"),
+              "%d: %s", w.count, w.line[0]);
     rad_scene_destroy(gs);
 
     text t = {0};

@@ -17,7 +17,10 @@ int cli_view_option(int argc, char **argv, int *i, cli_view *v)
     if (!strcmp(a, "--camera")) {
         if (!val)
             return cli_usage_error("--camera needs a name"), -1;
-        v->camera = val;
+        if (v->camera_args == CLI_MAX_CAMERA_ARGS)
+            return cli_usage_error("--camera given more than %d times (list cameras as A,B,C)",
+                                   CLI_MAX_CAMERA_ARGS), -1;
+        v->camera = v->cameras[v->camera_args++] = val;
     } else if (!strcmp(a, "--eye")) {
         rc = cli_parse_vec3(a, val, &v->eye), v->have_eye = 1;
     } else if (!strcmp(a, "--target")) {
@@ -26,6 +29,8 @@ int cli_view_option(int argc, char **argv, int *i, cli_view *v)
         rc = cli_parse_vec3(a, val, &v->up), v->have_up = 1;
     } else if (!strcmp(a, "--fov")) {
         rc = cli_parse_double(a, val, 0.01, 179.99, &v->fov), v->have_fov = 1;
+    } else if (!strcmp(a, "--ortho")) {
+        rc = cli_parse_double(a, val, 1e-12, 1e12, &v->ortho), v->have_ortho = 1;
     } else if (!strcmp(a, "--size")) {
         unsigned w, h;
         char tail;
@@ -54,6 +59,8 @@ int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *ex
     rad_error err = {0};
     rn_camera cam;
     uint32_t w = v->width ? v->width : 512, h = v->height ? v->height : 512;
+    if (v->have_fov && v->have_ortho)
+        return cli_usage_error("--fov and --ortho exclude each other");
     if (v->have_eye || v->have_target) {
         if (!v->have_eye || !v->have_target)
             return cli_usage_error("--eye and --target go together");
@@ -67,9 +74,11 @@ int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *ex
             return cli_error(&err);
         if (v->have_up)
             cam.up = v->up;
-        if (v->have_fov)
-            cam.yfov_deg = v->fov;
+        if (v->have_fov) /* a field of view makes any camera perspective */
+            cam.yfov_deg = v->fov, cam.orthographic = 0;
     }
+    if (v->have_ortho)
+        cam.orthographic = 1, cam.ymag = v->ortho;
     if (cli_check_output_dir(exr_path) || (png_path && cli_check_output_dir(png_path)))
         return 2;
     rn_image *img = NULL;
@@ -154,6 +163,7 @@ int cli_solve(int argc, char **argv)
     }
     cli_enable_progress(&opt);
     cli_enable_estimate(&opt);
+    opt.load.warn = cli_warn;
 
     rad_error err = {0};
     rad_solution *s = NULL;
@@ -190,9 +200,12 @@ int cli_render(int argc, char **argv)
 {
     const char *in = NULL, *out = NULL;
     cli_view view = {0};
+    cli_many many = {0};
     int rc;
     for (int i = 0; i < argc; i++) {
         int r = cli_view_option(argc, argv, &i, &view);
+        if (!r)
+            r = cli_many_option(argc, argv, &i, &many);
         if (r < 0)
             return 2;
         if (r > 0)
@@ -204,11 +217,19 @@ int cli_render(int argc, char **argv)
     }
     if (!in || !out)
         return cli_usage_error("usage: radiosity render SOLUTION -o IMAGE.exr [options]");
+    if (cli_many_views(&view, &many, NULL) && cli_need_dir("render", out))
+        return 2;
     rad_error err = {0};
     rad_solution *s = NULL;
     if (rad_solution_read(in, &s, &err))
         return cli_error(&err);
-    rc = cli_render_to_files(s, &view, out, view.png);
+    if (cli_many_views(&view, &many, s->scene))
+        rc = cli_render_many(s, &view, &many, out);
+    else if (many.threads || many.no_png)
+        rc = cli_usage_error("render: --threads and --no-png go with several views "
+                             "(--all-cameras, --path or --camera A,B)");
+    else
+        rc = cli_render_to_files(s, &view, out, view.png);
     rad_solution_destroy(s);
     return rc;
 }

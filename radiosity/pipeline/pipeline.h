@@ -112,9 +112,55 @@ uint32_t rad_light_resolution(const rad_solve_options *opt);
  * fraction of the work). */
 int rad_solution_is_grey(const rad_solution *s);
 
-/* Renders a solution from cam into *out (radiance). */
+/* ----------------------------------------------------- drawing (views.c) */
+
+/* Renders a solution from cam into *out (radiance): rad_drawing_create,
+ * one view, rad_drawing_destroy. */
 int rad_render_solution(const rad_solution *s, const rn_camera *cam, rn_image **out,
                         rad_error *err);
+
+/* A solution made ready to draw: the mesh drawn (the elements' fans, or the
+ * patches) and its vertex radiosities, computed once for any number of
+ * views.  Read-only once made: threads may draw from one drawing at once. */
+typedef struct rad_drawing rad_drawing;
+
+/* Prepares s for drawing.  s's mesh is drawn in place when it has no
+ * elements, so s must outlive the drawing and keep its mesh.  Caller owns
+ * *out. */
+int rad_drawing_create(const rad_solution *s, rad_drawing **out, rad_error *err);
+void rad_drawing_destroy(rad_drawing *d); /* NULL does nothing */
+
+/* One view into canvas c (rn_canvas_draw: *out is c's image until its next
+ * draw); pixel ids name patches, elements or not. */
+int rad_drawing_draw(const rad_drawing *d, rn_canvas *c, const rn_camera *cam, rn_image **out,
+                     rad_error *err);
+
+/* Called with each view's image as soon as it is drawn, from the thread
+ * that drew it (several at once: it must only touch what belongs to view
+ * k, e.g. write files of its own).  img is valid during the call.  Non-zero
+ * (a rad_result, err filled) fails the run. */
+typedef int (*rad_view_fn)(void *user, uint32_t view, const rn_image *img, rad_error *err);
+
+/* Draws views 0..count-1 from cams, each image handed to done (may be
+ * NULL), on `threads` threads (rad_view_threads), each with a canvas of its
+ * own.  Every camera is checked before any view is drawn.  On a failure no
+ * further view starts, the views already handed to done stay done, and the
+ * error of the lowest failed view is returned. */
+int rad_drawing_views(const rad_drawing *d, const rn_camera *cams, uint32_t count,
+                      uint32_t threads, rad_view_fn done, void *user, rad_error *err);
+
+/* The threads rad_drawing_views uses for `views` views: `threads`, or 0 =
+ * one per online CPU; never more than the views, at least 1. */
+uint32_t rad_view_threads(uint32_t threads, uint32_t views);
+
+/* A camera path (a fly-through) held in memory, one view per line:
+ *   eye X,Y,Z target X,Y,Z [up X,Y,Z] [fov DEG]
+ * '#' starts a comment; blank lines are skipped.  A view's up and fov
+ * default to base's, its size is base's.  Every view is checked
+ * (rn_camera_check); messages are "NAME: line N: WHAT".  Caller owns *out
+ * (free). */
+int rad_camera_path_parse(const char *text, size_t size, const char *name, const rn_camera *base,
+                          rn_camera **out, uint32_t *count, rad_error *err);
 
 /* A camera from the scene by name (NULL/"" = the first, else a default view
  * of the scene's bounds), sized width×height. */

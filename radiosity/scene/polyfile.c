@@ -526,6 +526,8 @@ done:
     return rc;
 }
 
+/* camera NAME eye X Y Z target X Y Z up X Y Z fov DEGREES
+ * camera NAME eye X Y Z target X Y Z up X Y Z ortho HALF_HEIGHT */
 static int parse_camera(parser *P, unsigned long long line)
 {
     char *name = NULL, ctx[300], where[40];
@@ -534,20 +536,33 @@ static int parse_camera(parser *P, unsigned long long line)
         return rc;
     snprintf(ctx, sizeof ctx, "camera '%s'", name);
     double v[10];
-    static const char *const keys[4] = {"eye", "target", "up", "fov"};
-    static const char *const what[10] = {"eye x", "eye y", "eye z", "target x", "target y",
-                                         "target z", "up x", "up y", "up z", "fov (degrees)"};
-    int k = 0;
-    for (int key = 0; key < 4; key++) {
+    static const char *const keys[3] = {"eye", "target", "up"};
+    static const char *const what[9] = {"eye x",    "eye y", "eye z", "target x", "target y",
+                                        "target z", "up x",  "up y",  "up z"};
+    for (int key = 0, k = 0; key < 3; key++) {
         if ((rc = need_keyword(P, keys[key], ctx)))
             goto done;
-        for (int c = 0; c < (key < 3 ? 3 : 1); c++, k++)
+        for (int c = 0; c < 3; c++, k++)
             if ((rc = need_number(P, what[k], &v[k])))
                 goto done;
     }
+    /* the last keyword says the projection */
+    int ortho = lex_peek(P, &rc) && tok_is(P, "ortho");
+    if (rc)
+        goto done;
+    if (ortho)
+        lex_take(P);
+    else if ((rc = need_keyword(P, "fov", ctx)))
+        goto done;
+    if ((rc = need_number(P, ortho ? "ortho (half-height)" : "fov (degrees)", &v[9])))
+        goto done;
     snprintf(where, sizeof where, "line %llu", line);
-    rc = rad_scene_add_camera(P->s, name, rad_v3(v[0], v[1], v[2]), rad_v3(v[3], v[4], v[5]),
-                              rad_v3(v[6], v[7], v[8]), v[9], 0.0, where, NULL, P->err);
+    rad_vec3 eye = rad_v3(v[0], v[1], v[2]), target = rad_v3(v[3], v[4], v[5]),
+             up = rad_v3(v[6], v[7], v[8]);
+    rc = ortho ? rad_scene_add_ortho_camera(P->s, name, eye, target, up, v[9], v[9], where,
+                                            NULL, P->err)
+               : rad_scene_add_camera(P->s, name, eye, target, up, v[9], 0.0, where, NULL,
+                                      P->err);
 done:
     free(name);
     return rc;

@@ -14,7 +14,8 @@
  * section; version 4 = + the ELEMENTLIGHTS section (each element's own
  * direct light); version 5 = MESH may hold two-sided sheets (a transmitting
  * polygon's front cells followed by their back twins), with the sections of
- * versions 1-4 as its content needs them.  A file is written with the lowest
+ * versions 1-4 as its content needs them, and CAMERAS when the scene has
+ * orthographic cameras.  A file is written with the lowest
  * version that holds what it has (1 without punctual lights or elements, 2
  * with lights, 3 with elements, 4 with elements that carry their own direct
  * light, 5 with sheets), so older programs still read what they understand,
@@ -36,10 +37,11 @@
 
 /* The first five sections appear in every file; LIGHTS only when the scene
  * has punctual lights, ELEMENTS only when the solution has elements,
+ * CAMERAS (version 5 only) only when the scene has orthographic cameras,
  * CLUSTERS (version 5 only) only when the mesh has a cell layer (patches of
  * several cells, rad.h). */
 enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_ELEMENTS,
-       SEC_ELEMENT_LIGHTS, SEC_CLUSTERS, SEC_COUNT };
+       SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_CLUSTERS, SEC_COUNT };
 extern const char sol_sec_tag[SEC_COUNT][4];
 extern const char *const sol_sec_name[SEC_COUNT];
 /* Sections each version may hold: 1 the first five, 2 + LIGHTS, 3 +
@@ -63,6 +65,8 @@ extern const int sol_version_sections[SOL_VERSION + 1];
 #define ELEMENT_VERTEX_BYTES (3u * 8u + 1u)
 /* patch, level, four corners, row count; + 8 per band */
 #define MIN_ELEMENT (4u + 1u + 16u + 4u)
+/* camera index, projection, xmag, ymag */
+#define ORTHO_CAMERA_BYTES (4u + 1u + 16u)
 /* four corners and a polygon */
 #define CLUSTER_CELL_BYTES (5u * 4u)
 

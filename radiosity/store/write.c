@@ -2,8 +2,9 @@
  * docs/solution-format.md (header, CRC-64/XZ of the payload, tagged sections
  * INFO, SCENE, MESH, MATRIX, PATCHDATA, LIGHTS when the scene has punctual
  * lights, ELEMENTS when the solution has elements, ELEMENTLIGHTS when it has
- * both, CLUSTERS when patches span several cells), each section measured
- * first and then streamed through a buffer
+ * both, CAMERAS when the scene has orthographic cameras, CLUSTERS when
+ * patches span several cells), each section measured first and then
+ * streamed through a buffer
  * into a rad_output.
  *
  * Invariant: the writer applies the reader's rules before it creates a
@@ -130,7 +131,7 @@ static uint32_t version_of(const rad_solution *s);
 static int section_written(const rad_solution *s, int i);
 
 /* Version 5's INFO ends with the optional sections the file holds, one bit
- * each (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4, CLUSTERS 8): the reader then knows what
+ * each (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4, CAMERAS 8, CLUSTERS 16): the reader then knows what
  * must follow, and a file cut or stripped before one of them cannot pass
  * for a file without it. */
 static uint8_t announced_sections(const rad_solution *s)
@@ -369,15 +370,46 @@ static void emit_lights(sink *k, const rad_solution *s)
     }
 }
 
+/* The orthographic cameras: SCENE holds every camera as a perspective one
+ * (what a reader that knows no other takes), this says which are not. */
+static void emit_cameras(sink *k, const rad_solution *s)
+{
+    const rad_scene *sc = s->scene;
+    uint32_t n = 0;
+    for (uint32_t i = 0; i < sc->camera_count; i++)
+        n += sc->cameras[i].orthographic != 0;
+    put_u32(k, n);
+    for (uint32_t i = 0; i < sc->camera_count; i++) {
+        const rad_camera *c = &sc->cameras[i];
+        if (!c->orthographic)
+            continue;
+        put_u32(k, i);
+        put_u8(k, 1); /* projection: 1 = orthographic, the only other one */
+        put_f64(k, c->xmag);
+        put_f64(k, c->ymag);
+    }
+}
+
+static int has_ortho_camera(const rad_scene *sc)
+{
+    for (uint32_t i = 0; i < sc->camera_count; i++)
+        if (sc->cameras[i].orthographic)
+            return 1;
+    return 0;
+}
+
 typedef void (*emit_fn)(sink *, const rad_solution *);
 static const emit_fn sec_emit[SEC_COUNT] = {emit_info,      emit_scene,  emit_mesh,    emit_matrix,
                                             emit_patchdata, emit_lights, emit_elements,
-                                            emit_element_lights, emit_clusters};
+                                            emit_element_lights, emit_cameras, emit_clusters};
 
 /* LIGHTS is written only when there are lights, ELEMENTS when there are
- * elements, ELEMENTLIGHTS when the elements carry their own direct light. */
+ * elements, ELEMENTLIGHTS when the elements carry their own direct light,
+ * CAMERAS when a camera is orthographic. */
 static int section_written(const rad_solution *s, int i)
 {
+    if (i == SEC_CAMERAS)
+        return has_ortho_camera(s->scene);
     if (i == SEC_LIGHTS)
         return s->scene->light_count > 0;
     if (i == SEC_ELEMENTS)
@@ -391,7 +423,10 @@ static int section_written(const rad_solution *s, int i)
 
 static uint32_t version_of(const rad_solution *s)
 {
-    if (s->mesh->twin || s->mesh->cell_first)
+    /* CAMERAS and CLUSTERS need version 5's announcement: a reader of an
+     * older version would show an orthographic camera in perspective, or
+     * draw each cluster as its one home cell, without a word. */
+    if (s->mesh->twin || s->mesh->cell_first || has_ortho_camera(s->scene))
         return SOL_VERSION_SHEETS;
     if (s->elements)
         return s->elements->light_h ? 4u : 3u;
