@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* ------------------------------------------------------------------ views */
 
@@ -53,8 +54,7 @@ int cli_view_option(int argc, char **argv, int *i, cli_view *v)
     return 1;
 }
 
-int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *exr_path,
-                        const char *png_path)
+int cli_view_camera(const rad_solution *s, const cli_view *v, rn_camera *out)
 {
     rad_error err = {0};
     rn_camera cam;
@@ -79,10 +79,22 @@ int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *ex
     }
     if (v->have_ortho)
         cam.orthographic = 1, cam.ymag = v->ortho;
+    *out = cam;
+    return 0;
+}
+
+int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *exr_path,
+                        const char *png_path)
+{
+    rad_error err = {0};
+    rn_camera cam;
+    int rc = cli_view_camera(s, v, &cam);
+    if (rc)
+        return rc;
     if (cli_check_output_dir(exr_path) || (png_path && cli_check_output_dir(png_path)))
         return 2;
     rn_image *img = NULL;
-    int rc = rad_render_solution(s, &cam, &img, &err);
+    rc = rad_render_solution(s, &cam, &img, &err);
     if (!rc)
         rc = rn_write_exr(img, exr_path, &err);
     if (!rc && png_path)
@@ -201,11 +213,14 @@ int cli_render(int argc, char **argv)
     const char *in = NULL, *out = NULL;
     cli_view view = {0};
     cli_many many = {0};
+    cli_gather gather = {0};
     int rc;
     for (int i = 0; i < argc; i++) {
         int r = cli_view_option(argc, argv, &i, &view);
         if (!r)
             r = cli_many_option(argc, argv, &i, &many);
+        if (!r)
+            r = cli_gather_option(argc, argv, &i, &gather);
         if (r < 0)
             return 2;
         if (r > 0)
@@ -217,19 +232,32 @@ int cli_render(int argc, char **argv)
     }
     if (!in || !out)
         return cli_usage_error("usage: radiosity render SOLUTION -o IMAGE.exr [options]");
-    if (cli_many_views(&view, &many, NULL) && cli_need_dir("render", out))
-        return 2;
+    if (gather.given && !gather.on)
+        return cli_usage_error("render: %s is a --gather option", gather.given);
+    if (cli_many_views(&view, &many, NULL)) {
+        if (gather.on)
+            return cli_usage_error("render: --gather draws one view (several views: run it per view)");
+        if (cli_need_dir("render", out))
+            return 2;
+    }
+    /* --threads: drawing threads for several views, shading threads for a
+     * gather (default: one per CPU, as for several views). */
+    long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    gather.opt.threads = many.threads ? many.threads : cpus > 64 ? 64 : cpus > 1 ? (uint32_t)cpus : 1;
     rad_error err = {0};
     rad_solution *s = NULL;
     if (rad_solution_read(in, &s, &err))
         return cli_error(&err);
     if (cli_many_views(&view, &many, s->scene))
-        rc = cli_render_many(s, &view, &many, out);
-    else if (many.threads || many.no_png)
+        rc = gather.on ? cli_usage_error("render: --gather draws one view (several views: run it "
+                                         "per view)")
+                       : cli_render_many(s, &view, &many, out);
+    else if ((many.threads && !gather.on) || many.no_png)
         rc = cli_usage_error("render: --threads and --no-png go with several views "
-                             "(--all-cameras, --path or --camera A,B)");
+                             "(--all-cameras, --path or --camera A,B) or, --threads, with --gather");
     else
-        rc = cli_render_to_files(s, &view, out, view.png);
+        rc = gather.on ? cli_gather_to_files(s, in, &view, &gather, out)
+                       : cli_render_to_files(s, &view, out, view.png);
     rad_solution_destroy(s);
     return rc;
 }

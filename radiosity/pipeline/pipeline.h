@@ -167,4 +167,48 @@ int rad_camera_path_parse(const char *text, size_t size, const char *name, const
 int rad_camera_from_scene(const rad_scene *scene, const char *name, uint32_t width,
                           uint32_t height, rn_camera *cam, rad_error *err);
 
+/* ------------------------------------------ the final gather (gather.c here) */
+
+/* The gather renderer's input (render.h's rn_scene) built from a solution,
+ * with the arrays it points to: the cells the vertex renderer draws (the
+ * patches, or the elements' fans) and their vertex radiosities (the same
+ * rad_elements_vertex_radiosity gives rn_render), each cell's ρ and E from
+ * its patch (as solved, so relights count), a sheet's transmitted exitance
+ * (rad_elements_transmitted), the materials' glossy lobes, the emitting
+ * polygons with their patches' E, and the punctual lights at the
+ * intensities solved with.  The form factors stay behind. */
+typedef struct rad_gather_scene {
+    rn_scene scene;
+    uint32_t *cell_patch;   /* scene.mesh->patch_count: the patch each cell lies in */
+    /* owned storage behind scene */
+    rad_mesh *cells_;
+    double *vertex_B_, *rho_, *emission_, *transmitted_;
+    rn_material *materials_;
+    rn_emitter *emitters_;
+    rn_light *lights_;
+} rad_gather_scene;
+
+/* Caller owns *out (rad_gather_scene_destroy); s must outlive it. */
+int rad_gather_scene_create(const rad_solution *s, rad_gather_scene **out, rad_error *err);
+void rad_gather_scene_destroy(rad_gather_scene *g); /* NULL does nothing */
+
+/* {0} means defaults. */
+typedef struct rad_gather_options {
+    rn_gather_options render;
+    /* Ward's cache file, read before and written after (NULL = none): a
+     * file made for another solution or other settings, or damaged, is
+     * refused with a warning and the cache is computed anew. */
+    const char *cache_path;
+    rad_warn_fn warn;
+    void *warn_user;
+} rad_gather_options;
+
+/* The gather render of s from cam into *out (img->patch holds patches, as
+ * rad_render_solution's).  stats may be NULL.  Caller owns *out. */
+int rad_render_gather(const rad_solution *s, const rn_camera *cam, const rad_gather_options *opt,
+                      rn_image **out, rn_gather_stats *stats, rad_error *err);
+
+/* The cache file's usual place beside a solution: SOLUTION.icache. */
+void rad_gather_cache_path(const char *solution_path, char *buf, size_t size);
+
 #endif /* RAD_PIPELINE_H */

@@ -202,8 +202,9 @@ static int parse_info(reader *r, rad_solution *s)
     if (r->version >= SOL_VERSION_SHEETS) {
         if (!get_u8(c, &r->announced))
             return TRUNC("truncated");
-        if (r->announced > 31)
-            return TRUNC("announced sections 0x%x: only bits 0-4 exist", r->announced);
+        if (r->announced >> (SEC_COUNT - SEC_LIGHTS))
+            return TRUNC("announced sections 0x%x: only bits 0-%d exist", r->announced,
+                         SEC_COUNT - SEC_LIGHTS - 1);
     }
     return sol_check_info(s, r->name, "section INFO", RAD_ERR_CORRUPT, r->err);
 }
@@ -918,11 +919,36 @@ static int parse_cameras(reader *r, rad_solution *s)
     return RAD_OK;
 }
 
+/* SURFACE: one lobe per material of the scene, checked by
+ * rad_scene_set_material_lobe (the rules a loader meets). */
+static int parse_surface(reader *r, rad_solution *s)
+{
+    cursor *c = &r->c;
+    rad_scene *sc = s->scene;
+    uint32_t n;
+    if (!get_u32(c, &n))
+        return TRUNC("truncated");
+    if (n != sc->material_count)
+        return TRUNC("%u materials, but the scene has %u", n, sc->material_count);
+    for (uint32_t i = 0; i < n; i++) {
+        double rough, spec[RAD_MAX_BANDS];
+        if (!get_f64(c, &rough))
+            return TRUNC("material %u: truncated", i);
+        for (uint32_t b = 0; b < sc->band_count; b++)
+            if (!get_f64(c, &spec[b]))
+                return TRUNC("material %u: truncated", i);
+        rad_error sub;
+        if (rad_scene_set_material_lobe(sc, i, spec, rough, "section SURFACE", &sub))
+            return rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
+    }
+    return RAD_OK;
+}
+
 typedef int (*parse_fn)(reader *, rad_solution *);
 static const parse_fn sec_parse[SEC_COUNT] = {parse_info,      parse_scene,  parse_mesh,
                                               parse_matrix,    parse_patchdata, parse_lights,
                                               parse_elements,  parse_element_lights,
-                                              parse_cameras,   parse_clusters};
+                                              parse_cameras, parse_surface, parse_clusters};
 
 static int known_section(const uint8_t tag[4])
 {

@@ -38,24 +38,25 @@
 /* The first five sections appear in every file; LIGHTS only when the scene
  * has punctual lights, ELEMENTS only when the solution has elements,
  * CAMERAS (version 5 only) only when the scene has orthographic cameras,
- * CLUSTERS (version 5 only) only when the mesh has a cell layer (patches of
- * several cells, rad.h). */
+ * SURFACE (version 5 only) only when a material has a glossy lobe
+ * (rad_material's specular and roughness, which only the gather renderer
+ * reads), CLUSTERS (version 5 only) only when the mesh has a cell layer
+ * (patches of several cells, rad.h). */
 enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_ELEMENTS,
-       SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_CLUSTERS, SEC_COUNT };
+       SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_SURFACE, SEC_CLUSTERS, SEC_COUNT };
 extern const char sol_sec_tag[SEC_COUNT][4];
 extern const char *const sol_sec_name[SEC_COUNT];
 /* Sections each version may hold: 1 the first five, 2 + LIGHTS, 3 +
  * ELEMENTS (where LIGHTS is there exactly when the scene has lights), 4 +
- * ELEMENTLIGHTS (LIGHTS always), 5 any of them as the content needs,
- * CLUSTERS included. */
+ * ELEMENTLIGHTS (LIGHTS always), 5 any of them (SURFACE and CLUSTERS
+ * included) as the content needs. */
 extern const int sol_version_sections[SOL_VERSION + 1];
 
 /* Minimum encoded sizes of one element, used to bound counts before
  * allocating: a count of k elements needs at least k × this many bytes. */
 #define MIN_STRING 4u
 #define MIN_CAMERA (MIN_STRING + 11u * 8u)
-/* name, material, object, subdivisions u and v, point count, three points */
-#define MIN_POLYGON (MIN_STRING + 5u * 4u + 3u * 24u)
+#define MIN_POLYGON (MIN_STRING + 5u * 4u + 3u * 24u) /* material, object, subdivisions, count */
 #define PATCH_BYTES (7u * 4u + 7u * 8u)
 #define VERTEX_BYTES (3u * 8u + 1u)
 #define MIN_ROW (2u * 4u)

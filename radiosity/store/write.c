@@ -131,7 +131,7 @@ static uint32_t version_of(const rad_solution *s);
 static int section_written(const rad_solution *s, int i);
 
 /* Version 5's INFO ends with the optional sections the file holds, one bit
- * each (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4, CAMERAS 8, CLUSTERS 16): the reader then knows what
+ * each (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4, CAMERAS 8, SURFACE 16, CLUSTERS 32): the reader then knows what
  * must follow, and a file cut or stripped before one of them cannot pass
  * for a file without it. */
 static uint8_t announced_sections(const rad_solution *s)
@@ -398,10 +398,36 @@ static int has_ortho_camera(const rad_scene *sc)
     return 0;
 }
 
+/* 1 when some material has a glossy lobe or a roughness of its own. */
+static int has_surface(const rad_solution *s)
+{
+    const rad_scene *sc = s->scene;
+    for (uint32_t i = 0; i < sc->material_count; i++)
+        if (rad_material_glossy(&sc->materials[i], sc->band_count) ||
+            sc->materials[i].roughness != 1.0)
+            return 1;
+    return 0;
+}
+
+/* SURFACE: the materials' glossy lobes, for the gather renderer (the
+ * solve never reads them): material count, then per material the
+ * roughness and ρ_s per band. */
+static void emit_surface(sink *k, const rad_solution *s)
+{
+    const rad_scene *sc = s->scene;
+    put_u32(k, sc->material_count);
+    for (uint32_t i = 0; i < sc->material_count; i++) {
+        put_f64(k, sc->materials[i].roughness);
+        for (uint32_t b = 0; b < sc->band_count; b++)
+            put_f64(k, sc->materials[i].specular[b]);
+    }
+}
+
 typedef void (*emit_fn)(sink *, const rad_solution *);
 static const emit_fn sec_emit[SEC_COUNT] = {emit_info,      emit_scene,  emit_mesh,    emit_matrix,
                                             emit_patchdata, emit_lights, emit_elements,
-                                            emit_element_lights, emit_cameras, emit_clusters};
+                                            emit_element_lights, emit_cameras, emit_surface,
+                                            emit_clusters};
 
 /* LIGHTS is written only when there are lights, ELEMENTS when there are
  * elements, ELEMENTLIGHTS when the elements carry their own direct light,
@@ -416,6 +442,8 @@ static int section_written(const rad_solution *s, int i)
         return s->elements != NULL;
     if (i == SEC_ELEMENT_LIGHTS)
         return s->elements && s->elements->light_h;
+    if (i == SEC_SURFACE)
+        return has_surface(s);
     if (i == SEC_CLUSTERS)
         return s->mesh->cell_first != NULL;
     return 1;
@@ -423,10 +451,11 @@ static int section_written(const rad_solution *s, int i)
 
 static uint32_t version_of(const rad_solution *s)
 {
-    /* CAMERAS and CLUSTERS need version 5's announcement: a reader of an
-     * older version would show an orthographic camera in perspective, or
-     * draw each cluster as its one home cell, without a word. */
-    if (s->mesh->twin || s->mesh->cell_first || has_ortho_camera(s->scene))
+    /* CAMERAS, SURFACE and CLUSTERS need version 5's announcement: a
+     * reader of an older version would show an orthographic camera in
+     * perspective, drop the glossy lobes, or draw each cluster as its one
+     * home cell, without a word. */
+    if (s->mesh->twin || has_ortho_camera(s->scene) || has_surface(s) || s->mesh->cell_first)
         return SOL_VERSION_SHEETS;
     if (s->elements)
         return s->elements->light_h ? 4u : 3u;
