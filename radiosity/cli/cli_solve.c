@@ -174,6 +174,7 @@ int cli_solve(int argc, char **argv)
         opt.preview_user = &ps;
     }
     cli_enable_progress(&opt);
+    cli_enable_estimate(&opt);
     opt.load.warn = cli_warn;
 
     rad_error err = {0};

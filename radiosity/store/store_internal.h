@@ -40,15 +40,16 @@
  * CAMERAS (version 5 only) only when the scene has orthographic cameras,
  * SURFACE (version 5 only) only when a material has a glossy lobe
  * (rad_material's specular and roughness, which only the gather renderer
- * reads). */
+ * reads), CLUSTERS (version 5 only) only when the mesh has a cell layer
+ * (patches of several cells, rad.h). */
 enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_ELEMENTS,
-       SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_SURFACE, SEC_COUNT };
+       SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_SURFACE, SEC_CLUSTERS, SEC_COUNT };
 extern const char sol_sec_tag[SEC_COUNT][4];
 extern const char *const sol_sec_name[SEC_COUNT];
 /* Sections each version may hold: 1 the first five, 2 + LIGHTS, 3 +
  * ELEMENTS (where LIGHTS is there exactly when the scene has lights), 4 +
- * ELEMENTLIGHTS (LIGHTS always), 5 any of them (SURFACE included) as the
- * content needs. */
+ * ELEMENTLIGHTS (LIGHTS always), 5 any of them (SURFACE and CLUSTERS
+ * included) as the content needs. */
 extern const int sol_version_sections[SOL_VERSION + 1];
 
 /* Minimum encoded sizes of one element, used to bound counts before
@@ -67,6 +68,8 @@ extern const int sol_version_sections[SOL_VERSION + 1];
 #define MIN_ELEMENT (4u + 1u + 16u + 4u)
 /* camera index, projection, xmag, ymag */
 #define ORTHO_CAMERA_BYTES (4u + 1u + 16u)
+/* four corners and a polygon */
+#define CLUSTER_CELL_BYTES (5u * 4u)
 
 
 /* ------------------------------------------------- checksum (format.c) */
