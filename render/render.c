@@ -501,20 +501,7 @@ void rn_vertex_radiosity_fit(const rad_mesh *mesh, uint32_t bands, const double 
 
 /* ---------------------------------------------------------------- camera */
 
-/* Right-handed camera frame: f forward, r right, u up; with
- * a = (i + ½ − cx)/k, b = (cy − j − ½)/k, a pixel (i, j) looks along
- * f + a·r + b·u from the eye (perspective), or along f from eye + a·r + b·u
- * (orthographic). */
-typedef struct frame {
-    rad_vec3 eye, f, r, u;
-    double k;      /* pixels per unit of x/z: (H/2) / tan(yfov/2); orthographic: per unit
-                    * of x, (H/2) / ymag */
-    double cx, cy; /* image centre in pixels */
-    uint32_t w, h;
-    int ortho;     /* orthographic projection */
-} frame;
-
-static int camera_frame(const rn_camera *cam, frame *fr, rad_error *err)
+int rn_camera_frame(const rn_camera *cam, rn_frame *fr, rad_error *err)
 {
     if (!cam)
         return rad_fail(err, RAD_ERR_USAGE, "render: camera: none given");
@@ -697,63 +684,29 @@ static void raster_triangle(ibuf *ib, const int64_t *X, const int64_t *Y, int i0
 
 /* ------------------------------------------------------- interpolation */
 
-/* What shading one patch needs, prepared once per run of pixels that see it.
- * The patch plane gets 2-D coordinates (e1, e2) with the corner v0 at the
- * origin.  For the pixel ray d = f + a·r + b·u every needed dot product is
- * affine in (a, b), so a pixel costs a few multiply-adds before (u, v). */
-typedef struct shade_setup {
-    uint32_t patch;
-    int corners;
-    int ortho;             /* rays parallel to f from the window, not from the eye */
-    double Dn;             /* n·(centre − eye) */
-    double nf, nr, nu;     /* n·f, n·r, n·u */
-    double of1, of2;       /* (eye − v0)·e1, ·e2 */
-    double f1, r1, u1;     /* f·e1, r·e1, u·e1 */
-    double f2, r2, u2;     /* f·e2, r·e2, u·e2 */
-    double p[4][2];        /* corners in plane coordinates; p[0] = (0, 0) */
-    /* Quads, x = u·e + v·f + u·v·g: */
-    double ex, ey, fx, fy, gx, gy, k2, kef;
-    double det;            /* triangles: p1 × p2 */
-} shade_setup;
-
-static void shade_prepare(shade_setup *s, const rad_mesh *m, uint32_t patch, const frame *fr)
+void rn_cell2d_init(rn_cell2d *c, const rad_mesh *m, uint32_t cell)
 {
-    const rad_patch *pa = &m->patches[patch];
-    rad_vec3 n = pa->normal, v0 = m->vertices[pa->v[0]];
-    rad_vec3 e1 = rad_normalize(rad_sub(m->vertices[pa->v[1]], v0));
-    rad_vec3 e2 = rad_cross(n, e1);
-    rad_vec3 o = rad_sub(fr->eye, v0);
-    s->patch = patch;
-    s->ortho = fr->ortho;
-    s->corners = rad_patch_corners(pa);
-    s->Dn = rad_dot(n, rad_sub(pa->center, fr->eye));
-    s->nf = rad_dot(n, fr->f);
-    s->nr = rad_dot(n, fr->r);
-    s->nu = rad_dot(n, fr->u);
-    s->of1 = rad_dot(o, e1);
-    s->of2 = rad_dot(o, e2);
-    s->f1 = rad_dot(fr->f, e1);
-    s->r1 = rad_dot(fr->r, e1);
-    s->u1 = rad_dot(fr->u, e1);
-    s->f2 = rad_dot(fr->f, e2);
-    s->r2 = rad_dot(fr->r, e2);
-    s->u2 = rad_dot(fr->u, e2);
-    for (int c = 0; c < s->corners; c++) {
-        rad_vec3 q = rad_sub(m->vertices[pa->v[c]], v0);
-        s->p[c][0] = rad_dot(q, e1);
-        s->p[c][1] = rad_dot(q, e2);
+    const rad_patch *pa = &m->patches[cell];
+    c->corners = rad_patch_corners(pa);
+    c->v0 = m->vertices[pa->v[0]];
+    c->e1 = rad_normalize(rad_sub(m->vertices[pa->v[1]], c->v0));
+    c->e2 = rad_cross(pa->normal, c->e1);
+    for (int k = 0; k < c->corners; k++) {
+        rad_vec3 q = rad_sub(m->vertices[pa->v[k]], c->v0);
+        c->p[k][0] = rad_dot(q, c->e1);
+        c->p[k][1] = rad_dot(q, c->e2);
     }
-    if (s->corners == 4) {
-        s->ex = s->p[1][0];
-        s->ey = s->p[1][1];
-        s->fx = s->p[3][0];
-        s->fy = s->p[3][1];
-        s->gx = -s->p[1][0] + s->p[2][0] - s->p[3][0];
-        s->gy = -s->p[1][1] + s->p[2][1] - s->p[3][1];
-        s->k2 = s->gx * s->fy - s->gy * s->fx;
-        s->kef = s->ex * s->fy - s->ey * s->fx;
+    if (c->corners == 4) {
+        c->ex = c->p[1][0];
+        c->ey = c->p[1][1];
+        c->fx = c->p[3][0];
+        c->fy = c->p[3][1];
+        c->gx = -c->p[1][0] + c->p[2][0] - c->p[3][0];
+        c->gy = -c->p[1][1] + c->p[2][1] - c->p[3][1];
+        c->k2 = c->gx * c->fy - c->gy * c->fx;
+        c->kef = c->ex * c->fy - c->ey * c->fx;
     } else {
-        s->det = s->p[1][0] * s->p[2][1] - s->p[1][1] * s->p[2][0];
+        c->det = c->p[1][0] * c->p[2][1] - c->p[1][1] * c->p[2][0];
     }
 }
 
@@ -764,7 +717,7 @@ static void shade_prepare(shade_setup *s, const rad_mesh *m, uint32_t patch, con
  * e + v·g.  Both are clamped to [0, 1]: a pixel centre may sit a snapping
  * error outside the patch that owns it, and clamping keeps B a convex
  * combination of the corner values (never negative). */
-static void inverse_bilinear(const shade_setup *s, double hx, double hy, double *uo, double *vo)
+static void inverse_bilinear(const rn_cell2d *s, double hx, double hy, double *uo, double *vo)
 {
     double k1 = s->kef + hx * s->gy - hy * s->gx;
     double k0 = hx * s->ey - hy * s->ex;
@@ -802,22 +755,8 @@ static void inverse_bilinear(const shade_setup *s, double hx, double hy, double 
     *vo = v;
 }
 
-/* Interpolation weights of the patch's corners where the ray of pixel
- * direction (a, b) meets its plane: bilinear for quads, barycentric
- * (clamped, renormalised) for triangles. */
-static void shade_weights(const shade_setup *s, double a, double b, double *w)
+void rn_cell2d_weights(const rn_cell2d *s, double hx, double hy, double *w)
 {
-    double hx, hy;
-    if (s->ortho) { /* eye + a·r + b·u + t·f */
-        double t = s->nf != 0.0 ? (s->Dn - a * s->nr - b * s->nu) / s->nf : 0.0;
-        hx = s->of1 + a * s->r1 + b * s->u1 + t * s->f1;
-        hy = s->of2 + a * s->r2 + b * s->u2 + t * s->f2;
-    } else { /* eye + t·(f + a·r + b·u) */
-        double dn = s->nf + a * s->nr + b * s->nu;
-        double t = dn != 0.0 ? s->Dn / dn : 0.0;
-        hx = s->of1 + t * (s->f1 + a * s->r1 + b * s->u1);
-        hy = s->of2 + t * (s->f2 + a * s->r2 + b * s->u2);
-    }
     if (!isfinite(hx) || !isfinite(hy))
         hx = hy = 0.0;
     if (s->corners == 4) {
@@ -846,9 +785,64 @@ static void shade_weights(const shade_setup *s, double a, double b, double *w)
     w[2] = w2 / sum;
 }
 
+/* What shading one patch needs, prepared once per run of pixels that see it.
+ * For the pixel ray d = f + a·r + b·u every needed dot product is affine in
+ * (a, b), so a pixel costs a few multiply-adds before (u, v). */
+typedef struct shade_setup {
+    uint32_t patch;
+    rn_cell2d cell;
+    int ortho;             /* rays parallel to f from the window, not from the eye */
+    double Dn;             /* n·(centre − eye) */
+    double nf, nr, nu;     /* n·f, n·r, n·u */
+    double of1, of2;       /* (eye − v0)·e1, ·e2 */
+    double f1, r1, u1;     /* f·e1, r·e1, u·e1 */
+    double f2, r2, u2;     /* f·e2, r·e2, u·e2 */
+} shade_setup;
+
+static void shade_prepare(shade_setup *s, const rad_mesh *m, uint32_t patch, const rn_frame *fr)
+{
+    const rad_patch *pa = &m->patches[patch];
+    rn_cell2d_init(&s->cell, m, patch);
+    rad_vec3 n = pa->normal, e1 = s->cell.e1, e2 = s->cell.e2;
+    rad_vec3 o = rad_sub(fr->eye, s->cell.v0);
+    s->patch = patch;
+    s->ortho = fr->ortho;
+    s->Dn = rad_dot(n, rad_sub(pa->center, fr->eye));
+    s->nf = rad_dot(n, fr->f);
+    s->nr = rad_dot(n, fr->r);
+    s->nu = rad_dot(n, fr->u);
+    s->of1 = rad_dot(o, e1);
+    s->of2 = rad_dot(o, e2);
+    s->f1 = rad_dot(fr->f, e1);
+    s->r1 = rad_dot(fr->r, e1);
+    s->u1 = rad_dot(fr->u, e1);
+    s->f2 = rad_dot(fr->f, e2);
+    s->r2 = rad_dot(fr->r, e2);
+    s->u2 = rad_dot(fr->u, e2);
+}
+
+/* Interpolation weights of the patch's corners where the ray of pixel
+ * (a, b) meets its plane (from the eye along f + a·r + b·u, or, for an
+ * orthographic view, from eye + a·r + b·u along f). */
+static void shade_weights(const shade_setup *s, double a, double b, double *w)
+{
+    double hx, hy;
+    if (s->ortho) { /* eye + a·r + b·u + t·f */
+        double t = s->nf != 0.0 ? (s->Dn - a * s->nr - b * s->nu) / s->nf : 0.0;
+        hx = s->of1 + a * s->r1 + b * s->u1 + t * s->f1;
+        hy = s->of2 + a * s->r2 + b * s->u2 + t * s->f2;
+    } else { /* eye + t·(f + a·r + b·u) */
+        double dn = s->nf + a * s->nr + b * s->nu;
+        double t = dn != 0.0 ? s->Dn / dn : 0.0;
+        hx = s->of1 + t * (s->f1 + a * s->r1 + b * s->u1);
+        hy = s->of2 + t * (s->f2 + a * s->r2 + b * s->u2);
+    }
+    rn_cell2d_weights(&s->cell, hx, hy, w);
+}
+
 /* -------------------------------------------------------------- render */
 
-static int mesh_check(const rad_mesh *m, rad_error *err)
+int rn_mesh_check(const rad_mesh *m, rad_error *err)
 {
     if (m->vertex_count > 0 && !m->vertices)
         return rad_fail(err, RAD_ERR_USAGE, "render: mesh: %u vertices but no vertex array", m->vertex_count);
@@ -871,9 +865,9 @@ static int mesh_check(const rad_mesh *m, rad_error *err)
 
 int rn_camera_check(const rn_camera *cam, rad_error *err)
 {
-    frame fr;
+    rn_frame fr;
     rad_error why;
-    int rc = camera_frame(cam, &fr, &why);
+    int rc = rn_camera_frame(cam, &fr, &why);
     if (!rc)
         return RAD_OK;
     /* The reason alone: the caller says which camera. */
@@ -977,12 +971,12 @@ int rn_canvas_draw(rn_canvas *canvas, const rad_mesh *mesh, uint32_t bands,
         return rad_fail(err, RAD_ERR_USAGE, "render: %u bands, not 1..%d", bands, RAD_MAX_BANDS);
     if (mesh->vertex_count > 0 && !vertex_B)
         return rad_fail(err, RAD_ERR_USAGE, "render: no vertex radiosities");
-    frame fr;
+    rn_frame fr;
     memset(&fr, 0, sizeof fr);
-    int rc = camera_frame(cam, &fr, err);
+    int rc = rn_camera_frame(cam, &fr, err);
     if (rc)
         return rc;
-    rc = mesh_check(mesh, err);
+    rc = rn_mesh_check(mesh, err);
     if (rc)
         return rc;
     rc = canvas_prepare(canvas, fr.w, fr.h, bands, mesh->vertex_count, err);
@@ -1095,7 +1089,7 @@ int rn_canvas_draw(rn_canvas *canvas, const rad_mesh *mesh, uint32_t bands,
             float *px = img->pixels + k * bands;
             for (uint32_t c = 0; c < bands; c++) {
                 double sum = 0.0;
-                for (int q = 0; q < ss.corners; q++)
+                for (int q = 0; q < ss.cell.corners; q++)
                     sum += w[q] * vertex_B[(size_t)v[q] * bands + c];
                 px[c] = (float)(sum * inv_pi);
             }

@@ -153,8 +153,10 @@ TEST(material_errors)
     CHECK(refuses(HEAD "material x emission 1e999\n", RAD_ERR_PARSE,
                   "line 4: material 'x': emission '1e999' is not a finite number"));
     CHECK(refuses(HEAD "material x\n\ncolour 1\n", RAD_ERR_PARSE,
-                  "room.rad: line 6: material 'x': expected reflectance, emission or "
-                  "transmittance, found 'colour'"));
+                  "room.rad: line 6: material 'x': expected reflectance, emission, "
+                  "transmittance, metallic or roughness, found 'colour'"));
+    CHECK(refuses(HEAD "material x reflectance 0.5 metallic 2\n", RAD_ERR_INVALID,
+                  "room.rad: line 4: material 'x': metallic 2 outside [0, 1]"));
     CHECK(refuses(HEAD "material x reflectance 0.1\n reflectance 0.2", RAD_ERR_PARSE,
                   "room.rad: line 5: material 'x': reflectance given twice"));
     CHECK(refuses(HEAD "material x reflectance 0.5 1.2 0.5\n", RAD_ERR_INVALID,

@@ -290,7 +290,7 @@ TEST(defaults_and_ignored)
     CHECK_MSG(c.count == 5, "%d warning lines", c.count);
     CHECK_LINE(&c, "mesh 'floor': primitives without a material get glTF's default material");
     CHECK_LINE(&c, "mesh 'floor' (LINES): primitives without area (points, lines) skipped");
-    CHECK_LINE(&c, "material 'gold': metallicFactor ignored");
+    CHECK_LINE(&c, "material 'gold': metallicFactor drawn by render --gather only");
     CHECK_LINE(&c, "material 'leaf' (MASK): alphaMode ignored");
     CHECK_LINE(&c, "light 'bulb': range ignored");
     rad_scene_destroy(s);

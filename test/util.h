@@ -96,6 +96,33 @@ static inline char *test_slurp(const char *path, size_t *size)
     return buf;
 }
 
+/* Where a version 6 solution file (docs/solution-format.md: the index's
+ * offset at byte 16, then u32 count and 32-byte entries: tag, u32, u64
+ * offset, u64 length, u64 CRC) holds section `tag`: its offset, and its
+ * length in *len; 0 when the index does not list it. */
+static inline size_t test_v6_section(const unsigned char *b, size_t size, const char *tag,
+                                     uint64_t *len)
+{
+    uint64_t at = 0, count = 0;
+    for (int k = 7; size >= 32 && k >= 0; k--)
+        at = (at << 8) | b[16 + k];
+    for (int k = 3; at >= 32 && at + 8 <= size && k >= 0; k--)
+        count = (count << 8) | b[at + k];
+    for (uint64_t q = 0; q < count && at + 8 + 32 * (q + 1) <= size; q++) {
+        const unsigned char *e = b + at + 8 + 32 * q;
+        if (memcmp(e, tag, 4) != 0)
+            continue;
+        uint64_t off = 0;
+        *len = 0;
+        for (int k = 7; k >= 0; k--) {
+            off = (off << 8) | e[8 + k];
+            *len = (*len << 8) | e[16 + k];
+        }
+        return (size_t)off;
+    }
+    return 0;
+}
+
 /* Solves A x = b in place by Gaussian elimination with partial pivoting:
  * A is n×n row-major and is destroyed, x holds b on entry and the solution
  * on return.  The independent reference for iterative solvers; small n. */

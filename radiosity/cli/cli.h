@@ -11,6 +11,8 @@
 
 #include "../pipeline/pipeline.h"
 
+#include <stdio.h>
+
 int cli_solve(int argc, char **argv);
 int cli_render(int argc, char **argv);
 int cli_report(int argc, char **argv);
@@ -59,6 +61,9 @@ int cli_other_arg(const char *cmd, const char *what, const char *arg, const char
 int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt);
 /* Turns on the progress bar when stderr is a terminal. */
 void cli_enable_progress(rad_solve_options *opt);
+/* Prints the form factors' estimate (rad_estimate) on stdout before they
+ * are computed. */
+void cli_enable_estimate(rad_solve_options *opt);
 
 /* Most --camera options one command line may give (each may list cameras
  * separated by commas). */
@@ -79,6 +84,8 @@ typedef struct cli_view {
 } cli_view;
 /* 1 consumed, 0 not a view option, -1 bad value (printed). */
 int cli_view_option(int argc, char **argv, int *i, cli_view *v);
+/* The camera the view options name for s (0), or the exit status. */
+int cli_view_camera(const rad_solution *s, const cli_view *v, rn_camera *out);
 /* Renders s with the view and writes exr_path (and v->png if set). */
 int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *exr_path,
                         const char *png_path);
@@ -98,5 +105,23 @@ int cli_many_option(int argc, char **argv, int *i, cli_many *m);
 int cli_many_views(const cli_view *v, const cli_many *m, const rad_scene *scene);
 /* Draws every view into DIR/NAME.exr (and .png): exit status. */
 int cli_render_many(const rad_solution *s, const cli_view *v, const cli_many *m, const char *dir);
+/* The final gather's options (render --gather, cli_gather.c). */
+typedef struct cli_gather {
+    int on;                    /* --gather */
+    const char *given;         /* the first gather option seen (for "needs --gather") */
+    rn_gather_options opt;
+    const char *cache;         /* --cache FILE; NULL = SOLUTION.icache */
+    int no_cache_file;         /* --no-cache-file */
+} cli_gather;
+/* 1 consumed, 0 not a gather option, -1 bad value (printed). */
+int cli_gather_option(int argc, char **argv, int *i, cli_gather *g);
+/* The gather render of s (read from sol_path) with the view, to exr_path
+ * and v->png; prints one line of statistics. */
+int cli_gather_to_files(const rad_solution *s, const char *sol_path, const cli_view *v,
+                        const cli_gather *g, const char *exr_path);
+/* Writes s as a JSON string (quotes, escapes). */
+void cli_json_string(FILE *f, const char *s);
+/* The cache beside sol_path, if any, for report (text or JSON member). */
+void cli_report_cache(FILE *f, const char *sol_path, const rad_solution *s, int json);
 
 #endif /* RAD_CLI_H */

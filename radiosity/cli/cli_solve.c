@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* ------------------------------------------------------------------ views */
 
@@ -53,8 +54,7 @@ int cli_view_option(int argc, char **argv, int *i, cli_view *v)
     return 1;
 }
 
-int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *exr_path,
-                        const char *png_path)
+int cli_view_camera(const rad_solution *s, const cli_view *v, rn_camera *out)
 {
     rad_error err = {0};
     rn_camera cam;
@@ -79,10 +79,22 @@ int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *ex
     }
     if (v->have_ortho)
         cam.orthographic = 1, cam.ymag = v->ortho;
+    *out = cam;
+    return 0;
+}
+
+int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *exr_path,
+                        const char *png_path)
+{
+    rad_error err = {0};
+    rn_camera cam;
+    int rc = cli_view_camera(s, v, &cam);
+    if (rc)
+        return rc;
     if (cli_check_output_dir(exr_path) || (png_path && cli_check_output_dir(png_path)))
         return 2;
     rn_image *img = NULL;
-    int rc = rad_render_solution(s, &cam, &img, &err);
+    rc = rad_render_solution(s, &cam, &img, &err);
     if (!rc)
         rc = rn_write_exr(img, exr_path, &err);
     if (!rc && png_path)
@@ -117,7 +129,10 @@ static int write_preview(void *user, const rad_solution *s, uint32_t shots, cons
 
 /* What a solve that stopped early tells the user: the rows it kept and how
  * to go on.  Returns the exit status: 130 after Ctrl-C (or SIGTERM), else
- * the error's. */
+ * the error's.  A matrix refused as too large (RAD_ERR_LIMIT, after the
+ * estimate's sample rows) gets its one line only: the same command would
+ * be refused again; its rows stay and a run with a larger --max-memory
+ * resumes from them (a larger --patch-size is another mesh: discarded). */
 static int solve_stopped(rad_journal *j, const rad_error *err, int rc)
 {
     rad_journal_stats st = rad_journal_stats_of(j);
@@ -128,7 +143,7 @@ static int solve_stopped(rad_journal *j, const rad_error *err, int rc)
         fprintf(stderr, "radiosity: interrupted before any form-factor row was finished\n");
     else {
         cli_error(err);
-        if (st.kept)
+        if (st.kept && rc != RAD_ERR_LIMIT)
             fprintf(stderr, "radiosity: note: %u form-factor rows kept in %s; run the same "
                             "command again to resume from them\n", st.kept, rad_journal_path(j));
     }
@@ -219,6 +234,7 @@ int cli_solve(int argc, char **argv)
     if ((rc = setup_preview(out, preview_dir, preview_every, &ps, dirbuf, sizeof dirbuf, &opt)))
         return rc;
     cli_enable_progress(&opt);
+    cli_enable_estimate(&opt);
     opt.load.warn = cli_warn;
 
     rad_error err = {0};
@@ -262,11 +278,14 @@ int cli_render(int argc, char **argv)
     const char *in = NULL, *out = NULL;
     cli_view view = {0};
     cli_many many = {0};
+    cli_gather gather = {0};
     int rc;
     for (int i = 0; i < argc; i++) {
         int r = cli_view_option(argc, argv, &i, &view);
         if (!r)
             r = cli_many_option(argc, argv, &i, &many);
+        if (!r)
+            r = cli_gather_option(argc, argv, &i, &gather);
         if (r < 0)
             return 2;
         if (r > 0)
@@ -278,20 +297,33 @@ int cli_render(int argc, char **argv)
     }
     if (!in || !out)
         return cli_usage_error("usage: radiosity render SOLUTION -o IMAGE.exr [options]");
-    if (cli_many_views(&view, &many, NULL) && cli_need_dir("render", out))
-        return 2;
+    if (gather.given && !gather.on)
+        return cli_usage_error("render: %s is a --gather option", gather.given);
+    if (cli_many_views(&view, &many, NULL)) {
+        if (gather.on)
+            return cli_usage_error("render: --gather draws one view (several views: run it per view)");
+        if (cli_need_dir("render", out))
+            return 2;
+    }
+    /* --threads: drawing threads for several views, shading threads for a
+     * gather (default: one per CPU, as for several views). */
+    long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    gather.opt.threads = many.threads ? many.threads : cpus > 64 ? 64 : cpus > 1 ? (uint32_t)cpus : 1;
     rad_error err = {0};
     rad_solution *s = NULL;
     /* a view needs B, the mesh and the elements: F is neither read nor checked */
     if (rad_solution_read_parts(in, 0, &s, &err))
         return cli_error(&err);
     if (cli_many_views(&view, &many, s->scene))
-        rc = cli_render_many(s, &view, &many, out);
-    else if (many.threads || many.no_png)
+        rc = gather.on ? cli_usage_error("render: --gather draws one view (several views: run it "
+                                         "per view)")
+                       : cli_render_many(s, &view, &many, out);
+    else if ((many.threads && !gather.on) || many.no_png)
         rc = cli_usage_error("render: --threads and --no-png go with several views "
-                             "(--all-cameras, --path or --camera A,B)");
+                             "(--all-cameras, --path or --camera A,B) or, --threads, with --gather");
     else
-        rc = cli_render_to_files(s, &view, out, view.png);
+        rc = gather.on ? cli_gather_to_files(s, in, &view, &gather, out)
+                       : cli_render_to_files(s, &view, out, view.png);
     rad_solution_destroy(s);
     return rc;
 }

@@ -2,7 +2,7 @@
  * codes around the library.  Nothing else in the project prints or exits.
  *
  *   radiosity solve    SCENE -o SOLUTION [options] [--fresh]
- *   radiosity render   SOLUTION -o IMAGE.exr [--png FILE] [camera options]
+ *   radiosity render   SOLUTION -o IMAGE.exr [--png FILE] [camera options] [--gather ...]
  *   radiosity render   SOLUTION -o DIR --all-cameras | --camera A,B | --path FILE
  *   radiosity report   SOLUTION [--json]
  *   radiosity relight  SOLUTION -o OUT [--light N=off|on|S] [--emission N=v,..]
@@ -158,6 +158,27 @@ void cli_enable_progress(rad_solve_options *opt)
         opt->hemicube.progress = progress_bar;
         opt->hemicube.progress_user = NULL;
     }
+}
+
+/* The estimate of a solve, on stdout before the form factors start. */
+static void print_estimate(void *user, const rad_estimate *e)
+{
+    (void)user;
+    char f[32], p[32], s[32], l[32];
+    printf("estimate: %u patches (%u cells), %u rows of about %.0f entries (measured on %u): "
+           "form factors %s, peak memory %s, solution file %s (form factors may take %s)\n",
+           e->patches, e->cells, e->rows, e->entries_per_row, e->sample_rows,
+           rad_human_bytes((double)e->matrix_bytes, f, sizeof f),
+           rad_human_bytes((double)e->peak_bytes, p, sizeof p),
+           rad_human_bytes((double)e->file_bytes, s, sizeof s),
+           rad_human_bytes((double)e->limit_bytes, l, sizeof l));
+    fflush(stdout);
+}
+
+void cli_enable_estimate(rad_solve_options *opt)
+{
+    opt->on_estimate = print_estimate;
+    opt->estimate_user = NULL;
 }
 
 /* Shared by solve, relight and ff: meshing, hemi-cube and solver options.
@@ -329,8 +350,23 @@ static const char usage[] =
     "      --camera A,B,C           these cameras (or --camera repeated)\n"
     "      --path FILE              a fly-through, one view per line (NAME: frame-0001..):\n"
     "                               eye X,Y,Z target X,Y,Z [up X,Y,Z] [fov DEG]\n"
-    "      --threads N              drawing threads (default: CPUs)\n"
+    "      --threads N              drawing threads, or shading threads with --gather\n"
+    "                               (default: CPUs)\n"
     "      --no-png                 EXR only\n"
+    "      --gather                 ray-trace the view from the solution (final gather):\n"
+    "                               direct light per pixel, indirect gathered from the\n"
+    "                               stored B through Ward's irradiance cache, glossy lobes\n"
+    "      --epsilon A              cache error bound a (default " CLI_STR(RN_DEFAULT_EPSILON) ")\n"
+    "      --no-cache               gather at every pixel (the reference; slow)\n"
+    "      --cache FILE             the cache file (default SOLUTION.icache)\n"
+    "      --no-cache-file          neither read nor write a cache file\n"
+    "      --no-gradients           cache without Ward & Heckbert's gradients\n"
+    "      --gather-rays N          hemisphere rays per gather (default " CLI_STR(RN_DEFAULT_GATHER_RAYS) ")\n"
+    "      --light-samples N        samples per area light and pixel (default " CLI_STR(RN_DEFAULT_LIGHT_SAMPLES) ")\n"
+    "      --glossy-rays N          lobe samples per glossy pixel (default " CLI_STR(RN_DEFAULT_GLOSSY_RAYS) ")\n"
+    "      --glossy MODE            auto, sample or light-vector (indirect light on lobes)\n"
+    "      --max-depth D            mirror reflections followed (default " CLI_STR(RN_DEFAULT_MAX_DEPTH) ")\n"
+    "      --min-radius PX          smallest valid radius of a cache record, pixels (default " CLI_STR(RN_DEFAULT_MIN_RADIUS_PX) ")\n"
     "  report SOLUTION [--json]     per-object power balance, solver and stage times\n"
     "  relight SOLUTION -o OUT      re-solve with changed lights or colours, no new hemi-cubes\n"
     "      --light NAME=off|on|S    switch or scale an emitting object, punctual light or material\n"

@@ -308,12 +308,6 @@ uint64_t rad_matrix_estimate_bytes(uint32_t n, double fill)
     return bytes >= 1.8e19 ? UINT64_MAX : (uint64_t)bytes;
 }
 
-uint64_t rad_matrix_pool_estimate(uint64_t rows, uint64_t entries)
-{
-    double bytes = (double)entries * entry_bytes(1.0) + (double)rows * RECORD_HEAD;
-    return bytes >= 1.8e19 ? UINT64_MAX : (uint64_t)bytes;
-}
-
 int rad_matrix_check(const rad_matrix *m, rad_error *err)
 {
     if (!m->entries_loaded)

@@ -153,10 +153,38 @@ typedef struct rad_mesh {
     rad_patch *patches;
     uint32_t patch_count;
     uint32_t *twin;          /* patch_count entries or NULL (owned) */
+    /* Clusters: a patch may span several cells, the small polygons of one
+     * object and material that the mesher grouped (mesh.h).  cell_first is
+     * NULL when every patch is a single cell, itself.  Otherwise patch i
+     * covers cells[cell_first[i] .. cell_first[i + 1]) (cells of one patch
+     * consecutive, in patch order): planar convex cells with their own
+     * corners, polygon, normal, centre and area, as a patch has.  A patch
+     * of one cell is that cell; a patch of several has their object and
+     * material, A_i = Σ cell areas, the unit area-weighted mean of their
+     * normals, its centre on one of them (its `home` cell, whose corners
+     * and polygon it carries in v[] and polygon).  The cells of one surface
+     * (neighbouring small polygons whose normals agree) share vertices
+     * across polygons, so their radiosities average together as a
+     * polygon's do. */
+    rad_patch *cells;        /* cell_count entries or NULL (owned) */
+    uint32_t cell_count;
+    uint32_t *cell_first;    /* patch_count + 1 entries or NULL (owned) */
 } rad_mesh;
 
 /* Number of corners of a patch: 3 or 4. */
 static inline int rad_patch_corners(const rad_patch *p) { return p->v[3] == RAD_NONE ? 3 : 4; }
+
+/* The cells of patch i: a pointer to the first and their number (the patch
+ * itself, one cell, when the mesh has no clusters). */
+static inline uint32_t rad_patch_cells(const rad_mesh *m, uint32_t i, const rad_patch **first)
+{
+    if (!m->cell_first) {
+        *first = &m->patches[i];
+        return 1;
+    }
+    *first = m->cells + m->cell_first[i];
+    return m->cell_first[i + 1] - m->cell_first[i];
+}
 
 /* ------------------------------------------------------- form-factor matrix */
 
@@ -306,18 +334,33 @@ int rad_matrix_add_records(rad_matrix *m, uint64_t len, uint64_t rows, uint64_t 
  * non-zero: what the memory checks use before allocating. */
 uint64_t rad_matrix_estimate_bytes(uint32_t n, double fill);
 
-/* Bytes the pool would take for `entries` entries in `rows` rows, at the
- * packed size (5 bytes an entry, gaps of one byte) the memory checks assume. */
-uint64_t rad_matrix_pool_estimate(uint64_t rows, uint64_t entries);
-
 /* Checks the invariants above; RAD_OK or RAD_ERR_CORRUPT with the first
  * offending row in the message. */
 int rad_matrix_check(const rad_matrix *m, rad_error *err);
+
+/* --------------------------------------------------------------- geometry */
+
+/* F from the differential element at p with unit normal n to the planar
+ * polygon poly[0..count) (either winding), by Lambert's contour integral
+ * over the part of the polygon in front of the element:
+ *   F = 1/(2π) |Σ_k β_k n·unit(r_k × r_{k+1})|,  r_k = P_k − p.
+ * E·F is the irradiance at p from a Lambertian polygon of exitance E with
+ * nothing in between.  In [0, 1]; NAN for non-finite input or n = 0; 0
+ * for fewer than 3 corners. */
+double rad_point_polygon_factor(rad_vec3 p, rad_vec3 n, const rad_vec3 *poly, uint32_t count);
 
 /* ------------------------------------------------------------------ memory */
 
 /* Physical memory the system reports as available, in bytes (0 if unknown). */
 uint64_t rad_available_memory(void);
+
+/* This process's resident memory in bytes: now (peak 0) or the most it has
+ * had (peak 1, the high-water mark); 0 if unknown. */
+uint64_t rad_process_memory(int peak);
+
+/* "12.3 MiB", "4.5 GiB": a size for messages, in a unit that shows digits;
+ * returns buf. */
+const char *rad_human_bytes(double bytes, char *buf, size_t size);
 
 /* Wall-clock seconds from a monotonic clock, for stage timings. */
 double rad_seconds(void);

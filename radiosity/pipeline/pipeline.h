@@ -15,6 +15,29 @@
 
 #include <signal.h>
 
+/* What the form factors of a solve will take, estimated before they are
+ * computed: a few rows, spread over the patches, are rendered first (they
+ * are kept: they are rows the solve needs) and the rest are taken to hold
+ * as many entries each as those do on average.  A row holds at most one
+ * entry per hemi-cube pixel (3R²) and per other patch; in practice far
+ * fewer, as a patch sees only part of the scene.  With a journal
+ * (rad_solve_options.journal) the sample rows are journaled like any
+ * other, and a resumed solve samples only among the rows still missing. */
+typedef struct rad_estimate {
+    uint32_t patches;        /* N */
+    uint32_t cells;          /* cells drawn in each hemi-cube (N without clusters) */
+    uint32_t rows;           /* rows the solve computes in all */
+    uint32_t sample_rows;    /* rows rendered to measure */
+    double entries_per_row;  /* their mean count of F_ij > 0 */
+    uint64_t matrix_bytes;   /* F with every row in */
+    uint64_t peak_bytes;     /* the solving process's resident memory at its largest */
+    uint64_t file_bytes;     /* the solution file, without elements */
+    uint64_t limit_bytes;    /* what F may take (max_memory) */
+} rad_estimate;
+
+/* Rows rendered to estimate the form factors' size. */
+#define RAD_ESTIMATE_SAMPLES 64u
+
 /* {0} means defaults. */
 typedef struct rad_solve_options {
     rad_load_options load;
@@ -36,6 +59,11 @@ typedef struct rad_solve_options {
      * the pipeline's own and are ignored.) */
     int (*on_preview)(void *user, const rad_solution *s, uint32_t shots, const double *B_display);
     void *preview_user;
+    /* May be NULL: called with the estimate once it is made, before the
+     * rows are computed (gathering solvers; a matrix that would not fit is
+     * refused right after, with a patch size that would). */
+    void (*on_estimate)(void *user, const rad_estimate *e);
+    void *estimate_user;
     /* Punctual lights: R of the item-buffer cube rendered at each light
      * (hc_light_power); 0 = the larger of 512 and the hemi-cube resolution. */
     uint32_t light_resolution;
@@ -152,5 +180,49 @@ int rad_camera_path_parse(const char *text, size_t size, const char *name, const
  * of the scene's bounds), sized width×height. */
 int rad_camera_from_scene(const rad_scene *scene, const char *name, uint32_t width,
                           uint32_t height, rn_camera *cam, rad_error *err);
+
+/* ------------------------------------------ the final gather (gather.c here) */
+
+/* The gather renderer's input (render.h's rn_scene) built from a solution,
+ * with the arrays it points to: the cells the vertex renderer draws (the
+ * patches, or the elements' fans) and their vertex radiosities (the same
+ * rad_elements_vertex_radiosity gives rn_render), each cell's ρ and E from
+ * its patch (as solved, so relights count), a sheet's transmitted exitance
+ * (rad_elements_transmitted), the materials' glossy lobes, the emitting
+ * polygons with their patches' E, and the punctual lights at the
+ * intensities solved with.  The form factors stay behind. */
+typedef struct rad_gather_scene {
+    rn_scene scene;
+    uint32_t *cell_patch;   /* scene.mesh->patch_count: the patch each cell lies in */
+    /* owned storage behind scene */
+    rad_mesh *cells_;
+    double *vertex_B_, *rho_, *emission_, *transmitted_;
+    rn_material *materials_;
+    rn_emitter *emitters_;
+    rn_light *lights_;
+} rad_gather_scene;
+
+/* Caller owns *out (rad_gather_scene_destroy); s must outlive it. */
+int rad_gather_scene_create(const rad_solution *s, rad_gather_scene **out, rad_error *err);
+void rad_gather_scene_destroy(rad_gather_scene *g); /* NULL does nothing */
+
+/* {0} means defaults. */
+typedef struct rad_gather_options {
+    rn_gather_options render;
+    /* Ward's cache file, read before and written after (NULL = none): a
+     * file made for another solution or other settings, or damaged, is
+     * refused with a warning and the cache is computed anew. */
+    const char *cache_path;
+    rad_warn_fn warn;
+    void *warn_user;
+} rad_gather_options;
+
+/* The gather render of s from cam into *out (img->patch holds patches, as
+ * rad_render_solution's).  stats may be NULL.  Caller owns *out. */
+int rad_render_gather(const rad_solution *s, const rn_camera *cam, const rad_gather_options *opt,
+                      rn_image **out, rn_gather_stats *stats, rad_error *err);
+
+/* The cache file's usual place beside a solution: SOLUTION.icache. */
+void rad_gather_cache_path(const char *solution_path, char *buf, size_t size);
 
 #endif /* RAD_PIPELINE_H */

@@ -51,8 +51,9 @@
  *     and KHR_lights_punctual.  Other extensions in extensionsUsed (Blender
  *     writes KHR_materials_specular, KHR_materials_ior) are ignored and
  *     named; so are normal, occlusion and metallic-roughness textures, a
- *     stated metallicFactor > 0 (glTF's default metal, 1, is what exporters
- *     leave on diffuse surfaces, so only a stated one is named), alphaMode
+ *     stated metallicFactor > 0 (its lobe is drawn by the gather renderer
+ *     only; glTF's default metal, 1, is what exporters leave on diffuse
+ *     surfaces, so only a stated one is named and counts), alphaMode
  *     other than OPAQUE, animations, skins and morph targets, and a light's
  *     range (the bridge's notes).
  *   - KHR_lights_punctual lights placed by nodes of the scene become scene
@@ -147,7 +148,7 @@ static const struct {
     [W_TEXTURES] = {"material", "materials",
                     "normal, occlusion and metallic-roughness textures ignored (surfaces are "
                     "diffuse)"},
-    [W_METALLIC] = {"material", "materials", "metallicFactor ignored (surfaces are diffuse)"},
+    [W_METALLIC] = {"material", "materials", "metallicFactor drawn by render --gather only (the solve treats them as diffuse)"},
     [W_ALPHA] = {"material", "materials", "alphaMode ignored (surfaces are opaque)"},
     [W_ANIMATION] = {"", "", "ignored (the scene as its nodes place it)"},
     [W_LIGHT_RANGE] = {"light", "lights", "range ignored (light falls off as 1/r² everywhere)"},
@@ -787,6 +788,13 @@ static int add_material(gltf_ctx *c, const rad_gltf_raw_material *m, mat_info *m
         return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
     snprintf(where, sizeof where, "material '%.200s'", name);
     rc = rad_scene_add_material(c->s, name, rho, e, tau, where, &mi->index, c->err);
+    /* pbrMetallicRoughness: the glossy lobe of the gather renderer (scene.h
+     * gives the mapping).  An unstated metallicFactor counts as 0, not
+     * glTF's 1: this engine has always read baseColorFactor as a diffuse ρ,
+     * and a document that says nothing of metals keeps that meaning. */
+    if (!rc && (m->metallic != 0.0 || m->roughness != 1.0))
+        rc = rad_scene_set_material_gloss(c->s, mi->index, m->metallic, m->roughness, where,
+                                          c->err);
     free(name);
     if (rc)
         return rc;
@@ -886,10 +894,12 @@ typedef struct plan {
     uint8_t *mesh_noted; /* bit 1: W_SKIPPED, bit 2: W_NO_MATERIAL */
 } plan;
 
-/* glTF's default material: white, not emitting, single-sided. */
+/* glTF's default material: white, not emitting, single-sided, diffuse
+ * (roughness 1; metallic 0 as for every material that states none). */
 static const rad_gltf_raw_material default_material = {
     .name = "default",
     .base_color = {1, 1, 1},
+    .roughness = 1,
     .emissive_strength = 1,
     .diffuse_transmission_color = {1, 1, 1},
 };

@@ -487,6 +487,10 @@ void convert_material(const tinygltf::Material &src, size_t i, rad_gltf_raw_mate
     dst.emissive_strength = emissive_strength(src, where);
     diffuse_transmission(src, where, dst);
     dst.double_sided = src.doubleSided ? 1 : 0;
+    /* tinygltf fills pbrMetallicRoughness with glTF's defaults; `values`
+     * holds only the keys the document wrote. */
+    dst.metallic = src.values.count("metallicFactor") ? src.pbrMetallicRoughness.metallicFactor : 0.0;
+    dst.roughness = src.pbrMetallicRoughness.roughnessFactor;
 }
 
 void convert_materials(const tinygltf::Model &m, rad_gltf_raw *raw)

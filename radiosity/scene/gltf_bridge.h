@@ -74,6 +74,10 @@ typedef struct rad_gltf_raw_material {
     double diffuse_transmission;
     double diffuse_transmission_color[3];
     int double_sided;
+    /* pbrMetallicRoughness.metallicFactor when the material states it, else
+     * 0 (not glTF's default 1: see gltf.c), and roughnessFactor (default 1) */
+    double metallic;
+    double roughness;
 } rad_gltf_raw_material;
 
 /* One camera as placed by a node of the scene (a glTF camera used by two

@@ -305,13 +305,17 @@ static int parse_material(parser *P, unsigned long long line)
     if (rc)
         return rc;
     double rho[RAD_MAX_BANDS] = {0}, em[RAD_MAX_BANDS] = {0}, tr[RAD_MAX_BANDS] = {0};
-    int seen[3] = {0, 0, 0}, any = 0;
-    static const char *const props[3] = {"reflectance", "emission", "transmittance"};
-    double *dst[3] = {rho, em, tr};
+    /* metallic and roughness: one number each, glTF's meaning (scene.h). */
+    double metal = 0.0, rough = 1.0;
+    enum { NPROP = 5 };
+    int seen[NPROP] = {0}, any = 0;
+    static const char *const props[NPROP] = {"reflectance", "emission", "transmittance",
+                                             "metallic", "roughness"};
+    double *dst[NPROP] = {rho, em, tr, &metal, &rough};
     for (;;) {
         int k = -1;
         if (lex_peek(P, &rc)) {
-            for (int i = 0; i < 3; i++)
+            for (int i = 0; i < NPROP; i++)
                 if (tok_is(P, props[i]))
                     k = i;
         }
@@ -330,7 +334,7 @@ static int parse_material(parser *P, unsigned long long line)
         lex_take(P);
         char what[300];
         snprintf(what, sizeof what, "material '%s': %s", name, props[k]);
-        if ((rc = parse_values(P, what, pl, dst[k]))) {
+        if ((rc = k < 3 ? parse_values(P, what, pl, dst[k]) : need_number(P, what, dst[k]))) {
             free(name);
             return rc;
         }
@@ -339,14 +343,18 @@ static int parse_material(parser *P, unsigned long long line)
     if (!any) {
         char b[64];
         rc = perr(P, P->lx.tok_line, RAD_ERR_PARSE,
-                  "material '%s': expected reflectance, emission or transmittance, found '%s'",
+                  "material '%s': expected reflectance, emission, transmittance, metallic or "
+                  "roughness, found '%s'",
                   name, tok_show(P, b, sizeof b));
         free(name);
         return rc;
     }
     char where[40];
     snprintf(where, sizeof where, "line %llu", line);
-    rc = rad_scene_add_material(P->s, name, rho, em, tr, where, NULL, P->err);
+    uint32_t index;
+    rc = rad_scene_add_material(P->s, name, rho, em, tr, where, &index, P->err);
+    if (!rc && (seen[3] || seen[4]))
+        rc = rad_scene_set_material_gloss(P->s, index, metal, rough, where, P->err);
     free(name);
     return rc;
 }

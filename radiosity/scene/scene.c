@@ -336,6 +336,7 @@ int rad_scene_add_material(rad_scene *s, const char *name, const double *rho,
 
     rad_material m;
     memset(&m, 0, sizeof m);
+    m.roughness = 1.0; /* no lobe: pure diffuse */
     for (uint32_t b = 0; b < s->band_count; b++) {
         double r = rho ? rho[b] : 0.0;
         double e = emission ? emission[b] : 0.0;
@@ -374,6 +375,69 @@ int rad_scene_add_material(rad_scene *s, const char *name, const double *rho,
         *index = s->material_count;
     s->material_count++;
     return RAD_OK;
+}
+
+int rad_scene_set_material_lobe(rad_scene *s, uint32_t material, const double *specular,
+                                double roughness, const char *where, rad_error *err)
+{
+    if (!s || material >= s->material_count || !specular)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_scene_set_material_lobe: bad arguments");
+    rad_material *m = &s->materials[material];
+    char eb[320], bb[80];
+    const char *el = element(eb, sizeof eb, "material", m->name, where);
+    if (!(roughness >= 0.0 && roughness <= 1.0))
+        return failf(err, s, RAD_ERR_INVALID, where, "%sroughness %g outside [0, 1]", el,
+                     roughness);
+    for (uint32_t b = 0; b < s->band_count; b++) {
+        double r = specular[b];
+        if (!isfinite(r) || r < 0.0)
+            return failf(err, s, RAD_ERR_INVALID, where,
+                         "%sspecular reflectance %g must be finite and >= 0%s", el, r,
+                         band_label(bb, sizeof bb, s, b));
+        /* Energy: what the surface reflects and transmits stays below 1. */
+        if (!(m->rho[b] + r + m->transmit[b] < 1.0))
+            return failf(err, s, RAD_ERR_INVALID, where,
+                         "%sdiffuse + specular reflectance + transmittance = %g must be < 1%s",
+                         el, m->rho[b] + r + m->transmit[b], band_label(bb, sizeof bb, s, b));
+    }
+    for (uint32_t b = 0; b < s->band_count; b++)
+        m->specular[b] = specular[b];
+    m->roughness = roughness;
+    return RAD_OK;
+}
+
+int rad_scene_set_material_gloss(rad_scene *s, uint32_t material, double metallic,
+                                 double roughness, const char *where, rad_error *err)
+{
+    if (!s || material >= s->material_count)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_scene_set_material_gloss: bad arguments");
+    rad_material *m = &s->materials[material];
+    char eb[320];
+    const char *el = element(eb, sizeof eb, "material", m->name, where);
+    if (!(metallic >= 0.0 && metallic <= 1.0))
+        return failf(err, s, RAD_ERR_INVALID, where, "%smetallic %g outside [0, 1]", el,
+                     metallic);
+    if (!(roughness >= 0.0 && roughness <= 1.0))
+        return failf(err, s, RAD_ERR_INVALID, where, "%sroughness %g outside [0, 1]", el,
+                     roughness);
+    double spec[RAD_MAX_BANDS] = {0}, rho[RAD_MAX_BANDS];
+    for (uint32_t b = 0; b < s->band_count; b++) {
+        double c = m->rho[b];
+        rho[b] = c;
+        if (roughness < 1.0) {
+            /* glTF's split: a metal reflects its base colour in the lobe, a
+             * dielectric F0 there and the rest of its base colour diffusely. */
+            spec[b] = RAD_DIELECTRIC_F0 * (1.0 - metallic) + metallic * c;
+            rho[b] = (1.0 - metallic) * (1.0 - RAD_DIELECTRIC_F0) * c;
+        }
+    }
+    double keep[RAD_MAX_BANDS];
+    memcpy(keep, m->rho, sizeof keep);
+    memcpy(m->rho, rho, sizeof rho);
+    int rc = rad_scene_set_material_lobe(s, material, spec, roughness, where, err);
+    if (rc)
+        memcpy(m->rho, keep, sizeof keep);
+    return rc;
 }
 
 /* ------------------------------------------------------------------ objects */

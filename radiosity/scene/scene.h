@@ -21,7 +21,24 @@ typedef struct rad_material {
     double rho[RAD_MAX_BANDS];      /* ρ: diffuse reflectance per band, [0, 1) */
     double emission[RAD_MAX_BANDS]; /* E: emitted exitance per band, >= 0 */
     double transmit[RAD_MAX_BANDS]; /* diffuse transmittance per band (0 = opaque) */
+    /* A glossy lobe (Ward's isotropic Gaussian), seen only by the gather
+     * renderer: the radiosity solve treats every surface as diffuse with ρ
+     * and ignores these.  specular = ρ_s, the lobe's reflectance per band
+     * (0 = none); roughness r in [0, 1], the lobe's α = r².  Defaults
+     * ρ_s = 0, r = 1: pure diffuse (rad_scene_set_material_gloss maps glTF's
+     * metallic and roughness here).  Invariant: ρ + ρ_s + τ < 1 per band. */
+    double specular[RAD_MAX_BANDS];
+    double roughness;
 } rad_material;
+
+/* 1 when the material has a glossy lobe in some band. */
+static inline int rad_material_glossy(const rad_material *m, uint32_t bands)
+{
+    for (uint32_t b = 0; b < bands; b++)
+        if (m->specular[b] > 0.0)
+            return 1;
+    return 0;
+}
 
 /* 1 when the material transmits in some of the scene's bands: its polygons
  * are thin sheets with two sides (rad_mesh twins). */
@@ -177,6 +194,26 @@ int rad_scene_add_material(rad_scene *s, const char *name, const double *rho,
                            const char *where, uint32_t *index, rad_error *err);
 int rad_scene_add_object(rad_scene *s, const char *name, const char *where, uint32_t *index,
                          rad_error *err);
+
+/* The dielectric reflectance at normal incidence that glTF's
+ * metallic-roughness model gives a non-metal (F0 = 0.04). */
+#define RAD_DIELECTRIC_F0 0.04
+
+/* Gives material `material` a glossy lobe from glTF's metallic-roughness
+ * parameters, taking its current ρ as the base colour c (call it right
+ * after rad_scene_add_material):
+ *   roughness r < 1:  ρ_s = F0 (1 − m) + m c,  ρ = (1 − m)(1 − F0) c,  α = r²
+ *   roughness r = 1:  no lobe, ρ = c (a fully rough surface is diffuse, so a
+ *                     scene that never names metallic or roughness renders
+ *                     exactly as before),
+ * F0 = RAD_DIELECTRIC_F0.  0 <= m, r <= 1; fails when ρ + ρ_s + τ >= 1. */
+int rad_scene_set_material_gloss(rad_scene *s, uint32_t material, double metallic,
+                                 double roughness, const char *where, rad_error *err);
+
+/* Sets the lobe directly (what a stored solution holds): ρ_s per band >= 0,
+ * 0 <= roughness <= 1, ρ + ρ_s + τ < 1; nothing changes on failure. */
+int rad_scene_set_material_lobe(rad_scene *s, uint32_t material, const double *specular,
+                                double roughness, const char *where, rad_error *err);
 /* Checks the polygon (count, finite, area, planarity, convexity) and stores
  * it with its normal and area.  Points must run counter-clockwise about the
  * front normal. */

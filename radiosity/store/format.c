@@ -16,18 +16,55 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+/* Each section's tag in the file and its name in messages. */
 const char sol_sec_tag[SEC_COUNT][4] = {
-    {'I', 'N', 'F', 'O'}, {'S', 'C', 'E', 'N'}, {'M', 'E', 'S', 'H'}, {'M', 'T', 'R', 'X'},
-    {'P', 'D', 'A', 'T'}, {'L', 'G', 'H', 'T'}, {'E', 'L', 'E', 'M'}, {'E', 'L', 'G', 'T'},
-    {'C', 'A', 'M', 'S'}, {'R', 'O', 'W', 'S'}, {'I', 'R', 'R', 'D'}, {'M', 'R', 'E', 'F'}};
+    [SEC_INFO] = {'I', 'N', 'F', 'O'},
+    [SEC_SCENE] = {'S', 'C', 'E', 'N'},
+    [SEC_MESH] = {'M', 'E', 'S', 'H'},
+    [SEC_MATRIX] = {'M', 'T', 'R', 'X'},
+    [SEC_PATCHDATA] = {'P', 'D', 'A', 'T'},
+    [SEC_LIGHTS] = {'L', 'G', 'H', 'T'},
+    [SEC_ELEMENTS] = {'E', 'L', 'E', 'M'},
+    [SEC_ELEMENT_LIGHTS] = {'E', 'L', 'G', 'T'},
+    [SEC_CAMERAS] = {'C', 'A', 'M', 'S'},
+    [SEC_SURFACE] = {'S', 'U', 'R', 'F'},
+    [SEC_CLUSTERS] = {'C', 'L', 'U', 'S'},
+    [SEC_ROWS] = {'R', 'O', 'W', 'S'},
+    [SEC_IRRADIANCE] = {'I', 'R', 'R', 'D'},
+    [SEC_MATRIXREF] = {'M', 'R', 'E', 'F'},
+};
 
 const char *const sol_sec_name[SEC_COUNT] = {
-    "INFO",     "SCENE",         "MESH",    "MATRIX", "PATCHDATA",  "LIGHTS",
-    "ELEMENTS", "ELEMENTLIGHTS", "CAMERAS", "ROWS",   "IRRADIANCE", "MATRIXREF"};
+    [SEC_INFO] = "INFO",
+    [SEC_SCENE] = "SCENE",
+    [SEC_MESH] = "MESH",
+    [SEC_MATRIX] = "MATRIX",
+    [SEC_PATCHDATA] = "PATCHDATA",
+    [SEC_LIGHTS] = "LIGHTS",
+    [SEC_ELEMENTS] = "ELEMENTS",
+    [SEC_ELEMENT_LIGHTS] = "ELEMENTLIGHTS",
+    [SEC_CAMERAS] = "CAMERAS",
+    [SEC_SURFACE] = "SURFACE",
+    [SEC_CLUSTERS] = "CLUSTERS",
+    [SEC_ROWS] = "ROWS",
+    [SEC_IRRADIANCE] = "IRRADIANCE",
+    [SEC_MATRIXREF] = "MATRIXREF",
+};
 
 const int sol_version_sections[SOL_VERSION_SHEETS + 1] = {0, SEC_LIGHTS, SEC_ELEMENTS,
                                                           SEC_ELEMENT_LIGHTS, SEC_CAMERAS,
                                                           SEC_COUNT_V5};
+
+int sol_section_order(size_t q)
+{
+    static const int head[] = {SEC_INFO,      SEC_SCENE,      SEC_MESH,
+                               SEC_ROWS,      SEC_PATCHDATA,  SEC_IRRADIANCE};
+    const size_t nh = sizeof head / sizeof head[0];
+    if (q < nh)
+        return head[q];
+    q -= nh;
+    return q <= (size_t)(SEC_LAST_ANNOUNCED - SEC_LIGHTS) ? SEC_LIGHTS + (int)q : -1;
+}
 
 /* ------------------------------------------------------------- CRC-64/XZ */
 

@@ -136,6 +136,15 @@ static int check_count(sol_reader *r, uint64_t count, uint64_t min_bytes, const 
 
 #define TRUNC(...) sol_rfail(r, RAD_ERR_CORRUPT, __VA_ARGS__)
 
+int sol_announced(const sol_reader *r, int k)
+{
+    return r->version >= SOL_VERSION_SHEETS && k >= SEC_LIGHTS && k <= SEC_LAST_ANNOUNCED &&
+           ((r->announced >> (k - SEC_LIGHTS)) & 1u);
+}
+
+/* Is the elements' completion left to CLUSTERS (announced: it follows)? */
+static int deferred(const sol_reader *r) { return sol_announced(r, SEC_CLUSTERS); }
+
 static int parse_info(sol_reader *r, rad_solution *s)
 {
     sol_cursor *c = &r->c;
@@ -168,8 +177,9 @@ static int parse_info(sol_reader *r, rad_solution *s)
     if (r->version >= SOL_VERSION_SHEETS) {
         if (!sol_get_u8(c, &r->announced))
             return TRUNC("truncated");
-        if (r->announced > 15)
-            return TRUNC("announced sections 0x%x: only bits 0-3 exist", r->announced);
+        if (r->announced >> SOL_ANNOUNCED_BITS)
+            return TRUNC("announced sections 0x%x: only bits 0-%d exist", r->announced,
+                         SOL_ANNOUNCED_BITS - 1);
     }
     return sol_check_info(s, r->name, "section INFO", RAD_ERR_CORRUPT, r->err);
 }
@@ -718,8 +728,10 @@ static int parse_elements(sol_reader *r, rad_solution *s)
             return rc;
         el->nnz += cnt;
     }
+    /* Elements in clusters take their polygon and normal from the cell
+     * they lie in: with CLUSTERS to come, they are completed there. */
     rad_error sub;
-    if (rad_elements_complete(el, s, "elements", &sub))
+    if (!deferred(r) && rad_elements_complete(el, s, "elements", &sub))
         return sol_rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
     return RAD_OK;
 }
@@ -749,7 +761,7 @@ static int parse_element_lights(sol_reader *r, rad_solution *s)
         if (!sol_get_f32(c, &el->light_h[q]))
             return TRUNC("truncated");
     rad_error sub;
-    if (rad_elements_check(el, s, "elements", &sub))
+    if (!deferred(r) && rad_elements_check(el, s, "elements", &sub))
         return sol_rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
     return RAD_OK;
 }
@@ -975,13 +987,123 @@ static int parse_ortho_cameras(sol_reader *r, rad_solution *s)
     return RAD_OK;
 }
 
+/* CLUSTERS: each patch's cell count, then the corners and polygon of the
+ * cells of every patch that has several; the rest of a cell (object and
+ * material its patch's, normal its polygon's, centre and area from its
+ * corners) is derived, a patch of one cell is that cell, and the whole
+ * layer must pass rad_mesh_check.  Elements read before are completed here
+ * (they need the cells). */
+static int parse_clusters(sol_reader *r, rad_solution *s)
+{
+    sol_cursor *c = &r->c;
+    rad_mesh *m = s->mesh;
+    const rad_scene *sc = s->scene;
+    uint32_t n, nc;
+    if (!sol_get_u32(c, &n) || !sol_get_u32(c, &nc))
+        return TRUNC("truncated");
+    if (n != m->patch_count)
+        return TRUNC("%u patches but the mesh has %u", n, m->patch_count);
+    /* every patch has a cell and takes at least one byte to count */
+    if (nc < n || n > c->left || (uint64_t)(nc - n) * CLUSTER_CELL_BYTES > c->left)
+        return TRUNC("%u cells for %u patches cannot fit in the %zu bytes left", nc, n, c->left);
+    if (rad_mesh_alloc_cells(m, nc) != 0)
+        return sol_rfail(r, RAD_ERR_NOMEM, "out of memory for %u cells", nc);
+    uint64_t total = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t k;
+        if (!sol_get_varint(c, &k))
+            return TRUNC("patch %u: cell count truncated or malformed", i);
+        if (k == 0 || k > nc - total)
+            return TRUNC("patch %u: %u cells (1..%llu left)", i, k,
+                         (unsigned long long)(nc - total));
+        m->cell_first[i] = (uint32_t)total;
+        total += k;
+    }
+    if (total != nc)
+        return TRUNC("the patches hold %llu cells, not %u", (unsigned long long)total, nc);
+    m->cell_first[n] = nc;
+    for (uint32_t i = 0; i < n; i++) {
+        const rad_patch *p = &m->patches[i];
+        uint32_t c0 = m->cell_first[i], c1 = m->cell_first[i + 1];
+        if (c1 - c0 == 1) {
+            m->cells[c0] = *p;
+            continue;
+        }
+        for (uint32_t q = c0; q < c1; q++) {
+            rad_patch *cell = &m->cells[q];
+            int ok = 1;
+            for (int k = 0; k < 4; k++)
+                ok = ok && sol_get_u32(c, &cell->v[k]);
+            if (!ok || !sol_get_u32(c, &cell->polygon))
+                return TRUNC("cell %u: truncated", q);
+            for (int k = 0; k < 4; k++)
+                if (cell->v[k] >= m->vertex_count && !(k == 3 && cell->v[k] == RAD_NONE))
+                    return TRUNC("cell %u: vertex %u out of range (%u vertices)", q, cell->v[k],
+                                 m->vertex_count);
+            if (cell->polygon >= sc->polygon_count)
+                return TRUNC("cell %u: polygon %u out of range (%u polygons)", q, cell->polygon,
+                             sc->polygon_count);
+            cell->object = p->object;
+            cell->material = p->material;
+            cell->normal = sc->polygons[cell->polygon].normal;
+            if (rad_cell_geometry(m->vertices, cell->v, cell->normal, &cell->center,
+                                  &cell->area) != 0)
+                return TRUNC("cell %u: area is not positive", q);
+        }
+    }
+    rad_error sub;
+    if (rad_mesh_check(m, sc->polygon_count, sc->object_count, sc->material_count, &sub))
+        return sol_rfail(r, RAD_ERR_CORRUPT, "%s",
+                     strncmp(sub.message, "mesh: ", 6) == 0 ? sub.message + 6 : sub.message);
+    if (s->elements && rad_elements_complete(s->elements, s, "elements", &sub))
+        return sol_rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
+    return RAD_OK;
+}
+
+/* SURFACE: one lobe per material of the scene, checked by
+ * rad_scene_set_material_lobe (the rules a loader meets). */
+static int parse_surface(sol_reader *r, rad_solution *s)
+{
+    sol_cursor *c = &r->c;
+    rad_scene *sc = s->scene;
+    uint32_t n;
+    if (!sol_get_u32(c, &n))
+        return TRUNC("truncated");
+    if (n != sc->material_count)
+        return TRUNC("%u materials, but the scene has %u", n, sc->material_count);
+    for (uint32_t i = 0; i < n; i++) {
+        double rough, spec[RAD_MAX_BANDS];
+        if (!sol_get_f64(c, &rough))
+            return TRUNC("material %u: truncated", i);
+        for (uint32_t b = 0; b < sc->band_count; b++)
+            if (!sol_get_f64(c, &spec[b]))
+                return TRUNC("material %u: truncated", i);
+        rad_error sub;
+        if (rad_scene_set_material_lobe(sc, i, spec, rough, "section SURFACE", &sub))
+            return sol_rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
+    }
+    return RAD_OK;
+}
+
 /* ---------------------------------------------------------------- dispatch */
 
 typedef int (*parse_fn)(sol_reader *, rad_solution *);
 static const parse_fn sec_parse[SEC_COUNT] = {
-    parse_info,     parse_scene,       parse_mesh, parse_matrix,     parse_patchdata,
-    parse_lights,   parse_elements,    parse_element_lights,         parse_ortho_cameras,
-    parse_rows,     parse_irradiance,  parse_matrixref};
+    [SEC_INFO] = parse_info,
+    [SEC_SCENE] = parse_scene,
+    [SEC_MESH] = parse_mesh,
+    [SEC_MATRIX] = parse_matrix,
+    [SEC_PATCHDATA] = parse_patchdata,
+    [SEC_LIGHTS] = parse_lights,
+    [SEC_ELEMENTS] = parse_elements,
+    [SEC_ELEMENT_LIGHTS] = parse_element_lights,
+    [SEC_CAMERAS] = parse_ortho_cameras,
+    [SEC_SURFACE] = parse_surface,
+    [SEC_CLUSTERS] = parse_clusters,
+    [SEC_ROWS] = parse_rows,
+    [SEC_IRRADIANCE] = parse_irradiance,
+    [SEC_MATRIXREF] = parse_matrixref,
+};
 
 int sol_parse_section(sol_reader *r, int sec, rad_solution *s)
 {

@@ -58,12 +58,6 @@ static int check_header(const uint8_t *d, uint64_t size, const char *name, sol_h
 
 /* ------------------------------------------------------ versions 1 to 5 */
 
-/* Version 5 and 6: does INFO announce optional section k (LIGHTS and after)? */
-static int announced(const sol_reader *r, int k)
-{
-    return (r->announced >> (k - SEC_LIGHTS)) & 1u;
-}
-
 static int known_section(const uint8_t tag[4], int count)
 {
     for (int i = 0; i < count; i++)
@@ -106,7 +100,7 @@ static int next_expected(const sol_reader *r, const rad_solution *s, int next, i
         s->scene->light_count == 0)
         next = SEC_ELEMENTS;
     while (r->version >= SOL_VERSION_SHEETS && next >= SEC_LIGHTS && next < k &&
-           !announced(r, next))
+           !sol_announced(r, next))
         next++;
     return next;
 }
@@ -138,7 +132,7 @@ static int payload_section(sol_reader *r, rad_solution *s, sol_cursor *all, size
         return RAD_OK;
     }
     *next = next_expected(r, s, *next, k);
-    if (r->version >= SOL_VERSION_SHEETS && k >= SEC_LIGHTS && !announced(r, k))
+    if (r->version >= SOL_VERSION_SHEETS && k >= SEC_LIGHTS && !sol_announced(r, k))
         return rad_fail(r->err, RAD_ERR_CORRUPT, "%s: byte %zu: section %s not announced in INFO",
                         name, offset, sol_sec_name[k]);
     if (k != *next) {
@@ -173,7 +167,7 @@ static int parse_payload(sol_reader *r, rad_solution *s, const uint8_t *d, size_
         return rc;
     const int required = sol_version_sections[r->version];
     while (r->version >= SOL_VERSION_SHEETS && next >= SEC_LIGHTS && next < SEC_COUNT_V5 &&
-           !announced(r, next))
+           !sol_announced(r, next))
         next++;
     if (next < required)
         return rad_fail(r->err, RAD_ERR_CORRUPT, "%s: section %s missing", r->name,
@@ -273,17 +267,12 @@ static int parse_index(const uint8_t *d, uint64_t len, uint64_t at, const char *
 static int check_announced(const sol_reader *r, const sol_index *x)
 {
     for (int k = SEC_LIGHTS; k <= SEC_LAST_ANNOUNCED; k++)
-        if ((x->at[k] >= 0) != announced(r, k))
+        if ((x->at[k] >= 0) != sol_announced(r, k))
             return rad_fail(r->err, RAD_ERR_CORRUPT, "%s: section %s %s", r->name,
                             sol_sec_name[k],
-                            announced(r, k) ? "missing" : "not announced in INFO");
+                            sol_announced(r, k) ? "missing" : "not announced in INFO");
     return RAD_OK;
 }
-
-/* The order sections are parsed in (each needs those before it). */
-static const int parse_order[] = {SEC_INFO,       SEC_SCENE,      SEC_MESH,   SEC_ROWS,
-                                  SEC_PATCHDATA,  SEC_IRRADIANCE, SEC_LIGHTS, SEC_ELEMENTS,
-                                  SEC_ELEMENT_LIGHTS, SEC_CAMERAS};
 
 /* ------------------------------------------- version 6 from a file */
 
@@ -560,8 +549,9 @@ static int read_v6(sol_reader *r, const sol_file *f, const uint8_t head[SOL_HEAD
 {
     sol_index x;
     int rc = file_index(f, head, r->check_sum, &x, r->err);
-    for (size_t q = 0; !rc && q < sizeof parse_order / sizeof parse_order[0]; q++) {
-        int sec = parse_order[q];
+    /* the sections in the order they are parsed (each needs those before it) */
+    for (size_t q = 0; !rc && sol_section_order(q) >= 0; q++) {
+        int sec = sol_section_order(q);
         if (sec == SEC_LIGHTS && (rc = check_announced(r, &x)))
             break;
         if (x.at[sec] >= 0)
@@ -703,8 +693,13 @@ static int parse_v6(sol_reader *r, const uint8_t *d, size_t size, const sol_head
         rc = rad_fail(r->err, RAD_ERR_USAGE,
                       "%s: its matrix is in another file (MATRIXREF), which memory cannot follow",
                       r->name);
-    for (size_t q = 0; !rc && q <= sizeof parse_order / sizeof parse_order[0]; q++) {
-        int sec = q < sizeof parse_order / sizeof parse_order[0] ? parse_order[q] : matrix;
+    /* the sections in parse order, then the matrix when asked for */
+    for (size_t q = 0, done = 0; !rc && !done; q++) {
+        int sec = sol_section_order(q);
+        if (sec < 0) {
+            sec = matrix;
+            done = 1;
+        }
         if (sec == SEC_LIGHTS && (rc = check_announced(r, &x)))
             break;
         if (sec < 0 || x.at[sec] < 0)

@@ -196,6 +196,15 @@ typedef struct rad_write_info {
 int rad_solution_write_opts(const rad_solution *s, const char *path, const rad_write_options *opt,
                             rad_write_info *info, rad_error *err);
 
+/* The size in bytes of s's file as a solve writes it now (rad_journal: each
+ * row present in a block of its own; rad_solution_write groups rows into
+ * larger blocks, a little smaller): a counting pass, nothing written, what
+ * a solve's estimate builds on. */
+uint64_t rad_solution_file_bytes(const rad_solution *s);
+
+/* The bytes row i of F adds to that file (0 for a missing row). */
+uint64_t rad_solution_row_file_bytes(const rad_matrix *F, uint32_t i);
+
 /* Reads and checks a solution file, everything in it.  Version 6: the
  * header, the index (its CRC) and each section (its own CRC, then every
  * index and count against the section's size before allocating); F comes

@@ -14,8 +14,9 @@
  * section; version 4 = + the ELEMENTLIGHTS section (each element's own
  * direct light); version 5 = MESH may hold two-sided sheets (a transmitting
  * polygon's front cells followed by their back twins), with the sections of
- * versions 1-4 as its content needs them, and CAMERAS when the scene has
- * orthographic cameras.  A file is written with the lowest
+ * versions 1-4 as its content needs them, and CAMERAS, SURFACE and
+ * CLUSTERS when the scene has orthographic cameras, glossy materials or
+ * clustered patches.  Programs before version 6 wrote a file with the lowest
  * version that holds what it has (1 without punctual lights or elements, 2
  * with lights, 3 with elements, 4 with elements that carry their own direct
  * light, 5 with sheets), so older programs still read what they understand,
@@ -50,28 +51,50 @@
 
 /* The first five sections appear in every file of versions 1-5; LIGHTS
  * only when the scene has punctual lights, ELEMENTS only when the solution
- * has elements, CAMERAS (versions 5 and 6) only when the scene has
- * orthographic cameras.  ROWS, IRRADIANCE and MATRIXREF exist from version
- * 6 on (which holds MATRIXREF or MATRIX, never both). */
+ * has elements, and the others from CAMERAS on (versions 5 and 6) only when
+ * the content needs them: CAMERAS when the scene has orthographic cameras,
+ * SURFACE when a material has a glossy lobe (rad_material's specular and
+ * roughness, which only the gather renderer reads), CLUSTERS when the mesh
+ * has a cell layer (patches of several cells, rad.h).  ROWS, IRRADIANCE
+ * and MATRIXREF exist from version 6 on (which holds MATRIXREF or MATRIX,
+ * never both).
+ *
+ * Adding an optional section (docs/solution-format.md, "Adding a
+ * section"): its enum entry just before SEC_ROWS (its INFO bit follows
+ * from its place), its tag and name in format.c, its parse function in
+ * parse.c's table, its emit function and when it is written in write.c's.
+ * The readers of both versions and the writer take it from there. */
 enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_ELEMENTS,
-       SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_ROWS, SEC_IRRADIANCE, SEC_MATRIXREF, SEC_COUNT };
+       SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_SURFACE, SEC_CLUSTERS,
+       SEC_ROWS, SEC_IRRADIANCE, SEC_MATRIXREF, SEC_COUNT };
 /* Sections of versions 1-5 (the others are refused there). */
 #define SEC_COUNT_V5 SEC_ROWS
 /* The optional sections INFO announces (versions 5 and 6), one bit each
- * from LIGHTS on: LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4, CAMERAS 8. */
-#define SEC_LAST_ANNOUNCED SEC_CAMERAS
+ * from LIGHTS on, in enum order: LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4,
+ * CAMERAS 8, SURFACE 16, CLUSTERS 32 (ELEMENT_INDIRECT 64 and PROGRESS 128
+ * are taken by sections to come).  INFO's announcement is one byte. */
+#define SEC_LAST_ANNOUNCED (SEC_ROWS - 1)
+#define SOL_ANNOUNCED_BITS (SEC_LAST_ANNOUNCED - SEC_LIGHTS + 1)
+_Static_assert(SOL_ANNOUNCED_BITS <= 8, "INFO announces the optional sections in one byte");
 extern const char sol_sec_tag[SEC_COUNT][4];
 extern const char *const sol_sec_name[SEC_COUNT];
 /* Sections each version may hold: 1 the first five, 2 + LIGHTS, 3 +
  * ELEMENTS (where LIGHTS is there exactly when the scene has lights), 4 +
- * ELEMENTLIGHTS (LIGHTS always), 5 any of them as the content needs. */
+ * ELEMENTLIGHTS (LIGHTS always), 5 any of them (the optional sections
+ * from CAMERAS on included) as the content needs. */
 extern const int sol_version_sections[SOL_VERSION_SHEETS + 1];
+
+/* The order of the sections after the matrix, for the writer and the
+ * reader of version 6 (each needs those before it): INFO, SCENE, MESH,
+ * ROWS, PATCHDATA, IRRADIANCE, then the optional sections in enum order.
+ * Entry q, or -1 past the end. */
+int sol_section_order(size_t q);
 
 /* Minimum encoded sizes of one element, used to bound counts before
  * allocating: a count of k elements needs at least k × this many bytes. */
 #define MIN_STRING 4u
 #define MIN_CAMERA (MIN_STRING + 11u * 8u)
-#define MIN_POLYGON (MIN_STRING + 6u * 4u + 3u * 24u)
+#define MIN_POLYGON (MIN_STRING + 5u * 4u + 3u * 24u) /* material, object, subdivisions, count */
 #define PATCH_BYTES (7u * 4u + 7u * 8u)
 #define VERTEX_BYTES (3u * 8u + 1u)
 #define MIN_ROW (2u * 4u)
@@ -83,6 +106,8 @@ extern const int sol_version_sections[SOL_VERSION_SHEETS + 1];
 #define MIN_ELEMENT (4u + 1u + 16u + 4u)
 /* camera index, projection, xmag, ymag */
 #define ORTHO_CAMERA_BYTES (4u + 1u + 16u)
+/* four corners and a polygon */
+#define CLUSTER_CELL_BYTES (5u * 4u)
 
 
 /* ------------------------------------------------- checksum (format.c) */
@@ -167,6 +192,10 @@ int sol_rfail(sol_reader *r, int code, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)))
 #endif
     ;
+
+/* Versions 5 and 6: does INFO announce optional section k? (0 for any
+ * other section or version.) */
+int sol_announced(const sol_reader *r, int k);
 
 /* Parses section `sec` from r->c (which must hold exactly its body) into s. */
 int sol_parse_section(sol_reader *r, int sec, rad_solution *s);

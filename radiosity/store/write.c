@@ -1,11 +1,12 @@
 /* write.c - rad_solution_write: the solution file of
  * docs/solution-format.md, format version 6.  A header, the sections each
  * with its own CRC-64 (MATRIX or MATRIXREF, INFO, SCENE, MESH, ROWS,
- * PATCHDATA, IRRADIANCE, then LIGHTS, ELEMENTS, ELEMENTLIGHTS and CAMERAS
- * as the solution has them), and at the end the index that lists them,
- * whose CRC the header holds.  The index comes last so that a solve can
- * stream its matrix first, one row block per finished row (journal.c), and
- * add the rest when it is done; this file writes the same layout in one go.
+ * PATCHDATA, IRRADIANCE, then the optional ones as the solution has them:
+ * LIGHTS, ELEMENTS, ELEMENTLIGHTS, CAMERAS, SURFACE, CLUSTERS), and at the
+ * end the index that lists them, whose CRC the header holds.  The index
+ * comes last so that a solve can stream its matrix first, one row block
+ * per finished row (journal.c), and add the rest when it is done; this file
+ * writes the same layout in one go.
  *
  * Invariant: the writer applies the reader's rules before it creates a
  * file, so it never writes a file the reader would refuse, and it never
@@ -48,6 +49,8 @@ void sol_sink_free(sol_sink *k)
 /* Brings the CRC up to the end of the buffer. */
 static void sink_crc(sol_sink *k)
 {
+    if (k->len == k->crc_from)
+        return; /* nothing new (always so in a counting sink) */
     k->crc = sol_crc64_update(k->tab, k->crc, k->buf + k->crc_from, k->len - k->crc_from);
     k->crc_from = k->len;
 }
@@ -65,6 +68,8 @@ void sol_put(sol_sink *k, const void *p, size_t n)
 {
     const uint8_t *b = p;
     k->total += n;
+    if (!k->buf)
+        return; /* a counting sink ({0}): only the total */
     while (n) {
         size_t room = k->cap - k->len, step = n < room ? n : room;
         memcpy(k->buf + k->len, b, step);
@@ -148,10 +153,11 @@ static void put_str(sol_sink *k, const char *s)
 
 static int section_written(const rad_solution *s, int i);
 
-/* Version 5's INFO ends with the optional sections the file holds, one bit
- * each (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4, CAMERAS 8): the reader then knows what
- * must follow, and a file cut or stripped before one of them cannot pass
- * for a file without it. */
+/* INFO (versions 5 and 6) ends with the optional sections the file holds,
+ * one bit each in enum order (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4,
+ * CAMERAS 8, SURFACE 16, CLUSTERS 32): the reader then knows what must be
+ * there, and a file stripped of one of them cannot pass for a file
+ * without it. */
 static uint8_t announced_sections(const rad_solution *s)
 {
     uint8_t bits = 0;
@@ -293,6 +299,27 @@ static void emit_elements(sol_sink *k, const sol_write_ctx *w)
     }
 }
 
+/* The cell layer: per patch its number of cells, then the corners and
+ * polygon of each cell of the patches that have several (a patch of one
+ * cell is that cell; the rest of a cell follows from its polygon). */
+static void emit_clusters(sol_sink *k, const sol_write_ctx *w)
+{
+    const rad_mesh *m = w->s->mesh;
+    put_u32(k, m->patch_count);
+    put_u32(k, m->cell_count);
+    for (uint32_t i = 0; i < m->patch_count; i++)
+        put_varint(k, m->cell_first[i + 1] - m->cell_first[i]);
+    for (uint32_t i = 0; i < m->patch_count; i++) {
+        if (m->cell_first[i + 1] - m->cell_first[i] < 2)
+            continue;
+        for (uint32_t c = m->cell_first[i]; c < m->cell_first[i + 1]; c++) {
+            for (int q = 0; q < 4; q++)
+                put_u32(k, m->cells[c].v[q]);
+            put_u32(k, m->cells[c].polygon);
+        }
+    }
+}
+
 /* Each element's h_le, element by element, dense: M × L floats. */
 static void emit_element_lights(sol_sink *k, const sol_write_ctx *w)
 {
@@ -379,6 +406,31 @@ static int has_ortho_camera(const rad_scene *sc)
         if (sc->cameras[i].orthographic)
             return 1;
     return 0;
+}
+
+/* 1 when some material has a glossy lobe or a roughness of its own. */
+static int has_surface(const rad_solution *s)
+{
+    const rad_scene *sc = s->scene;
+    for (uint32_t i = 0; i < sc->material_count; i++)
+        if (rad_material_glossy(&sc->materials[i], sc->band_count) ||
+            sc->materials[i].roughness != 1.0)
+            return 1;
+    return 0;
+}
+
+/* SURFACE: the materials' glossy lobes, for the gather renderer (the
+ * solve never reads them): material count, then per material the
+ * roughness and ρ_s per band. */
+static void emit_surface(sol_sink *k, const sol_write_ctx *w)
+{
+    const rad_scene *sc = w->s->scene;
+    put_u32(k, sc->material_count);
+    for (uint32_t i = 0; i < sc->material_count; i++) {
+        put_f64(k, sc->materials[i].roughness);
+        for (uint32_t b = 0; b < sc->band_count; b++)
+            put_f64(k, sc->materials[i].specular[b]);
+    }
 }
 
 static int check_string(const char *str, const char *file, const char *what, uint32_t i,
@@ -473,7 +525,7 @@ static void emit_irradiance(sol_sink *k, const sol_write_ctx *w)
     put_u32(k, n);
     put_u32(k, nb);
     for (size_t q = 0; q < (size_t)n * nb; q++)
-        put_f64(k, w->H[q]);
+        put_f64(k, w->H ? w->H[q] : 0.0); /* a counting pass has no H */
 }
 
 /* MATRIXREF: the file holding the matrix and its MATRIX section. */
@@ -541,32 +593,49 @@ void sol_put_matrix_head(sol_sink *k, uint32_t n, uint64_t key)
 
 typedef void (*emit_fn)(sol_sink *, const sol_write_ctx *);
 static const emit_fn sec_emit[SEC_COUNT] = {
-    emit_info,     emit_scene,          emit_mesh,    emit_matrix, emit_patchdata,
-    emit_lights,   emit_elements,       emit_element_lights,       emit_cameras,
-    emit_rows,     emit_irradiance,     emit_matrixref};
+    [SEC_INFO] = emit_info,
+    [SEC_SCENE] = emit_scene,
+    [SEC_MESH] = emit_mesh,
+    [SEC_MATRIX] = emit_matrix,
+    [SEC_PATCHDATA] = emit_patchdata,
+    [SEC_LIGHTS] = emit_lights,
+    [SEC_ELEMENTS] = emit_elements,
+    [SEC_ELEMENT_LIGHTS] = emit_element_lights,
+    [SEC_CAMERAS] = emit_cameras,
+    [SEC_SURFACE] = emit_surface,
+    [SEC_CLUSTERS] = emit_clusters,
+    [SEC_ROWS] = emit_rows,
+    [SEC_IRRADIANCE] = emit_irradiance,
+    [SEC_MATRIXREF] = emit_matrixref,
+};
 
-/* LIGHTS is written only when there are lights, ELEMENTS when there are
- * elements, ELEMENTLIGHTS when the elements carry their own direct light,
- * CAMERAS when a camera is orthographic. */
+/* Whether the file holds section i: the optional ones only when the
+ * solution has what they hold (LIGHTS punctual lights, ELEMENTS elements,
+ * ELEMENTLIGHTS elements with their own direct light, CAMERAS an
+ * orthographic camera, SURFACE a glossy material, CLUSTERS patches of
+ * several cells); the others always (MATRIX and MATRIXREF are the
+ * writer's choice, not asked here). */
 static int section_written(const rad_solution *s, int i)
 {
-    if (i == SEC_CAMERAS)
-        return has_ortho_camera(s->scene);
-    if (i == SEC_LIGHTS)
+    switch (i) {
+    case SEC_LIGHTS:
         return s->scene->light_count > 0;
-    if (i == SEC_ELEMENTS)
+    case SEC_ELEMENTS:
         return s->elements != NULL;
-    if (i == SEC_ELEMENT_LIGHTS)
+    case SEC_ELEMENT_LIGHTS:
         return s->elements && s->elements->light_h;
-    return 1;
+    case SEC_CAMERAS:
+        return has_ortho_camera(s->scene);
+    case SEC_SURFACE:
+        return has_surface(s);
+    case SEC_CLUSTERS:
+        return s->mesh->cell_first != NULL;
+    default:
+        return 1;
+    }
 }
 
 /* ------------------------------------------------------------------- file */
-
-/* The sections after the matrix, in the order written. */
-static const int rest_order[] = {SEC_INFO,       SEC_SCENE,      SEC_MESH,   SEC_ROWS,
-                                 SEC_PATCHDATA,  SEC_IRRADIANCE, SEC_LIGHTS, SEC_ELEMENTS,
-                                 SEC_ELEMENT_LIGHTS, SEC_CAMERAS};
 
 uint64_t sol_rows_crc(sol_sink *k, const rad_mesh *m)
 {
@@ -586,8 +655,8 @@ int sol_write_rest(sol_sink *k, const sol_write_ctx *w, const sol_index_entry *m
     sol_index_entry idx[SOL_MAX_SECTIONS];
     uint32_t count = 0;
     idx[count++] = *matrix;
-    for (size_t q = 0; q < sizeof rest_order / sizeof rest_order[0]; q++) {
-        int sec = rest_order[q];
+    for (size_t q = 0; sol_section_order(q) >= 0; q++) { /* the reader's order */
+        int sec = sol_section_order(q);
         if (!section_written(s, sec))
             continue;
         sol_sink_begin(k, &idx[count], sec);
@@ -633,6 +702,29 @@ void sol_store_le(uint8_t *p, uint64_t v, int bytes)
 {
     for (int i = 0; i < bytes; i++)
         p[i] = (uint8_t)(v >> (8 * i));
+}
+
+uint64_t rad_solution_row_file_bytes(const rad_matrix *F, uint32_t i)
+{
+    return F->row_done[i] ? SOL_BLOCK_HEAD + rad_matrix_record_bytes(F, i) : 0;
+}
+
+uint64_t rad_solution_file_bytes(const rad_solution *s)
+{
+    sol_sink count = {0}; /* counts, writes nothing */
+    sol_write_ctx w = {.s = s};
+    uint64_t total = SOL_HEADER_BYTES + SOL_MATRIX_HEAD;
+    for (uint32_t i = 0; i < s->F->n; i++)
+        total += rad_solution_row_file_bytes(s->F, i);
+    uint32_t sections = 1; /* MATRIX */
+    for (size_t q = 0; sol_section_order(q) >= 0; q++) {
+        int sec = sol_section_order(q);
+        if (section_written(s, sec)) {
+            sec_emit[sec](&count, &w);
+            sections++;
+        }
+    }
+    return total + count.total + SOL_INDEX_HEAD + (uint64_t)sections * SOL_INDEX_ENTRY;
 }
 
 int sol_irradiance_for_write(const rad_solution *s, double **H, rad_error *err)

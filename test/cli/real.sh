@@ -42,7 +42,7 @@ solves textured.gltf 3 "extensions KHR_texture_transform, KHR_materials_specular
     "material 'checker floor': normal, occlusion and metallic-roughness textures ignored"
 solves no-material.gltf 5 "mesh 'floor': primitives without a material get glTF's default" \
     "mesh 'floor' (LINES): primitives without area (points, lines) skipped" \
-    "material 'gold': metallicFactor ignored" "material 'leaf' (MASK): alphaMode ignored" \
+    "material 'gold': metallicFactor drawn by render --gather only" "material 'leaf' (MASK): alphaMode ignored" \
     "light 'bulb': range ignored"
 solves vertex-colors.glb 2 "material 'painted': reflectance >= 1 clamped to 0.95 (--strict refuses it)" \
     "material 'label': texture coordinates ignored"
