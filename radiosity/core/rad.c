@@ -48,6 +48,7 @@ const char *rad_result_name(int code)
     case RAD_ERR_CORRUPT: return "corrupt data";
     case RAD_ERR_USAGE: return "usage error";
     case RAD_ERR_NOTFOUND: return "not found";
+    case RAD_ERR_INTERRUPTED: return "interrupted";
     default: return "unknown error";
     }
 }

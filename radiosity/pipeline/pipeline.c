@@ -62,24 +62,50 @@ static void run_end(run *c)
     c->exact = NULL;
 }
 
+/* The patches whose incoming factors are exact, into c->exact (NULL when
+ * none are: pixel_emitters, or the caller's own marks): emitters, whose few
+ * pixels are where aliasing hurts. */
+static int mark_exact(run *c, rad_error *err)
+{
+    if (c->exact || c->opt->pixel_emitters || c->opt->hemicube.exact)
+        return RAD_OK;
+    uint32_t n = c->s->mesh->patch_count, nb = c->s->band_count;
+    c->exact = calloc((size_t)n + 1, 1);
+    if (!c->exact)
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", c->s->scene->source);
+    for (uint32_t i = 0; i < n; i++)
+        for (uint32_t b = 0; b < nb; b++)
+            c->exact[i] |= c->s->emission[(size_t)i * nb + b] > 0.0;
+    return RAD_OK;
+}
+
 static int start_hemicube(run *c, rad_error *err)
 {
     if (c->hc)
         return RAD_OK;
     hc_options ho = c->opt->hemicube;
     ho.exact_near = c->opt->exact_near;
-    uint32_t n = c->s->mesh->patch_count, nb = c->s->band_count;
-    if (!c->opt->pixel_emitters && !ho.exact) {
-        /* Emitters get exact factors: their few pixels are where aliasing hurts. */
-        c->exact = calloc((size_t)n + 1, 1);
-        if (!c->exact)
-            return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", c->s->scene->source);
-        for (uint32_t i = 0; i < n; i++)
-            for (uint32_t b = 0; b < nb; b++)
-                c->exact[i] |= c->s->emission[(size_t)i * nb + b] > 0.0;
+    ho.stop = c->opt->stop;
+    int rc = mark_exact(c, err);
+    if (rc)
+        return rc;
+    if (c->exact)
         ho.exact = c->exact; /* lives as long as the engine */
-    }
     return hc_create(c->s->mesh, &ho, &c->hc, err);
+}
+
+/* The rows key of this run (rad_rows_key): mesh, R, exact marks and the
+ * options that change rows. */
+static int rows_key(run *c, uint64_t *key, rad_error *err)
+{
+    int rc = mark_exact(c, err);
+    if (rc)
+        return rc;
+    const rad_solve_options *o = c->opt;
+    uint32_t R = o->hemicube.resolution ? o->hemicube.resolution : HC_DEFAULT_RESOLUTION;
+    uint32_t flags = (o->exact_near ? 1u : 0u) | (o->pixel_emitters ? 2u : 0u);
+    *key = rad_rows_key(c->s->mesh, R, c->exact ? c->exact : o->hemicube.exact, flags);
+    return RAD_OK;
 }
 
 static int compute_rows(run *c, const uint32_t *rows, uint32_t count, rad_error *err)
@@ -88,8 +114,11 @@ static int compute_rows(run *c, const uint32_t *rows, uint32_t count, rad_error 
         return RAD_OK;
     double t0 = rad_seconds();
     int rc = start_hemicube(c, err);
+    /* the engine stops at the flag, keeping every row its workers finished */
     if (!rc)
         rc = hc_compute_rows(c->hc, rows, count, c->s->F, err);
+    if (rc == RAD_ERR_INTERRUPTED)
+        rad_fail(err, rc, "%s: form factors: interrupted", c->s->scene->source);
     if (!rc)
         c->rows_computed += count;
     c->ff_seconds += rad_seconds() - t0;
@@ -99,7 +128,7 @@ static int compute_rows(run *c, const uint32_t *rows, uint32_t count, rad_error 
 static int need_row(void *user, uint32_t i, rad_error *err)
 {
     run *c = user;
-    uint64_t used = c->s->F->capacity * (sizeof(uint32_t) + sizeof(float));
+    uint64_t used = c->s->F->capacity;
     if (used > c->max_memory) {
         char a[32], b[32];
         return rad_fail(err, RAD_ERR_LIMIT,
@@ -147,41 +176,31 @@ static int patch_tau(const rad_solution *s, double **out, rad_error *err)
     return RAD_OK;
 }
 
-/* Bytes the file takes for the entries of row i: a varint per column gap
- * and a float each (write.c's put_row). */
-static uint64_t row_file_bytes(const rad_matrix *F, uint32_t i)
-{
-    uint64_t bytes = 8; /* index and count */
-    const uint32_t *col = F->col + F->row_start[i];
-    for (uint32_t k = 0; k < F->row_count[i]; k++) {
-        uint32_t gap = k ? col[k] - col[k - 1] : col[0];
-        bytes += 4 + (gap < 1u << 7 ? 1 : gap < 1u << 14 ? 2 : gap < 1u << 21 ? 3 : gap < 1u << 28 ? 4 : 5);
-    }
-    return bytes;
-}
-
 /* The estimate once the sample rows are in F: `left` rows still to
- * compute, each taken to hold the samples' mean count of entries. */
+ * compute, each taken to hold the samples' mean count of entries and to
+ * take their mean bytes, in memory (F keeps its rows packed, as the file
+ * stores them: rad.h) and in the file (rad_solution_row_file_bytes). */
 static void estimate(const run *c, const uint32_t *sample, uint32_t k, uint32_t left,
                      rad_estimate *e)
 {
     const rad_solution *s = c->s;
     const rad_matrix *F = s->F;
     const uint32_t n = s->mesh->patch_count, nb = s->band_count;
-    uint64_t entries = 0, file = 0;
+    uint64_t entries = 0, record = 0, file = 0;
     for (uint32_t q = 0; q < k; q++) {
         entries += F->row_count[sample[q]];
-        file += row_file_bytes(F, sample[q]);
+        record += rad_matrix_record_bytes(F, sample[q]);
+        file += rad_solution_row_file_bytes(F, sample[q]);
     }
     const double mean = k ? (double)entries / k : 0.0, per_file = k ? (double)file / k : 8.0;
-    const double more = (double)left * mean * (sizeof(uint32_t) + sizeof(float));
+    const double more = k ? (double)left * (double)record / k : 0.0;
     *e = (rad_estimate){.patches = n,
                         .cells = s->mesh->cell_first ? s->mesh->cell_count : n,
                         .rows = F->rows_done + left,
                         .sample_rows = k,
                         .entries_per_row = mean,
                         .limit_bytes = c->max_memory};
-    e->matrix_bytes = (uint64_t)((double)F->nnz * (sizeof(uint32_t) + sizeof(float)) + more) +
+    e->matrix_bytes = (uint64_t)((double)F->bytes + more) +
                       (uint64_t)n * (sizeof(uint64_t) + sizeof(uint32_t) + 1);
     /* The process now (scene, mesh, solution arrays, F so far), the rest of
      * F, and the solve's own arrays (a few per patch and band). */
@@ -275,7 +294,9 @@ static int compute_missing_rows(run *c, const sv_system *all, rad_error *err)
         if (!s->F->row_done[i] && (opt->all_rows || sv_row_needed(all, i)))
             missing[count++] = i;
     /* A few rows spread over the patches first, to measure what the rest
-     * will take (they stay: the solve needs them). */
+     * will take (they stay: the solve needs them; a journal keeps them like
+     * any row, and a resumed run samples among the rows still missing, so
+     * none is computed twice). */
     uint32_t sample[RAD_ESTIMATE_SAMPLES], k = count < RAD_ESTIMATE_SAMPLES ? count : RAD_ESTIMATE_SAMPLES;
     for (uint32_t q = 0; q < k; q++)
         sample[q] = missing[(uint64_t)q * count / k];
@@ -421,6 +442,10 @@ static int resolve(run *c, rad_error *err)
     rad_solution *s = c->s;
     const uint32_t n = s->mesh->patch_count;
     double *tau = NULL, *src = NULL;
+    if (!s->F->entries_loaded)
+        return rad_fail(err, RAD_ERR_USAGE,
+                        "%s: the form factors were not read (rad_solution_load_matrix)",
+                        s->scene->source);
     int rc = patch_tau(s, &tau, err);
     if (rc)
         return rc;
@@ -540,8 +565,16 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
 
     run c;
     run_begin(&c, s, opt);
+    /* Rows kept from an earlier run of the same mesh and options. */
+    if (opt->journal) {
+        uint64_t key = 0;
+        rc = rows_key(&c, &key, err);
+        if (!rc)
+            rc = rad_journal_attach(opt->journal, s->F, key, err);
+    }
     /* Form factors and solve. */
-    rc = resolve(&c, err);
+    if (!rc)
+        rc = resolve(&c, err);
 
     /* Elements: split where what is drawn misses what finer elements
      * gather, from the patch solution (hemi-cubes at the elements' centres,
@@ -550,6 +583,8 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
         rc = refine(&c, err);
     run_end(&c);
     if (rc) {
+        if (opt->journal)
+            rad_journal_detach(opt->journal); /* its rows stay in the file */
         rad_solution_destroy(s);
         return rc;
     }

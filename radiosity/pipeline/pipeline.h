@@ -13,12 +13,16 @@
 #include "../scene/scene.h"
 #include "../store/solution.h"
 
+#include <signal.h>
+
 /* What the form factors of a solve will take, estimated before they are
  * computed: a few rows, spread over the patches, are rendered first (they
  * are kept: they are rows the solve needs) and the rest are taken to hold
  * as many entries each as those do on average.  A row holds at most one
  * entry per hemi-cube pixel (3R²) and per other patch; in practice far
- * fewer, as a patch sees only part of the scene. */
+ * fewer, as a patch sees only part of the scene.  With a journal
+ * (rad_solve_options.journal) the sample rows are journaled like any
+ * other, and a resumed solve samples only among the rows still missing. */
 typedef struct rad_estimate {
     uint32_t patches;        /* N */
     uint32_t cells;          /* cells drawn in each hemi-cube (N without clusters) */
@@ -75,6 +79,16 @@ typedef struct rad_solve_options {
     double min_element_size; /* smallest element edge, scene units; 0 = 1/8 of its patch's */
     uint32_t element_levels; /* with refine_threshold 0: split every reflecting patch this
                               * many times (uniform elements: references, benchmarks) */
+    /* rad_solve_scene only, may be NULL: the solve's output file in progress
+     * (rad_journal in solution.h).  Rows it already holds for this mesh and
+     * these options are reused, every new row is appended to it as soon as
+     * it is computed; the caller commits it with the solution. */
+    rad_journal *journal;
+    /* May be NULL: a flag the caller sets (from a signal handler, say) to
+     * stop the form factors (hc_options.stop): no new row is started, the
+     * rows the workers are computing are still stored (and journaled), and
+     * the call fails with RAD_ERR_INTERRUPTED. */
+    const volatile sig_atomic_t *stop;
 } rad_solve_options;
 
 /* The whole computation for a scene file: load, mesh, form factors, solve.
