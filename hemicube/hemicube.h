@@ -23,6 +23,8 @@
 
 #include "../radiosity/core/rad.h"
 
+#include <signal.h>
+
 /* The default hemi-cube resolution R (hc_options.resolution 0), the one
  * place it is written. */
 #define HC_DEFAULT_RESOLUTION 128
@@ -47,6 +49,11 @@ typedef struct hc_options {
     /* 1 = also treat exactly every patch j nearer to i's centre than j's own
      * size (the proximity case, where point sampling of i is the weak part). */
     int exact_near;
+    /* May be NULL: a flag the caller sets (from a signal handler, say) to
+     * stop a job of rows: no new row is handed out, the rows the workers
+     * hold are still received and stored, and the call then fails with
+     * RAD_ERR_INTERRUPTED.  Read in the caller's process only. */
+    const volatile sig_atomic_t *stop;
 } hc_options;
 
 typedef struct hc_engine hc_engine;
@@ -57,7 +64,11 @@ typedef struct hc_engine hc_engine;
 int hc_create(const rad_mesh *mesh, const hc_options *opt, hc_engine **out, rad_error *err);
 
 /* Computes rows rows[0..count) into F (replacing any present copy), spread over
- * the workers. */
+ * the workers.  A worker that stops (killed, crashed) is replaced and the
+ * rows it held are computed again (the one it was computing alone); a row
+ * that stops two workers fails the call, naming its patch.  (Tests make a
+ * row do that with the environment variable RADIOSITY_TEST_CRASH_ROW=i,
+ * read by each worker when it starts.) */
 int hc_compute_rows(hc_engine *e, const uint32_t *rows, uint32_t count, rad_matrix *F,
                     rad_error *err);
 
@@ -78,7 +89,8 @@ typedef int (*hc_row_store)(void *user, uint32_t k, uint32_t count, const uint32
                             const float *val, rad_error *err);
 
 /* Computes the rows of recv[0..count), spread over the workers, handing each
- * to store (in the caller's process, in any order). */
+ * to store (in the caller's process, in any order); stopped workers are
+ * replaced as for hc_compute_rows. */
 int hc_compute_points(hc_engine *e, const hc_receiver *recv, uint32_t count, hc_row_store store,
                       void *user, rad_error *err);
 

@@ -7,10 +7,17 @@
  * `processes` workers (worker.c), each with its own stream (a socketpair)
  * and its own OSMesa context.  A job of rows is handed out in small chunks,
  * at most about two per worker at a time, so faster workers take more, and
- * the answers are collected as they come (poll).  Invariants: a worker's
- * stream is either in step (every request answered in order) or the engine
- * is broken and every later call fails with broken_msg; hc_destroy always
- * reaps every worker.
+ * the answers are collected as they come (poll).  A worker that stops
+ * during a job of rows (killed, crashed: its stream ends or goes out of
+ * step) is reaped and replaced by a new one forked from the same engine,
+ * and the rows it held are handed out again - the one it was computing
+ * alone, so that a row that stops a second worker is named in an error
+ * instead of stopping workers forever.  Invariants: a worker's stream is
+ * either in step (every request answered in order) or the worker is
+ * replaced, or the engine is broken and every later call fails with
+ * broken_msg (a worker's own error report, a failed replacement, or a
+ * worker lost outside a job of rows); hc_destroy always reaps every
+ * worker.
  */
 #include "hc_internal.h"
 
@@ -76,6 +83,7 @@ void hc_destroy(hc_engine *e)
     free(e->corner);
     free(e->center);
     free(e->ncorner);
+    free(e->cfirst);
     free(e->bsphere);
     free(e->poly_area);
     free(e->poly_patches);
@@ -121,31 +129,39 @@ static int read_status(hc_engine *e, uint32_t k, rad_error *err)
     return rad_fail(err, RAD_ERR_GL, "%s (worker %u)", text, k);
 }
 
-/* Forks the workers, each on its own socketpair; they set up in parallel,
- * then their reports are collected.  On failure the caller destroys e. */
-static int start_workers(hc_engine *e, rad_error *err)
+/* Forks worker k on a socketpair of its own (its report not yet read). */
+static int fork_worker(hc_engine *e, uint32_t k, rad_error *err)
 {
     /* Stdio buffers are copied into each child; empty them so nothing the
      * caller printed can appear twice. */
     fflush(NULL);
-    for (uint32_t k = 0; k < e->nproc; k++) {
-        int sv[2];
-        if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sv) != 0)
-            return rad_fail(err, RAD_ERR_GL, "hc_create: socketpair: %s", strerror(errno));
-        pid_t pid = fork();
-        if (pid < 0) {
-            int rc = rad_fail(err, RAD_ERR_GL, "hc_create: fork: %s", strerror(errno));
-            close(sv[0]);
-            close(sv[1]);
-            return rc;
-        }
-        if (pid == 0) {
-            close_other_fds(sv[1]);
-            hc_worker_main(e, sv[1]);
-        }
+    int sv[2];
+    if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sv) != 0)
+        return rad_fail(err, RAD_ERR_GL, "hemi-cube: socketpair: %s", strerror(errno));
+    pid_t pid = fork();
+    if (pid < 0) {
+        int rc = rad_fail(err, RAD_ERR_GL, "hemi-cube: fork: %s", strerror(errno));
+        close(sv[0]);
         close(sv[1]);
-        e->w[k].pid = pid;
-        e->w[k].fd = sv[0];
+        return rc;
+    }
+    if (pid == 0) {
+        close_other_fds(sv[1]);
+        hc_worker_main(e, sv[1]);
+    }
+    close(sv[1]);
+    e->w[k] = (hc_worker){.pid = pid, .fd = sv[0]};
+    return RAD_OK;
+}
+
+/* Forks the workers; they set up in parallel, then their reports are
+ * collected.  On failure the caller destroys e. */
+static int start_workers(hc_engine *e, rad_error *err)
+{
+    for (uint32_t k = 0; k < e->nproc; k++) {
+        int rc = fork_worker(e, k, err);
+        if (rc)
+            return rc;
     }
     for (uint32_t k = 0; k < e->nproc; k++) {
         int rc = read_status(e, k, err);
@@ -153,6 +169,45 @@ static int start_workers(hc_engine *e, rad_error *err)
             return rc;
     }
     return RAD_OK;
+}
+
+/* Worker k is gone (its stream closed or out of step): reaps it (killing
+ * it first if it still runs; how it ended into why) and starts another in
+ * its place, which sets up from the same engine.  The new worker's replies
+ * start afresh. */
+static int replace_worker(hc_engine *e, uint32_t k, char *why, size_t size, rad_error *err)
+{
+    snprintf(why, size, "its stream was out of step");
+    if (e->w[k].fd >= 0)
+        close(e->w[k].fd);
+    if (e->w[k].pid > 0) {
+        int st = 0;
+        /* closing the stream ends a live worker; one that lingers is killed */
+        pid_t r = 0;
+        for (int t = 0; t < 200 && (r = waitpid(e->w[k].pid, &st, WNOHANG)) == 0; t++) {
+            struct timespec ts = {0, 1000000};
+            nanosleep(&ts, NULL);
+        }
+        if (r == 0) {
+            kill(e->w[k].pid, SIGKILL);
+            while ((r = waitpid(e->w[k].pid, &st, 0)) < 0 && errno == EINTR)
+                ;
+        }
+        if (r > 0 && WIFSIGNALED(st))
+            snprintf(why, size, "killed by signal %d", WTERMSIG(st));
+        else if (r > 0 && WIFEXITED(st))
+            snprintf(why, size, "exited with status %d", WEXITSTATUS(st));
+    }
+    e->w[k] = (hc_worker){.pid = -1, .fd = -1};
+    int rc = fork_worker(e, k, err);
+    if (!rc)
+        rc = read_status(e, k, err);
+    if (rc) {
+        e->broken = 1;
+        snprintf(e->broken_msg, sizeof e->broken_msg, "hemi-cube worker %u stopped and could not "
+                 "be replaced", k);
+    }
+    return rc;
 }
 
 /* ------------------------------------------------------------- the engine */
@@ -179,29 +234,39 @@ static int check_options(const hc_options *opt, hc_options *o, long *cpus, rad_e
     return RAD_OK;
 }
 
-/* Checks every index before any of it is used; finds the bounding box. */
+/* Checks every index before any of it is used (the cells' too); finds the
+ * bounding box. */
 static int check_mesh(const rad_mesh *mesh, rad_vec3 *lo_out, rad_vec3 *hi_out, rad_error *err)
 {
     uint32_t n = mesh->patch_count;
-    if (n > HC_MAX_PATCHES)
+    if (n > HC_MAX_PATCHES || (mesh->cell_first && mesh->cell_count > HC_MAX_PATCHES))
         return rad_fail(err, RAD_ERR_LIMIT, "hc_create: %u patches: the hemi-cube handles at most %u",
                         n, HC_MAX_PATCHES);
     if (n && (!mesh->patches || !mesh->vertices))
         return rad_fail(err, RAD_ERR_USAGE, "hc_create: mesh has %u patches but no arrays", n);
+    if (mesh->cell_first && (!mesh->cells || mesh->cell_first[0] != 0 ||
+                             mesh->cell_first[n] != mesh->cell_count))
+        return rad_fail(err, RAD_ERR_USAGE, "hc_create: the cells do not cover the patches");
     rad_vec3 lo = rad_v3(INFINITY, INFINITY, INFINITY), hi = rad_scale(lo, -1);
     for (uint32_t j = 0; j < n; j++) {
-        const rad_patch *p = &mesh->patches[j];
-        int nc = rad_patch_corners(p);
-        for (int k = 0; k < nc; k++) {
-            if (p->v[k] >= mesh->vertex_count)
-                return rad_fail(err, RAD_ERR_USAGE, "hc_create: patch %u: vertex index %u out of range",
-                                j, p->v[k]);
-            rad_vec3 q = mesh->vertices[p->v[k]];
-            if (!rad_finite3(q))
-                return rad_fail(err, RAD_ERR_USAGE, "hc_create: patch %u: vertex %u is not finite",
-                                j, p->v[k]);
-            lo = rad_v3(fmin(lo.x, q.x), fmin(lo.y, q.y), fmin(lo.z, q.z));
-            hi = rad_v3(fmax(hi.x, q.x), fmax(hi.y, q.y), fmax(hi.z, q.z));
+        const rad_patch *p = &mesh->patches[j], *cell;
+        if (mesh->cell_first && mesh->cell_first[j + 1] <= mesh->cell_first[j])
+            return rad_fail(err, RAD_ERR_USAGE, "hc_create: patch %u has no cell", j);
+        uint32_t ncells = rad_patch_cells(mesh, j, &cell);
+        for (uint32_t c = 0; c < ncells; c++) {
+            int nc = rad_patch_corners(&cell[c]);
+            for (int k = 0; k < nc; k++) {
+                uint32_t v = cell[c].v[k];
+                if (v >= mesh->vertex_count)
+                    return rad_fail(err, RAD_ERR_USAGE,
+                                    "hc_create: patch %u: vertex index %u out of range", j, v);
+                rad_vec3 q = mesh->vertices[v];
+                if (!rad_finite3(q))
+                    return rad_fail(err, RAD_ERR_USAGE,
+                                    "hc_create: patch %u: vertex %u is not finite", j, v);
+                lo = rad_v3(fmin(lo.x, q.x), fmin(lo.y, q.y), fmin(lo.z, q.z));
+                hi = rad_v3(fmax(hi.x, q.x), fmax(hi.y, q.y), fmax(hi.z, q.z));
+            }
         }
         double nl = rad_length(p->normal);
         if (!rad_finite3(p->center) || !(fabs(nl - 1.0) < 1e-6) || !(p->area > 0.0) ||
@@ -231,9 +296,12 @@ static int engine_alloc(const rad_mesh *mesh, const hc_options *o, long cpus, hc
     e->opt = *o;
     size_t npix = (size_t)3 * e->R * e->R;
     e->dff = malloc(npix * sizeof *e->dff);
-    e->corner = malloc((n ? n : 1) * 12 * sizeof *e->corner);
+    e->ncell = mesh->cell_first ? mesh->cell_count : n;
+    size_t nc = e->ncell ? e->ncell : 1;
+    e->cfirst = malloc(((size_t)n + 1) * sizeof *e->cfirst);
+    e->corner = malloc(nc * 12 * sizeof *e->corner);
     e->center = malloc((n ? n : 1) * sizeof *e->center);
-    e->ncorner = malloc(n ? n : 1);
+    e->ncorner = malloc(nc);
     e->bsphere = malloc(((size_t)n / HC_BLOCK + 1) * 4 * sizeof *e->bsphere);
     e->radius = malloc((n ? n : 1) * sizeof *e->radius);
     e->npoly = 0;
@@ -257,8 +325,8 @@ static int engine_alloc(const rad_mesh *mesh, const hc_options *o, long cpus, hc
     }
     e->any_exact |= n > 1; /* small polygons get exact entries (rows.c) */
     e->opt.exact = e->exact;
-    if (!e->dff || !e->corner || !e->center || !e->ncorner || !e->bsphere || !e->radius ||
-        !e->poly_area || !e->poly_center || !e->poly_patches ||
+    if (!e->dff || !e->cfirst || !e->corner || !e->center || !e->ncorner || !e->bsphere ||
+        !e->radius || !e->poly_area || !e->poly_center || !e->poly_patches ||
         !e->rx_col || !e->rx_val || !e->w || (o->exact && n && !e->exact)) {
         hc_destroy(e);
         return rad_fail(err, RAD_ERR_NOMEM, "hc_create: out of memory for %u patches at resolution %u",
@@ -287,23 +355,26 @@ static void prepare_geometry(hc_engine *e, rad_vec3 lo, rad_vec3 hi)
          * any real gap between surfaces. */
         e->tol = 1e-9 * diag + 1e-12 * far;
     }
+    uint32_t c0 = 0;
     for (uint32_t j = 0; j < n; j++) {
-        const rad_patch *p = &mesh->patches[j];
-        int nc = rad_patch_corners(p);
-        e->ncorner[j] = (uint8_t)nc;
-        for (int k = 0; k < 4; k++) {
-            rad_vec3 q = rad_sub(mesh->vertices[p->v[k < nc ? k : 0]], e->origin);
-            e->corner[(size_t)j * 12 + 3 * k + 0] = q.x;
-            e->corner[(size_t)j * 12 + 3 * k + 1] = q.y;
-            e->corner[(size_t)j * 12 + 3 * k + 2] = q.z;
-        }
+        const rad_patch *p = &mesh->patches[j], *cell;
+        const uint32_t ncells = rad_patch_cells(mesh, j, &cell);
+        e->cfirst[j] = c0;
         e->center[j] = rad_sub(p->center, e->origin);
         double r2 = 0.0, b2 = 0.0;
-        for (int k = 0; k < nc; k++) {
-            const double *q = e->corner + (size_t)j * 12 + 3 * k;
-            rad_vec3 d = rad_sub(rad_v3(q[0], q[1], q[2]), e->center[j]);
-            r2 = fmax(r2, rad_dot(d, d));
-            b2 = fmax(b2, q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+        for (uint32_t c = 0; c < ncells; c++, c0++) {
+            int nc = rad_patch_corners(&cell[c]);
+            double *corner = e->corner + (size_t)c0 * 12;
+            e->ncorner[c0] = (uint8_t)nc;
+            for (int k = 0; k < 4; k++) {
+                rad_vec3 q = rad_sub(mesh->vertices[cell[c].v[k < nc ? k : 0]], e->origin);
+                corner[3 * k + 0] = q.x;
+                corner[3 * k + 1] = q.y;
+                corner[3 * k + 2] = q.z;
+                rad_vec3 d = rad_sub(q, e->center[j]);
+                r2 = fmax(r2, rad_dot(d, d));
+                b2 = fmax(b2, rad_dot(q, q));
+            }
         }
         e->radius[j] = sqrt(r2);
         e->bradius = fmax(e->bradius, sqrt(b2));
@@ -312,6 +383,7 @@ static void prepare_geometry(hc_engine *e, rad_vec3 lo, rad_vec3 hi)
         e->poly_center[p->polygon] =
             rad_add(e->poly_center[p->polygon], rad_scale(e->center[j], p->area));
     }
+    e->cfirst[n] = c0;
     for (uint32_t q = 0; q < e->npoly; q++)
         if (e->poly_area[q] > 0.0)
             e->poly_center[q] = rad_scale(e->poly_center[q], 1.0 / e->poly_area[q]);
@@ -324,23 +396,22 @@ static void block_spheres(hc_engine *e)
     uint32_t n = e->n;
     for (uint32_t b0 = 0; b0 < n; b0 += HC_BLOCK) {
         uint32_t b1 = n - b0 < HC_BLOCK ? n : b0 + HC_BLOCK;
+        const double *q0 = e->corner + (size_t)e->cfirst[b0] * 12;
+        const double *q1 = e->corner + (size_t)e->cfirst[b1] * 12;
         double lo3[3] = {INFINITY, INFINITY, INFINITY}, hi3[3] = {-INFINITY, -INFINITY, -INFINITY};
-        for (uint32_t j = b0; j < b1; j++)
-            for (int k = 0; k < 12; k++) {
-                double q = e->corner[(size_t)j * 12 + k];
-                lo3[k % 3] = fmin(lo3[k % 3], q);
-                hi3[k % 3] = fmax(hi3[k % 3], q);
+        for (const double *q = q0; q < q1; q += 3)
+            for (int a = 0; a < 3; a++) {
+                lo3[a] = fmin(lo3[a], q[a]);
+                hi3[a] = fmax(hi3[a], q[a]);
             }
         double *sp = e->bsphere + 4 * (size_t)(b0 / HC_BLOCK), r2 = 0.0;
         for (int a = 0; a < 3; a++)
             sp[a] = 0.5 * (lo3[a] + hi3[a]);
-        for (uint32_t j = b0; j < b1; j++)
-            for (int k = 0; k < 4; k++) {
-                const double *q = e->corner + (size_t)j * 12 + 3 * k;
-                double d2 = (q[0] - sp[0]) * (q[0] - sp[0]) + (q[1] - sp[1]) * (q[1] - sp[1]) +
-                            (q[2] - sp[2]) * (q[2] - sp[2]);
-                r2 = fmax(r2, d2);
-            }
+        for (const double *q = q0; q < q1; q += 3) {
+            double d2 = (q[0] - sp[0]) * (q[0] - sp[0]) + (q[1] - sp[1]) * (q[1] - sp[1]) +
+                        (q[2] - sp[2]) * (q[2] - sp[2]);
+            r2 = fmax(r2, d2);
+        }
         /* A hair larger than exact so rounding can never cull a corner. */
         sp[3] = sqrt(r2) * (1.0 + 1e-12) + e->tol;
     }
@@ -378,7 +449,8 @@ int hc_create(const rad_mesh *mesh, const hc_options *opt, hc_engine **out, rad_
 /* ------------------------------------------------------------------- jobs */
 
 /* One call's work and where its answers go: rows of patches into F, or
- * rows of point receivers handed to the caller's store. */
+ * rows of point receivers handed to the caller's store.  Its items are
+ * numbered 0..count (rows[k] or recv[k]). */
 typedef struct hc_job {
     const uint32_t *rows;       /* rows: patch indices */
     rad_matrix *F;
@@ -387,6 +459,85 @@ typedef struct hc_job {
     void *user;
     uint32_t count;
 } hc_job;
+
+/* Items [first, first + count) handed to a worker in one request, of which
+ * it has answered `done` (answers come in the order asked). */
+typedef struct hc_range {
+    uint32_t first, count, done;
+} hc_range;
+
+/* A worker is topped up while it holds at most `chunk` items, so it holds
+ * at most 2 × HC_MAX_CHUNK of them, in at most that many ranges. */
+#define HC_MAX_HELD (2u * HC_MAX_CHUNK + 1u)
+
+/* One run of a job.  A worker that stops (killed, crashed: its stream
+ * ends) is replaced, and what it held is handed out again: the item it was
+ * computing alone, so that an item that stops a second worker is known
+ * for certain and ends the job with an error naming it, never a loop. */
+typedef struct hc_run {
+    const hc_job *job;
+    uint32_t chunk;      /* items per request */
+    uint32_t next;       /* items from here on are not handed out yet */
+    uint32_t done;       /* items stored */
+    hc_range *held;      /* nproc × HC_MAX_HELD: each worker's ranges in the order sent */
+    uint32_t *nheld;     /* per worker */
+    hc_range *retry;     /* ranges to hand out again, before `next` */
+    uint32_t retry_head, retry_len, retry_cap;
+    uint8_t *strikes;    /* per item: workers that stopped while computing it */
+    int rc;              /* the first failure; then answers are only drained */
+} hc_run;
+
+static void keep_first(int *rc, int code)
+{
+    if (*rc == RAD_OK)
+        *rc = code;
+}
+
+/* The patch an item is of, for messages. */
+static uint32_t item_patch(const hc_job *job, uint32_t item)
+{
+    return job->recv ? job->recv[item].patch : job->rows[item];
+}
+
+static void push_retry(hc_run *run, uint32_t first, uint32_t count)
+{
+    if (count && run->retry_head + run->retry_len < run->retry_cap)
+        run->retry[run->retry_head + run->retry_len++] = (hc_range){first, count, 0};
+}
+
+/* Worker k stopped.  The item it was computing (the first unanswered one it
+ * holds) takes a strike: a second strike is the error.  What it held goes
+ * back to be handed out again (the struck item alone), and a new worker
+ * takes its place. */
+static void worker_lost(hc_engine *e, hc_run *run, uint32_t k, rad_error *err)
+{
+    const hc_job *job = run->job;
+    hc_range *held = run->held + (size_t)k * HC_MAX_HELD;
+    char why[96];
+    rad_error sub;
+    int rc = replace_worker(e, k, why, sizeof why, &sub);
+    if (run->nheld[k] && run->rc == RAD_OK) {
+        uint32_t item = held[0].first + held[0].done;
+        if (++run->strikes[item] >= 2)
+            keep_first(&run->rc,
+                       rad_fail(err, RAD_ERR_GL,
+                                "hemi-cube: the %s of patch %u stopped two workers (the last %s); "
+                                "it cannot be computed", job->recv ? "element hemi-cube" : "row",
+                                item_patch(job, item), why));
+    }
+    for (uint32_t q = 0; q < run->nheld[k] && run->rc == RAD_OK; q++) {
+        uint32_t first = held[q].first + held[q].done, left = held[q].count - held[q].done;
+        if (q == 0) { /* the one it was computing goes alone */
+            push_retry(run, first, 1);
+            first++;
+            left--;
+        }
+        push_retry(run, first, left);
+    }
+    run->nheld[k] = 0;
+    if (rc)
+        keep_first(&run->rc, rad_fail(err, rc, "%s", sub.message));
+}
 
 static int send_chunk(hc_engine *e, uint32_t k, const hc_job *job, uint32_t first, uint32_t count)
 {
@@ -406,6 +557,42 @@ static int send_chunk(hc_engine *e, uint32_t k, const hc_job *job, uint32_t firs
         return -1;
     e->w[k].in_flight += count;
     return 0;
+}
+
+/* Tops worker k up to two requests' worth: items handed out again first,
+ * then new ones.  A worker that cannot be sent to is replaced. */
+static void top_up(hc_engine *e, hc_run *run, uint32_t k, rad_error *err)
+{
+    const hc_job *job = run->job;
+    hc_range *held = run->held + (size_t)k * HC_MAX_HELD;
+    if (e->opt.stop && *e->opt.stop)
+        return; /* asked to stop: what is held is still collected */
+    while (run->rc == RAD_OK && e->w[k].in_flight <= run->chunk && run->nheld[k] < HC_MAX_HELD) {
+        hc_range r;
+        if (run->retry_len) {
+            hc_range *q = &run->retry[run->retry_head];
+            r = (hc_range){q->first, q->count < run->chunk ? q->count : run->chunk, 0};
+            q->first += r.count;
+            q->count -= r.count;
+            if (q->count == 0) {
+                run->retry_head++;
+                run->retry_len--;
+            }
+        } else if (run->next < job->count) {
+            uint32_t left = job->count - run->next;
+            r = (hc_range){run->next, left < run->chunk ? left : run->chunk, 0};
+            run->next += r.count;
+        } else {
+            return;
+        }
+        if (send_chunk(e, k, job, r.first, r.count) != 0) {
+            /* it never got these: they go back without a strike */
+            push_retry(run, r.first, r.count);
+            worker_lost(e, run, k, err);
+            return;
+        }
+        held[run->nheld[k]++] = r;
+    }
 }
 
 int hc_pool_gone(hc_engine *e, uint32_t k, rad_error *err)
@@ -444,65 +631,83 @@ void hc_pool_drop(hc_engine *e, uint32_t k)
     e->w[k].fd = -1;
 }
 
-static void keep_first(int *rc, int code)
+/* Reads two words, or says the stream ended (-1) or the worker sent its
+ * error text and exited (-2, the engine is then broken, err filled). */
+static int batch_word(hc_engine *e, uint32_t k, uint32_t w[2], rad_error *err)
 {
-    if (*rc == RAD_OK)
-        *rc = code;
+    if (hc_wire_recv(e->w[k].fd, w, 2 * sizeof *w) != 0)
+        return -1;
+    if (w[0] == HC_MSG_ERROR) {
+        worker_error(e, k, w[1], err);
+        return -2;
+    }
+    return 0;
 }
 
-/* Reads one answer of worker k (a batch of rows) and stores its rows in F
- * while *rc is RAD_OK; the first failure lands in *rc and err.  After a
- * failure to store, the rest is still read so the stream stays in step. */
-static void receive_batch(hc_engine *e, uint32_t k, const hc_job *job, int *rc, uint32_t *done,
-                          rad_error *err)
+/* One answered row: in order, well formed, then stored (unless the run has
+ * failed, when it is only read).  0, or -1 when the stream is out of step. */
+static int receive_row(hc_engine *e, hc_run *run, uint32_t k, hc_range *r, rad_error *err)
 {
-    int fd = e->w[k].fd;
-    rad_error *first = *rc == RAD_OK ? err : NULL;
-    uint32_t hdr[2];
-    int s = hc_pool_header(e, k, hdr, first);
-    if (s == RAD_OK && (hdr[0] != HC_MSG_BATCH || hdr[1] == 0 || hdr[1] > e->w[k].in_flight))
-        s = hc_pool_gone(e, k, first);
+    const hc_job *job = run->job;
+    uint32_t rh[2];
+    int s = batch_word(e, k, rh, err);
+    if (s == -2)
+        keep_first(&run->rc, RAD_ERR_GL);
+    if (s != 0)
+        return -1;
+    /* i: the patch of a row, or the receiver number of a point */
+    uint32_t item = r->first + r->done, i = rh[0], cnt = rh[1];
+    if (i != (job->recv ? item : job->rows[item]) || cnt > e->n ||
+        hc_wire_recv(e->w[k].fd, e->rx_col, (size_t)cnt * sizeof *e->rx_col) != 0 ||
+        hc_wire_recv(e->w[k].fd, e->rx_val, (size_t)cnt * sizeof *e->rx_val) != 0)
+        return -1;
+    uint32_t self = item_patch(job, item);
+    for (uint32_t q = 0; q < cnt; q++)
+        if (e->rx_col[q] >= e->n || e->rx_col[q] == self ||
+            (q && e->rx_col[q] <= e->rx_col[q - 1]) || !(e->rx_val[q] > 0.0f) ||
+            !isfinite(e->rx_val[q]))
+            return -1;
+    r->done++;
+    e->w[k].in_flight--;
+    if (run->rc != RAD_OK)
+        return 0;
+    s = job->recv ? job->store(job->user, i, cnt, e->rx_col, e->rx_val, err)
+                  : rad_matrix_set_row(job->F, i, cnt, e->rx_col, e->rx_val, err);
     if (s != RAD_OK) {
-        keep_first(rc, s);
+        keep_first(&run->rc, s);
+        return 0;
+    }
+    run->done++;
+    if (e->opt.progress)
+        e->opt.progress(e->opt.progress_user, run->done, job->count);
+    return 0;
+}
+
+/* Reads one answer of worker k: the rows of its oldest range.  A stream
+ * that ends or goes out of step is a worker lost. */
+static void receive_batch(hc_engine *e, hc_run *run, uint32_t k, rad_error *err)
+{
+    hc_range *held = run->held + (size_t)k * HC_MAX_HELD;
+    uint32_t hdr[2];
+    int s = run->nheld[k] ? batch_word(e, k, hdr, err) : -1;
+    if (s == -2) {
+        keep_first(&run->rc, RAD_ERR_GL);
         return;
     }
-    for (uint32_t r = 0; r < hdr[1]; r++) {
-        first = *rc == RAD_OK ? err : NULL;
-        uint32_t rh[2];
-        s = hc_pool_header(e, k, rh, first);
-        if (s != RAD_OK) {
-            keep_first(rc, s);
-            return;
-        }
-        /* i: the patch of a row, or the receiver number of a point. */
-        uint32_t i = rh[0], cnt = rh[1];
-        if (i >= (job->recv ? job->count : e->n) || cnt > e->n ||
-            hc_wire_recv(fd, e->rx_col, (size_t)cnt * sizeof *e->rx_col) != 0 ||
-            hc_wire_recv(fd, e->rx_val, (size_t)cnt * sizeof *e->rx_val) != 0) {
-            keep_first(rc, hc_pool_gone(e, k, first));
-            return;
-        }
-        e->w[k].in_flight--;
-        if (*rc != RAD_OK)
-            continue;
-        uint32_t self = job->recv ? job->recv[i].patch : i;
-        for (uint32_t q = 0; q < cnt; q++)
-            if (e->rx_col[q] >= e->n || e->rx_col[q] == self ||
-                (q && e->rx_col[q] <= e->rx_col[q - 1]) || !(e->rx_val[q] > 0.0f) ||
-                !isfinite(e->rx_val[q])) {
-                keep_first(rc, hc_pool_gone(e, k, err));
-                return;
-            }
-        s = job->recv ? job->store(job->user, i, cnt, e->rx_col, e->rx_val, err)
-                      : rad_matrix_set_row(job->F, i, cnt, e->rx_col, e->rx_val, err);
-        if (s != RAD_OK) {
-            keep_first(rc, s);
-            continue;
-        }
-        (*done)++;
-        if (e->opt.progress)
-            e->opt.progress(e->opt.progress_user, *done, job->count);
+    if (s == 0 && (hdr[0] != HC_MSG_BATCH || hdr[1] != held[0].count - held[0].done))
+        s = -1;
+    for (uint32_t q = 0; s == 0 && q < hdr[1]; q++)
+        s = receive_row(e, run, k, &held[0], err);
+    if (s == -2 || (s != 0 && e->broken)) {
+        keep_first(&run->rc, RAD_ERR_GL);
+        return;
     }
+    if (s != 0) {
+        worker_lost(e, run, k, err);
+        return;
+    }
+    memmove(held, held + 1, (run->nheld[k] - 1) * sizeof *held);
+    run->nheld[k]--;
 }
 
 static int run_job(hc_engine *e, const hc_job *job, rad_error *err);
@@ -536,6 +741,14 @@ int hc_compute_points(hc_engine *e, const hc_receiver *recv, uint32_t count, hc_
     return run_job(e, &job, err);
 }
 
+static void run_free(hc_run *run)
+{
+    free(run->held);
+    free(run->nheld);
+    free(run->retry);
+    free(run->strikes);
+}
+
 /* Hands the job out in chunks and collects every answer. */
 static int run_job(hc_engine *e, const hc_job *job, rad_error *err)
 {
@@ -548,31 +761,29 @@ static int run_job(hc_engine *e, const hc_job *job, rad_error *err)
     /* Modest chunks, at most two in flight per worker: a fast worker comes
      * back for more, and the tail stays short. */
     uint32_t chunk = count / (e->nproc * 8);
-    chunk = chunk < 1 ? 1 : chunk > HC_MAX_CHUNK ? HC_MAX_CHUNK : chunk;
-    uint32_t next = 0, done = 0;
-    int rc = RAD_OK;
+    hc_run run = {.job = job, .chunk = chunk < 1 ? 1 : chunk > HC_MAX_CHUNK ? HC_MAX_CHUNK : chunk};
+    /* every loss puts back at most two ranges and strikes an item: at most
+     * two losses an item before the job fails */
+    run.retry_cap = 4 * count + 2;
+    run.held = malloc((size_t)e->nproc * HC_MAX_HELD * sizeof *run.held);
+    run.nheld = calloc(e->nproc, sizeof *run.nheld);
+    run.retry = malloc(run.retry_cap * sizeof *run.retry);
+    run.strikes = calloc(count, 1);
     struct pollfd *pf = malloc(e->nproc * sizeof *pf);
     uint32_t *who = malloc(e->nproc * sizeof *who);
-    if (!pf || !who) {
+    if (!pf || !who || !run.held || !run.nheld || !run.retry || !run.strikes) {
         free(pf);
         free(who);
+        run_free(&run);
         return rad_fail(err, RAD_ERR_NOMEM, "hemi-cube: out of memory");
     }
     for (;;) {
-        for (uint32_t k = 0; rc == RAD_OK && k < e->nproc; k++)
-            while (rc == RAD_OK && next < count && e->w[k].in_flight <= chunk) {
-                uint32_t c = count - next < chunk ? count - next : chunk;
-                if (send_chunk(e, k, job, next, c) != 0)
-                    rc = hc_pool_gone(e, k, err);
-                else
-                    next += c;
-            }
+        for (uint32_t k = 0; k < e->nproc && !e->broken; k++)
+            top_up(e, &run, k, err);
         nfds_t np = 0;
-        for (uint32_t k = 0; k < e->nproc; k++)
+        for (uint32_t k = 0; k < e->nproc && !e->broken; k++)
             if (e->w[k].in_flight) {
-                pf[np].fd = e->w[k].fd;
-                pf[np].events = POLLIN;
-                pf[np].revents = 0;
+                pf[np] = (struct pollfd){.fd = e->w[k].fd, .events = POLLIN};
                 who[np++] = k;
             }
         if (np == 0)
@@ -580,8 +791,7 @@ static int run_job(hc_engine *e, const hc_job *job, rad_error *err)
         if (poll(pf, np, -1) < 0) {
             if (errno == EINTR)
                 continue;
-            if (rc == RAD_OK)
-                rc = rad_fail(err, RAD_ERR_GL, "hemi-cube: poll: %s", strerror(errno));
+            keep_first(&run.rc, rad_fail(err, RAD_ERR_GL, "hemi-cube: poll: %s", strerror(errno)));
             /* Replies cannot be drained: the protocol is out of step. */
             e->broken = 1;
             snprintf(e->broken_msg, sizeof e->broken_msg, "hemi-cube: workers out of step");
@@ -589,11 +799,17 @@ static int run_job(hc_engine *e, const hc_job *job, rad_error *err)
         }
         /* After a failure the remaining answers are read and dropped, so the
          * workers stay in step for the next call. */
-        for (nfds_t q = 0; q < np; q++)
+        for (nfds_t q = 0; q < np && !e->broken; q++)
             if (pf[q].revents)
-                receive_batch(e, who[q], job, &rc, &done, err);
+                receive_batch(e, &run, who[q], err);
     }
+    if (e->broken && run.rc == RAD_OK)
+        run.rc = rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
+    if (run.rc == RAD_OK && run.done < count)
+        run.rc = rad_fail(err, RAD_ERR_INTERRUPTED, "hemi-cube: stopped after %u of %u rows",
+                          run.done, count);
     free(pf);
     free(who);
-    return rc;
+    run_free(&run);
+    return run.rc;
 }

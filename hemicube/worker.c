@@ -26,9 +26,18 @@ void *hc_alloc(size_t count, size_t size, char *msg)
     return p;
 }
 
+/* Fault injection for the tests of worker replacement (pool.c): the patch
+ * named by RADIOSITY_TEST_CRASH_ROW makes any worker asked for its row (or
+ * a point on it) kill itself, as a crash would.  Read once per worker;
+ * RAD_NONE when unset. */
+static uint32_t crash_row = RAD_NONE;
+
 /* Process settings a worker wants, inherited from nobody. */
 static void worker_settings(const hc_engine *e)
 {
+    const char *crash = getenv("RADIOSITY_TEST_CRASH_ROW");
+    if (crash && *crash)
+        crash_row = (uint32_t)strtoul(crash, NULL, 10);
     signal(SIGPIPE, SIG_IGN);
     /* Ctrl-C goes to the whole process group; the caller decides when its
      * workers stop (by closing the socket). */
@@ -96,6 +105,8 @@ static void serve_rows(const hc_engine *e, hc_work *wk, int fd, const hc_request
         uint32_t i = points ? rq->pts[k].patch : rq->rows[k];
         if (i >= e->n)
             _exit(1);
+        if (i == crash_row)
+            raise(SIGKILL);
         const hc_point_req *pt = &rq->pts[k];
         rad_vec3 at = points ? rad_v3(pt->at[0], pt->at[1], pt->at[2]) : rad_v3(0, 0, 0);
         long cnt = hc_row(e, wk, i, points ? &at : NULL, msg);

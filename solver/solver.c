@@ -63,9 +63,12 @@ static int check_system(const sv_system *s, rad_error *err)
         return rad_fail(err, RAD_ERR_USAGE,
                         "solver: the form-factor matrix has %u rows but the system %u patches",
                         F->n, s->n);
-    if (!F->row_done || !F->row_start || !F->row_count || F->nnz > F->capacity ||
-        (F->nnz && (!F->col || !F->val)))
+    if (!F->row_done || !F->row_start || !F->row_count || F->bytes > F->capacity ||
+        (F->nnz && !F->data))
         return rad_fail(err, RAD_ERR_USAGE, "solver: the form-factor matrix is malformed");
+    if (!F->entries_loaded)
+        return rad_fail(err, RAD_ERR_USAGE,
+                        "solver: the form-factor matrix holds row counts only (read without F)");
     if ((uint64_t)s->n * s->bands > SIZE_MAX / (2 * sizeof(double)))
         return rad_fail(err, RAD_ERR_LIMIT, "solver: %u patches × %u bands do not fit in memory",
                         s->n, s->bands);
@@ -118,29 +121,41 @@ static int check_system(const sv_system *s, rad_error *err)
 
 /* One present row against rad.h's invariants.  Indices are what keeps a bad
  * matrix from crashing us; F_ij > 0 and the row sum are what keep B >= 0 and
- * the iteration a contraction.  *sum receives Σ_j F_ij. */
+ * the iteration a contraction.  The row is walked with bounds on the pool,
+ * so that the gathers may then walk it without.  *sum receives Σ_j F_ij. */
 static int check_row(const rad_matrix *F, uint32_t i, double *sum, rad_error *err)
 {
     uint64_t start = F->row_start[i];
     uint32_t count = F->row_count[i];
-    if (start > F->nnz || count > F->nnz - start)
-        return rad_fail(err, RAD_ERR_USAGE, "solver: form-factor row %u: entries out of range", i);
     if (count == 0) { /* an empty row may have no pool behind it */
         if (sum)
             *sum = 0.0;
         return RAD_OK;
     }
-    const uint32_t *c = F->col + start;
-    const float *v = F->val + start;
+    if (start > F->bytes || (uint64_t)count * 5 > F->bytes - start)
+        return rad_fail(err, RAD_ERR_USAGE, "solver: form-factor row %u: entries out of range", i);
+    const rad_row r = rad_matrix_row(F, i);
+    const uint8_t *p = r.col, *end = F->data + F->bytes;
     double s = 0.0;
+    uint64_t j = 0;
     for (uint32_t k = 0; k < count; k++) {
-        if (c[k] >= F->n || c[k] == i || (k > 0 && c[k] <= c[k - 1]))
-            return rad_fail(err, RAD_ERR_USAGE, "solver: form-factor row %u: bad column %u", i,
-                            c[k]);
-        if (!(v[k] > 0.0f) || !isfinite(v[k]))
-            return rad_fail(err, RAD_ERR_USAGE, "solver: form-factor row %u: F_%u,%u = %g", i, i,
-                            c[k], (double)v[k]);
-        s += v[k];
+        uint64_t d = 0;
+        for (int shift = 0;; shift += 7) {
+            if (p >= end || shift > 28)
+                return rad_fail(err, RAD_ERR_USAGE, "solver: form-factor row %u: bad column", i);
+            d |= (uint64_t)(*p & 0x7f) << shift;
+            if (!(*p++ & 0x80))
+                break;
+        }
+        j = k ? j + d : d;
+        if (j >= F->n || j == i || (k > 0 && d == 0))
+            return rad_fail(err, RAD_ERR_USAGE, "solver: form-factor row %u: bad column %llu", i,
+                            (unsigned long long)j);
+        float v = rad_row_value(&r, k);
+        if (!(v > 0.0f) || !isfinite(v))
+            return rad_fail(err, RAD_ERR_USAGE, "solver: form-factor row %u: F_%u,%llu = %g", i, i,
+                            (unsigned long long)j, (double)v);
+        s += v;
     }
     if (s > SV_ROW_SUM_MAX)
         return rad_fail(err, RAD_ERR_USAGE, "solver: form-factor row %u: Σ_j F_ij = %.6f exceeds 1",
@@ -154,61 +169,72 @@ static int row_present(const rad_matrix *F, uint32_t i) { return F->row_done[i] 
 
 /* ----------------------------------------------------------------- gather */
 
-/* s_b = Σ_j F_ij B_j,b for every band, reading the row's col/val once.  The
- * band counts that matter get their own loop so that the compiler keeps the
- * partial sums in registers; independent partial sums hide the latency of
- * the floating-point adds (the sum order differs from a naive loop only by
- * rounding). */
-static void gather1(const uint32_t *c, const float *v, uint32_t count, const double *B, double *s)
+/* s_b = Σ_j F_ij B_j,b for every band, walking the row's packed values and
+ * column gaps once (rad.h: decoding the gaps on the fly costs less than
+ * reading 4-byte columns from memory would).  The band counts that matter
+ * get their own loop so that the compiler keeps the partial sums in
+ * registers; two partial sums hide some latency of the floating-point adds
+ * (the sum order differs from a naive loop only by rounding). */
+static void gather1(const rad_row *r, const double *B, double *s)
 {
-    double a0 = 0.0, a1 = 0.0, a2 = 0.0, a3 = 0.0;
-    uint32_t k = 0;
-    for (; k + 4 <= count; k += 4) {
-        a0 += v[k] * B[c[k]];
-        a1 += v[k + 1] * B[c[k + 1]];
-        a2 += v[k + 2] * B[c[k + 2]];
-        a3 += v[k + 3] * B[c[k + 3]];
+    double a0 = 0.0, a1 = 0.0;
+    const uint8_t *p = r->col;
+    uint32_t j = 0, k = 0;
+    for (; k + 2 <= r->count; k += 2) {
+        j = rad_row_next(&p, j);
+        a0 += rad_row_value(r, k) * B[j];
+        j = rad_row_next(&p, j);
+        a1 += rad_row_value(r, k + 1) * B[j];
     }
-    for (; k < count; k++)
-        a0 += v[k] * B[c[k]];
-    s[0] = (a0 + a1) + (a2 + a3);
+    if (k < r->count) {
+        j = rad_row_next(&p, j);
+        a0 += rad_row_value(r, k) * B[j];
+    }
+    s[0] = a0 + a1;
 }
 
-static void gather3(const uint32_t *c, const float *v, uint32_t count, const double *B, double *s)
+static void gather3(const rad_row *r, const double *B, double *s)
 {
     double a0 = 0.0, a1 = 0.0, a2 = 0.0, b0 = 0.0, b1 = 0.0, b2 = 0.0;
-    uint32_t k = 0;
-    for (; k + 2 <= count; k += 2) {
-        const double *p = B + 3 * (size_t)c[k], *q = B + 3 * (size_t)c[k + 1];
-        double f = v[k], g = v[k + 1];
-        a0 += f * p[0];
-        a1 += f * p[1];
-        a2 += f * p[2];
-        b0 += g * q[0];
-        b1 += g * q[1];
-        b2 += g * q[2];
+    const uint8_t *p = r->col;
+    uint32_t j = 0, k = 0;
+    for (; k + 2 <= r->count; k += 2) {
+        j = rad_row_next(&p, j);
+        const double *x = B + 3 * (size_t)j;
+        j = rad_row_next(&p, j);
+        const double *y = B + 3 * (size_t)j;
+        double f = rad_row_value(r, k), g = rad_row_value(r, k + 1);
+        a0 += f * x[0];
+        a1 += f * x[1];
+        a2 += f * x[2];
+        b0 += g * y[0];
+        b1 += g * y[1];
+        b2 += g * y[2];
     }
-    if (k < count) {
-        const double *p = B + 3 * (size_t)c[k];
-        double f = v[k];
-        a0 += f * p[0];
-        a1 += f * p[1];
-        a2 += f * p[2];
+    if (k < r->count) {
+        j = rad_row_next(&p, j);
+        const double *x = B + 3 * (size_t)j;
+        double f = rad_row_value(r, k);
+        a0 += f * x[0];
+        a1 += f * x[1];
+        a2 += f * x[2];
     }
     s[0] = a0 + b0;
     s[1] = a1 + b1;
     s[2] = a2 + b2;
 }
 
-static void gathern(const uint32_t *c, const float *v, uint32_t count, const double *B,
-                    uint32_t nb, double *s)
+static void gathern(const rad_row *r, const double *B, uint32_t nb, double *s)
 {
     double acc[RAD_MAX_BANDS] = {0};
-    for (uint32_t k = 0; k < count; k++) {
-        const double *p = B + (size_t)nb * c[k];
-        double f = v[k];
+    const uint8_t *p = r->col;
+    uint32_t j = 0;
+    for (uint32_t k = 0; k < r->count; k++) {
+        j = rad_row_next(&p, j);
+        const double *x = B + (size_t)nb * j;
+        double f = rad_row_value(r, k);
         for (uint32_t b = 0; b < nb; b++)
-            acc[b] += f * p[b];
+            acc[b] += f * x[b];
     }
     for (uint32_t b = 0; b < nb; b++)
         s[b] = acc[b];
@@ -218,20 +244,18 @@ static void gathern(const uint32_t *c, const float *v, uint32_t count, const dou
  * patches with ρ = 0, whose B = E needs no gathering. */
 static void gather(const rad_matrix *F, uint32_t i, const double *B, uint32_t nb, double *s)
 {
-    uint32_t count = row_present(F, i) ? F->row_count[i] : 0;
-    if (count == 0) {
+    const rad_row r = rad_matrix_row(F, i);
+    if (r.count == 0) {
         for (uint32_t b = 0; b < nb; b++)
             s[b] = 0.0;
         return;
     }
-    const uint32_t *c = F->col + F->row_start[i];
-    const float *v = F->val + F->row_start[i];
     if (nb == 1)
-        gather1(c, v, count, B, s);
+        gather1(&r, B, s);
     else if (nb == 3)
-        gather3(c, v, count, B, s);
+        gather3(&r, B, s);
     else
-        gathern(c, v, count, B, nb, s);
+        gathern(&r, B, nb, s);
 }
 
 static int reflects(const double *rho_i, uint32_t nb)
@@ -570,12 +594,14 @@ static int transpose_build(const rad_matrix *F, transpose *T, rad_error *err)
     if (!T->start)
         return rad_fail(err, RAD_ERR_NOMEM, "solver: out of memory for the transposed matrix");
     for (uint32_t j = 0; j < n; j++) {
-        if (!F->row_done[j] || F->row_count[j] == 0)
-            continue; /* an empty row may have no pool behind it */
-        const uint32_t *c = F->col + F->row_start[j];
-        for (uint32_t k = 0; k < F->row_count[j]; k++)
-            T->start[c[k] + 1]++;
-        total += F->row_count[j];
+        const rad_row r = rad_matrix_row(F, j);
+        const uint8_t *p = r.col;
+        uint32_t c = 0;
+        for (uint32_t k = 0; k < r.count; k++) {
+            c = rad_row_next(&p, c);
+            T->start[c + 1]++;
+        }
+        total += r.count;
     }
     for (uint32_t i = 0; i < n; i++)
         T->start[i + 1] += T->start[i];
@@ -588,14 +614,14 @@ static int transpose_build(const rad_matrix *F, transpose *T, rad_error *err)
     }
     memcpy(fill, T->start, ((size_t)n + 1) * sizeof *fill);
     for (uint32_t j = 0; j < n; j++) { /* j increasing, so each column comes out sorted */
-        if (!F->row_done[j] || F->row_count[j] == 0)
-            continue;
-        const uint32_t *c = F->col + F->row_start[j];
-        const float *v = F->val + F->row_start[j];
-        for (uint32_t k = 0; k < F->row_count[j]; k++) {
-            uint64_t at = fill[c[k]]++;
+        const rad_row r = rad_matrix_row(F, j);
+        const uint8_t *p = r.col;
+        uint32_t c = 0;
+        for (uint32_t k = 0; k < r.count; k++) {
+            c = rad_row_next(&p, c);
+            uint64_t at = fill[c]++;
             T->col[at] = j;
-            T->val[at] = v[k];
+            T->val[at] = rad_row_value(&r, k);
         }
     }
     free(fill);
@@ -661,9 +687,12 @@ static int solve_progressive(const sv_system *s, const sv_options *o, double tol
     double *inv_area = malloc((size_t)n * sizeof *inv_area);
     uint8_t *checked = calloc(n, 1);
     double *display = o->on_preview ? malloc(len * sizeof *display) : NULL;
+    uint32_t *row_col = malloc((size_t)n * sizeof *row_col);
+    float *row_val = malloc((size_t)n * sizeof *row_val);
     transpose T = {0};
     int rc = RAD_OK;
-    if (!U || !power || !inv_area || !checked || (o->on_preview && !display)) {
+    if (!U || !power || !inv_area || !checked || (o->on_preview && !display) || !row_col ||
+        !row_val) {
         rc = rad_fail(err, RAD_ERR_NOMEM, "solver: out of memory for %u patches", n);
         goto done;
     }
@@ -778,13 +807,14 @@ static int solve_progressive(const sv_system *s, const sv_options *o, double tol
             checked[best] = 1;
         }
 
-        /* need_row may have grown F's pool: take the pointers only now.
+        /* need_row may have grown F's pool: read the row only now.
          * The weight of receiver j is F_ji A_j / A_i: from j's own row via
-         * the transpose, or F_ij from i's row by reciprocity. */
+         * the transpose, or F_ij from i's row by reciprocity (decoded into
+         * row_col/row_val). */
         const uint32_t count = gather_rows ? (uint32_t)(T.start[best + 1] - T.start[best])
-                                           : F->row_count[best];
-        const uint32_t *c = !count ? NULL : gather_rows ? T.col + T.start[best] : F->col + F->row_start[best];
-        const float *v = !count ? NULL : gather_rows ? T.val + T.start[best] : F->val + F->row_start[best];
+                                           : rad_matrix_get_row(F, best, row_col, row_val);
+        const uint32_t *c = !count ? NULL : gather_rows ? T.col + T.start[best] : row_col;
+        const float *v = !count ? NULL : gather_rows ? T.val + T.start[best] : row_val;
         double *Ui = U + (size_t)best * nb;
         double shot[RAD_MAX_BANDS], landed[RAD_MAX_BANDS] = {0};
         for (uint32_t b = 0; b < nb; b++) {
@@ -832,6 +862,8 @@ done:
     free(inv_area);
     free(checked);
     free(display);
+    free(row_col);
+    free(row_val);
     transpose_free(&T);
     return rc;
 }

@@ -2,12 +2,20 @@
 # run_tests.sh - runs every test binary of both flavours, the command-line
 # tests and the fuzz smoke runs, and prints one closing line
 # "N passed, N failed" (the sum over everything).
+#
+# Jobs run TEST_JOBS at a time (default: the processor count), each into a
+# log of its own; the results are tallied afterwards in a fixed order, so the
+# output reads the same whatever finished first.  Every test makes its own
+# temporary files (mkdtemp, mktemp -d or the process id), so jobs never share
+# a path.  The fuzz run, the longest job, starts first.
 set -u
 cd "$(dirname "$0")/.."
 passed=0; failed=0
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:${ASAN_OPTIONS:-}"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 export LSAN_OPTIONS="suppressions=$PWD/test/lsan.supp:print_suppressions=0"
+jobs_max=${TEST_JOBS:-$(nproc 2>/dev/null || echo 2)}
+case "$jobs_max" in '' | *[!0-9]* | 0) jobs_max=2 ;; esac
 
 tally() { # name, log file, exit status
     local line p f
@@ -28,23 +36,45 @@ tally() { # name, log file, exit status
 }
 
 logs=$(mktemp -d)
-for flavour in release asan; do
+trap 'rm -rf "$logs"' EXIT
+names=(); cmds=()
+add() { names+=("$1"); cmds+=("$2"); }
+
+if [ -f test/fuzz/run_fuzz.sh ]; then
+    add fuzz "bash test/fuzz/run_fuzz.sh ${FUZZ_SECONDS:-30}"
+fi
+for flavour in asan release; do
     for t in build/$flavour/test/test_*; do
         [ -x "$t" ] || continue
-        name="$flavour/$(basename "$t")"
-        RADIOSITY_BIN=build/$flavour/radiosity "$t" > "$logs/log" 2>&1
-        tally "$name" "$logs/log" $?
+        add "$flavour/$(basename "$t")" "RADIOSITY_BIN=build/$flavour/radiosity $t"
     done
 done
 for s in test/cli/*.sh; do
     [ -f "$s" ] || continue
-    RADIOSITY_BIN=build/release/radiosity bash "$s" > "$logs/log" 2>&1
-    tally "cli/$(basename "$s")" "$logs/log" $?
+    add "cli/$(basename "$s")" "RADIOSITY_BIN=build/release/radiosity bash $s"
 done
-if [ -f test/fuzz/run_fuzz.sh ]; then
-    bash test/fuzz/run_fuzz.sh "${FUZZ_SECONDS:-30}" > "$logs/log" 2>&1
-    tally "fuzz" "$logs/log" $?
-fi
-rm -rf "$logs"
+
+# Start job k in the background; its exit status lands in $logs/k.rc.
+start() {
+    ( eval "${cmds[$1]}" > "$logs/$1.log" 2>&1; echo $? > "$logs/$1.rc" ) &
+}
+running=0
+for k in "${!cmds[@]}"; do
+    if [ "$running" -ge "$jobs_max" ]; then wait -n; running=$((running - 1)); fi
+    start "$k"; running=$((running + 1))
+done
+wait
+
+# Tallied in a fixed order: release, asan, command line, fuzz.
+order=()
+for prefix in release/ asan/ cli/ fuzz; do
+    for k in "${!names[@]}"; do
+        case "${names[$k]}" in "$prefix"*) order+=("$k") ;; esac
+    done
+done
+for k in "${order[@]}"; do
+    rc=1; [ -f "$logs/$k.rc" ] && rc=$(cat "$logs/$k.rc")
+    tally "${names[$k]}" "$logs/$k.log" "$rc"
+done
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

@@ -316,7 +316,18 @@ TEST(export_round_trips)
     mtx m;
     snprintf(path, sizeof path, "%s/F.mtx", dir);
     CHECK(mtx_read(path, &m) == 0);
-    check_rows(&m, n, n, s->F->row_done, s->F->row_start, s->F->row_count, s->F->col, s->F->val);
+    /* F's rows are packed (rad.h): laid out as arrays for check_rows */
+    uint64_t *start = calloc((size_t)n + 1, sizeof *start);
+    uint32_t *fcol = malloc(((size_t)s->F->nnz + 1) * sizeof *fcol);
+    float *fval = malloc(((size_t)s->F->nnz + 1) * sizeof *fval);
+    for (uint32_t i = 0, at = 0; start && fcol && fval && i < n; i++) {
+        start[i] = at;
+        at += rad_matrix_get_row(s->F, i, fcol + at, fval + at);
+    }
+    check_rows(&m, n, n, s->F->row_done, start, s->F->row_count, fcol, fval);
+    free(start);
+    free(fcol);
+    free(fval);
     mtx_free(&m);
 
     /* elements.csv */

@@ -10,6 +10,7 @@
  */
 #include "../hemicube/hemicube.h"
 #include "test.h"
+#include "util.h"
 
 #include <dirent.h>
 #include <signal.h>
@@ -143,10 +144,12 @@ static double entry(const rad_matrix *F, uint32_t i, uint32_t j)
 {
     if (!F->row_done[i])
         return NAN;
-    const uint32_t *c = F->col + F->row_start[i];
-    for (uint32_t k = 0; k < F->row_count[i]; k++)
+    const uint32_t *c;
+    const float *v;
+    uint32_t cnt = test_row(F, i, 0, &c, &v);
+    for (uint32_t k = 0; k < cnt; k++)
         if (c[k] == j)
-            return F->val[F->row_start[i] + k];
+            return v[k];
     return 0.0;
 }
 
@@ -157,9 +160,10 @@ static double polygon_ff(const builder *b, const rad_matrix *F, uint32_t a0, uin
     double s = 0.0, area = 0.0;
     for (uint32_t i = a0; i < a1; i++) {
         area += b->m.patches[i].area;
-        const uint32_t *c = F->col + F->row_start[i];
-        const float *v = F->val + F->row_start[i];
-        for (uint32_t k = 0; k < F->row_count[i]; k++)
+        const uint32_t *c;
+        const float *v;
+        uint32_t cnt = test_row(F, i, 0, &c, &v);
+        for (uint32_t k = 0; k < cnt; k++)
             if (c[k] >= b0 && c[k] < b1)
                 s += b->m.patches[i].area * v[k];
     }
@@ -256,9 +260,13 @@ TEST(closed_cube_rows_sum_to_one)
         }
         printf("     closed cube: worst |row sum - 1| = %.3g\n", worst);
         /* Coplanar patches (same face) never appear. */
-        for (uint32_t i = 0; i < b.m.patch_count; i++)
-            for (uint32_t k = 0; k < F->row_count[i]; k++)
-                CHECK(b.m.patches[F->col[F->row_start[i] + k]].polygon != b.m.patches[i].polygon);
+        for (uint32_t i = 0; i < b.m.patch_count; i++) {
+            const uint32_t *c;
+            const float *v;
+            uint32_t cnt = test_row(F, i, 0, &c, &v);
+            for (uint32_t k = 0; k < cnt; k++)
+                CHECK(b.m.patches[c[k]].polygon != b.m.patches[i].polygon);
+        }
     }
     rad_matrix_destroy(F);
     builder_free(&b);
@@ -375,10 +383,13 @@ TEST(no_self_no_behind)
         uint32_t bad = 0, seen_straddle = 0;
         for (uint32_t i = 0; i < b.m.patch_count; i++) {
             const rad_patch *pi = &b.m.patches[i];
-            for (uint32_t k = 0; k < F->row_count[i]; k++) {
-                uint32_t j = F->col[F->row_start[i] + k];
+            const uint32_t *col;
+            const float *val;
+            uint32_t cnt = test_row(F, i, 0, &col, &val);
+            for (uint32_t k = 0; k < cnt; k++) {
+                uint32_t j = col[k];
                 CHECK(j != i);
-                CHECK(F->val[F->row_start[i] + k] > 0.0f);
+                CHECK(val[k] > 0.0f);
                 const rad_patch *pj = &b.m.patches[j];
                 int front = 0;
                 for (int c = 0; c < 4; c++)
@@ -390,9 +401,9 @@ TEST(no_self_no_behind)
             /* The lower square's rows never hold the square behind it nor
              * the back of polygon 4. */
             if (i < 64)
-                for (uint32_t k = 0; k < F->row_count[i]; k++) {
-                    CHECK(b.m.patches[F->col[F->row_start[i] + k]].polygon != 2);
-                    CHECK(b.m.patches[F->col[F->row_start[i] + k]].polygon != 4);
+                for (uint32_t k = 0; k < cnt; k++) {
+                    CHECK(b.m.patches[col[k]].polygon != 2);
+                    CHECK(b.m.patches[col[k]].polygon != 4);
                 }
         }
         CHECK(bad == 0);
@@ -409,9 +420,11 @@ static int rows_identical(const rad_matrix *A, const rad_matrix *B)
     for (uint32_t i = 0; i < A->n; i++) {
         if (A->row_done[i] != B->row_done[i] || A->row_count[i] != B->row_count[i])
             return 0;
-        size_t c = A->row_count[i];
-        if (memcmp(A->col + A->row_start[i], B->col + B->row_start[i], c * sizeof *A->col) ||
-            memcmp(A->val + A->row_start[i], B->val + B->row_start[i], c * sizeof *A->val))
+        const uint32_t *ca, *cb;
+        const float *va, *vb;
+        size_t c = test_row(A, i, 0, &ca, &va);
+        test_row(B, i, 1, &cb, &vb);
+        if (memcmp(ca, cb, c * sizeof *ca) || memcmp(va, vb, c * sizeof *va))
             return 0;
     }
     return 1;
@@ -454,12 +467,14 @@ TEST(determinism)
          * polygon 6 and no part of its exact twin 7. */
         double f6 = 0, f7 = 0;
         for (uint32_t i = 0; i < 36; i++) {
-            const uint32_t *c = A->col + A->row_start[i];
-            for (uint32_t k = 0; k < A->row_count[i]; k++) {
+            const uint32_t *c;
+            const float *v;
+            uint32_t cnt = test_row(A, i, 0, &c, &v);
+            for (uint32_t k = 0; k < cnt; k++) {
                 if (b.m.patches[c[k]].polygon == 6)
-                    f6 += A->val[A->row_start[i] + k];
+                    f6 += v[k];
                 if (b.m.patches[c[k]].polygon == 7)
-                    f7 += A->val[A->row_start[i] + k];
+                    f7 += v[k];
             }
         }
         CHECK(f6 > 0.0);
@@ -793,9 +808,7 @@ static double worst_row_excess(const rad_matrix *F)
 {
     double worst = -INFINITY;
     for (uint32_t i = 0; i < F->n; i++) {
-        double s = 0.0;
-        for (uint32_t k = 0; k < F->row_count[i]; k++)
-            s += F->val[F->row_start[i] + k];
+        double s = rad_matrix_row_sum(F, i);
         worst = fmax(worst, s - 1.0);
     }
     return worst;
@@ -1422,15 +1435,16 @@ TEST(progress_reports)
     builder_free(&b);
 }
 
-/* Kills this process's children (the engine's workers) through /proc. */
-static int kill_children(void)
+/* Kills up to `most` live children of this process (the engine's workers)
+ * through /proc; how many, and the last one's pid in *pid (may be NULL). */
+static int kill_children_upto(int most, int *pid)
 {
     int killed = 0;
     DIR *d = opendir("/proc");
     if (!d)
         return 0;
     struct dirent *de;
-    while ((de = readdir(d))) {
+    while (killed < most && (de = readdir(d))) {
         char path[300], buf[512];
         if (de->d_name[0] < '0' || de->d_name[0] > '9')
             continue;
@@ -1445,8 +1459,10 @@ static int kill_children(void)
         int ppid = 0;
         char state;
         if (close_paren && sscanf(close_paren + 1, " %c %d", &state, &ppid) == 2 &&
-            ppid == (int)getpid()) {
+            ppid == (int)getpid() && state != 'Z') {
             kill((pid_t)atoi(de->d_name), SIGKILL);
+            if (pid)
+                *pid = atoi(de->d_name);
             killed++;
         }
     }
@@ -1454,6 +1470,26 @@ static int kill_children(void)
     return killed;
 }
 
+static int kill_children(void) { return kill_children_upto(1 << 30, NULL); }
+
+/* The progress callback of worker_killed_mid_job: kills a worker once. */
+typedef struct killer {
+    uint32_t at;
+    int pid;
+} killer;
+
+static void kill_at(void *user, uint32_t done, uint32_t total)
+{
+    (void)total;
+    killer *k = user;
+    if (done == k->at && !k->pid)
+        kill_children_upto(1, &k->pid);
+}
+
+/* Workers killed before a job of rows: others take their place and the rows
+ * come out as an undisturbed engine computes them.  Killed before a light
+ * request (which does not replace workers), the request fails cleanly, and
+ * so does every later call. */
 TEST(dead_worker)
 {
     builder b = {0};
@@ -1461,25 +1497,78 @@ TEST(dead_worker)
     hc_options o = {.resolution = 16, .processes = 2};
     hc_engine *e = NULL;
     rad_error err = {0};
+    rad_matrix *ref = compute_all(&b, 16, 2);
     CHECK(hc_create(&b.m, &o, &e, &err) == RAD_OK);
     CHECK(kill_children() == 2);
     rad_matrix *F = rad_matrix_create(b.m.patch_count);
     uint32_t *rows = all_rows(b.m.patch_count);
-    /* No SIGPIPE, no hang: a clean RAD_ERR_GL naming a worker. */
-    CHECK(hc_compute_rows(e, rows, b.m.patch_count, F, &err) == RAD_ERR_GL);
-    CHECK(strstr(err.message, "worker") != NULL);
-    CHECK(hc_compute_rows(e, rows, 1, F, &err) == RAD_ERR_GL);
+    CHECK_MSG(hc_compute_rows(e, rows, b.m.patch_count, F, &err) == RAD_OK, "%s", err.message);
+    CHECK(ref && rows_identical(ref, F));
     double pw[32];
     hc_light l = {.kind = HC_LIGHT_POINT, .position = rad_v3(0.5, 0.5, 0.5)};
-    CHECK(hc_light_power(e, &l, 16, pw, &err) == RAD_ERR_GL);
+    CHECK_MSG(hc_light_power(e, &l, 16, pw, &err) == RAD_OK, "%s", err.message);
     hc_destroy(e);
-    /* Workers killed before a light request: the request itself fails
-     * cleanly, and so does every later one. */
     CHECK(hc_create(&b.m, &o, &e, &err) == RAD_OK);
     CHECK(kill_children() == 2);
     CHECK(hc_light_power(e, &l, 16, pw, &err) == RAD_ERR_GL);
     CHECK(strstr(err.message, "worker") != NULL);
     CHECK(hc_compute_rows(e, rows, 1, F, &err) == RAD_ERR_GL);
+    free(rows);
+    hc_destroy(e);
+    rad_matrix_destroy(F);
+    rad_matrix_destroy(ref);
+    builder_free(&b);
+}
+
+/* A worker killed in the middle of a job costs the rows it held, not the
+ * job: they are computed again and the matrix is the undisturbed one. */
+TEST(worker_killed_mid_job)
+{
+    builder b = {0};
+    parallel_squares(&b, 8, rad_v3(0, 0, 0));
+    rad_matrix *ref = compute_all(&b, 32, 2);
+    killer k = {.at = b.m.patch_count / 3};
+    hc_options o = {.resolution = 32, .processes = 2, .progress = kill_at, .progress_user = &k};
+    hc_engine *e = NULL;
+    rad_error err = {0};
+    CHECK(hc_create(&b.m, &o, &e, &err) == RAD_OK);
+    rad_matrix *F = rad_matrix_create(b.m.patch_count);
+    uint32_t *rows = all_rows(b.m.patch_count);
+    CHECK_MSG(e && hc_compute_rows(e, rows, b.m.patch_count, F, &err) == RAD_OK, "%s",
+              err.message);
+    CHECK(k.pid > 0);
+    CHECK(ref && rows_identical(ref, F) && F->rows_done == b.m.patch_count);
+    /* the engine is whole: another job runs on it */
+    rad_matrix *G = rad_matrix_create(b.m.patch_count);
+    CHECK(e && hc_compute_rows(e, rows, b.m.patch_count, G, &err) == RAD_OK);
+    CHECK(rows_identical(F, G));
+    free(rows);
+    hc_destroy(e);
+    rad_matrix_destroy(F);
+    rad_matrix_destroy(G);
+    rad_matrix_destroy(ref);
+    builder_free(&b);
+}
+
+/* A row that stops every worker asked for it (RADIOSITY_TEST_CRASH_ROW)
+ * stops two, then the job fails naming its patch; the rows finished before
+ * stay stored. */
+TEST(a_row_that_stops_two_workers)
+{
+    builder b = {0};
+    parallel_squares(&b, 4, rad_v3(0, 0, 0));
+    setenv("RADIOSITY_TEST_CRASH_ROW", "20", 1);
+    hc_options o = {.resolution = 16, .processes = 2};
+    hc_engine *e = NULL;
+    rad_error err = {0};
+    CHECK(hc_create(&b.m, &o, &e, &err) == RAD_OK);
+    rad_matrix *F = rad_matrix_create(b.m.patch_count);
+    uint32_t *rows = all_rows(b.m.patch_count);
+    CHECK(e && hc_compute_rows(e, rows, b.m.patch_count, F, &err) == RAD_ERR_GL);
+    unsetenv("RADIOSITY_TEST_CRASH_ROW"); /* read by every worker started, replacements too */
+    CHECK_MSG(strstr(err.message, "the row of patch 20 stopped two workers (the last killed by "
+                                  "signal 9)"), "%s", err.message);
+    CHECK(!F->row_done[20] && F->rows_done > 0);
     free(rows);
     hc_destroy(e);
     rad_matrix_destroy(F);
@@ -1509,5 +1598,7 @@ int main(void)
     RUN(bad_options);
     RUN(progress_reports);
     RUN(dead_worker);
+    RUN(worker_killed_mid_job);
+    RUN(a_row_that_stops_two_workers);
     return test_finish("test_hemicube");
 }

@@ -96,10 +96,11 @@ static void dense_solve(const tsys *t, double *B)
             x[i] = t->E[(size_t)i * t->nb + b];
             if (!t->F->row_done[i])
                 continue;
-            for (uint32_t k = 0; k < t->F->row_count[i]; k++) {
-                uint64_t e = t->F->row_start[i] + k;
-                M[(size_t)i * n + t->F->col[e]] -= t->rho[(size_t)i * t->nb + b] * t->F->val[e];
-            }
+            const uint32_t *col;
+            const float *val;
+            uint32_t cnt = test_row(t->F, i, 0, &col, &val);
+            for (uint32_t k = 0; k < cnt; k++)
+                M[(size_t)i * n + col[k]] -= t->rho[(size_t)i * t->nb + b] * val[k];
         }
         test_dense_solve(M, x, n);
         for (uint32_t i = 0; i < n; i++)
@@ -502,21 +503,25 @@ TEST(rejects_bad_input)
     CHECK(sv_solve(&s, &o, B, NULL, &err) == RAD_ERR_USAGE);
 
     /* A corrupt matrix is refused, not followed: a column out of range, then
-     * a row summing to more than 1 + 1e-3. */
-    uint32_t c0 = t.F->col[t.F->row_start[3]];
-    t.F->col[t.F->row_start[3]] = 1000;
+     * a row summing to more than 1 + 1e-3.  The rows are packed (rad.h): the
+     * first column is row 3's first varint, its first value the first f32. */
+    CHECK(t.n < 127);
+    uint8_t *first_col = t.F->data + t.F->row_start[3] + 4 * (size_t)t.F->row_count[3];
+    uint8_t c0 = *first_col;
+    *first_col = 127; /* one byte, past the last patch */
     for (int m = 0; m < 3; m++) {
         sv_options om = {.method = (sv_method)m};
         CHECK(sv_solve(&s, &om, B, NULL, &err) == RAD_ERR_USAGE);
         CHECK_MSG(strstr(err.message, "row 3") != NULL, "%s", err.message);
     }
     CHECK(isnan(sv_residual(&s, t.E)));
-    t.F->col[t.F->row_start[3]] = c0;
-    float v0 = t.F->val[t.F->row_start[3]];
-    t.F->val[t.F->row_start[3]] = 1.5f;
+    *first_col = c0;
+    float v0, big = 1.5f;
+    memcpy(&v0, t.F->data + t.F->row_start[3], sizeof v0);
+    memcpy(t.F->data + t.F->row_start[3], &big, sizeof big);
     CHECK(sv_solve(&s, NULL, B, NULL, &err) == RAD_ERR_USAGE);
     CHECK(strstr(err.message, "row 3") != NULL);
-    t.F->val[t.F->row_start[3]] = v0;
+    memcpy(t.F->data + t.F->row_start[3], &v0, sizeof v0);
     CHECK(isnan(sv_residual(NULL, B)));
     CHECK(isnan(sv_residual(&s, NULL)));
     tsys_free(&t);
@@ -541,9 +546,10 @@ static int copy_row(void *user, uint32_t i, rad_error *err)
         return rad_fail(err, RAD_ERR_IO, "box.rad: row %u: cannot compute", i);
     if (r->forget)
         return RAD_OK;
-    const rad_matrix *f = r->full;
-    return rad_matrix_set_row(r->target, i, f->row_count[i], f->col + f->row_start[i],
-                              f->val + f->row_start[i], err);
+    const uint32_t *col;
+    const float *val;
+    uint32_t cnt = test_row(r->full, i, 0, &col, &val);
+    return rad_matrix_set_row(r->target, i, cnt, col, val, err);
 }
 
 /* Rows on demand: the matrix starts empty and need_row copies a row from a
@@ -618,9 +624,10 @@ static int log_order(void *user, uint32_t i, rad_error *err)
     order_log *l = user;
     if (l->count < 8)
         l->order[l->count++] = i;
-    const rad_matrix *f = l->full;
-    return rad_matrix_set_row(l->target, i, f->row_count[i], f->col + f->row_start[i],
-                              f->val + f->row_start[i], err);
+    const uint32_t *col;
+    const float *val;
+    uint32_t cnt = test_row(l->full, i, 0, &col, &val);
+    return rad_matrix_set_row(l->target, i, cnt, col, val, err);
 }
 
 /* Equal unshot power: the lowest index shoots first.  Four patches of equal

@@ -115,9 +115,10 @@ typedef struct full_rows {
 static int copy_row(void *user, uint32_t i, rad_error *err)
 {
     full_rows *fr = user;
-    const rad_matrix *a = fr->all;
-    return rad_matrix_set_row(fr->F, i, a->row_count[i], a->col + a->row_start[i],
-                              a->val + a->row_start[i], err);
+    const uint32_t *col;
+    const float *val;
+    uint32_t cnt = test_row(fr->all, i, 0, &col, &val);
+    return rad_matrix_set_row(fr->F, i, cnt, col, val, err);
 }
 
 /* 12 patches: pairs (0,1), (2,3), (4,5) are sheets, the rest opaque, 2
@@ -175,13 +176,15 @@ TEST(solver_matches_direct_solution)
         for (uint32_t i = 0; i < N; i++) {
             for (uint32_t j = 0; j < N; j++)
                 M[i * N + j] = i == j ? 1.0 : 0.0;
-            for (uint32_t k = 0; k < all->row_count[i]; k++)
-                M[i * N + all->col[all->row_start[i] + k]] -=
-                    rho[i * NB + b] * all->val[all->row_start[i] + k];
+            const uint32_t *col;
+            const float *val;
+            uint32_t cnt = test_row(all, i, 0, &col, &val);
+            for (uint32_t k = 0; k < cnt; k++)
+                M[i * N + col[k]] -= rho[i * NB + b] * val[k];
             uint32_t t = twin[i];
-            for (uint32_t k = 0; t != RAD_NONE && k < all->row_count[t]; k++)
-                M[i * N + all->col[all->row_start[t] + k]] -=
-                    tau[i * NB + b] * all->val[all->row_start[t] + k];
+            cnt = t != RAD_NONE ? test_row(all, t, 0, &col, &val) : 0;
+            for (uint32_t k = 0; k < cnt; k++)
+                M[i * N + col[k]] -= tau[i * NB + b] * val[k];
             Bx[b][i] = E[i * NB + b];
         }
         test_dense_solve(M, Bx[b], N);

@@ -12,6 +12,33 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* Row i of F decoded into arrays (F keeps its rows packed, rad.h); slot 0
+ * or 1 holds two rows at once, each valid until the next call with that
+ * slot.  Returns the entry count (0 for a missing row). */
+static inline uint32_t test_row(const rad_matrix *F, uint32_t i, int slot, const uint32_t **col,
+                                const float **val)
+{
+    static uint32_t *c[2];
+    static float *v[2];
+    static uint32_t cap[2];
+    uint32_t need = F->row_count[i] + 1;
+    if (need > cap[slot]) {
+        uint32_t *nc = realloc(c[slot], need * sizeof *nc);
+        float *nv = realloc(v[slot], need * sizeof *nv);
+        if (nc)
+            c[slot] = nc;
+        if (nv)
+            v[slot] = nv;
+        if (!nc || !nv)
+            abort(); /* a test machine out of memory: nothing sensible to check */
+        cap[slot] = need;
+    }
+    uint32_t n = rad_matrix_get_row(F, i, c[slot], v[slot]);
+    *col = c[slot];
+    *val = v[slot];
+    return n;
+}
+
 /* Parses polygon-file text (`name` in messages) and solves it as opt says
  * (NULL: defaults, but no elements: patches only); NULL, with the message
  * on stderr, on failure.  Caller owns the result. */
@@ -69,6 +96,33 @@ static inline char *test_slurp(const char *path, size_t *size)
         *size = (size_t)n;
     }
     return buf;
+}
+
+/* Where a version 6 solution file (docs/solution-format.md: the index's
+ * offset at byte 16, then u32 count and 32-byte entries: tag, u32, u64
+ * offset, u64 length, u64 CRC) holds section `tag`: its offset, and its
+ * length in *len; 0 when the index does not list it. */
+static inline size_t test_v6_section(const unsigned char *b, size_t size, const char *tag,
+                                     uint64_t *len)
+{
+    uint64_t at = 0, count = 0;
+    for (int k = 7; size >= 32 && k >= 0; k--)
+        at = (at << 8) | b[16 + k];
+    for (int k = 3; at >= 32 && at + 8 <= size && k >= 0; k--)
+        count = (count << 8) | b[at + k];
+    for (uint64_t q = 0; q < count && at + 8 + 32 * (q + 1) <= size; q++) {
+        const unsigned char *e = b + at + 8 + 32 * q;
+        if (memcmp(e, tag, 4) != 0)
+            continue;
+        uint64_t off = 0;
+        *len = 0;
+        for (int k = 7; k >= 0; k--) {
+            off = (off << 8) | e[8 + k];
+            *len = (*len << 8) | e[16 + k];
+        }
+        return (size_t)off;
+    }
+    return 0;
 }
 
 /* Solves A x = b in place by Gaussian elimination with partial pivoting:

@@ -21,8 +21,17 @@ int cli_ff(int argc, char **argv);
 int cli_validate(int argc, char **argv);
 int cli_export(int argc, char **argv);
 
+/* Set by SIGINT or SIGTERM once cli_catch_stop has run: the work in
+ * progress should stop, keeping what is done. */
+extern volatile sig_atomic_t cli_stop;
+/* Installs the handlers (only main handles signals).  A second Ctrl-C
+ * ends the process at once. */
+void cli_catch_stop(void);
+
 /* Prints "radiosity: error: MESSAGE" and returns the exit status for it. */
 int cli_error(const rad_error *err);
+/* The exit status for an error, without printing. */
+int cli_error_status(const rad_error *err);
 
 /* Prints a library warning (a rad_warn_fn; user unused). */
 void cli_warn(void *user, const char *message);
@@ -52,6 +61,9 @@ int cli_other_arg(const char *cmd, const char *what, const char *arg, const char
 int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt);
 /* Turns on the progress bar when stderr is a terminal. */
 void cli_enable_progress(rad_solve_options *opt);
+/* Prints the form factors' estimate (rad_estimate) on stdout before they
+ * are computed. */
+void cli_enable_estimate(rad_solve_options *opt);
 
 /* Most --camera options one command line may give (each may list cameras
  * separated by commas). */

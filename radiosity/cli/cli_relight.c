@@ -24,170 +24,193 @@ static void default_solver(const rad_solution *s, rad_solve_options *opt, int so
         opt->hemicube.resolution = opt->hemicube.resolution ? opt->hemicube.resolution : s->resolution;
 }
 
-int cli_relight(int argc, char **argv)
+/* The command line of relight. */
+typedef struct relight_args {
+    const char *in, *out, *variations;
+    int render, solver_given, tol_given;
+    rad_solve_options opt;
+    cli_view view;
+    rad_edit *edits; /* argc + 1 slots (owned) */
+    uint32_t ne;
+} relight_args;
+
+/* One edit option (--light, --emission, --reflectance) at argv[*i]:
+ * 1 consumed, 0 not one, -1 bad (printed). */
+static int edit_option(int argc, char **argv, int *i, relight_args *a)
 {
-    const char *in = NULL, *out = NULL, *variations = NULL;
-    int render = 0, solver_given = 0, tol_given = 0;
-    rad_solve_options opt = {0};
-    cli_view view = {0};
-    rad_edit *edits = calloc((size_t)argc + 1, sizeof *edits);
-    uint32_t ne = 0;
+    const char *opt = argv[*i];
+    if (strcmp(opt, "--light") && strcmp(opt, "--emission") && strcmp(opt, "--reflectance"))
+        return 0;
+    rad_edit_kind kind = opt[2] == 'l'   ? RAD_EDIT_LIGHT
+                         : opt[2] == 'e' ? RAD_EDIT_EMISSION
+                                         : RAD_EDIT_REFLECTANCE;
     rad_error err = {0};
-    if (!edits)
+    if (*i + 1 >= argc)
+        return cli_usage_error("%s needs NAME=VALUE", opt), -1;
+    if (rad_edit_parse(kind, argv[++*i], &a->edits[a->ne], &err))
+        return cli_error(&err), -1;
+    a->ne++;
+    return 1;
+}
+
+static int parse_relight(int argc, char **argv, relight_args *a)
+{
+    a->edits = calloc((size_t)argc + 1, sizeof *a->edits);
+    if (!a->edits)
         return 1;
-    int rc = 0;
-    for (int i = 0; i < argc && !rc; i++) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--solver"))
-            solver_given = 1;
-        if (!strcmp(a, "--tolerance"))
-            tol_given = 1;
-        int r = cli_solve_option(argc, argv, &i, &opt);
+    for (int i = 0; i < argc; i++) {
+        const char *arg = argv[i];
+        a->solver_given |= !strcmp(arg, "--solver");
+        a->tol_given |= !strcmp(arg, "--tolerance");
+        int r = cli_solve_option(argc, argv, &i, &a->opt);
         if (r == 0)
-            r = cli_view_option(argc, argv, &i, &view);
+            r = cli_view_option(argc, argv, &i, &a->view);
+        if (r == 0)
+            r = edit_option(argc, argv, &i, a);
         if (r < 0)
-            rc = 2;
-        if (r != 0)
+            return 2;
+        if (r > 0)
             continue;
-        rad_edit_kind kind;
-        if (!strcmp(a, "--light") || !strcmp(a, "--emission") || !strcmp(a, "--reflectance")) {
-            kind = a[2] == 'l' ? RAD_EDIT_LIGHT : a[2] == 'e' ? RAD_EDIT_EMISSION : RAD_EDIT_REFLECTANCE;
-            if (i + 1 >= argc) {
-                rc = cli_usage_error("%s needs NAME=VALUE", a);
-            } else if (rad_edit_parse(kind, argv[++i], &edits[ne], &err)) {
-                rc = cli_error(&err);
-            } else {
-                ne++;
-            }
-        } else if (!strcmp(a, "-o") && i + 1 < argc) {
-            out = argv[++i];
-        } else if (!strcmp(a, "--variations") && i + 1 < argc) {
-            variations = argv[++i];
-        } else if (!strcmp(a, "--render")) {
-            render = 1;
-        } else if (a[0] == '-') {
-            rc = cli_usage_error("relight: unknown option '%s'", a);
-        } else if (!in) {
-            in = a;
-        } else {
-            rc = cli_usage_error("relight: more than one solution given ('%s')", a);
-        }
-    }
-    if (!rc && (!in || !out))
-        rc = cli_usage_error("usage: radiosity relight SOLUTION -o OUT [--light|--emission|--reflectance NAME=...] [--variations FILE]");
-    if (!rc && !variations && ne == 0)
-        rc = cli_usage_error("relight: nothing to change (give --light, --emission, --reflectance or --variations)");
-    if (!rc && render && !variations)
-        rc = cli_usage_error("relight: --render goes with --variations (use 'radiosity render' on the result)");
-    if (!rc && view.camera_args > 1)
-        rc = cli_usage_error("relight: --render draws one view per variant (one --camera)");
-    if (!rc && !variations && cli_check_output_dir(out))
-        rc = 2;
-    if (!rc && variations)
-        rc = cli_need_dir("relight --variations", out);
-
-    rad_variant *var = NULL;
-    uint32_t nvar = 0;
-    if (!rc && variations) {
-        char *text = NULL;
-        size_t size = 0;
-        rc = cli_read_text(variations, &text, &size, &err);
-        if (!rc)
-            rc = rad_variants_parse(text, size, variations, &var, &nvar, &err);
-        free(text);
-        if (rc)
-            rc = cli_error(&err);
-    }
-
-    rad_solution *s = NULL;
-    double t0 = rad_seconds();
-    if (!rc && rad_solution_read(in, &s, &err))
-        rc = cli_error(&err);
-    double load_seconds = rad_seconds() - t0;
-    if (rc) {
-        free(edits);
-        rad_variants_free(var, nvar);
-        return rc;
-    }
-    default_solver(s, &opt, solver_given, tol_given);
-    cli_enable_progress(&opt);
-
-    /* Check everything before any work: command-line edits, then each
-     * variant on top of them, on the solution's own ρ and E (restored). */
-    size_t nvals = (size_t)s->mesh->patch_count * s->band_count;
-    /* punctual lights' intensities change with edits too (relight.c) */
-    size_t nl = s->light_intensity ? (size_t)s->scene->light_count * s->band_count : 0;
-    double *rho0 = malloc((nvals + 1) * sizeof *rho0), *e0 = malloc((nvals + 1) * sizeof *e0);
-    double *l0 = malloc((nl + 1) * sizeof *l0), *l1 = malloc((nl + 1) * sizeof *l1);
-    if (!rho0 || !e0 || !l0 || !l1)
-        rc = 1;
-    if (!rc) {
-        memcpy(rho0, s->rho, nvals * sizeof *rho0);
-        memcpy(e0, s->emission, nvals * sizeof *e0);
-        if (nl)
-            memcpy(l0, s->light_intensity, nl * sizeof *l0);
-        if (rad_solution_apply_edits(s, edits, ne, &err))
-            rc = cli_error(&err);
-        for (uint32_t v = 0; v < nvar && !rc; v++) {
-            if (rad_solution_apply_edits(s, var[v].edits, var[v].edit_count, &err)) {
-                fprintf(stderr, "radiosity: error: %s: variant '%s': %s\n", variations, var[v].name,
-                        err.message);
-                rc = 2;
-            }
-            memcpy(s->rho, rho0, nvals * sizeof *rho0);
-            memcpy(s->emission, e0, nvals * sizeof *e0);
-            if (nl)
-                memcpy(s->light_intensity, l0, nl * sizeof *l0);
-            if (!rc)
-                rad_solution_apply_edits(s, edits, ne, &err);
-        }
-    }
-
-    for (int k = 0; k < RAD_STAGE_COUNT; k++)
-        s->stages[k] = (rad_stage_info){0, 1};
-    s->stages[RAD_STAGE_LOAD] = (rad_stage_info){load_seconds, 1};
-
-    if (!rc && !variations) {
-        if (rad_resolve(s, &opt, &err) || rad_solution_write(s, out, &err))
-            rc = cli_error(&err);
+        if (!strcmp(arg, "-o") && i + 1 < argc)
+            a->out = argv[++i];
+        else if (!strcmp(arg, "--variations") && i + 1 < argc)
+            a->variations = argv[++i];
+        else if (!strcmp(arg, "--render"))
+            a->render = 1;
+        else if (arg[0] == '-')
+            return cli_usage_error("relight: unknown option '%s'", arg);
+        else if (!a->in)
+            a->in = arg;
         else
-            printf("%s: relit with %u change%s, %llu hemi-cube rows computed, %s: %u iterations, "
-                   "residual %.3g, solve %.3f s\n",
-                   out, ne, ne == 1 ? "" : "s", (unsigned long long)s->rows_computed, s->solver,
-                   s->iterations, s->residual, s->stages[RAD_STAGE_SOLVE].seconds);
+            return cli_usage_error("relight: more than one solution given ('%s')", arg);
     }
-    /* One matrix, many variants: only ρ and E change between solves. */
-    double *rho1 = NULL, *e1 = NULL;
-    if (!rc && variations) {
-        rho1 = malloc((nvals + 1) * sizeof *rho1);
-        e1 = malloc((nvals + 1) * sizeof *e1);
-        if (!rho1 || !e1)
-            rc = 1;
-        else {
-            memcpy(rho1, s->rho, nvals * sizeof *rho1); /* base = solution + command-line edits */
-            memcpy(e1, s->emission, nvals * sizeof *e1);
-            if (nl)
-                memcpy(l1, s->light_intensity, nl * sizeof *l1);
+    if (!a->in || !a->out)
+        return cli_usage_error("usage: radiosity relight SOLUTION -o OUT [--light|--emission|--reflectance NAME=...] [--variations FILE]");
+    if (!a->variations && a->ne == 0)
+        return cli_usage_error("relight: nothing to change (give --light, --emission, --reflectance or --variations)");
+    if (a->render && !a->variations)
+        return cli_usage_error("relight: --render goes with --variations (use 'radiosity render' on the result)");
+    if (a->view.camera_args > 1)
+        return cli_usage_error("relight: --render draws one view per variant (one --camera)");
+    if (!a->variations && cli_check_output_dir(a->out))
+        return 2;
+    if (a->variations)
+        return cli_need_dir("relight --variations", a->out);
+    return 0;
+}
+
+/* What edits change in a solution: ρ and E per patch and the punctual
+ * lights' intensities, saved so that each variant starts from the same. */
+typedef struct relight_values {
+    size_t nvals, nl;
+    double *rho, *e, *l;
+} relight_values;
+
+static int values_alloc(const rad_solution *s, relight_values *v)
+{
+    v->nvals = (size_t)s->mesh->patch_count * s->band_count;
+    v->nl = s->light_intensity ? (size_t)s->scene->light_count * s->band_count : 0;
+    v->rho = malloc((v->nvals + 1) * sizeof *v->rho);
+    v->e = malloc((v->nvals + 1) * sizeof *v->e);
+    v->l = malloc((v->nl + 1) * sizeof *v->l);
+    return v->rho && v->e && v->l ? 0 : 1;
+}
+
+static void values_free(relight_values *v)
+{
+    free(v->rho);
+    free(v->e);
+    free(v->l);
+}
+
+static void values_save(const rad_solution *s, relight_values *v)
+{
+    memcpy(v->rho, s->rho, v->nvals * sizeof *v->rho);
+    memcpy(v->e, s->emission, v->nvals * sizeof *v->e);
+    if (v->nl)
+        memcpy(v->l, s->light_intensity, v->nl * sizeof *v->l);
+}
+
+static void values_restore(rad_solution *s, const relight_values *v)
+{
+    memcpy(s->rho, v->rho, v->nvals * sizeof *v->rho);
+    memcpy(s->emission, v->e, v->nvals * sizeof *v->e);
+    if (v->nl)
+        memcpy(s->light_intensity, v->l, v->nl * sizeof *v->l);
+}
+
+/* Checks everything before any work: the command-line edits, then each
+ * variant on top of them, on the solution's own values (put back after
+ * each).  Leaves s with the command-line edits applied, and base holding
+ * those values. */
+static int check_edits(rad_solution *s, const relight_args *a, const rad_variant *var,
+                       uint32_t nvar, relight_values *base)
+{
+    rad_error err = {0};
+    if (rad_solution_apply_edits(s, a->edits, a->ne, &err))
+        return cli_error(&err);
+    values_save(s, base);
+    for (uint32_t v = 0; v < nvar; v++) {
+        int bad = rad_solution_apply_edits(s, var[v].edits, var[v].edit_count, &err);
+        values_restore(s, base);
+        if (bad) {
+            fprintf(stderr, "radiosity: error: %s: variant '%s': %s\n", a->variations, var[v].name,
+                    err.message);
+            return 2;
         }
     }
+    return 0;
+}
+
+/* Writes a relit solution sharing the base's matrix where it can, and
+ * says so. */
+static int write_relit(const rad_solution *s, const char *path, rad_error *err)
+{
+    const rad_write_options wo = {.share_matrix = 1};
+    rad_write_info info;
+    int rc = rad_solution_write_opts(s, path, &wo, &info, err);
+    if (!rc && info.matrix_shared)
+        printf("%s: form factors shared with %s%s\n", path, info.matrix_path,
+               info.linked ? " (a hard link, no copy)" : " (by path)");
+    else if (!rc)
+        printf("%s: form factors written in full (%s)\n", path,
+               s->rows_computed ? "rows were added" : "the base holds no shareable matrix");
+    return rc;
+}
+
+/* One change set: solve, write OUT. */
+static int relight_one(rad_solution *s, const relight_args *a)
+{
+    rad_error err = {0};
+    if (rad_resolve(s, &a->opt, &err) || write_relit(s, a->out, &err))
+        return cli_error(&err);
+    printf("%s: relit with %u change%s, %llu hemi-cube rows computed, %s: %u iterations, "
+           "residual %.3g, solve %.3f s\n",
+           a->out, a->ne, a->ne == 1 ? "" : "s", (unsigned long long)s->rows_computed, s->solver,
+           s->iterations, s->residual, s->stages[RAD_STAGE_SOLVE].seconds);
+    return 0;
+}
+
+/* One matrix, many variants: only ρ and E change between solves; each
+ * writes OUT/NAME.sol (or its images with --render). */
+static int relight_variants(rad_solution *s, const relight_args *a, const rad_variant *var,
+                            uint32_t nvar, const relight_values *base)
+{
+    rad_error err = {0};
+    int rc = 0;
     for (uint32_t v = 0; v < nvar && !rc; v++) {
-        memcpy(s->rho, rho1, nvals * sizeof *rho1);
-        memcpy(s->emission, e1, nvals * sizeof *e1);
-        if (nl)
-            memcpy(s->light_intensity, l1, nl * sizeof *l1);
+        values_restore(s, base);
         char path[4096], png[4096];
         if (rad_solution_apply_edits(s, var[v].edits, var[v].edit_count, &err) ||
-            rad_resolve(s, &opt, &err)) {
-            rc = cli_error(&err);
-            break;
-        }
-        if (render) {
-            snprintf(path, sizeof path, "%s/%s.exr", out, var[v].name);
-            snprintf(png, sizeof png, "%s/%s.png", out, var[v].name);
-            rc = cli_render_to_files(s, &view, path, png);
+            rad_resolve(s, &a->opt, &err))
+            return cli_error(&err);
+        if (a->render) {
+            snprintf(path, sizeof path, "%s/%s.exr", a->out, var[v].name);
+            snprintf(png, sizeof png, "%s/%s.png", a->out, var[v].name);
+            rc = cli_render_to_files(s, &a->view, path, png);
         } else {
-            snprintf(path, sizeof path, "%s/%s.sol", out, var[v].name);
-            if (rad_solution_write(s, path, &err))
+            snprintf(path, sizeof path, "%s/%s.sol", a->out, var[v].name);
+            if (write_relit(s, path, &err))
                 rc = cli_error(&err);
         }
         if (!rc)
@@ -196,13 +219,53 @@ int cli_relight(int argc, char **argv)
                    path, var[v].name, (unsigned long long)s->rows_computed, s->iterations,
                    s->residual, s->stages[RAD_STAGE_SOLVE].seconds);
     }
-    free(rho0);
-    free(e0);
-    free(rho1);
-    free(e1);
-    free(l0);
-    free(l1);
-    free(edits);
+    return rc;
+}
+
+static int read_variations(const char *path, rad_variant **var, uint32_t *nvar)
+{
+    char *text = NULL;
+    size_t size = 0;
+    rad_error err = {0};
+    int rc = cli_read_text(path, &text, &size, &err);
+    if (!rc)
+        rc = rad_variants_parse(text, size, path, var, nvar, &err);
+    free(text);
+    return rc ? cli_error(&err) : 0;
+}
+
+/* relight: the solution is read once, F with it (checked), whatever the
+ * number of variants; every edit and variant is checked before any solve. */
+int cli_relight(int argc, char **argv)
+{
+    relight_args a = {0};
+    rad_variant *var = NULL;
+    uint32_t nvar = 0;
+    rad_solution *s = NULL;
+    relight_values base = {0};
+    rad_error err = {0};
+    int rc = parse_relight(argc, argv, &a);
+    if (!rc && a.variations)
+        rc = read_variations(a.variations, &var, &nvar);
+    double t0 = rad_seconds();
+    if (!rc && rad_solution_read(a.in, &s, &err))
+        rc = cli_error(&err);
+    double load_seconds = rad_seconds() - t0;
+    if (!rc) {
+        default_solver(s, &a.opt, a.solver_given, a.tol_given);
+        cli_enable_progress(&a.opt);
+        rc = values_alloc(s, &base);
+    }
+    if (!rc)
+        rc = check_edits(s, &a, var, nvar, &base);
+    if (!rc) {
+        for (int k = 0; k < RAD_STAGE_COUNT; k++)
+            s->stages[k] = (rad_stage_info){0, 1};
+        s->stages[RAD_STAGE_LOAD] = (rad_stage_info){load_seconds, 1};
+        rc = a.variations ? relight_variants(s, &a, var, nvar, &base) : relight_one(s, &a);
+    }
+    values_free(&base);
+    free(a.edits);
     rad_variants_free(var, nvar);
     rad_solution_destroy(s);
     return rc;

@@ -266,7 +266,8 @@ int cli_report(int argc, char **argv)
         return cli_usage_error("usage: radiosity report SOLUTION [--json]");
     rad_error err = {0};
     rad_solution *s = NULL;
-    if (rad_solution_read(in, &s, &err))
+    /* the power balance takes the irradiance stored beside B: F is not read */
+    if (rad_solution_read_parts(in, 0, &s, &err))
         return cli_error(&err);
     report r;
     rc = report_gather(&r, in, s, &err);

@@ -127,11 +127,84 @@ static int write_preview(void *user, const rad_solution *s, uint32_t shots, cons
     return 0;
 }
 
+/* What a solve that stopped early tells the user: the rows it kept and how
+ * to go on.  Returns the exit status: 130 after Ctrl-C (or SIGTERM), else
+ * the error's.  A matrix refused as too large (RAD_ERR_LIMIT, after the
+ * estimate's sample rows) gets its one line only: the same command would
+ * be refused again; its rows stay and a run with a larger --max-memory
+ * resumes from them (a larger --patch-size is another mesh: discarded). */
+static int solve_stopped(rad_journal *j, const rad_error *err, int rc)
+{
+    rad_journal_stats st = rad_journal_stats_of(j);
+    if ((cli_stop || rc == RAD_ERR_INTERRUPTED) && st.kept)
+        fprintf(stderr, "radiosity: interrupted: %u form-factor rows kept in %s; run the same "
+                        "command again to resume\n", st.kept, rad_journal_path(j));
+    else if (cli_stop || rc == RAD_ERR_INTERRUPTED)
+        fprintf(stderr, "radiosity: interrupted before any form-factor row was finished\n");
+    else {
+        cli_error(err);
+        if (st.kept && rc != RAD_ERR_LIMIT)
+            fprintf(stderr, "radiosity: note: %u form-factor rows kept in %s; run the same "
+                            "command again to resume from them\n", st.kept, rad_journal_path(j));
+    }
+    rad_journal_close(j);
+    return (cli_stop || rc == RAD_ERR_INTERRUPTED) ? 130 : cli_error_status(err);
+}
+
+/* The solve's summary lines. */
+static void solve_summary(const char *out, const rad_solution *s, const rad_journal_stats *st,
+                          double store)
+{
+    printf("%s: %u patches, %u bands, %llu rows computed (R = %u), %s: %u iterations, residual %.3g\n",
+           out, s->mesh->patch_count, s->band_count, (unsigned long long)s->rows_computed,
+           s->resolution, s->solver, s->iterations, s->residual);
+    if (st->resumed || st->torn_bytes)
+        printf("resumed: %u rows kept by an interrupted run (%llu bytes of an unfinished row "
+               "dropped)\n", st->resumed, (unsigned long long)st->torn_bytes);
+    if (st->discarded)
+        printf("discarded: %u rows kept by a run of other inputs or options\n", st->discarded);
+    if (s->elements)
+        printf("elements: %u (from %u patches), %llu element hemi-cubes\n",
+               s->elements->mesh->patch_count, s->mesh->patch_count,
+               (unsigned long long)s->elements->rows_computed);
+    printf("time: load %.3f s, mesh %.3f s, form factors %.3f s, solve %.3f s, store %.3f s\n",
+           s->stages[RAD_STAGE_LOAD].seconds, s->stages[RAD_STAGE_MESH].seconds,
+           s->stages[RAD_STAGE_FORM_FACTORS].seconds, s->stages[RAD_STAGE_SOLVE].seconds, store);
+}
+
+/* Where --preview-every writes: --preview-dir, else the solution's directory. */
+static int setup_preview(const char *out, const char *preview_dir, uint32_t every,
+                         preview_state *ps, char *dirbuf, size_t size, rad_solve_options *opt)
+{
+    if (!every)
+        return 0;
+    if (opt->solver.method != SV_PROGRESSIVE)
+        return cli_usage_error("--preview-every needs --solver progressive");
+    if (!preview_dir) {
+        snprintf(dirbuf, size, "%s", out);
+        char *slash = strrchr(dirbuf, '/');
+        if (slash)
+            *slash = '\0';
+        else
+            snprintf(dirbuf, size, ".");
+        preview_dir = dirbuf;
+    }
+    ps->dir = preview_dir;
+    opt->solver.preview_every = every;
+    opt->on_preview = write_preview;
+    opt->preview_user = ps;
+    return 0;
+}
+
+/* The rows go to OUT.partial as they are computed (rad_journal), so that
+ * a crash, a kill or Ctrl-C loses none of them, and the next run of the
+ * same command computes only the others; the finished file is that one,
+ * completed and renamed. */
 int cli_solve(int argc, char **argv)
 {
     const char *scene = NULL, *out = NULL, *preview_dir = NULL;
     uint32_t preview_every = 0;
-    int rc;
+    int rc, fresh = 0;
     rad_solve_options opt = {0};
     for (int i = 0; i < argc; i++) {
         int r = cli_solve_option(argc, argv, &i, &opt);
@@ -147,6 +220,8 @@ int cli_solve(int argc, char **argv)
             i++;
         } else if (!strcmp(argv[i], "--preview-dir") && i + 1 < argc)
             preview_dir = argv[++i];
+        else if (!strcmp(argv[i], "--fresh"))
+            fresh = 1;
         else if ((rc = cli_other_arg("solve", "scene", argv[i], &scene)) != 0)
             return rc;
     }
@@ -156,51 +231,42 @@ int cli_solve(int argc, char **argv)
         return 2;
     preview_state ps = {0};
     char dirbuf[4096];
-    if (preview_every) {
-        if (opt.solver.method != SV_PROGRESSIVE)
-            return cli_usage_error("--preview-every needs --solver progressive");
-        if (!preview_dir) {
-            snprintf(dirbuf, sizeof dirbuf, "%s", out);
-            char *slash = strrchr(dirbuf, '/');
-            if (slash)
-                *slash = '\0';
-            else
-                snprintf(dirbuf, sizeof dirbuf, ".");
-            preview_dir = dirbuf;
-        }
-        ps.dir = preview_dir;
-        opt.solver.preview_every = preview_every;
-        opt.on_preview = write_preview;
-        opt.preview_user = &ps;
-    }
+    if ((rc = setup_preview(out, preview_dir, preview_every, &ps, dirbuf, sizeof dirbuf, &opt)))
+        return rc;
     cli_enable_progress(&opt);
+    cli_enable_estimate(&opt);
     opt.load.warn = cli_warn;
 
     rad_error err = {0};
-    rad_solution *s = NULL;
-    if (rad_solve_scene_file(scene, &opt, &s, &err))
+    rad_journal *j = NULL;
+    if (rad_journal_open(out, fresh, &j, &err))
         return cli_error(&err);
-    if (ps.failed) {
+    cli_catch_stop();
+    opt.journal = j;
+    opt.stop = &cli_stop;
+    rad_solution *s = NULL;
+    rc = rad_solve_scene_file(scene, &opt, &s, &err);
+    if (rc || cli_stop) {
         rad_solution_destroy(s);
+        return solve_stopped(j, &err, rc);
+    }
+    if (ps.failed) { /* a preview could not be written (printed): the rows stay */
+        rad_solution_destroy(s);
+        rad_journal_close(j);
         return 2;
     }
+    rad_journal_stats st = rad_journal_stats_of(j);
     double t0 = rad_seconds();
-    rc = rad_solution_write(s, out, &err);
+    rc = rad_journal_commit(j, s, &err); /* frees j */
     double store = rad_seconds() - t0;
     if (rc) {
         rad_solution_destroy(s);
-        return cli_error(&err);
+        cli_error(&err);
+        fprintf(stderr, "radiosity: note: the form-factor rows stay in %s.partial; run the same "
+                        "command again to finish\n", out);
+        return cli_error_status(&err);
     }
-    printf("%s: %u patches, %u bands, %llu rows computed (R = %u), %s: %u iterations, residual %.3g\n",
-           out, s->mesh->patch_count, s->band_count, (unsigned long long)s->rows_computed,
-           s->resolution, s->solver, s->iterations, s->residual);
-    if (s->elements)
-        printf("elements: %u (from %u patches), %llu element hemi-cubes\n",
-               s->elements->mesh->patch_count, s->mesh->patch_count,
-               (unsigned long long)s->elements->rows_computed);
-    printf("time: load %.3f s, mesh %.3f s, form factors %.3f s, solve %.3f s, store %.3f s\n",
-           s->stages[RAD_STAGE_LOAD].seconds, s->stages[RAD_STAGE_MESH].seconds,
-           s->stages[RAD_STAGE_FORM_FACTORS].seconds, s->stages[RAD_STAGE_SOLVE].seconds, store);
+    solve_summary(out, s, &st, store);
     rad_solution_destroy(s);
     return 0;
 }
@@ -245,7 +311,8 @@ int cli_render(int argc, char **argv)
     gather.opt.threads = many.threads ? many.threads : cpus > 64 ? 64 : cpus > 1 ? (uint32_t)cpus : 1;
     rad_error err = {0};
     rad_solution *s = NULL;
-    if (rad_solution_read(in, &s, &err))
+    /* a view needs B, the mesh and the elements: F is neither read nor checked */
+    if (rad_solution_read_parts(in, 0, &s, &err))
         return cli_error(&err);
     if (cli_many_views(&view, &many, s->scene))
         rc = gather.on ? cli_usage_error("render: --gather draws one view (several views: run it "

@@ -1,7 +1,7 @@
 /* main.c - the `radiosity` command: argument parsing, printing and exit
  * codes around the library.  Nothing else in the project prints or exits.
  *
- *   radiosity solve    SCENE -o SOLUTION [options]
+ *   radiosity solve    SCENE -o SOLUTION [options] [--fresh]
  *   radiosity render   SOLUTION -o IMAGE.exr [--png FILE] [camera options] [--gather ...]
  *   radiosity render   SOLUTION -o DIR --all-cameras | --camera A,B | --path FILE
  *   radiosity report   SOLUTION [--json]
@@ -19,6 +19,7 @@
 #include "cli.h"
 
 #include <errno.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -28,10 +29,41 @@
 
 /* ------------------------------------------------------------ small helpers */
 
+volatile sig_atomic_t cli_stop;
+
+/* The first SIGINT or SIGTERM asks the work to stop (the form factors end
+ * at the next finished row, which is kept); the handler then steps aside,
+ * so a second Ctrl-C ends the process at once - the rows written so far
+ * survive that too. */
+static void on_stop(int sig)
+{
+    cli_stop = 1;
+    struct sigaction dfl;
+    memset(&dfl, 0, sizeof dfl);
+    dfl.sa_handler = SIG_DFL;
+    sigemptyset(&dfl.sa_mask);
+    sigaction(sig, &dfl, NULL);
+}
+
+void cli_catch_stop(void)
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_stop;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+}
+
+int cli_error_status(const rad_error *err)
+{
+    return (err->code == RAD_ERR_NOMEM || err->code == RAD_ERR_GL) ? 1 : 2;
+}
+
 int cli_error(const rad_error *err)
 {
     fprintf(stderr, "radiosity: error: %s\n", err->message);
-    return (err->code == RAD_ERR_NOMEM || err->code == RAD_ERR_GL) ? 1 : 2;
+    return cli_error_status(err);
 }
 
 void cli_warn(void *user, const char *message)
@@ -126,6 +158,27 @@ void cli_enable_progress(rad_solve_options *opt)
         opt->hemicube.progress = progress_bar;
         opt->hemicube.progress_user = NULL;
     }
+}
+
+/* The estimate of a solve, on stdout before the form factors start. */
+static void print_estimate(void *user, const rad_estimate *e)
+{
+    (void)user;
+    char f[32], p[32], s[32], l[32];
+    printf("estimate: %u patches (%u cells), %u rows of about %.0f entries (measured on %u): "
+           "form factors %s, peak memory %s, solution file %s (form factors may take %s)\n",
+           e->patches, e->cells, e->rows, e->entries_per_row, e->sample_rows,
+           rad_human_bytes((double)e->matrix_bytes, f, sizeof f),
+           rad_human_bytes((double)e->peak_bytes, p, sizeof p),
+           rad_human_bytes((double)e->file_bytes, s, sizeof s),
+           rad_human_bytes((double)e->limit_bytes, l, sizeof l));
+    fflush(stdout);
+}
+
+void cli_enable_estimate(rad_solve_options *opt)
+{
+    opt->on_estimate = print_estimate;
+    opt->estimate_user = NULL;
 }
 
 /* Shared by solve, relight and ff: meshing, hemi-cube and solver options.
@@ -300,6 +353,8 @@ static const char usage[] =
     "      --element-levels L       uniform elements: split every patch L times\n"
     "      --preview-every K        progressive: write a preview image every K shots\n"
     "      --preview-dir DIR        where previews go (default: the solution's directory)\n"
+    "      --fresh                  compute every row again: do not resume from the rows an\n"
+    "                               interrupted run kept in SOLUTION.partial\n"
     "  render SOLUTION -o IMAGE.exr draw a view (radiance, linear OpenEXR)\n"
     "      --png FILE               also write an sRGB PNG preview\n"
     "      --exposure EV            PNG exposure in stops (default 0)\n"

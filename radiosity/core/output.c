@@ -6,6 +6,12 @@
  * unlinked, so a crash or an error never leaves a half-written target
  * behind (at worst a stale "PATH.tmp.PID" from a killed process, which the
  * next writer with that pid replaces).
+ *
+ * A partial output ("PATH.partial", rad_output_open_partial) is the one
+ * exception to "nothing survives a failure": it holds work a later run can
+ * continue (a solve's rows), so every failure keeps it, an exclusive lock
+ * keeps two processes from appending to it at once, and only a successful
+ * commit moves it onto PATH.
  */
 #include "rad.h"
 
@@ -14,6 +20,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 struct rad_output {
@@ -23,9 +31,15 @@ struct rad_output {
     const char *what;  /* the operation that failed ("write", "sync", ...) */
     char *path;
     char *tmp;
+    int partial;       /* "PATH.partial": kept on every failure, for the next run */
 };
 
-int rad_output_open(const char *path, rad_output **out, rad_error *err)
+static void release(rad_output *o);
+static void sync_directory_of(const char *path);
+
+/* A rad_output for path with its temporary's name made by `suffix`
+ * ("%s.tmp.%ld" of path and pid, or "%s.partial"), no file yet. */
+static int output_new(const char *path, int partial, rad_output **out, rad_error *err)
 {
     *out = NULL;
     if (!path || !*path)
@@ -35,6 +49,8 @@ int rad_output_open(const char *path, rad_output **out, rad_error *err)
     if (o) {
         o->path = strdup(path);
         o->tmp = malloc(n);
+        o->fd = -1;
+        o->partial = partial;
     }
     if (!o || !o->path || !o->tmp) {
         if (o) {
@@ -44,7 +60,21 @@ int rad_output_open(const char *path, rad_output **out, rad_error *err)
         free(o);
         return rad_fail(err, RAD_ERR_NOMEM, "%s: cannot write: out of memory", path);
     }
-    snprintf(o->tmp, n, "%s.tmp.%ld", path, (long)getpid());
+    if (partial)
+        snprintf(o->tmp, n, "%s.partial", path);
+    else
+        snprintf(o->tmp, n, "%s.tmp.%ld", path, (long)getpid());
+    *out = o;
+    return RAD_OK;
+}
+
+int rad_output_open(const char *path, rad_output **out, rad_error *err)
+{
+    rad_output *o;
+    int rc0 = output_new(path, 0, &o, err);
+    *out = NULL;
+    if (rc0)
+        return rc0;
     o->fd = open(o->tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (o->fd < 0 && errno == EEXIST) {
         /* A leftover from an earlier process with our pid: it is ours to replace. */
@@ -83,6 +113,135 @@ static int write_at(rad_output *o, const uint8_t *p, size_t n, uint64_t at)
     return 0;
 }
 
+int rad_output_open_partial(const char *path, rad_output **out, uint64_t *size, rad_error *err)
+{
+    rad_output *o;
+    int rc = output_new(path, 1, &o, err);
+    *out = NULL;
+    *size = 0;
+    if (rc)
+        return rc;
+    o->fd = open(o->tmp, O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+    if (o->fd < 0) {
+        rc = rad_fail(err, RAD_ERR_IO, "%s: cannot create %s: %s", path, o->tmp, strerror(errno));
+        release(o);
+        return rc;
+    }
+    /* Two runs appending to one file would interleave their rows. */
+    if (flock(o->fd, LOCK_EX | LOCK_NB) < 0) {
+        int e = errno;
+        rc = e == EWOULDBLOCK
+                 ? rad_fail(err, RAD_ERR_IO, "%s: %s is being written by another process", path,
+                            o->tmp)
+                 : rad_fail(err, RAD_ERR_IO, "%s: cannot lock %s: %s", path, o->tmp, strerror(e));
+        release(o);
+        return rc;
+    }
+    struct stat st;
+    if (fstat(o->fd, &st) < 0 || !S_ISREG(st.st_mode)) {
+        rc = rad_fail(err, RAD_ERR_IO, "%s: %s is not a regular file", path, o->tmp);
+        release(o);
+        return rc;
+    }
+    o->size = *size = (uint64_t)st.st_size;
+    *out = o;
+    return RAD_OK;
+}
+
+int rad_output_read_at(rad_output *o, void *p, size_t n, uint64_t at)
+{
+    uint8_t *b = p;
+    while (n) {
+        ssize_t r = pread(o->fd, b, n, (off_t)at);
+        if (r < 0 && errno == EINTR)
+            continue;
+        if (r <= 0)
+            return -1;
+        b += r;
+        n -= (size_t)r;
+        at += (uint64_t)r;
+    }
+    return 0;
+}
+
+int rad_output_truncate(rad_output *o, uint64_t size)
+{
+    if (o->errnum)
+        return -1;
+    if (ftruncate(o->fd, (off_t)size) < 0) {
+        o->errnum = errno;
+        o->what = "truncate";
+        return -1;
+    }
+    o->size = size;
+    return 0;
+}
+
+int rad_output_sync(rad_output *o)
+{
+    if (o->errnum)
+        return -1;
+    if (fdatasync(o->fd) < 0) {
+        o->errnum = errno;
+        o->what = "sync";
+        return -1;
+    }
+    return 0;
+}
+
+int rad_output_error(const rad_output *o, rad_error *err)
+{
+    if (!o->errnum)
+        return RAD_OK;
+    return rad_fail(err, RAD_ERR_IO, "%s: cannot %s %s: %s", o->path, o->what, o->tmp,
+                    strerror(o->errnum));
+}
+
+void rad_output_drop(rad_output *o)
+{
+    if (!o)
+        return;
+    unlink(o->tmp);
+    release(o);
+}
+
+void rad_output_keep(rad_output *o)
+{
+    if (o)
+        release(o);
+}
+
+int rad_output_link(const char *existing, const char *path, rad_error *err)
+{
+    rad_output *o;
+    int rc = output_new(path, 0, &o, err);
+    if (rc)
+        return rc;
+    unlink(o->tmp); /* a leftover of an earlier process with our pid */
+    if (link(existing, o->tmp) < 0) {
+        int e = errno;
+        rc = rad_fail(err, RAD_ERR_IO, "%s: cannot link %s to it: %s", path, existing, strerror(e));
+        release(o);
+        return rc;
+    }
+    /* rename onto another name of the same file would do nothing and
+     * leave the temporary: then the link is already there */
+    struct stat a, b;
+    if (stat(o->tmp, &a) == 0 && stat(path, &b) == 0 && a.st_dev == b.st_dev &&
+        a.st_ino == b.st_ino) {
+        unlink(o->tmp);
+    } else if (rename(o->tmp, path) < 0) {
+        int e = errno;
+        rc = rad_fail(err, RAD_ERR_IO, "%s: cannot rename %s to it: %s", path, o->tmp, strerror(e));
+        unlink(o->tmp);
+        release(o);
+        return rc;
+    }
+    sync_directory_of(path);
+    release(o);
+    return RAD_OK;
+}
+
 int rad_output_write(rad_output *o, const void *p, size_t n)
 {
     if (write_at(o, p, n, o->size) < 0)
@@ -113,7 +272,8 @@ void rad_output_abort(rad_output *o)
 {
     if (!o)
         return;
-    unlink(o->tmp);
+    if (!o->partial)
+        unlink(o->tmp);
     release(o);
 }
 

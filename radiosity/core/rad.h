@@ -17,6 +17,7 @@
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 
 #define RAD_VERSION_STRING "0.1.0"
 
@@ -41,7 +42,8 @@ typedef enum rad_result {
     RAD_ERR_GL,       /* OSMesa or GL failed */
     RAD_ERR_CORRUPT,  /* a solution file failed its checksum or structure checks */
     RAD_ERR_USAGE,    /* a caller passed bad arguments (API misuse or command line) */
-    RAD_ERR_NOTFOUND  /* a named object, material or camera does not exist */
+    RAD_ERR_NOTFOUND, /* a named object, material or camera does not exist */
+    RAD_ERR_INTERRUPTED /* the caller asked the work to stop (Ctrl-C); what was done is kept */
 } rad_result;
 
 typedef struct rad_error {
@@ -151,10 +153,38 @@ typedef struct rad_mesh {
     rad_patch *patches;
     uint32_t patch_count;
     uint32_t *twin;          /* patch_count entries or NULL (owned) */
+    /* Clusters: a patch may span several cells, the small polygons of one
+     * object and material that the mesher grouped (mesh.h).  cell_first is
+     * NULL when every patch is a single cell, itself.  Otherwise patch i
+     * covers cells[cell_first[i] .. cell_first[i + 1]) (cells of one patch
+     * consecutive, in patch order): planar convex cells with their own
+     * corners, polygon, normal, centre and area, as a patch has.  A patch
+     * of one cell is that cell; a patch of several has their object and
+     * material, A_i = Σ cell areas, the unit area-weighted mean of their
+     * normals, its centre on one of them (its `home` cell, whose corners
+     * and polygon it carries in v[] and polygon).  The cells of one surface
+     * (neighbouring small polygons whose normals agree) share vertices
+     * across polygons, so their radiosities average together as a
+     * polygon's do. */
+    rad_patch *cells;        /* cell_count entries or NULL (owned) */
+    uint32_t cell_count;
+    uint32_t *cell_first;    /* patch_count + 1 entries or NULL (owned) */
 } rad_mesh;
 
 /* Number of corners of a patch: 3 or 4. */
 static inline int rad_patch_corners(const rad_patch *p) { return p->v[3] == RAD_NONE ? 3 : 4; }
+
+/* The cells of patch i: a pointer to the first and their number (the patch
+ * itself, one cell, when the mesh has no clusters). */
+static inline uint32_t rad_patch_cells(const rad_mesh *m, uint32_t i, const rad_patch **first)
+{
+    if (!m->cell_first) {
+        *first = &m->patches[i];
+        return 1;
+    }
+    *first = m->cells + m->cell_first[i];
+    return m->cell_first[i + 1] - m->cell_first[i];
+}
 
 /* ------------------------------------------------------- form-factor matrix */
 
@@ -164,19 +194,49 @@ static inline int rad_patch_corners(const rad_patch *p) { return p->v[3] == RAD_
  * reuses whichever rows exist.  Row i holds (j, F_ij) pairs with strictly
  * increasing j, j != i, F_ij > 0.
  *
+ * The rows are kept packed, in the very form a solution file stores them
+ * (docs/solution-format.md, "Row records"), so that a matrix read from a file
+ * is its file's bytes and nothing more, and a matrix being computed can be
+ * streamed to a file row by row.  Each row is a record appended to one pool,
+ *   u32 i, u32 c, c × f32 F_ij (little-endian), c × varint column gaps
+ * (the first column, then j_k - j_{k-1} >= 1: unsigned LEB128, most gaps
+ * between the patches a patch sees take one byte).  About 5 bytes an entry
+ * instead of 8 for (u32, f32) pairs.  row_start[i] is the offset of row i's
+ * values in the pool; a row set again is appended and the old copy
+ * abandoned.  Read rows with rad_matrix_row / rad_row_next (or
+ * rad_matrix_get_row into arrays).
+ *
+ * A matrix may also hold only which rows exist and their entry counts
+ * (entries_loaded = 0): what a command that never reads F gets from a
+ * solution file (the renderer needs to know which rows are empty, not
+ * what is in them).
+ *
  * Invariants (checked by rad_matrix_check in debug builds):
  *   0 < F_ij, Σ_j F_ij <= 1 + 1e-3 for every row, no NaN, j < n, j != i. */
-typedef struct rad_matrix {
+typedef struct rad_matrix rad_matrix;
+
+/* Called with each row record as rad_matrix_set_row stores it (the bytes
+ * above, starting at u32 i): how a solve streams its rows to a file.  A
+ * non-zero return (with err filled) fails the rad_matrix_set_row call; the
+ * row stays stored. */
+typedef int (*rad_row_sink)(void *user, uint32_t i, const uint8_t *record, size_t bytes,
+                            rad_error *err);
+
+struct rad_matrix {
     uint32_t n;          /* patches: rows = columns */
     uint32_t rows_done;  /* rows present */
     uint8_t *row_done;   /* row_done[i] = 1 when row i is present */
-    uint64_t *row_start; /* first entry of row i in col/val */
+    uint64_t *row_start; /* offset in data of row i's values (its record + 8) */
     uint32_t *row_count; /* entries of row i */
-    uint32_t *col;       /* column index j */
-    float *val;          /* F_ij; float carries 7 digits, more than the hemi-cube's own accuracy */
-    uint64_t nnz;        /* entries used */
-    uint64_t capacity;   /* entries allocated */
-} rad_matrix;
+    uint8_t *data;       /* the pool of row records (NULL until the first) */
+    uint64_t bytes;      /* bytes of data used */
+    uint64_t capacity;   /* bytes of data allocated */
+    uint64_t nnz;        /* entries of the rows present */
+    int entries_loaded;  /* 0: row_done and row_count only, no entries (see above) */
+    uint64_t key;        /* what determined the rows (rad_rows_key in solution.h), 0 unknown */
+    rad_row_sink sink;   /* NULL, or where new rows are also sent */
+    void *sink_user;
+};
 
 /* Creates an empty n×n matrix (no rows present).  Caller owns the result and
  * frees it with rad_matrix_destroy.  Returns NULL when memory runs out. */
@@ -184,12 +244,91 @@ rad_matrix *rad_matrix_create(uint32_t n);
 void rad_matrix_destroy(rad_matrix *m); /* NULL does nothing */
 
 /* Stores row i (replacing any earlier copy).  col must be strictly increasing.
- * Copies the data; returns RAD_OK or RAD_ERR_NOMEM / RAD_ERR_USAGE. */
+ * Encodes the data; returns RAD_OK or RAD_ERR_NOMEM / RAD_ERR_USAGE, or what
+ * the sink returns. */
 int rad_matrix_set_row(rad_matrix *m, uint32_t i, uint32_t count, const uint32_t *col,
                        const float *val, rad_error *err);
 
+/* Row i for reading: its entry count and where its packed values and
+ * columns start.  A missing row reads as empty. */
+typedef struct rad_row {
+    uint32_t count;
+    const uint8_t *val; /* count × f32 */
+    const uint8_t *col; /* count varints: the first column, then the gaps */
+} rad_row;
+
+static inline rad_row rad_matrix_row(const rad_matrix *m, uint32_t i)
+{
+    rad_row r = {0, NULL, NULL};
+    if (m->row_done[i] && m->row_count[i] && m->data) {
+        r.count = m->row_count[i];
+        r.val = m->data + m->row_start[i];
+        r.col = r.val + 4 * (size_t)r.count;
+    }
+    return r;
+}
+
+/* F of entry k of a row. */
+static inline float rad_row_value(const rad_row *r, uint32_t k)
+{
+    float f;
+    memcpy(&f, r->val + 4 * (size_t)k, sizeof f);
+    return f;
+}
+
+/* The next column of a row being walked: *p moves past one varint gap,
+ * returned as prev + gap (pass prev = 0 for the first entry, whose varint
+ * is the column itself).  Only for rows of a matrix (checked on the way in). */
+static inline uint32_t rad_row_next(const uint8_t **p, uint32_t prev)
+{
+    const uint8_t *q = *p;
+    uint32_t v = q[0];
+    if (v < 0x80) {
+        *p = q + 1;
+        return prev + v;
+    }
+    v &= 0x7f;
+    for (int s = 7;; s += 7) {
+        uint32_t b = *++q;
+        v |= (b & 0x7f) << s;
+        if (b < 0x80)
+            break;
+    }
+    *p = q + 1;
+    return prev + v;
+}
+
+/* Writes v as an unsigned LEB128 varint (7 bits a byte, low bits first,
+ * the high bit set on every byte but the last) into out; returns its 1 to 5
+ * bytes.  The one encoder of the format's varints. */
+size_t rad_varint_put(uint8_t out[5], uint32_t v);
+
+/* Decodes row i into col[] and val[] (caller's buffers of row_count[i]
+ * entries each; either may be NULL); returns its entry count (0 for a
+ * missing row). */
+uint32_t rad_matrix_get_row(const rad_matrix *m, uint32_t i, uint32_t *col, float *val);
+
 /* Σ_j F_ij of a present row (0 for a missing one). */
 double rad_matrix_row_sum(const rad_matrix *m, uint32_t i);
+
+/* Bytes of row i's record (0 for a missing row): 8 + 4c + its varints. */
+uint64_t rad_matrix_record_bytes(const rad_matrix *m, uint32_t i);
+
+/* Room for `more` bytes past the pool's end; returns where they go (the
+ * caller writes records there and then calls rad_matrix_add_records), or
+ * NULL with err filled (RAD_ERR_NOMEM / RAD_ERR_LIMIT). */
+uint8_t *rad_matrix_reserve(rad_matrix *m, uint64_t more, rad_error *err);
+
+/* Indexes the row records the caller wrote in data[bytes, bytes + len)
+ * (after rad_matrix_reserve): every record is checked - bounds, row index
+ * below n and not already present, columns strictly increasing below n and
+ * never i, values finite and > 0, Σ_j F_ij <= 1 + 1e-3 - and that they are
+ * exactly `rows` records, and only then are the rows made present.
+ * Nothing is indexed on failure: RAD_ERR_CORRUPT with "row I: WHAT", and
+ * *at (when not NULL) the offset within the len bytes of the record at
+ * fault. */
+int rad_matrix_add_records(rad_matrix *m, uint64_t len, uint64_t rows, uint64_t *at,
+                           rad_error *err);
 
 /* Bytes a matrix of n patches needs when a fraction `fill` of entries is
  * non-zero: what the memory checks use before allocating. */
@@ -214,6 +353,14 @@ double rad_point_polygon_factor(rad_vec3 p, rad_vec3 n, const rad_vec3 *poly, ui
 
 /* Physical memory the system reports as available, in bytes (0 if unknown). */
 uint64_t rad_available_memory(void);
+
+/* This process's resident memory in bytes: now (peak 0) or the most it has
+ * had (peak 1, the high-water mark); 0 if unknown. */
+uint64_t rad_process_memory(int peak);
+
+/* "12.3 MiB", "4.5 GiB": a size for messages, in a unit that shows digits;
+ * returns buf. */
+const char *rad_human_bytes(double bytes, char *buf, size_t size);
 
 /* Wall-clock seconds from a monotonic clock, for stage timings. */
 double rad_seconds(void);
@@ -251,7 +398,42 @@ const char *rad_output_temp(const rad_output *o);
  * temporary and reports why.  Frees o either way. */
 int rad_output_commit(rad_output *o, rad_error *err);
 
-/* Removes the temporary and frees o.  NULL does nothing. */
+/* Removes the temporary and frees o (a partial output is kept).  NULL does
+ * nothing. */
 void rad_output_abort(rad_output *o);
+
+/* A partial output: work that must survive this process (a solve's rows,
+ * kept for the next run if this one is killed) goes to "PATH.partial",
+ * which no failure removes and only rad_output_commit renames onto PATH.
+ * Opens it (creating it when absent) under an exclusive lock - another
+ * process writing it is an error - with the append position at its end;
+ * *size receives its current size. */
+int rad_output_open_partial(const char *path, rad_output **out, uint64_t *size, rad_error *err);
+
+/* Reads n bytes at offset `at` of the output's file (a partial's earlier
+ * contents): 0, or -1 when they are not all there. */
+int rad_output_read_at(rad_output *o, void *p, size_t n, uint64_t at);
+
+/* Cuts the file to `size` bytes and moves the append position there. */
+int rad_output_truncate(rad_output *o, uint64_t size);
+
+/* Makes what is written so far durable (fdatasync). */
+int rad_output_sync(rad_output *o);
+
+/* RAD_OK, or the first failed operation as rad_output_commit would report it. */
+int rad_output_error(const rad_output *o, rad_error *err);
+
+/* Closes a partial output and frees o, keeping its file.  NULL does nothing. */
+void rad_output_keep(rad_output *o);
+
+/* Removes the output's file, a partial one too, and frees o (a partial
+ * that holds nothing worth keeping).  NULL does nothing. */
+void rad_output_drop(rad_output *o);
+
+/* Makes `path` a new name (hard link) of the existing file `existing`,
+ * atomically replacing whatever path named (a temporary link renamed onto
+ * it).  RAD_ERR_IO when the file system refuses (another device, no hard
+ * links, permissions). */
+int rad_output_link(const char *existing, const char *path, rad_error *err);
 
 #endif /* RAD_H */

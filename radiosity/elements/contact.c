@@ -9,7 +9,8 @@
  * block casts its shadow towards its own front face: the face's lowest
  * centimetre is 20-40 % darker than its patches say).  Those meetings are
  * found here, from the scene's polygons alone: a polygon that reaches a
- * cell's plane, inside the cell or along its edge, from in front of it.
+ * cell's plane, inside the cell or along its edge, from in front of it (a
+ * patch's cells: a cluster's, or the patch itself).
  * The elements they touch get hemi-cubes.
  *
  * Invariant: the result depends only on the geometry (a uniform grid over
@@ -198,14 +199,18 @@ void el_contacts_free(el_contacts *c)
     memset(c, 0, sizeof *c);
 }
 
-/* Adds q to patch p's list (the last one open) when it touches p; RAD_OK
- * or out of memory. */
+/* Adds q to patch p's list (the last one open) when it touches one of p's
+ * cells; RAD_OK or out of memory. */
 static int check_poly(const rad_solution *s, uint32_t p, uint32_t q, el_contacts *out, size_t *cap,
                       rad_error *err)
 {
-    const rad_patch *pp = &s->mesh->patches[p];
-    if (!el_cell_touches(s->scene, s->mesh->vertices, pp->v, rad_patch_corners(pp), pp->normal,
-                         pp->polygon, q, out->tol))
+    const rad_patch *cells;
+    const uint32_t k = rad_patch_cells(s->mesh, p, &cells);
+    int hit = 0;
+    for (uint32_t c = 0; c < k && !hit; c++)
+        hit = el_cell_touches(s->scene, s->mesh->vertices, cells[c].v, rad_patch_corners(&cells[c]),
+                              cells[c].normal, cells[c].polygon, q, out->tol);
+    if (!hit)
         return RAD_OK;
     size_t used = out->start[p + 1];
     if (used == *cap) {
@@ -242,14 +247,16 @@ int el_contact_patches(const rad_solution *s, el_contacts *out, rad_error *err)
     if (!stamp || grid_make(sc, lo, hi, tol, &g) != 0)
         rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for the contact test");
     for (uint32_t p = 0; p < np && rc == RAD_OK; p++) {
-        const rad_patch *pp = &m->patches[p];
+        const rad_patch *cells;
+        const uint32_t ncells = rad_patch_cells(m, p, &cells);
         out->start[p + 1] = out->start[p];
         rad_vec3 a = rad_v3(INFINITY, INFINITY, INFINITY), b = rad_scale(a, -1.0);
-        for (int k = 0; k < rad_patch_corners(pp); k++) {
-            rad_vec3 v = m->vertices[pp->v[k]];
-            a = rad_v3(fmin(a.x, v.x - tol), fmin(a.y, v.y - tol), fmin(a.z, v.z - tol));
-            b = rad_v3(fmax(b.x, v.x + tol), fmax(b.y, v.y + tol), fmax(b.z, v.z + tol));
-        }
+        for (uint32_t c = 0; c < ncells; c++)
+            for (int k = 0; k < rad_patch_corners(&cells[c]); k++) {
+                rad_vec3 v = m->vertices[cells[c].v[k]];
+                a = rad_v3(fmin(a.x, v.x - tol), fmin(a.y, v.y - tol), fmin(a.z, v.z - tol));
+                b = rad_v3(fmax(b.x, v.x + tol), fmax(b.y, v.y + tol), fmax(b.z, v.z + tol));
+            }
         uint32_t c0[3], c1[3];
         cell_range(&g, a, b, c0, c1);
         for (uint32_t k = 0; k < g.nbig && rc == RAD_OK; k++)

@@ -2,7 +2,8 @@
  *
  * The direct sources are the emitting patches (E > 0 in some band) when an
  * element set is made.  Each is cut into EL_STRATA strata, the four cells
- * of its first quadtree split, and an item buffer is rendered at a point
+ * of its first quadtree split (a cluster, a patch of several small
+ * polygons, into its cells instead), and an item buffer is rendered at a point
  * just in front of each stratum's centre (hc_light_visibility: a point
  * light's cube, the same views punctual lights use).  The entry of a
  * receiving point x (normal n) for source patch j is then
@@ -49,11 +50,10 @@ void el_sources_free(el_sources *src)
     memset(src, 0, sizeof *src);
 }
 
-/* The four cells of patch p's first split (refine.c's split, corner for
- * corner), into st[0..4). */
-static void strata_of(const rad_mesh *m, uint32_t p, el_stratum *st)
+/* The four cells of a cell's first split (refine.c's split, corner for
+ * corner), of patch p, into st[0..4). */
+static void strata_of_cell(const rad_mesh *m, uint32_t p, const rad_patch *c, el_stratum *st)
 {
-    const rad_patch *c = &m->patches[p];
     const int corners = rad_patch_corners(c);
     rad_vec3 v[4], mid[4];
     for (int k = 0; k < corners; k++)
@@ -77,19 +77,53 @@ static void strata_of(const rad_mesh *m, uint32_t p, el_stratum *st)
         }
     }
     for (uint32_t k = 0; k < EL_STRATA; k++) {
-        el_stratum *s = &st[k];
+        st[k].patch = p;
+        st[k].normal = c->normal;
+    }
+}
+
+/* Patch p's strata into st (room for strata_count(m, p)): the four
+ * quarters of a patch of one cell, each cell of a cluster; each with its
+ * point light just in front of its centre. */
+static uint32_t strata_of(const rad_mesh *m, uint32_t p, el_stratum *st)
+{
+    const rad_patch *cells;
+    const uint32_t k = rad_patch_cells(m, p, &cells);
+    uint32_t count = 0;
+    if (k == 1) {
+        strata_of_cell(m, p, &cells[0], st);
+        count = EL_STRATA;
+    } else {
+        for (uint32_t q = 0; q < k; q++, count++) {
+            const int corners = rad_patch_corners(&cells[q]);
+            for (int c = 0; c < corners; c++)
+                st[count].p[c] = m->vertices[cells[q].v[c]];
+            st[count].corners = (uint32_t)corners;
+            st[count].patch = p;
+            st[count].normal = cells[q].normal;
+        }
+    }
+    for (uint32_t q = 0; q < count; q++) {
+        el_stratum *s = &st[q];
         rad_vec3 ctr = rad_v3(0, 0, 0);
         double size = 0.0;
-        for (uint32_t q = 0; q < s->corners; q++) {
-            ctr = rad_add(ctr, s->p[q]);
-            size = fmax(size, rad_length(rad_sub(s->p[(q + 1) % s->corners], s->p[q])));
+        for (uint32_t c = 0; c < s->corners; c++) {
+            ctr = rad_add(ctr, s->p[c]);
+            size = fmax(size, rad_length(rad_sub(s->p[(c + 1) % s->corners], s->p[c])));
         }
         ctr = rad_scale(ctr, 1.0 / s->corners);
-        s->patch = p;
-        s->normal = c->normal;
         s->light = (hc_light){.kind = HC_LIGHT_POINT,
-                              .position = rad_add(ctr, rad_scale(c->normal, EL_STRATUM_LIFT * size))};
+                              .position = rad_add(ctr, rad_scale(s->normal, EL_STRATUM_LIFT * size))};
     }
+    return count;
+}
+
+/* How many strata patch p has (strata_of). */
+static uint32_t strata_count(const rad_mesh *m, uint32_t p)
+{
+    const rad_patch *cells;
+    const uint32_t k = rad_patch_cells(m, p, &cells);
+    return k == 1 ? EL_STRATA : k;
 }
 
 int el_sources_make(const rad_solution *s, el_sources *src, rad_error *err)
@@ -106,16 +140,17 @@ int el_sources_make(const rad_solution *s, el_sources *src, rad_error *err)
                 src->patches++;
                 break;
             }
-    src->st = malloc(((size_t)src->patches * EL_STRATA + 1) * sizeof *src->st);
+    size_t total = 0;
+    for (uint32_t j = 0; j < n; j++)
+        total += src->direct[j] ? strata_count(s->mesh, j) : 0;
+    src->st = malloc((total + 1) * sizeof *src->st);
     if (!src->st) {
         el_sources_free(src);
         return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for the direct sources");
     }
     for (uint32_t j = 0; j < n; j++)
-        if (src->direct[j]) {
-            strata_of(s->mesh, j, src->st + src->count);
-            src->count += EL_STRATA;
-        }
+        if (src->direct[j])
+            src->count += strata_of(s->mesh, j, src->st + src->count);
     return RAD_OK;
 }
 
@@ -150,9 +185,11 @@ int el_direct_rows(const rad_solution *s, const el_sources *src, hc_engine *hc, 
     out->start = calloc((size_t)count + 1, sizeof *out->start);
     if (!acc || !vis || !f || !sub || !at || !out->start)
         rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for direct light");
-    for (uint32_t first = 0; rc == RAD_OK && first < src->count; first += EL_STRATA) {
+    for (uint32_t first = 0, end = 0; rc == RAD_OK && first < src->count; first = end) {
         const uint32_t j = src->st[first].patch;
-        for (uint32_t q = first; rc == RAD_OK && q < first + EL_STRATA; q++) {
+        while (end < src->count && src->st[end].patch == j)
+            end++;
+        for (uint32_t q = first; rc == RAD_OK && q < end; q++) {
             const el_stratum *st = &src->st[q];
             uint32_t m = 0;
             for (uint32_t k = 0; k < count; k++) {

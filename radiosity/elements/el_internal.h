@@ -8,9 +8,10 @@
 
 /* ------------------------------------------------- vertices (vertices.c) */
 
-/* A surface is one side of one polygon: 2·polygon, + 1 when the cell's
- * normal has its largest component negative (see vertices.c). */
-uint32_t el_surface_of(const rad_patch *c);
+/* The surface of each vertex of m (m->vertex_count labels into label):
+ * vertices joined through the cells of m (its cell layer when it has one)
+ * share the label, the lowest vertex index among them (see vertices.c). */
+void el_vertex_surfaces(const rad_mesh *m, uint32_t *label);
 
 /* Open-addressing table of vertex indices keyed by (surface, exact
  * position).  The vertex arrays live with the caller; the table keeps a
@@ -35,7 +36,8 @@ rad_vec3 el_midpoint(rad_vec3 a, rad_vec3 b);
 
 /* ----------------------------------------------------- direct (direct.c) */
 
-/* Strata per direct source: the four cells of its first split. */
+/* Strata per direct source of one cell: the four cells of its first split
+ * (a cluster's strata are its cells). */
 #define EL_STRATA 4u
 /* At most this many strata (item buffers per refinement pass): beyond it,
  * elements get hemi-cubes of their own. */
@@ -46,11 +48,11 @@ rad_vec3 el_midpoint(rad_vec3 a, rad_vec3 b);
 typedef struct el_stratum el_stratum;
 
 /* The direct sources of an element set (solution.h's interpolated
- * elements): the emitting patches, each cut into EL_STRATA strata. */
+ * elements): the emitting patches, each cut into strata (direct.c). */
 typedef struct el_sources {
     uint8_t *direct;   /* per patch of s->mesh: 1 = a direct source */
     uint32_t patches;  /* how many */
-    el_stratum *st;    /* patches × EL_STRATA, source by source in patch order */
+    el_stratum *st;    /* the strata, source by source in patch order */
     uint32_t count;
 } el_sources;
 
@@ -156,9 +158,11 @@ int el_sees_nothing(const rad_solution *s, uint32_t p, uint32_t level, int inter
 /* rad_elements_drawn_radiosity of any field of the cells (el's elements,
  * or with el NULL the patches), n × bands: the cells that see nothing (by
  * their own B) get the affine extrapolation of `field` at the seen cells
- * they touch. */
+ * they touch, and the level-0 elements of clusters the affine fit of
+ * pfield, the same field per patch of s->mesh (s->B for radiosity). */
 int el_drawn_field(const rad_solution *s, const rad_elements *el, const rad_mesh *rm,
-                   const uint32_t *cells_of, const double *field, double *out, rad_error *err);
+                   const uint32_t *cells_of, const double *field, const double *pfield,
+                   double *out, rad_error *err);
 
 /* The value drawn at point p of a cell whose fans are rm's cells
  * [first, first + count), from the vertex values vB: the interpolant in the

@@ -186,15 +186,15 @@ void el_patch_indirect(const rad_solution *s, const uint8_t *direct, double *H)
         double *h = H + (size_t)p * bands;
         for (uint32_t b = 0; b < bands; b++)
             h[b] = 0.0;
-        if (!F->row_done[p] || F->row_count[p] == 0)
-            continue; /* an empty row may have no pool behind it */
-        const uint32_t *col = F->col + F->row_start[p];
-        const float *val = F->val + F->row_start[p];
-        for (uint32_t q = 0; q < F->row_count[p]; q++) {
-            if (direct[col[q]])
+        const rad_row r = rad_matrix_row(F, p); /* a missing row reads as empty */
+        const uint8_t *cp = r.col;
+        for (uint32_t q = 0, j = 0; q < r.count; q++) {
+            j = rad_row_next(&cp, j);
+            if (direct[j])
                 continue;
+            const double f = rad_row_value(&r, q);
             for (uint32_t b = 0; b < bands; b++)
-                h[b] += (double)val[q] * s->B[(size_t)col[q] * bands + b];
+                h[b] += f * s->B[(size_t)j * bands + b];
         }
     }
 }
@@ -214,29 +214,48 @@ int el_interp_make(const rad_solution *s, const double *field, el_interp *ip, ra
 {
     memset(ip, 0, sizeof *ip);
     const uint32_t n = s->mesh->patch_count, bands = s->band_count;
-    int rc = el_fan_mesh(s->mesh, &ip->rm, &ip->cells_of, err);
-    if (rc != RAD_OK)
+    /* A clustered mesh is drawn by its cells (level-0 elements, each of its
+     * patch), clusters with the affine fit of the patches' field; without
+     * clusters the cells are the patches. */
+    rad_elements *cells = NULL;
+    int rc = s->mesh->cell_first ? rad_elements_of_cells(s, &cells, err) : RAD_OK;
+    const rad_mesh *cm = cells ? cells->mesh : s->mesh;
+    const uint32_t ncell = cm->patch_count;
+    if (rc == RAD_OK)
+        rc = el_fan_mesh(cm, &ip->rm, &ip->cells_of, err);
+    if (rc != RAD_OK) {
+        rad_elements_destroy(cells);
         return rc;
+    }
     const uint32_t nc = ip->rm->patch_count;
-    double *drawn = malloc(((size_t)n * bands + 1) * sizeof *drawn);
+    double *cfield = NULL;
+    double *drawn = malloc(((size_t)ncell * bands + 1) * sizeof *drawn);
     double *cell = malloc(((size_t)nc * bands + 1) * sizeof *cell);
     ip->vB = malloc(((size_t)ip->rm->vertex_count * bands + 1) * sizeof *ip->vB);
     ip->first = calloc((size_t)n + 1, sizeof *ip->first);
-    if (!drawn || !cell || !ip->vB || !ip->first)
+    if (cells && (cfield = malloc(((size_t)ncell * bands + 1) * sizeof *cfield)))
+        for (uint32_t c = 0; c < ncell; c++)
+            memcpy(cfield + (size_t)c * bands, field + (size_t)cells->patch[c] * bands,
+                   bands * sizeof *cfield);
+    if (!drawn || !cell || !ip->vB || !ip->first || (cells && !cfield))
         rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for the interpolation");
     if (rc == RAD_OK)
-        rc = el_drawn_field(s, NULL, ip->rm, ip->cells_of, field, drawn, err);
+        rc = el_drawn_field(s, cells, ip->rm, ip->cells_of, cells ? cfield : field, field, drawn,
+                            err);
     if (rc == RAD_OK) {
-        /* The fans of one patch are consecutive, in patch order. */
+        /* The fans of one cell are consecutive, in cell order, and so are
+         * the cells of one patch. */
         for (uint32_t k = 0; k < nc; k++) {
-            ip->first[ip->cells_of[k] + 1]++;
-            memcpy(cell + (size_t)k * bands, drawn + (size_t)ip->cells_of[k] * bands,
-                   bands * sizeof *cell);
+            const uint32_t c = ip->cells_of[k];
+            ip->first[(cells ? cells->patch[c] : c) + 1]++;
+            memcpy(cell + (size_t)k * bands, drawn + (size_t)c * bands, bands * sizeof *cell);
         }
         for (uint32_t p = 0; p < n; p++)
             ip->first[p + 1] += ip->first[p];
         rn_vertex_radiosity_fit(ip->rm, bands, cell, ip->vB, RN_FIT_QUADRATIC);
     }
+    rad_elements_destroy(cells);
+    free(cfield);
     free(drawn);
     free(cell);
     if (rc != RAD_OK)

@@ -62,24 +62,50 @@ static void run_end(run *c)
     c->exact = NULL;
 }
 
+/* The patches whose incoming factors are exact, into c->exact (NULL when
+ * none are: pixel_emitters, or the caller's own marks): emitters, whose few
+ * pixels are where aliasing hurts. */
+static int mark_exact(run *c, rad_error *err)
+{
+    if (c->exact || c->opt->pixel_emitters || c->opt->hemicube.exact)
+        return RAD_OK;
+    uint32_t n = c->s->mesh->patch_count, nb = c->s->band_count;
+    c->exact = calloc((size_t)n + 1, 1);
+    if (!c->exact)
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", c->s->scene->source);
+    for (uint32_t i = 0; i < n; i++)
+        for (uint32_t b = 0; b < nb; b++)
+            c->exact[i] |= c->s->emission[(size_t)i * nb + b] > 0.0;
+    return RAD_OK;
+}
+
 static int start_hemicube(run *c, rad_error *err)
 {
     if (c->hc)
         return RAD_OK;
     hc_options ho = c->opt->hemicube;
     ho.exact_near = c->opt->exact_near >= 0; /* on unless asked off */
-    uint32_t n = c->s->mesh->patch_count, nb = c->s->band_count;
-    if (!c->opt->pixel_emitters && !ho.exact) {
-        /* Emitters get exact factors: their few pixels are where aliasing hurts. */
-        c->exact = calloc((size_t)n + 1, 1);
-        if (!c->exact)
-            return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", c->s->scene->source);
-        for (uint32_t i = 0; i < n; i++)
-            for (uint32_t b = 0; b < nb; b++)
-                c->exact[i] |= c->s->emission[(size_t)i * nb + b] > 0.0;
+    ho.stop = c->opt->stop;
+    int rc = mark_exact(c, err);
+    if (rc)
+        return rc;
+    if (c->exact)
         ho.exact = c->exact; /* lives as long as the engine */
-    }
     return hc_create(c->s->mesh, &ho, &c->hc, err);
+}
+
+/* The rows key of this run (rad_rows_key): mesh, R, exact marks and the
+ * options that change rows. */
+static int rows_key(run *c, uint64_t *key, rad_error *err)
+{
+    int rc = mark_exact(c, err);
+    if (rc)
+        return rc;
+    const rad_solve_options *o = c->opt;
+    uint32_t R = o->hemicube.resolution ? o->hemicube.resolution : HC_DEFAULT_RESOLUTION;
+    uint32_t flags = (o->exact_near >= 0 ? 1u : 0u) | (o->pixel_emitters ? 2u : 0u);
+    *key = rad_rows_key(c->s->mesh, R, c->exact ? c->exact : o->hemicube.exact, flags);
+    return RAD_OK;
 }
 
 static int compute_rows(run *c, const uint32_t *rows, uint32_t count, rad_error *err)
@@ -88,37 +114,28 @@ static int compute_rows(run *c, const uint32_t *rows, uint32_t count, rad_error 
         return RAD_OK;
     double t0 = rad_seconds();
     int rc = start_hemicube(c, err);
+    /* the engine stops at the flag, keeping every row its workers finished */
     if (!rc)
         rc = hc_compute_rows(c->hc, rows, count, c->s->F, err);
+    if (rc == RAD_ERR_INTERRUPTED)
+        rad_fail(err, rc, "%s: form factors: interrupted", c->s->scene->source);
     if (!rc)
         c->rows_computed += count;
     c->ff_seconds += rad_seconds() - t0;
     return rc;
 }
 
-/* "12.3 MiB" / "4.5 GiB": sizes in messages, in a unit that shows digits. */
-static const char *human_bytes(double bytes, char *buf, size_t size)
-{
-    if (bytes >= 1073741824.0)
-        snprintf(buf, size, "%.1f GiB", bytes / 1073741824.0);
-    else if (bytes >= 1048576.0)
-        snprintf(buf, size, "%.1f MiB", bytes / 1048576.0);
-    else
-        snprintf(buf, size, "%.1f KiB", bytes / 1024.0);
-    return buf;
-}
-
 static int need_row(void *user, uint32_t i, rad_error *err)
 {
     run *c = user;
-    uint64_t used = c->s->F->capacity * (sizeof(uint32_t) + sizeof(float));
+    uint64_t used = c->s->F->capacity;
     if (used > c->max_memory) {
         char a[32], b[32];
         return rad_fail(err, RAD_ERR_LIMIT,
                         "%s: form factors: the matrix has grown to %s, over the limit of %s; "
                         "use a larger --patch-size or raise --max-memory",
-                        c->s->scene->source, human_bytes((double)used, a, sizeof a),
-                        human_bytes((double)c->max_memory, b, sizeof b));
+                        c->s->scene->source, rad_human_bytes((double)used, a, sizeof a),
+                        rad_human_bytes((double)c->max_memory, b, sizeof b));
     }
     return compute_rows(c, &i, 1, err);
 }
@@ -159,22 +176,65 @@ static int patch_tau(const rad_solution *s, double **out, rad_error *err)
     return RAD_OK;
 }
 
-/* Refuses, before allocating, a matrix that would not fit: the estimate
- * assumes every entry of the needed rows is non-zero (a closed room comes
- * close), so it is an upper bound. */
-static int check_memory(const rad_solution *s, uint32_t rows, uint64_t limit, rad_error *err)
+/* The estimate once the sample rows are in F: `left` rows still to
+ * compute, each taken to hold the samples' mean count of entries and to
+ * take their mean bytes, in memory (F keeps its rows packed, as the file
+ * stores them: rad.h) and in the file (rad_solution_row_file_bytes). */
+static void estimate(const run *c, const uint32_t *sample, uint32_t k, uint32_t left,
+                     rad_estimate *e)
 {
-    uint32_t n = s->mesh->patch_count;
-    double bytes = (double)rows * (double)n * (sizeof(uint32_t) + sizeof(float));
-    if (bytes <= (double)limit)
+    const rad_solution *s = c->s;
+    const rad_matrix *F = s->F;
+    const uint32_t n = s->mesh->patch_count, nb = s->band_count;
+    uint64_t entries = 0, record = 0, file = 0;
+    for (uint32_t q = 0; q < k; q++) {
+        entries += F->row_count[sample[q]];
+        record += rad_matrix_record_bytes(F, sample[q]);
+        file += rad_solution_row_file_bytes(F, sample[q]);
+    }
+    const double mean = k ? (double)entries / k : 0.0, per_file = k ? (double)file / k : 8.0;
+    const double more = k ? (double)left * (double)record / k : 0.0;
+    *e = (rad_estimate){.patches = n,
+                        .cells = s->mesh->cell_first ? s->mesh->cell_count : n,
+                        .rows = F->rows_done + left,
+                        .sample_rows = k,
+                        .entries_per_row = mean,
+                        .limit_bytes = c->max_memory};
+    e->matrix_bytes = (uint64_t)((double)F->bytes + more) +
+                      (uint64_t)n * (sizeof(uint64_t) + sizeof(uint32_t) + 1);
+    /* The process now (scene, mesh, solution arrays, F so far), the rest of
+     * F, and the solve's own arrays (a few per patch and band). */
+    e->peak_bytes = rad_process_memory(0) + (uint64_t)more + (uint64_t)n * (32u * nb + 16u);
+    e->file_bytes = rad_solution_file_bytes(s) + (uint64_t)((double)left * per_file);
+}
+
+/* Refuses a matrix that would not fit in c->max_memory, before computing
+ * the rows that would fill it, with a patch size that would: F grows about
+ * as N² (N rows, each seeing a share of the N patches), so N' = N
+ * sqrt(0.7 L / F) patches fit with a margin, and rad_mesh_size_for finds
+ * the size that meshes into at most N'.  Also names the memory that would
+ * do, when the machine has it. */
+static int check_memory(const run *c, const rad_estimate *e, rad_error *err)
+{
+    if (e->matrix_bytes <= c->max_memory)
         return RAD_OK;
-    char need[32], have[32];
+    const rad_solution *s = c->s;
+    char need[32], have[32], mem[32], raise[96] = "";
+    double fit = (double)e->patches * sqrt(0.7 * (double)c->max_memory / (double)e->matrix_bytes);
+    uint64_t target = fit < 1.0 ? 1 : (uint64_t)fit;
+    double size = rad_mesh_size_for(s->scene, &c->opt->mesh, target);
+    uint64_t avail = rad_available_memory();
+    if (e->peak_bytes < avail)
+        snprintf(raise, sizeof raise, ", or --max-memory %s",
+                 rad_human_bytes((double)e->matrix_bytes * 1.1, mem, sizeof mem));
     return rad_fail(err, RAD_ERR_LIMIT,
-                    "%s: form factors for %u patches need up to %s, more than the %s "
-                    "allowed; use --solver progressive (rows on demand), a larger --patch-size, "
-                    "or --max-memory",
-                    s->scene->source, n, human_bytes(bytes, need, sizeof need),
-                    human_bytes((double)limit, have, sizeof have));
+                    "%s: form factors for %u patches need about %s (%.0f entries a row, "
+                    "measured on %u rows), more than the %s allowed; use --patch-size %.3g "
+                    "(at most %llu patches)%s",
+                    s->scene->source, e->patches,
+                    rad_human_bytes((double)e->matrix_bytes, need, sizeof need), e->entries_per_row,
+                    e->sample_rows, rad_human_bytes((double)c->max_memory, have, sizeof have), size,
+                    (unsigned long long)target, raise);
 }
 
 int rad_solution_is_grey(const rad_solution *s)
@@ -233,9 +293,27 @@ static int compute_missing_rows(run *c, const sv_system *all, rad_error *err)
     for (uint32_t i = 0; i < n; i++)
         if (!s->F->row_done[i] && (opt->all_rows || sv_row_needed(all, i)))
             missing[count++] = i;
-    int rc = check_memory(s, s->F->rows_done + count, c->max_memory, err);
+    /* A few rows spread over the patches first, to measure what the rest
+     * will take (they stay: the solve needs them; a journal keeps them like
+     * any row, and a resumed run samples among the rows still missing, so
+     * none is computed twice). */
+    uint32_t sample[RAD_ESTIMATE_SAMPLES], k = count < RAD_ESTIMATE_SAMPLES ? count : RAD_ESTIMATE_SAMPLES;
+    for (uint32_t q = 0; q < k; q++)
+        sample[q] = missing[(uint64_t)q * count / k];
+    int rc = compute_rows(c, sample, k, err);
+    uint32_t left = 0;
+    for (uint32_t q = 0; q < count; q++)
+        if (!s->F->row_done[missing[q]])
+            missing[left++] = missing[q];
+    rad_estimate e;
+    if (!rc && count) {
+        estimate(c, sample, k, left, &e);
+        if (opt->on_estimate)
+            opt->on_estimate(opt->estimate_user, &e);
+        rc = check_memory(c, &e, err);
+    }
     if (!rc)
-        rc = compute_rows(c, missing, count, err);
+        rc = compute_rows(c, missing, left, err);
     free(missing);
     return rc;
 }
@@ -364,6 +442,10 @@ static int resolve(run *c, rad_error *err)
     rad_solution *s = c->s;
     const uint32_t n = s->mesh->patch_count;
     double *tau = NULL, *src = NULL;
+    if (!s->F->entries_loaded)
+        return rad_fail(err, RAD_ERR_USAGE,
+                        "%s: the form factors were not read (rad_solution_load_matrix)",
+                        s->scene->source);
     int rc = patch_tau(s, &tau, err);
     if (rc)
         return rc;
@@ -490,8 +572,16 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
 
     run c;
     run_begin(&c, s, opt);
+    /* Rows kept from an earlier run of the same mesh and options. */
+    if (opt->journal) {
+        uint64_t key = 0;
+        rc = rows_key(&c, &key, err);
+        if (!rc)
+            rc = rad_journal_attach(opt->journal, s->F, key, err);
+    }
     /* Form factors and solve. */
-    rc = resolve(&c, err);
+    if (!rc)
+        rc = resolve(&c, err);
 
     /* Elements: split where what is drawn misses what finer elements
      * gather, from the patch solution (hemi-cubes at the elements' centres,
@@ -500,6 +590,8 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
         rc = refine(&c, err);
     run_end(&c);
     if (rc) {
+        if (opt->journal)
+            rad_journal_detach(opt->journal); /* its rows stay in the file */
         rad_solution_destroy(s);
         return rc;
     }

@@ -13,6 +13,31 @@
 #include "../scene/scene.h"
 #include "../store/solution.h"
 
+#include <signal.h>
+
+/* What the form factors of a solve will take, estimated before they are
+ * computed: a few rows, spread over the patches, are rendered first (they
+ * are kept: they are rows the solve needs) and the rest are taken to hold
+ * as many entries each as those do on average.  A row holds at most one
+ * entry per hemi-cube pixel (3R²) and per other patch; in practice far
+ * fewer, as a patch sees only part of the scene.  With a journal
+ * (rad_solve_options.journal) the sample rows are journaled like any
+ * other, and a resumed solve samples only among the rows still missing. */
+typedef struct rad_estimate {
+    uint32_t patches;        /* N */
+    uint32_t cells;          /* cells drawn in each hemi-cube (N without clusters) */
+    uint32_t rows;           /* rows the solve computes in all */
+    uint32_t sample_rows;    /* rows rendered to measure */
+    double entries_per_row;  /* their mean count of F_ij > 0 */
+    uint64_t matrix_bytes;   /* F with every row in */
+    uint64_t peak_bytes;     /* the solving process's resident memory at its largest */
+    uint64_t file_bytes;     /* the solution file, without elements */
+    uint64_t limit_bytes;    /* what F may take (max_memory) */
+} rad_estimate;
+
+/* Rows rendered to estimate the form factors' size. */
+#define RAD_ESTIMATE_SAMPLES 64u
+
 /* {0} means defaults. */
 typedef struct rad_solve_options {
     rad_load_options load;
@@ -36,6 +61,11 @@ typedef struct rad_solve_options {
      * the pipeline's own and are ignored.) */
     int (*on_preview)(void *user, const rad_solution *s, uint32_t shots, const double *B_display);
     void *preview_user;
+    /* May be NULL: called with the estimate once it is made, before the
+     * rows are computed (gathering solvers; a matrix that would not fit is
+     * refused right after, with a patch size that would). */
+    void (*on_estimate)(void *user, const rad_estimate *e);
+    void *estimate_user;
     /* Punctual lights: R of the item-buffer cube rendered at each light
      * (hc_light_power); 0 = the larger of 512 and the hemi-cube resolution. */
     uint32_t light_resolution;
@@ -55,6 +85,16 @@ typedef struct rad_solve_options {
                               * whatever the threshold (uniform elements: references) */
     int element_hemicubes;   /* 1 = every adaptive element's row from a hemi-cube of its own
                               * (rad_refine_options: the slow reference) */
+    /* rad_solve_scene only, may be NULL: the solve's output file in progress
+     * (rad_journal in solution.h).  Rows it already holds for this mesh and
+     * these options are reused, every new row is appended to it as soon as
+     * it is computed; the caller commits it with the solution. */
+    rad_journal *journal;
+    /* May be NULL: a flag the caller sets (from a signal handler, say) to
+     * stop the form factors (hc_options.stop): no new row is started, the
+     * rows the workers are computing are still stored (and journaled), and
+     * the call fails with RAD_ERR_INTERRUPTED. */
+    const volatile sig_atomic_t *stop;
 } rad_solve_options;
 
 /* The whole computation for a scene file: load, mesh, form factors, solve.

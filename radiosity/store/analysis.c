@@ -17,18 +17,25 @@ int rad_solution_irradiance(const rad_solution *s, double *H, rad_error *err)
     const rad_matrix *F = s->F;
     const rad_patch *p = s->mesh->patches;
     uint32_t n = s->mesh->patch_count, nb = s->band_count;
+    if (!F->entries_loaded) {
+        /* read without F: what the writer computed from it */
+        if (!s->irradiance)
+            return rad_fail(err, RAD_ERR_USAGE, "%s: irradiance: the form factors were not read",
+                            s->scene->source);
+        memcpy(H, s->irradiance, (size_t)n * nb * sizeof *H);
+        return RAD_OK;
+    }
     /* the punctual lights' direct part first (zero without lights) */
     int rc = rad_solution_direct_irradiance(s, H, err);
     if (rc)
         return rc;
     for (uint32_t i = 0; i < n; i++) {
-        if (!F->row_done[i] || F->row_count[i] == 0)
-            continue; /* an empty row may have no pool behind it */
-        const uint32_t *col = F->col + F->row_start[i];
-        const float *val = F->val + F->row_start[i];
-        for (uint32_t k = 0; k < F->row_count[i]; k++) {
-            uint32_t j = col[k];
-            double f = val[k];
+        const rad_row r = rad_matrix_row(F, i);
+        const uint8_t *q = r.col;
+        uint32_t j = 0;
+        for (uint32_t k = 0; k < r.count; k++) {
+            j = rad_row_next(&q, j);
+            double f = rad_row_value(&r, k);
             if (F->row_done[j] == 0) {
                 /* j has no row: light from i reaches j with A_i F_ij / A_j = F_ji. */
                 double fji = f * p[i].area / p[j].area;
@@ -48,7 +55,11 @@ int rad_solution_object_stats(const rad_solution *s, rad_object_stats *out, rad_
     double *H = malloc(((size_t)n * nb + 1) * sizeof *H);
     if (!H)
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
-    rad_solution_irradiance(s, H, err);
+    int rc = rad_solution_irradiance(s, H, err);
+    if (rc) {
+        free(H);
+        return rc;
+    }
     memset(out, 0, (size_t)no * sizeof *out);
     for (uint32_t o = 0; o < no; o++)
         out[o].material = RAD_NONE;
@@ -79,20 +90,21 @@ int rad_solution_object_stats(const rad_solution *s, rad_object_stats *out, rad_
 
 int rad_object_form_factors(const rad_solution *s, double *M, rad_error *err)
 {
-    (void)err;
     const rad_matrix *F = s->F;
+    if (!F->entries_loaded)
+        return rad_fail(err, RAD_ERR_USAGE, "%s: form factors: the matrix was not read",
+                        s->scene->source);
     const rad_patch *p = s->mesh->patches;
     uint32_t n = s->mesh->patch_count, no = s->scene->object_count;
     memset(M, 0, (size_t)no * no * sizeof *M);
     /* Accumulate A_i F_ij (power-like exchange areas), then divide by A_A. */
     for (uint32_t i = 0; i < n; i++) {
-        if (!F->row_done[i] || F->row_count[i] == 0)
-            continue; /* an empty row may have no pool behind it */
-        const uint32_t *col = F->col + F->row_start[i];
-        const float *val = F->val + F->row_start[i];
-        for (uint32_t k = 0; k < F->row_count[i]; k++) {
-            uint32_t j = col[k];
-            double g = p[i].area * (double)val[k];
+        const rad_row r = rad_matrix_row(F, i);
+        const uint8_t *q = r.col;
+        uint32_t j = 0;
+        for (uint32_t k = 0; k < r.count; k++) {
+            j = rad_row_next(&q, j);
+            double g = p[i].area * (double)rad_row_value(&r, k);
             M[(size_t)p[i].object * no + p[j].object] += g;
             if (!F->row_done[j])
                 M[(size_t)p[j].object * no + p[i].object] += g; /* reciprocity */

@@ -175,13 +175,33 @@ static void elements_csv(text_out *t, const rad_solution *s)
     }
 }
 
-/* Rows stored by (row_start, row_count, col, val), present where
- * present[i] != 0 (a present row may be empty: a row of zeros), as a
- * Matrix Market coordinate file of rows × cols, 1-based.  `what` is the
- * comment block's text. */
-static void matrix_mtx(text_out *t, const char *what, uint32_t rows, uint32_t cols,
-                       const uint8_t *present, const uint64_t *row_start,
-                       const uint32_t *row_count, const uint32_t *col, const float *val)
+/* Row i of a matrix into col[] and val[] (room for `cols` entries each);
+ * its entry count. */
+typedef uint32_t (*row_get)(const void *src, uint32_t i, uint32_t *col, float *val);
+
+/* F's rows, packed (rad.h): decoded. */
+static uint32_t patch_row(const void *src, uint32_t i, uint32_t *col, float *val)
+{
+    return rad_matrix_get_row(src, i, col, val);
+}
+
+/* The elements' rows, in (row_start, row_count, col, val). */
+static uint32_t element_row(const void *src, uint32_t e, uint32_t *col, float *val)
+{
+    const rad_elements *el = src;
+    uint32_t c = el->row_count[e];
+    memcpy(col, el->col + el->row_start[e], (size_t)c * sizeof *col);
+    memcpy(val, el->val + el->row_start[e], (size_t)c * sizeof *val);
+    return c;
+}
+
+/* Rows present where present[i] != 0 (a present row may be empty: a row of
+ * zeros), row_count[i] entries each, read by get from src, as a Matrix
+ * Market coordinate file of rows × cols, 1-based.  `what` is the comment
+ * block's text.  0, or -1 when memory for a row runs out. */
+static int matrix_mtx(text_out *t, const char *what, uint32_t rows, uint32_t cols,
+                      const uint8_t *present, const uint32_t *row_count, row_get get,
+                      const void *src)
 {
     uint64_t nnz = 0;
     uint32_t done = 0;
@@ -198,12 +218,19 @@ static void matrix_mtx(text_out *t, const char *what, uint32_t rows, uint32_t co
     }
     t_printf(t, "\n%% rows present: %u of %u\n", done, rows);
     t_printf(t, "%u %u %llu\n", rows, cols, (unsigned long long)nnz);
-    for (uint32_t i = 0; i < rows; i++) {
+    uint32_t *col = malloc(((size_t)cols + 1) * sizeof *col);
+    float *val = malloc(((size_t)cols + 1) * sizeof *val);
+    int rc = col && val ? 0 : -1;
+    for (uint32_t i = 0; i < rows && !rc; i++) {
         if (!present[i])
             continue;
-        for (uint64_t k = row_start[i]; k < row_start[i] + row_count[i]; k++)
+        uint32_t c = get(src, i, col, val);
+        for (uint32_t k = 0; k < c; k++)
             t_printf(t, "%u %u %.9g\n", i + 1, col[k] + 1, (double)val[k]);
     }
+    free(col);
+    free(val);
+    return rc;
 }
 
 /* The files, in the order they are written and committed. */
@@ -215,6 +242,8 @@ int rad_solution_export(const rad_solution *s, const char *dir, rad_error *err)
 {
     if (!s || !dir || !*dir)
         return rad_fail(err, RAD_ERR_USAGE, "export: no solution or no directory");
+    if (!s->F->entries_loaded)
+        return rad_fail(err, RAD_ERR_USAGE, "export: the form factors were not read");
     int files = s->elements ? OUT_COUNT : OUT_ELEMENTS;
     rad_output *out[OUT_COUNT] = {0};
     text_out *t = malloc(sizeof *t);
@@ -242,8 +271,9 @@ int rad_solution_export(const rad_solution *s, const char *dir, rad_error *err)
                      "row i, column j: patches i-1, j-1 (row i is line i of patches.csv after its header)\n"
                      "rows absent here were not computed (F_row = 0 in patches.csv): unknown, not zero",
                      s->scene->source);
-            matrix_mtx(t, what, s->F->n, s->F->n, s->F->row_done, s->F->row_start,
-                       s->F->row_count, s->F->col, s->F->val);
+            if (matrix_mtx(t, what, s->F->n, s->F->n, s->F->row_done, s->F->row_count,
+                           patch_row, s->F))
+                rc = rad_fail(err, RAD_ERR_NOMEM, "export: out of memory");
         } else {
             snprintf(what, sizeof what,
                      "F_ej, form factors from the elements to the patches of %s\n"
@@ -252,8 +282,9 @@ int rad_solution_export(const rad_solution *s, const char *dir, rad_error *err)
                      s->scene->source);
             const rad_elements *el = s->elements;
             /* an element's row exists from level 1 (solution.h) */
-            matrix_mtx(t, what, el->mesh->patch_count, s->mesh->patch_count, el->level,
-                       el->row_start, el->row_count, el->col, el->val);
+            if (matrix_mtx(t, what, el->mesh->patch_count, s->mesh->patch_count, el->level,
+                           el->row_count, element_row, el))
+                rc = rad_fail(err, RAD_ERR_NOMEM, "export: out of memory");
         }
         t_flush(t);
     }

@@ -16,25 +16,67 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+/* Each section's tag in the file and its name in messages. */
 const char sol_sec_tag[SEC_COUNT][4] = {
-    {'I', 'N', 'F', 'O'}, {'S', 'C', 'E', 'N'}, {'M', 'E', 'S', 'H'}, {'M', 'T', 'R', 'X'},
-    {'P', 'D', 'A', 'T'}, {'L', 'G', 'H', 'T'}, {'E', 'L', 'E', 'M'}, {'E', 'L', 'G', 'T'},
-    {'C', 'A', 'M', 'S'}, {'S', 'U', 'R', 'F'}, {'E', 'L', 'I', 'N'}};
+    [SEC_INFO] = {'I', 'N', 'F', 'O'},
+    [SEC_SCENE] = {'S', 'C', 'E', 'N'},
+    [SEC_MESH] = {'M', 'E', 'S', 'H'},
+    [SEC_MATRIX] = {'M', 'T', 'R', 'X'},
+    [SEC_PATCHDATA] = {'P', 'D', 'A', 'T'},
+    [SEC_LIGHTS] = {'L', 'G', 'H', 'T'},
+    [SEC_ELEMENTS] = {'E', 'L', 'E', 'M'},
+    [SEC_ELEMENT_LIGHTS] = {'E', 'L', 'G', 'T'},
+    [SEC_CAMERAS] = {'C', 'A', 'M', 'S'},
+    [SEC_SURFACE] = {'S', 'U', 'R', 'F'},
+    [SEC_CLUSTERS] = {'C', 'L', 'U', 'S'},
+    [SEC_ELEMENT_INDIRECT] = {'E', 'L', 'I', 'N'},
+    [SEC_ROWS] = {'R', 'O', 'W', 'S'},
+    [SEC_IRRADIANCE] = {'I', 'R', 'R', 'D'},
+    [SEC_MATRIXREF] = {'M', 'R', 'E', 'F'},
+};
 
-const char *const sol_sec_name[SEC_COUNT] = {"INFO",      "SCENE",  "MESH",     "MATRIX",
-                                                "PATCHDATA", "LIGHTS", "ELEMENTS", "ELEMENTLIGHTS",
-                                                "CAMERAS",   "SURFACE", "ELEMENTINDIRECT"};
+const char *const sol_sec_name[SEC_COUNT] = {
+    [SEC_INFO] = "INFO",
+    [SEC_SCENE] = "SCENE",
+    [SEC_MESH] = "MESH",
+    [SEC_MATRIX] = "MATRIX",
+    [SEC_PATCHDATA] = "PATCHDATA",
+    [SEC_LIGHTS] = "LIGHTS",
+    [SEC_ELEMENTS] = "ELEMENTS",
+    [SEC_ELEMENT_LIGHTS] = "ELEMENTLIGHTS",
+    [SEC_CAMERAS] = "CAMERAS",
+    [SEC_SURFACE] = "SURFACE",
+    [SEC_CLUSTERS] = "CLUSTERS",
+    [SEC_ELEMENT_INDIRECT] = "ELEMENTINDIRECT",
+    [SEC_ROWS] = "ROWS",
+    [SEC_IRRADIANCE] = "IRRADIANCE",
+    [SEC_MATRIXREF] = "MATRIXREF",
+};
 
-const int sol_version_sections[SOL_VERSION + 1] = {0, SEC_LIGHTS, SEC_ELEMENTS,
-                                                      SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_COUNT};
+const int sol_version_sections[SOL_VERSION_SHEETS + 1] = {0, SEC_LIGHTS, SEC_ELEMENTS,
+                                                          SEC_ELEMENT_LIGHTS, SEC_CAMERAS,
+                                                          SEC_COUNT_V5};
+
+int sol_section_order(size_t q)
+{
+    static const int head[] = {SEC_INFO,      SEC_SCENE,      SEC_MESH,
+                               SEC_ROWS,      SEC_PATCHDATA,  SEC_IRRADIANCE};
+    const size_t nh = sizeof head / sizeof head[0];
+    if (q < nh)
+        return head[q];
+    q -= nh;
+    return q <= (size_t)(SEC_LAST_ANNOUNCED - SEC_LIGHTS) ? SEC_LIGHTS + (int)q : -1;
+}
 
 /* ------------------------------------------------------------- CRC-64/XZ */
 
 /* CRC-64/XZ (ECMA-182 polynomial, reflected, init and final XOR all ones;
  * check value of "123456789" is 0x995DC9BBDF1939FA).  A CRC, unlike a hash,
  * is guaranteed to catch every error burst of up to 64 bits, so every
- * single-byte corruption is detected.  Slicing-by-8 tables: solution files
- * reach gigabytes. */
+ * single-byte corruption is detected.  Slicing-by-16 tables (32 KiB):
+ * solution files reach gigabytes, and every section is checked as it is
+ * read; 16 bytes a step ran ~1.35× as fast as 8 (915 against 675 MB/s on
+ * 140 MB, a busy 2-core machine). */
 #define CRC64_POLY 0xC96C5795D7870F42ull
 
 
@@ -46,7 +88,7 @@ void sol_crc64_init(sol_crc64_tables *c)
             r = (r & 1) ? (r >> 1) ^ CRC64_POLY : r >> 1;
         c->t[0][i] = r;
     }
-    for (int k = 1; k < 8; k++)
+    for (int k = 1; k < 16; k++)
         for (uint32_t i = 0; i < 256; i++)
             c->t[k][i] = (c->t[k - 1][i] >> 8) ^ c->t[0][c->t[k - 1][i] & 0xff];
 }
@@ -62,6 +104,18 @@ uint64_t sol_load_le64(const uint8_t *p)
 /* Advances the CRC register (not yet inverted) over n bytes. */
 uint64_t sol_crc64_update(const sol_crc64_tables *c, uint64_t crc, const uint8_t *p, size_t n)
 {
+    while (n >= 16) {
+        crc ^= sol_load_le64(p);
+        uint64_t d = sol_load_le64(p + 8);
+        crc = c->t[15][crc & 0xff] ^ c->t[14][(crc >> 8) & 0xff] ^ c->t[13][(crc >> 16) & 0xff] ^
+              c->t[12][(crc >> 24) & 0xff] ^ c->t[11][(crc >> 32) & 0xff] ^
+              c->t[10][(crc >> 40) & 0xff] ^ c->t[9][(crc >> 48) & 0xff] ^ c->t[8][crc >> 56] ^
+              c->t[7][d & 0xff] ^ c->t[6][(d >> 8) & 0xff] ^ c->t[5][(d >> 16) & 0xff] ^
+              c->t[4][(d >> 24) & 0xff] ^ c->t[3][(d >> 32) & 0xff] ^ c->t[2][(d >> 40) & 0xff] ^
+              c->t[1][(d >> 48) & 0xff] ^ c->t[0][d >> 56];
+        p += 16;
+        n -= 16;
+    }
     while (n >= 8) {
         crc ^= sol_load_le64(p);
         crc = c->t[7][crc & 0xff] ^ c->t[6][(crc >> 8) & 0xff] ^ c->t[5][(crc >> 16) & 0xff] ^

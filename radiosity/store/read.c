@@ -1,934 +1,76 @@
-/* read.c - rad_solution_read and rad_solution_parse: the solution file of
- * docs/solution-format.md, back into a rad_solution.
+/* read.c - reading a solution file (docs/solution-format.md): the header,
+ * then for version 6 the index and only the sections asked for, each
+ * checked against its own CRC, the matrix read straight into F's pool or
+ * taken from the file a MATRIXREF names; for versions 1-5 the whole payload
+ * under its one CRC.  parse.c parses the sections.
  *
- * Invariant: whatever bytes rad_solution_parse is given, it either fails with
- * a message naming the file, the section and the element, or returns a
- * solution that satisfies solution.h: the scene is rebuilt through scene.c's
- * checked builders, the mesh passes rad_mesh_check, F passes
- * rad_matrix_check, and ρ ∈ [0,1), E >= 0, B >= 0 are finite.  Every count is
- * compared with the bytes left before anything is allocated.
+ * Invariant: whatever the bytes, a read either fails with a message naming
+ * the file (and the section and element where there is one) or returns a
+ * solution that satisfies solution.h.  No section is trusted before its
+ * CRC matched (unless the caller turned checksums off), and a matrix from
+ * another file is used only if that file's MATRIX section is, byte for
+ * byte by its CRC and length, the one the reference names.
  */
 #include "store_internal.h"
 
 #include <errno.h>
 #include <fcntl.h>
-#include <stdarg.h>
+#include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
-/* ------------------------------------------------------------------ reader */
+/* --------------------------------------------------------------- header */
 
-/* A bounds-checked cursor: every get returns 0 instead of reading past the
- * end, and nothing advances on failure. */
-typedef struct cursor {
-    const uint8_t *p;
-    size_t left;
-} cursor;
+/* The header's fields (the meaning of the last two depends on the version). */
+typedef struct sol_head {
+    uint32_t version;
+    uint64_t a;  /* versions 1-5: payload size; 6: the index's offset */
+    uint64_t b;  /* versions 1-5: payload CRC; 6: the index's CRC */
+} sol_head;
 
-static int get_bytes(cursor *c, void *out, size_t n)
+/* Magic, version, reserved field; `size` is the file's. */
+static int check_header(const uint8_t *d, uint64_t size, const char *name, sol_head *h,
+                        rad_error *err)
 {
-    if (n > c->left)
-        return 0;
-    if (n)
-        memcpy(out, c->p, n);
-    c->p += n;
-    c->left -= n;
-    return 1;
-}
-
-static int get_u8(cursor *c, uint8_t *v) { return get_bytes(c, v, 1); }
-
-static int get_u32(cursor *c, uint32_t *v)
-{
-    if (c->left < 4)
-        return 0;
-    *v = (uint32_t)c->p[0] | (uint32_t)c->p[1] << 8 | (uint32_t)c->p[2] << 16 |
-         (uint32_t)c->p[3] << 24;
-    c->p += 4;
-    c->left -= 4;
-    return 1;
-}
-
-static int get_u64(cursor *c, uint64_t *v)
-{
-    if (c->left < 8)
-        return 0;
-    *v = sol_load_le64(c->p);
-    c->p += 8;
-    c->left -= 8;
-    return 1;
-}
-
-static int get_f64(cursor *c, double *v)
-{
-    uint64_t bits;
-    if (!get_u64(c, &bits))
-        return 0;
-    memcpy(v, &bits, sizeof *v);
-    return 1;
-}
-
-static int get_f32(cursor *c, float *v)
-{
-    uint32_t bits;
-    if (!get_u32(c, &bits))
-        return 0;
-    memcpy(v, &bits, sizeof *v);
-    return 1;
-}
-
-static int get_vec3(cursor *c, rad_vec3 *v)
-{
-    return get_f64(c, &v->x) && get_f64(c, &v->y) && get_f64(c, &v->z);
-}
-
-/* LEB128 of a u32: at most 5 bytes, no bits above 32, no padding bytes
- * (one value, one encoding).  0 when truncated or malformed. */
-static int get_varint(cursor *c, uint32_t *v)
-{
-    uint64_t r = 0;
-    for (size_t k = 0; k < 5 && k < c->left; k++) {
-        uint8_t b = c->p[k];
-        r |= (uint64_t)(b & 0x7f) << (7 * k);
-        if (!(b & 0x80)) {
-            if ((k > 0 && b == 0) || r > UINT32_MAX)
-                return 0;
-            *v = (uint32_t)r;
-            c->p += k + 1;
-            c->left -= k + 1;
-            return 1;
-        }
-    }
-    return 0;
-}
-
-typedef struct reader {
-    const char *name;    /* for messages */
-    const char *section; /* for messages */
-    uint32_t version;    /* of the file */
-    uint8_t announced;   /* version 5: the optional sections INFO announces */
-    rad_error *err;
-    cursor c;
-    char str[SOL_MAX_STRING + 1];
-} reader;
-
-/* Version 5: does INFO announce optional section k (LIGHTS and after)? */
-static int announced(const reader *r, int k)
-{
-    return (r->announced >> (k - SEC_LIGHTS)) & 1u;
-}
-
-/* "NAME: section SECTION: WHAT" */
-#if defined(__GNUC__)
-__attribute__((format(printf, 3, 4)))
-#endif
-static int rfail(reader *r, int code, const char *fmt, ...)
-{
-    char what[768];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(what, sizeof what, fmt, ap);
-    va_end(ap);
-    return rad_fail(r->err, code, "%s: section %s: %s", r->name, r->section, what);
-}
-
-/* A string into r->str: u32 length <= 4096, then bytes without NUL.
- * Returns RAD_OK or fails naming `what`. */
-static int get_str(reader *r, const char *what, uint32_t i)
-{
-    uint32_t n;
-    if (!get_u32(&r->c, &n))
-        return rfail(r, RAD_ERR_CORRUPT, "%s %u: truncated", what, i);
-    if (n > SOL_MAX_STRING)
-        return rfail(r, RAD_ERR_CORRUPT, "%s %u: string length %u exceeds %u", what, i, n,
-                     SOL_MAX_STRING);
-    if (!get_bytes(&r->c, r->str, n))
-        return rfail(r, RAD_ERR_CORRUPT, "%s %u: truncated", what, i);
-    if (memchr(r->str, '\0', n))
-        return rfail(r, RAD_ERR_CORRUPT, "%s %u: name contains a NUL byte", what, i);
-    r->str[n] = '\0';
+    size_t m = size < 8 ? (size_t)size : 8;
+    if (size == 0 || memcmp(d, SOL_MAGIC, m) != 0)
+        return rad_fail(err, RAD_ERR_PARSE, "%s: not a radiosity solution file", name);
+    if (size < SOL_HEADER_BYTES)
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: truncated: %llu of at least %u bytes", name,
+                        (unsigned long long)size, SOL_HEADER_BYTES);
+    h->version = (uint32_t)sol_load_le64(d + 8);
+    uint32_t reserved = (uint32_t)(sol_load_le64(d + 8) >> 32);
+    h->a = sol_load_le64(d + 16);
+    h->b = sol_load_le64(d + 24);
+    if (h->version > SOL_VERSION)
+        return rad_fail(err, RAD_ERR_PARSE, "%s: format version %u is newer than this program (%u)",
+                        name, h->version, SOL_VERSION);
+    if (h->version == 0)
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: format version 0 does not exist", name);
+    if (reserved != 0)
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: reserved header field is %u, not 0", name,
+                        reserved);
     return RAD_OK;
 }
 
-/* count elements of at least `min_bytes` each must fit in what is left. */
-static int check_count(reader *r, uint64_t count, uint64_t min_bytes, const char *what)
+/* ------------------------------------------------------ versions 1 to 5 */
+
+static int known_section(const uint8_t tag[4], int count)
 {
-    if (count > r->c.left / min_bytes)
-        return rfail(r, RAD_ERR_CORRUPT, "%llu %s cannot fit in the %zu bytes left",
-                     (unsigned long long)count, what, r->c.left);
-    return RAD_OK;
-}
-
-#define TRUNC(...) rfail(r, RAD_ERR_CORRUPT, __VA_ARGS__)
-
-static int parse_info(reader *r, rad_solution *s)
-{
-    cursor *c = &r->c;
-    uint32_t stages;
-    if (!get_f64(c, &s->patch_size) || !get_u32(c, &s->resolution))
-        return TRUNC("truncated");
-    int rc = get_str(r, "solver", 0);
-    if (rc)
-        return rc;
-    if (strlen(r->str) > SOL_SOLVER_MAX)
-        return TRUNC("solver name '%.40s' is longer than %zu bytes", r->str, SOL_SOLVER_MAX);
-    memcpy(s->solver, r->str, strlen(r->str) + 1);
-    if (!get_f64(c, &s->tolerance) || !get_u32(c, &s->iterations) || !get_f64(c, &s->residual) ||
-        !get_u64(c, &s->rows_computed) || !get_u32(c, &stages))
-        return TRUNC("truncated");
-    if (stages > SOL_MAX_STAGES)
-        return TRUNC("%u stages (at most %u)", stages, SOL_MAX_STAGES);
-    for (uint32_t i = 0; i < stages; i++) {
-        double sec;
-        uint8_t reused;
-        if (!get_f64(c, &sec) || !get_u8(c, &reused))
-            return TRUNC("stage %u: truncated", i);
-        if (i < RAD_STAGE_COUNT) {
-            s->stages[i].seconds = sec;
-            s->stages[i].reused = reused;
-        } else if (sol_bad_nonneg(sec) || reused > 1) {
-            return TRUNC("stage %u: bad values", i);
-        }
-    }
-    if (r->version >= SOL_VERSION_SHEETS) {
-        if (!get_u8(c, &r->announced))
-            return TRUNC("truncated");
-        if (r->announced >> (SEC_COUNT - SEC_LIGHTS))
-            return TRUNC("announced sections 0x%x: only bits 0-%d exist", r->announced,
-                         SEC_COUNT - SEC_LIGHTS - 1);
-    }
-    return sol_check_info(s, r->name, "section INFO", RAD_ERR_CORRUPT, r->err);
-}
-
-/* scene.c reports failures as "SOURCE: WHERE: WHAT" with SOURCE = the
- * solution file's name while reading (see parse_scene); a bad value in a
- * checksummed file means corruption, whatever kind of rule it broke. */
-static int scene_rc(reader *r, int rc)
-{
-    if (rc != RAD_ERR_NOMEM)
-        rc = RAD_ERR_CORRUPT;
-    if (r->err)
-        r->err->code = rc;
-    return rc;
-}
-
-static int parse_scene(reader *r, rad_solution *s)
-{
-    cursor *c = &r->c;
-    /* scene.c names the element itself ("material 'red': ..."). */
-    const char *where = "section SCENE";
-    int rc = get_str(r, "source", 0);
-    if (rc)
-        return rc;
-    char *source = strdup(r->str);
-    if (!source)
-        return rfail(r, RAD_ERR_NOMEM, "out of memory");
-    rad_vec3 *pts = NULL;
-    uint32_t pts_cap = 0;
-
-    uint32_t nb, count;
-    if (!get_u32(c, &nb)) {
-        rc = TRUNC("truncated");
-        goto done;
-    }
-    if (nb < 1 || nb > RAD_MAX_BANDS) {
-        rc = TRUNC("%u bands (1..%d allowed)", nb, RAD_MAX_BANDS);
-        goto done;
-    }
-    /* Built under the solution file's name so that scene.c's messages name
-     * the file being read; the stored source is put back at the end. */
-    rad_scene *sc = s->scene = rad_scene_create(nb, r->name);
-    if (!sc) {
-        rc = rfail(r, RAD_ERR_NOMEM, "out of memory");
-        goto done;
-    }
-    s->band_count = nb;
-    for (uint32_t b = 0; b < nb; b++) {
-        uint8_t has;
-        if (!get_u8(c, &has)) {
-            rc = TRUNC("band %u: truncated", b);
-            goto done;
-        }
-        if (has > 1) {
-            rc = TRUNC("band %u: name flag %u is not 0 or 1", b, has);
-            goto done;
-        }
-        if (has) {
-            if ((rc = get_str(r, "band", b)))
-                goto done;
-            if (!(sc->band_names[b] = strdup(r->str))) {
-                rc = rfail(r, RAD_ERR_NOMEM, "out of memory");
-                goto done;
-            }
-        }
-    }
-
-    if (!get_u32(c, &count)) {
-        rc = TRUNC("material count: truncated");
-        goto done;
-    }
-    if ((rc = check_count(r, count, MIN_STRING + 24ull * nb, "materials")))
-        goto done;
-    for (uint32_t i = 0; i < count; i++) {
-        double rho[RAD_MAX_BANDS], e[RAD_MAX_BANDS], t[RAD_MAX_BANDS];
-        if ((rc = get_str(r, "material", i)))
-            goto done;
-        int ok = 1;
-        for (uint32_t b = 0; b < nb; b++)
-            ok = ok && get_f64(c, &rho[b]);
-        for (uint32_t b = 0; b < nb; b++)
-            ok = ok && get_f64(c, &e[b]);
-        for (uint32_t b = 0; b < nb; b++)
-            ok = ok && get_f64(c, &t[b]);
-        if (!ok) {
-            rc = TRUNC("material %u: truncated", i);
-            goto done;
-        }
-        if ((rc = rad_scene_add_material(sc, r->str, rho, e, t, where, NULL, r->err))) {
-            rc = scene_rc(r, rc);
-            goto done;
-        }
-    }
-
-    if (!get_u32(c, &count)) {
-        rc = TRUNC("object count: truncated");
-        goto done;
-    }
-    if ((rc = check_count(r, count, MIN_STRING, "objects")))
-        goto done;
-    for (uint32_t i = 0; i < count; i++) {
-        if ((rc = get_str(r, "object", i)))
-            goto done;
-        if ((rc = rad_scene_add_object(sc, r->str, where, NULL, r->err))) {
-            rc = scene_rc(r, rc);
-            goto done;
-        }
-    }
-
-    if (!get_u32(c, &count)) {
-        rc = TRUNC("polygon count: truncated");
-        goto done;
-    }
-    if ((rc = check_count(r, count, MIN_POLYGON, "polygons")))
-        goto done;
-    for (uint32_t i = 0; i < count; i++) {
-        uint32_t mat, obj, su, sv, np;
-        if ((rc = get_str(r, "polygon", i)))
-            goto done;
-        if (!get_u32(c, &mat) || !get_u32(c, &obj) || !get_u32(c, &su) || !get_u32(c, &sv) ||
-            !get_u32(c, &np)) {
-            rc = TRUNC("polygon %u: truncated", i);
-            goto done;
-        }
-        if (mat >= sc->material_count || obj >= sc->object_count) {
-            rc = TRUNC("polygon %u: material %u or object %u out of range "
-                       "(%u materials, %u objects)",
-                       i, mat, obj, sc->material_count, sc->object_count);
-            goto done;
-        }
-        if (np < 3) {
-            rc = TRUNC("polygon %u: %u points (at least 3)", i, np);
-            goto done;
-        }
-        if ((rc = check_count(r, np, 24, "points")))
-            goto done;
-        if (np > pts_cap) {
-            rad_vec3 *grown = realloc(pts, (size_t)np * sizeof *grown);
-            if (!grown) {
-                rc = rfail(r, RAD_ERR_NOMEM, "polygon %u: out of memory for %u points", i, np);
-                goto done;
-            }
-            pts = grown;
-            pts_cap = np;
-        }
-        for (uint32_t j = 0; j < np; j++)
-            get_vec3(c, &pts[j]); /* cannot fail: check_count above */
-        if ((rc = rad_scene_add_polygon(sc, r->str, obj, mat, pts, np, su, sv, where, NULL,
-                                        r->err))) {
-            rc = scene_rc(r, rc);
-            goto done;
-        }
-    }
-
-    if (!get_u32(c, &count)) {
-        rc = TRUNC("camera count: truncated");
-        goto done;
-    }
-    if ((rc = check_count(r, count, MIN_CAMERA, "cameras")))
-        goto done;
-    for (uint32_t i = 0; i < count; i++) {
-        rad_vec3 eye, target, up;
-        double fov, aspect;
-        if ((rc = get_str(r, "camera", i)))
-            goto done;
-        if (!get_vec3(c, &eye) || !get_vec3(c, &target) || !get_vec3(c, &up) ||
-            !get_f64(c, &fov) || !get_f64(c, &aspect)) {
-            rc = TRUNC("camera %u: truncated", i);
-            goto done;
-        }
-        if ((rc = rad_scene_add_camera(sc, r->str, eye, target, up, fov, aspect, where, NULL,
-                                       r->err))) {
-            rc = scene_rc(r, rc);
-            goto done;
-        }
-    }
-    free(sc->source);
-    sc->source = source;
-    source = NULL;
-done:
-    free(source);
-    free(pts);
-    return rc;
-}
-
-static int parse_mesh(reader *r, rad_solution *s)
-{
-    cursor *c = &r->c;
-    const rad_scene *sc = s->scene;
-    uint32_t nv, np;
-    if (!get_u32(c, &nv) || !get_u32(c, &np))
-        return TRUNC("truncated");
-    if ((uint64_t)nv * VERTEX_BYTES + (uint64_t)np * PATCH_BYTES > r->c.left)
-        return TRUNC("%u vertices and %u patches cannot fit in the %zu bytes left", nv, np,
-                     r->c.left);
-    rad_mesh *m = s->mesh = rad_mesh_alloc(nv, np);
-    if (!m)
-        return rfail(r, RAD_ERR_NOMEM, "out of memory for %u vertices and %u patches", nv, np);
-    /* The sizes were checked above, so the reads below cannot run short. */
-    for (uint32_t i = 0; i < nv; i++)
-        get_vec3(c, &m->vertices[i]);
-    for (uint32_t i = 0; i < nv; i++) {
-        get_u8(c, &m->vertex_boundary[i]);
-        if (m->vertex_boundary[i] > 1)
-            return TRUNC("vertex %u: boundary flag %u is not 0 or 1", i, m->vertex_boundary[i]);
-    }
-    for (uint32_t i = 0; i < np; i++) {
-        rad_patch *p = &m->patches[i];
-        for (int k = 0; k < 4; k++)
-            get_u32(c, &p->v[k]);
-        get_u32(c, &p->polygon);
-        get_u32(c, &p->object);
-        get_u32(c, &p->material);
-        get_vec3(c, &p->center);
-        get_vec3(c, &p->normal);
-        get_f64(c, &p->area);
-        for (int k = 0; k < 4; k++)
-            if (p->v[k] >= nv && !(k == 3 && p->v[k] == RAD_NONE))
-                return TRUNC("patch %u: vertex %u out of range (%u vertices)", i, p->v[k], nv);
-        if (p->polygon >= sc->polygon_count)
-            return TRUNC("patch %u: polygon %u out of range (%u polygons)", i, p->polygon,
-                         sc->polygon_count);
-        if (p->object >= sc->object_count)
-            return TRUNC("patch %u: object %u out of range (%u objects)", i, p->object,
-                         sc->object_count);
-        if (p->material >= sc->material_count)
-            return TRUNC("patch %u: material %u out of range (%u materials)", i, p->material,
-                         sc->material_count);
-    }
-    rad_error sub;
-    if (rad_mesh_check(m, sc->polygon_count, sc->object_count, sc->material_count, &sub))
-        return rfail(r, RAD_ERR_CORRUPT, "%s",
-                     strncmp(sub.message, "mesh: ", 6) == 0 ? sub.message + 6 : sub.message);
-    /* The two sides of transmitting polygons are paired by their layout,
-     * not stored.  Before version 5 transmittance was stored but not
-     * simulated: such a mesh is one-sided (rad_resolve refuses to solve
-     * it again rather than drop the transmitted light). */
-    if (r->version < SOL_VERSION_SHEETS)
-        return RAD_OK;
-    int rc = rad_mesh_link_twins(m, sc, &sub);
-    if (rc != RAD_OK) {
-        const char *msg = strstr(sub.message, "mesh: ");
-        return rfail(r, rc, "%s", msg ? msg + 6 : sub.message);
-    }
-    return RAD_OK;
-}
-
-/* Sizes F's entry pool to the exact total before the rows are stored: the
- * pool would otherwise grow by 1.5× steps, copying as it goes and ending up
- * to half again larger than needed, which for a matrix of gigabytes matters.
- * A quick scan over a copy of the cursor; on anything odd it does nothing
- * and parse_matrix's checked pass reports the fault. */
-static void presize_matrix(rad_matrix *F, cursor c, uint32_t rows)
-{
-    uint64_t total = 0;
-    for (uint32_t k = 0; k < rows; k++) {
-        uint32_t i, cnt;
-        if (!get_u32(&c, &i) || !get_u32(&c, &cnt))
-            return;
-        for (uint32_t e = 0; e < cnt; e++) {
-            uint32_t d;
-            if (!get_varint(&c, &d))
-                return;
-        }
-        if ((uint64_t)cnt * 4 > c.left)
-            return;
-        c.p += (size_t)cnt * 4;
-        c.left -= (size_t)cnt * 4;
-        total += cnt; /* <= bytes consumed / 5: bounded by the file */
-    }
-    if (total == 0 || total > SIZE_MAX / sizeof(uint32_t))
-        return;
-    uint32_t *col = malloc((size_t)total * sizeof *col);
-    float *val = malloc((size_t)total * sizeof *val);
-    if (!col || !val) {
-        free(col);
-        free(val);
-        return; /* rad_matrix_set_row will report the shortage */
-    }
-    free(F->col);
-    free(F->val);
-    F->col = col;
-    F->val = val;
-    F->capacity = total;
-}
-
-/* A row's cnt entries (see put_row) into col/val, checked: columns
- * strictly increasing below n and never `self`, values positive and
- * finite, sum <= 1 + 1e-3.  `what` and `i` name the row in messages. */
-static int get_row(reader *r, const char *what, uint32_t i, uint32_t cnt, uint32_t n, uint32_t self,
-                   uint32_t *col, float *val)
-{
-    cursor *c = &r->c;
-    uint64_t j = 0;
-    for (uint32_t e = 0; e < cnt; e++) {
-        uint32_t d;
-        if (!get_varint(c, &d))
-            return TRUNC("%s %u: entry %u: truncated or malformed column", what, i, e);
-        if (e > 0 && d == 0)
-            return TRUNC("%s %u: column %llu repeated", what, i, (unsigned long long)j);
-        j = e ? j + d : d;
-        if (j >= n)
-            return TRUNC("%s %u: column %llu out of range (n = %u)", what, i, (unsigned long long)j, n);
-        if (j == self)
-            return TRUNC("%s %u: entry on its own patch (F of a planar patch to itself is 0)", what, i);
-        col[e] = (uint32_t)j;
-    }
-    double sum = 0.0;
-    for (uint32_t e = 0; e < cnt; e++) {
-        if (!get_f32(c, &val[e]))
-            return TRUNC("%s %u: values truncated", what, i);
-        if (!(val[e] > 0.0f) || !isfinite(val[e]))
-            return TRUNC("%s %u: F_%u,%u = %g is not positive and finite", what, i, i, col[e],
-                         (double)val[e]);
-        sum += val[e];
-    }
-    if (sum > SOL_ROW_SUM_MAX)
-        return TRUNC("%s %u: Σ_j F_ij = %.6f exceeds 1", what, i, sum);
-    return RAD_OK;
-}
-
-static int parse_matrix(reader *r, rad_solution *s)
-{
-    cursor *c = &r->c;
-    uint32_t n, rows;
-    if (!get_u32(c, &n) || !get_u32(c, &rows))
-        return TRUNC("truncated");
-    if (n != s->mesh->patch_count)
-        return TRUNC("n = %u but the mesh has %u patches", n, s->mesh->patch_count);
-    if (rows > n)
-        return TRUNC("%u rows present but n = %u", rows, n);
-    int rc = check_count(r, rows, MIN_ROW, "rows");
-    if (rc)
-        return rc;
-    rad_matrix *F = s->F = rad_matrix_create(n);
-    if (!F)
-        return rfail(r, RAD_ERR_NOMEM, "out of memory for n = %u", n);
-    presize_matrix(F, r->c, rows);
-    uint32_t *col = NULL;
-    float *val = NULL;
-    uint32_t cap = 0;
-    int64_t prev = -1;
-    for (uint32_t k = 0; k < rows; k++) {
-        uint32_t i, cnt;
-        if (!get_u32(c, &i) || !get_u32(c, &cnt)) {
-            rc = TRUNC("row %u of %u: truncated", k, rows);
-            goto done;
-        }
-        if (i >= n || (int64_t)i <= prev) {
-            rc = TRUNC("row %u: index out of range or out of order (n = %u, previous row %lld)", i,
-                       n, (long long)prev);
-            goto done;
-        }
-        prev = i;
-        if (cnt > n - 1) {
-            rc = TRUNC("row %u: %u entries but n = %u", i, cnt, n);
-            goto done;
-        }
-        if ((rc = check_count(r, cnt, MIN_ENTRY, "form factors")))
-            goto done;
-        if (cnt > cap) {
-            uint32_t *nc = realloc(col, (size_t)cnt * sizeof *nc);
-            if (nc)
-                col = nc;
-            float *nv = nc ? realloc(val, (size_t)cnt * sizeof *nv) : NULL;
-            if (nv)
-                val = nv;
-            if (!nc || !nv) {
-                rc = rfail(r, RAD_ERR_NOMEM, "row %u: out of memory for %u entries", i, cnt);
-                goto done;
-            }
-            cap = cnt;
-        }
-        if ((rc = get_row(r, "row", i, cnt, n, i, col, val)))
-            goto done;
-        rad_error sub;
-        if ((rc = rad_matrix_set_row(F, i, cnt, col, val, &sub))) {
-            rc = rfail(r, rc, "row %u: %s", i, sub.message);
-            goto done;
-        }
-    }
-    /* A second opinion on the rows just checked one by one; skipped when
-     * no row has entries (no pool: rad_matrix_check would form NULL + 0). */
-    rad_error sub;
-    if (F->col && rad_matrix_check(F, &sub))
-        rc = rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
-done:
-    free(col);
-    free(val);
-    return rc;
-}
-
-static int parse_patchdata(reader *r, rad_solution *s)
-{
-    cursor *c = &r->c;
-    uint32_t n, nb;
-    if (!get_u32(c, &n) || !get_u32(c, &nb))
-        return TRUNC("truncated");
-    if (n != s->mesh->patch_count || nb != s->band_count)
-        return TRUNC("%u patches × %u bands but the mesh has %u patches and the scene %u bands", n,
-                     nb, s->mesh->patch_count, s->band_count);
-    uint64_t count = (uint64_t)n * nb;
-    if (count * 3 * 8 > r->c.left)
-        return TRUNC("%u patches × %u bands cannot fit in the %zu bytes left", n, nb, r->c.left);
-    s->rho = sol_alloc_band_array(n, nb);
-    s->emission = sol_alloc_band_array(n, nb);
-    s->B = sol_alloc_band_array(n, nb);
-    if (!s->rho || !s->emission || !s->B)
-        return rfail(r, RAD_ERR_NOMEM, "out of memory for %u patches × %u bands", n, nb);
-    for (uint64_t i = 0; i < count; i++)
-        get_f64(c, &s->rho[i]);
-    for (uint64_t i = 0; i < count; i++)
-        get_f64(c, &s->emission[i]);
-    for (uint64_t i = 0; i < count; i++)
-        get_f64(c, &s->B[i]);
-    return sol_check_patch_values(s, r->name, "section PATCHDATA", RAD_ERR_CORRUPT, r->err);
-}
-
-static int parse_lights(reader *r, rad_solution *s)
-{
-    cursor *c = &r->c;
-    rad_scene *sc = s->scene;
-    uint32_t nl, nb, n = s->mesh->patch_count;
-    if (!get_u32(c, &nl) || !get_u32(c, &nb) || !get_u64(c, &s->lights_computed))
-        return TRUNC("truncated");
-    if (nb != s->band_count)
-        return TRUNC("%u bands but the scene has %u", nb, s->band_count);
-    if (nl == 0)
-        return TRUNC("no lights (the section is written only when there are some)");
-    int rc = check_count(r, nl, MIN_LIGHT + 16ull * nb, "lights");
-    if (rc)
-        return rc;
-    if (sol_alloc_lights(s, nl) != 0)
-        return rfail(r, RAD_ERR_NOMEM, "out of memory for %u lights", nl);
-    /* scene.c names the file being read, as in parse_scene */
-    char *stored_source = sc->source;
-    sc->source = (char *)r->name;
-    for (uint32_t l = 0; l < nl && !rc; l++) {
-        uint8_t kind = 0, present = 0;
-        rad_vec3 pos, dir;
-        double inner, outer, I[RAD_MAX_BANDS];
-        uint32_t cnt;
-        if ((rc = get_str(r, "light", l)))
-            break;
-        int ok = get_u8(c, &kind) && get_vec3(c, &pos) && get_vec3(c, &dir) &&
-                 get_f64(c, &inner) && get_f64(c, &outer);
-        for (uint32_t b = 0; b < nb; b++)
-            ok = ok && get_f64(c, &I[b]);
-        for (uint32_t b = 0; b < nb; b++)
-            ok = ok && get_f64(c, &s->light_intensity[(size_t)l * nb + b]);
-        ok = ok && get_u8(c, &present) && get_u32(c, &cnt);
-        if (!ok) {
-            rc = TRUNC("light %u: truncated", l);
-            break;
-        }
-        if (kind > RAD_LIGHT_DIRECTIONAL) {
-            rc = TRUNC("light '%s': kind %u is not 0, 1 or 2", r->str, kind);
-            break;
-        }
-        if ((rc = rad_scene_add_light(sc, r->str, (rad_light_kind)kind, I, pos, dir, inner, outer,
-                                      "section LIGHTS", NULL, r->err))) {
-            rc = scene_rc(r, rc);
-            break;
-        }
-        if (present > 1 || (!present && cnt)) {
-            rc = TRUNC("light '%s': present flag %u with %u patches", r->str, present, cnt);
-            break;
-        }
-        if (cnt > n) {
-            rc = TRUNC("light '%s': %u patches lit but the mesh has %u", r->str, cnt, n);
-            break;
-        }
-        if ((rc = check_count(r, cnt, MIN_ENTRY, "lit patches")))
-            break;
-        rad_light_power *lp = &s->light_power[l];
-        lp->present = present;
-        lp->patch = malloc((cnt ? cnt : 1) * sizeof *lp->patch);
-        lp->power = malloc((cnt ? cnt : 1) * sizeof *lp->power);
-        if (!lp->patch || !lp->power) {
-            rc = rfail(r, RAD_ERR_NOMEM, "light '%s': out of memory", r->str);
-            break;
-        }
-        uint64_t j = 0;
-        for (uint32_t e = 0; e < cnt && !rc; e++) {
-            uint32_t d;
-            if (!get_varint(c, &d))
-                rc = TRUNC("light '%s': entry %u: truncated or malformed patch index", r->str, e);
-            else if (e > 0 && d == 0)
-                rc = TRUNC("light '%s': patch %llu repeated", r->str, (unsigned long long)j);
-            else if ((j = e ? j + d : d) >= n)
-                rc = TRUNC("light '%s': patch %llu out of range (%u patches)", r->str,
-                           (unsigned long long)j, n);
-            else
-                lp->patch[e] = (uint32_t)j;
-        }
-        for (uint32_t e = 0; e < cnt && !rc; e++) {
-            if (!get_f32(c, &lp->power[e]))
-                rc = TRUNC("light '%s': values truncated", r->str);
-            else if (!(lp->power[e] > 0.0f) || !isfinite(lp->power[e]))
-                rc = TRUNC("light '%s': patch %u: power %g is not positive and finite", r->str,
-                           lp->patch[e], (double)lp->power[e]);
-        }
-        lp->count = rc ? 0 : cnt;
-    }
-    sc->source = stored_source;
-    if (rc)
-        return rc;
-    return sol_check_lights(s, r->name, "section LIGHTS", RAD_ERR_CORRUPT, r->err);
-}
-
-/* ELEMENTS: every count is bounded by the bytes left before allocating;
- * rad_elements_complete then derives each cell from its patch and checks
- * the whole (solution.h). */
-static int parse_elements(reader *r, rad_solution *s)
-{
-    cursor *c = &r->c;
-    double threshold, min_size;
-    uint64_t computed;
-    uint32_t nv, ne, nb;
-    if (!get_f64(c, &threshold) || !get_f64(c, &min_size) || !get_u64(c, &computed) ||
-        !get_u32(c, &nv) || !get_u32(c, &ne) || !get_u32(c, &nb))
-        return TRUNC("truncated");
-    if (nb != s->band_count)
-        return TRUNC("%u bands but the solution has %u", nb, s->band_count);
-    int rc;
-    /* The vertices and the elements' fixed parts must fit what is left;
-     * the row entries get the rest, at MIN_ENTRY each. */
-    uint64_t fixed = (uint64_t)nv * ELEMENT_VERTEX_BYTES + (uint64_t)ne * (MIN_ELEMENT + 8u * nb);
-    if (fixed > c->left)
-        return TRUNC("%u vertices and %u elements need %llu bytes, %zu left", nv, ne,
-                     (unsigned long long)fixed, c->left);
-    uint64_t max_entries = c->left > fixed ? (c->left - fixed) / MIN_ENTRY : 0;
-    rad_elements *el = s->elements = rad_elements_alloc(nv, ne, nb, max_entries);
-    if (!el)
-        return rfail(r, RAD_ERR_NOMEM, "out of memory for %u elements", ne);
-    el->threshold = threshold;
-    el->min_size = min_size;
-    el->rows_computed = computed;
-    rad_mesh *m = el->mesh;
-    for (uint32_t v = 0; v < nv; v++)
-        if (!get_vec3(c, &m->vertices[v]) || !get_u8(c, &m->vertex_boundary[v]))
-            return TRUNC("vertex %u: truncated", v);
-    for (uint32_t e = 0; e < ne; e++) {
-        uint32_t cnt;
-        if (!get_u32(c, &el->patch[e]) || !get_u8(c, &el->level[e]))
-            return TRUNC("element %u: truncated", e);
-        for (int k = 0; k < 4; k++)
-            if (!get_u32(c, &m->patches[e].v[k]))
-                return TRUNC("element %u: truncated", e);
-        for (uint32_t b = 0; b < nb; b++)
-            if (!get_f64(c, &el->B[(size_t)e * nb + b]))
-                return TRUNC("element %u: truncated", e);
-        if (!get_u32(c, &cnt))
-            return TRUNC("element %u: truncated", e);
-        if (el->patch[e] >= s->mesh->patch_count)
-            return TRUNC("element %u: patch %u out of range (%u patches)", e, el->patch[e],
-                          s->mesh->patch_count);
-        if (cnt > max_entries - el->nnz)
-            return TRUNC("element %u: %u entries: more than the section holds", e, cnt);
-        el->row_start[e] = el->nnz;
-        el->row_count[e] = cnt;
-        if ((rc = get_row(r, "element", e, cnt, s->mesh->patch_count, el->patch[e],
-                          el->col + el->nnz, el->val + el->nnz)))
-            return rc;
-        el->nnz += cnt;
-    }
-    rad_error sub;
-    if (rad_elements_complete(el, s, "elements", &sub))
-        return rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
-    return RAD_OK;
-}
-
-/* ELEMENTLIGHTS: the counts must be the elements' and the lights', and the
- * values exactly fill the body, before anything is allocated; then
- * rad_elements_check applies the rules (finite, >= 0, 0 at level 0). */
-static int parse_element_lights(reader *r, rad_solution *s)
-{
-    cursor *c = &r->c;
-    rad_elements *el = s->elements;
-    uint32_t ne, nl;
-    if (!get_u32(c, &ne) || !get_u32(c, &nl))
-        return TRUNC("truncated");
-    if (ne != el->mesh->patch_count || nl != s->scene->light_count || nl == 0)
-        return TRUNC("%u elements and %u lights, but the solution has %u and %u", ne, nl,
-                     el->mesh->patch_count, s->scene->light_count);
-    uint64_t count = (uint64_t)ne * nl;
-    if (count != c->left / 4u || c->left % 4u)
-        return TRUNC("%llu values need %llu bytes, %zu left", (unsigned long long)count,
-                     (unsigned long long)count * 4u, c->left);
-    el->light_h = malloc((size_t)(count ? count : 1) * sizeof *el->light_h);
-    if (!el->light_h)
-        return rfail(r, RAD_ERR_NOMEM, "out of memory for %u elements × %u lights", ne, nl);
-    el->light_count = nl;
-    for (uint64_t q = 0; q < count; q++)
-        if (!get_f32(c, &el->light_h[q]))
-            return TRUNC("truncated");
-    rad_error sub;
-    if (rad_elements_check(el, s, "elements", &sub))
-        return rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
-    return RAD_OK;
-}
-
-/* CAMERAS: which of SCENE's cameras are orthographic, in increasing order. */
-static int parse_cameras(reader *r, rad_solution *s)
-{
-    cursor *c = &r->c;
-    rad_scene *sc = s->scene;
-    uint32_t n;
-    if (!get_u32(c, &n))
-        return TRUNC("truncated");
-    int rc = check_count(r, n, ORTHO_CAMERA_BYTES, "orthographic cameras");
-    if (rc)
-        return rc;
-    if (n == 0)
-        return TRUNC("no orthographic camera (the section is written only for some)");
-    for (uint32_t k = 0, last = 0; k < n; k++) {
-        uint32_t i = 0;
-        uint8_t projection = 0;
-        double xmag = 0.0, ymag = 0.0;
-        if (!get_u32(c, &i) || !get_u8(c, &projection) || !get_f64(c, &xmag) ||
-            !get_f64(c, &ymag)) /* cannot fail after check_count, said for the compiler */
-            return TRUNC("camera %u of %u: truncated", k, n);
-        if (i >= sc->camera_count || (k > 0 && i <= last))
-            return TRUNC("camera %u: out of range or out of order (%u cameras)", i,
-                         sc->camera_count);
-        if (projection != 1)
-            return TRUNC("camera %u: projection %u is not 1 (orthographic)", i, projection);
-        last = i;
-        /* scene.c names the file being read, as in parse_scene */
-        char *stored_source = sc->source;
-        sc->source = (char *)r->name;
-        rc = rad_scene_set_camera_ortho(sc, i, xmag, ymag, "section CAMERAS", r->err);
-        sc->source = stored_source;
-        if (rc)
-            return scene_rc(r, rc);
-    }
-    return RAD_OK;
-}
-
-/* SURFACE: one lobe per material of the scene, checked by
- * rad_scene_set_material_lobe (the rules a loader meets). */
-static int parse_surface(reader *r, rad_solution *s)
-{
-    cursor *c = &r->c;
-    rad_scene *sc = s->scene;
-    uint32_t n;
-    if (!get_u32(c, &n))
-        return TRUNC("truncated");
-    if (n != sc->material_count)
-        return TRUNC("%u materials, but the scene has %u", n, sc->material_count);
-    for (uint32_t i = 0; i < n; i++) {
-        double rough, spec[RAD_MAX_BANDS];
-        if (!get_f64(c, &rough))
-            return TRUNC("material %u: truncated", i);
-        for (uint32_t b = 0; b < sc->band_count; b++)
-            if (!get_f64(c, &spec[b]))
-                return TRUNC("material %u: truncated", i);
-        rad_error sub;
-        if (rad_scene_set_material_lobe(sc, i, spec, rough, "section SURFACE", &sub))
-            return rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
-    }
-    return RAD_OK;
-}
-
-/* ELEMENTINDIRECT: the counts must be the elements' and the patches', and
- * the flags exactly fill the body; rad_elements_check applies the rules. */
-static int parse_element_indirect(reader *r, rad_solution *s)
-{
-    cursor *c = &r->c;
-    rad_elements *el = s->elements;
-    uint32_t ne, np;
-    if (!el)
-        return TRUNC("no elements");
-    if (!get_u32(c, &ne) || !get_u32(c, &np))
-        return TRUNC("truncated");
-    if (ne != el->mesh->patch_count || np != s->mesh->patch_count)
-        return TRUNC("%u elements and %u patches, but the solution has %u and %u", ne, np,
-                     el->mesh->patch_count, s->mesh->patch_count);
-    if ((uint64_t)ne + np != c->left)
-        return TRUNC("%u flags need as many bytes, %zu left", ne + np, c->left);
-    el->interp = malloc(ne ? ne : 1);
-    el->direct = malloc(np ? np : 1);
-    if (!el->interp || !el->direct)
-        return rfail(r, RAD_ERR_NOMEM, "out of memory for %u elements' flags", ne);
-    if (!get_bytes(c, el->interp, ne) || !get_bytes(c, el->direct, np))
-        return TRUNC("truncated");
-    rad_error sub;
-    if (rad_elements_check(el, s, "elements", &sub))
-        return rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
-    return RAD_OK;
-}
-
-typedef int (*parse_fn)(reader *, rad_solution *);
-static const parse_fn sec_parse[SEC_COUNT] = {parse_info,      parse_scene,  parse_mesh,
-                                              parse_matrix,    parse_patchdata, parse_lights,
-                                              parse_elements,  parse_element_lights,
-                                              parse_cameras, parse_surface,
-                                              parse_element_indirect};
-
-static int known_section(const uint8_t tag[4])
-{
-    for (int i = 0; i < SEC_COUNT; i++)
+    for (int i = 0; i < count; i++)
         if (memcmp(tag, sol_sec_tag[i], 4) == 0)
             return i;
     return -1;
 }
 
-/* The header: magic, version, reserved, payload size, checksum. */
-static int check_header(const uint8_t *d, size_t size, const char *name, int check_sum,
-                        uint32_t *version_out, rad_error *err)
+/* The payload's size and CRC against the header's. */
+static int check_payload(const uint8_t *d, size_t size, const char *name, const sol_head *h,
+                         int check_sum, rad_error *err)
 {
-    size_t m = size < 8 ? size : 8;
-    if (memcmp(d, SOL_MAGIC, m) != 0 || size == 0)
-        return rad_fail(err, RAD_ERR_PARSE, "%s: not a radiosity solution file", name);
-    if (size < SOL_HEADER_BYTES)
-        return rad_fail(err, RAD_ERR_CORRUPT, "%s: truncated: %zu of at least %u bytes", name, size,
-                        SOL_HEADER_BYTES);
-    uint32_t version = (uint32_t)sol_load_le64(d + 8) & 0xffffffffu;
-    uint32_t reserved = (uint32_t)(sol_load_le64(d + 8) >> 32);
-    uint64_t payload = sol_load_le64(d + 16), sum = sol_load_le64(d + 24);
-    if (version > SOL_VERSION)
-        return rad_fail(err, RAD_ERR_PARSE, "%s: format version %u is newer than this program (%u)",
-                        name, version, SOL_VERSION);
-    if (version == 0)
-        return rad_fail(err, RAD_ERR_CORRUPT, "%s: format version 0 does not exist", name);
-    if (reserved != 0)
-        return rad_fail(err, RAD_ERR_CORRUPT, "%s: reserved header field is %u, not 0", name,
-                        reserved);
-    *version_out = version;
-    uint64_t have = size - SOL_HEADER_BYTES;
+    uint64_t have = size - SOL_HEADER_BYTES, payload = h->a;
     if (payload > have) {
         if (payload > UINT64_MAX - SOL_HEADER_BYTES)
             return rad_fail(err, RAD_ERR_CORRUPT, "%s: truncated: %zu of %llu + %u bytes", name,
@@ -943,15 +85,644 @@ static int check_header(const uint8_t *d, size_t size, const char *name, int che
         uint64_t got;
         if (!sol_crc64_of(d + SOL_HEADER_BYTES, (size_t)payload, &got))
             return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", name);
-        if (got != sum)
+        if (got != h->b)
             return rad_fail(err, RAD_ERR_CORRUPT, "%s: checksum mismatch: the file is corrupt",
                             name);
     }
     return RAD_OK;
 }
 
-int rad_solution_parse(const void *data, size_t size, const char *name, int check_sum,
-                       rad_solution **out, rad_error *err)
+/* Version 5 skips the optional sections INFO did not announce; version 3
+ * without lights goes from PATCHDATA to ELEMENTS. */
+static int next_expected(const sol_reader *r, const rad_solution *s, int next, int k)
+{
+    if (k == SEC_ELEMENTS && next == SEC_LIGHTS && r->version == 3 && s->scene &&
+        s->scene->light_count == 0)
+        next = SEC_ELEMENTS;
+    while (r->version >= SOL_VERSION_SHEETS && next >= SEC_LIGHTS && next < k &&
+           !sol_announced(r, next))
+        next++;
+    return next;
+}
+
+/* One section of a version 1-5 payload at `all`, in its place in the order. */
+static int payload_section(sol_reader *r, rad_solution *s, sol_cursor *all, size_t size,
+                           int *next)
+{
+    const char *name = r->name;
+    size_t offset = size - all->left;
+    uint8_t tag[4];
+    uint64_t len;
+    r->section = "header";
+    if (!sol_get_bytes(all, tag, 4) || !sol_get_u64(all, &len))
+        return rad_fail(r->err, RAD_ERR_CORRUPT, "%s: byte %zu: section header truncated", name,
+                        offset);
+    int k = known_section(tag, SEC_COUNT);
+    if (len > all->left)
+        return rad_fail(r->err, RAD_ERR_CORRUPT,
+                        "%s: byte %zu: section %s: length %llu exceeds the %zu bytes left", name,
+                        offset, k >= 0 ? sol_sec_name[k] : "(unknown)", (unsigned long long)len,
+                        all->left);
+    if (k >= sol_version_sections[r->version])
+        return rad_fail(r->err, RAD_ERR_CORRUPT, "%s: byte %zu: section %s in a version %u file",
+                        name, offset, sol_sec_name[k], r->version);
+    if (k < 0) { /* a section from a later version of the format: skip it */
+        all->p += len;
+        all->left -= (size_t)len;
+        return RAD_OK;
+    }
+    *next = next_expected(r, s, *next, k);
+    if (r->version >= SOL_VERSION_SHEETS && k >= SEC_LIGHTS && !sol_announced(r, k))
+        return rad_fail(r->err, RAD_ERR_CORRUPT, "%s: byte %zu: section %s not announced in INFO",
+                        name, offset, sol_sec_name[k]);
+    if (k != *next) {
+        if (k < *next)
+            return rad_fail(r->err, RAD_ERR_CORRUPT, "%s: byte %zu: section %s appears twice",
+                            name, offset, sol_sec_name[k]);
+        return rad_fail(r->err, RAD_ERR_CORRUPT, "%s: byte %zu: section %s missing before %s",
+                        name, offset, sol_sec_name[*next], sol_sec_name[k]);
+    }
+    r->c.p = all->p;
+    r->c.left = (size_t)len;
+    int rc = sol_parse_section(r, k, s);
+    all->p += len;
+    all->left -= (size_t)len;
+    (*next)++;
+    return rc;
+}
+
+/* Versions 1-5: tagged sections one after another, in a fixed order.
+ * Version 2 is exactly the files with lights: LIGHTS is required there and
+ * has no place in version 1 (a cut at its start must not pass).  Version 3
+ * is the files with elements: ELEMENTS is required, LIGHTS there exactly
+ * when the scene has lights.  Version 4: LIGHTS, ELEMENTS and ELEMENTLIGHTS
+ * all required.  Version 5: those INFO announces. */
+static int parse_payload(sol_reader *r, rad_solution *s, const uint8_t *d, size_t size)
+{
+    sol_cursor all = {d + SOL_HEADER_BYTES, size - SOL_HEADER_BYTES};
+    int next = 0, rc = RAD_OK;
+    while (all.left > 0 && !rc)
+        rc = payload_section(r, s, &all, size, &next);
+    if (rc)
+        return rc;
+    const int required = sol_version_sections[r->version];
+    while (r->version >= SOL_VERSION_SHEETS && next >= SEC_LIGHTS && next < SEC_COUNT_V5 &&
+           !sol_announced(r, next))
+        next++;
+    if (next < required)
+        return rad_fail(r->err, RAD_ERR_CORRUPT, "%s: section %s missing", r->name,
+                        sol_sec_name[next]);
+    return RAD_OK;
+}
+
+/* ----------------------------------------------------- version 6: index */
+
+/* The index, checked: sections laid end to end from the header to the
+ * index, known tags at most once, the required ones present. */
+typedef struct sol_index {
+    uint32_t count;
+    sol_index_entry e[SOL_MAX_SECTIONS];
+    int at[SEC_COUNT];   /* entry of each known section, -1 when absent */
+    uint64_t id;         /* the index's CRC: the file's content */
+} sol_index;
+
+/* Where the index is and how long, from the header and the file's size. */
+static int index_extent(const sol_head *h, uint64_t size, const char *name, uint64_t *len,
+                        rad_error *err)
+{
+    if (h->a == 0)
+        return rad_fail(err, RAD_ERR_CORRUPT,
+                        "%s: unfinished: the solve writing it stopped before the end (run it "
+                        "again to finish it)", name);
+    if (h->a < SOL_HEADER_BYTES || h->a > size || size - h->a < SOL_INDEX_HEAD)
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: truncated: %llu bytes, the index starts at %llu",
+                        name, (unsigned long long)size, (unsigned long long)h->a);
+    *len = size - h->a;
+    return RAD_OK;
+}
+
+static int parse_index(const uint8_t *d, uint64_t len, uint64_t at, const char *name,
+                       int check_sum, uint64_t crc, sol_index *x, rad_error *err)
+{
+    uint32_t count = (uint32_t)sol_load_le64(d), reserved = (uint32_t)(sol_load_le64(d) >> 32);
+    if (count < 1 || count > SOL_MAX_SECTIONS || reserved != 0)
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: index: %u sections (1..%u), reserved %u", name,
+                        count, SOL_MAX_SECTIONS, reserved);
+    uint64_t need = SOL_INDEX_HEAD + (uint64_t)count * SOL_INDEX_ENTRY;
+    if (len < need)
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: truncated: %llu of %llu bytes", name,
+                        (unsigned long long)(at + len), (unsigned long long)(at + need));
+    if (len > need)
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: %llu unexpected bytes after the index", name,
+                        (unsigned long long)(len - need));
+    x->id = 0;
+    if (!sol_crc64_of(d, (size_t)len, &x->id))
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", name);
+    if (check_sum && x->id != crc)
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: index: checksum mismatch: the file is corrupt",
+                        name);
+    x->count = count;
+    for (int k = 0; k < SEC_COUNT; k++)
+        x->at[k] = -1;
+    uint64_t end = SOL_HEADER_BYTES;
+    for (uint32_t q = 0; q < count; q++) {
+        const uint8_t *p = d + SOL_INDEX_HEAD + (size_t)q * SOL_INDEX_ENTRY;
+        sol_index_entry *e = &x->e[q];
+        memcpy(e->tag, p, 4);
+        e->offset = sol_load_le64(p + 8);
+        e->length = sol_load_le64(p + 16);
+        e->crc = sol_load_le64(p + 24);
+        int k = known_section(p, SEC_COUNT);
+        const char *what = k >= 0 ? sol_sec_name[k] : "(unknown)";
+        if ((uint32_t)sol_load_le64(p + 4) != 0 || e->offset != end || e->length > at - end)
+            return rad_fail(err, RAD_ERR_CORRUPT,
+                            "%s: index: section %u (%s) at byte %llu, %llu bytes: not where the "
+                            "previous one ends (%llu) or past the index", name, q, what,
+                            (unsigned long long)e->offset, (unsigned long long)e->length,
+                            (unsigned long long)end);
+        end += e->length;
+        if (k >= 0 && x->at[k] >= 0)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: index: section %s appears twice", name,
+                            what);
+        if (k >= 0)
+            x->at[k] = (int)q;
+    }
+    if (end != at)
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: index: %llu bytes between the last section and "
+                        "the index", name, (unsigned long long)(at - end));
+    static const int required[] = {SEC_INFO, SEC_SCENE, SEC_MESH, SEC_ROWS, SEC_PATCHDATA,
+                                   SEC_IRRADIANCE};
+    for (size_t q = 0; q < sizeof required / sizeof required[0]; q++)
+        if (x->at[required[q]] < 0)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: section %s missing", name,
+                            sol_sec_name[required[q]]);
+    if ((x->at[SEC_MATRIX] >= 0) == (x->at[SEC_MATRIXREF] >= 0))
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: %s", name,
+                        x->at[SEC_MATRIX] >= 0 ? "both MATRIX and MATRIXREF"
+                                               : "section MATRIX missing (nor a MATRIXREF)");
+    return RAD_OK;
+}
+
+/* The optional sections must be exactly those INFO announces. */
+static int check_announced(const sol_reader *r, const sol_index *x)
+{
+    for (int k = SEC_LIGHTS; k <= SEC_LAST_ANNOUNCED; k++)
+        if ((x->at[k] >= 0) != sol_announced(r, k))
+            return rad_fail(r->err, RAD_ERR_CORRUPT, "%s: section %s %s", r->name,
+                            sol_sec_name[k],
+                            sol_announced(r, k) ? "missing" : "not announced in INFO");
+    return RAD_OK;
+}
+
+/* ------------------------------------------- version 6 from a file */
+
+/* An open solution file. */
+typedef struct sol_file {
+    int fd;
+    uint64_t size;
+    const char *name;
+    int errnum;  /* why open failed */
+} sol_file;
+
+static int file_open(sol_file *f, const char *path, rad_error *err)
+{
+    f->name = path;
+    f->fd = open(path, O_RDONLY | O_CLOEXEC);
+    f->errnum = f->fd < 0 ? errno : 0;
+    if (f->fd < 0)
+        return rad_fail(err, RAD_ERR_IO, "%s: cannot open: %s", path, strerror(f->errnum));
+    struct stat st;
+    if (fstat(f->fd, &st) < 0 || !S_ISREG(st.st_mode)) {
+        int e = errno;
+        close(f->fd);
+        f->fd = -1;
+        return rad_fail(err, RAD_ERR_IO, "%s: not a regular file%s%s", path, e ? ": " : "",
+                        e ? strerror(e) : "");
+    }
+    f->size = (uint64_t)st.st_size;
+    if (f->size > SOL_MAX_FILE) {
+        close(f->fd);
+        f->fd = -1;
+        return rad_fail(err, RAD_ERR_LIMIT, "%s: %llu bytes exceeds the 64 GiB limit", path,
+                        (unsigned long long)f->size);
+    }
+    return RAD_OK;
+}
+
+static void file_close(sol_file *f)
+{
+    if (f->fd >= 0)
+        close(f->fd);
+    f->fd = -1;
+}
+
+/* n bytes at `at`; a short read means the file shrank under us. */
+static int file_read(const sol_file *f, void *p, size_t n, uint64_t at, rad_error *err)
+{
+    uint8_t *b = p;
+    while (n) {
+        ssize_t r = pread(f->fd, b, n > (1u << 30) ? (1u << 30) : n, (off_t)at);
+        if (r < 0 && errno == EINTR)
+            continue;
+        if (r < 0)
+            return rad_fail(err, RAD_ERR_IO, "%s: cannot read: %s", f->name, strerror(errno));
+        if (r == 0)
+            return rad_fail(err, RAD_ERR_CORRUPT, "%s: truncated while reading at byte %llu",
+                            f->name, (unsigned long long)at);
+        b += r;
+        n -= (size_t)r;
+        at += (uint64_t)r;
+    }
+    return RAD_OK;
+}
+
+/* Header and index of a version 6 file (the header read into head). */
+static int file_index(const sol_file *f, const uint8_t head[SOL_HEADER_BYTES], int check_sum,
+                      sol_index *x, rad_error *err)
+{
+    sol_head h;
+    uint64_t len;
+    int rc = check_header(head, f->size, f->name, &h, err);
+    if (rc)
+        return rc;
+    if (h.version < SOL_VERSION_INDEX)
+        return rad_fail(err, RAD_ERR_PARSE, "%s: format version %u has no index", f->name,
+                        h.version);
+    if ((rc = index_extent(&h, f->size, f->name, &len, err)))
+        return rc;
+    if (len > SOL_INDEX_HEAD + (uint64_t)SOL_MAX_SECTIONS * SOL_INDEX_ENTRY)
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: index: %llu bytes from byte %llu to the end, "
+                        "more than %u sections take", f->name, (unsigned long long)len,
+                        (unsigned long long)h.a, SOL_MAX_SECTIONS);
+    uint8_t *buf = malloc((size_t)len);
+    if (!buf)
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", f->name);
+    rc = file_read(f, buf, (size_t)len, h.a, err);
+    if (!rc)
+        rc = parse_index(buf, len, h.a, f->name, check_sum, h.b, x, err);
+    free(buf);
+    return rc;
+}
+
+/* Reads section entry e into memory, checks its CRC and parses it. */
+static int file_section(sol_reader *r, const sol_file *f, const sol_index_entry *e, int sec,
+                        rad_solution *s)
+{
+    if (e->length > SIZE_MAX)
+        return rad_fail(r->err, RAD_ERR_LIMIT, "%s: section %s too large", f->name,
+                        sol_sec_name[sec]);
+    uint8_t *buf = malloc(e->length ? (size_t)e->length : 1);
+    if (!buf)
+        return rad_fail(r->err, RAD_ERR_NOMEM, "%s: section %s: out of memory for %llu bytes",
+                        f->name, sol_sec_name[sec], (unsigned long long)e->length);
+    int rc = file_read(f, buf, (size_t)e->length, e->offset, r->err);
+    uint64_t got = 0;
+    if (!rc && r->check_sum &&
+        (!sol_crc64_of(buf, (size_t)e->length, &got) || got != e->crc))
+        rc = rad_fail(r->err, RAD_ERR_CORRUPT, "%s: section %s: checksum mismatch: the file is "
+                      "corrupt", f->name, sol_sec_name[sec]);
+    if (!rc) {
+        r->c.p = buf;
+        r->c.left = (size_t)e->length;
+        rc = sol_parse_section(r, sec, s);
+    }
+    free(buf);
+    return rc;
+}
+
+/* The MATRIX section e of file f into a new matrix, straight into its pool
+ * block by block (the section's bytes and nothing more in memory), then the
+ * section's CRC compared before a single row is indexed.  `r` names the
+ * file in messages. */
+static int file_matrix(sol_reader *r, const sol_file *f, const sol_index_entry *e,
+                       rad_solution *s)
+{
+    uint8_t head[SOL_BLOCK_HEAD];
+    uint64_t key = 0;
+    r->section = sol_sec_name[SEC_MATRIX];
+    if (e->length < SOL_MATRIX_HEAD)
+        return sol_rfail(r, RAD_ERR_CORRUPT, "truncated");
+    int rc = file_read(f, head, SOL_MATRIX_HEAD, e->offset, r->err);
+    if (rc)
+        return rc;
+    sol_crc64_tables *tab = malloc(sizeof *tab);
+    rad_matrix *G = rad_matrix_create(s->mesh->patch_count);
+    uint8_t *pool = G ? rad_matrix_reserve(G, e->length - SOL_MATRIX_HEAD, NULL) : NULL;
+    if (!tab || !G || (!pool && e->length > SOL_MATRIX_HEAD)) {
+        free(tab);
+        rad_matrix_destroy(G);
+        return sol_rfail(r, RAD_ERR_NOMEM, "out of memory for %llu bytes of rows",
+                         (unsigned long long)e->length);
+    }
+    sol_crc64_init(tab);
+    uint64_t crc = sol_crc64_update(tab, ~0ull, head, SOL_MATRIX_HEAD);
+    uint64_t pos = SOL_MATRIX_HEAD, records = 0, rows = 0;
+    rc = sol_matrix_head(r, head, s->mesh->patch_count, &key);
+    G->key = key;
+    while (!rc && pos < e->length) {
+        uint32_t nrows;
+        uint64_t len, bcrc, left = e->length - pos;
+        if (left >= SOL_BLOCK_HEAD)
+            rc = file_read(f, head, SOL_BLOCK_HEAD, e->offset + pos, r->err);
+        if (!rc)
+            rc = sol_block_head(r, head, pos, left, &nrows, &len, &bcrc);
+        if (!rc)
+            rc = file_read(f, pool + records, (size_t)len, e->offset + pos + SOL_BLOCK_HEAD,
+                           r->err);
+        if (rc)
+            break;
+        crc = sol_crc64_update(tab, crc, head, SOL_BLOCK_HEAD);
+        crc = sol_crc64_update(tab, crc, pool + records, (size_t)len);
+        records += len;
+        rows += nrows;
+        pos += SOL_BLOCK_HEAD + len;
+    }
+    free(tab);
+    if (!rc && r->check_sum && (crc ^ ~0ull) != e->crc)
+        rc = sol_rfail(r, RAD_ERR_CORRUPT, "checksum mismatch: the file is corrupt");
+    if (rc) {
+        rad_matrix_destroy(G);
+        return rc;
+    }
+    return sol_matrix_install(r, s, G, records, rows);
+}
+
+/* The directory part of path ("." for a bare name) + "/" + name. */
+static void beside(const char *path, const char *name, char *out, size_t size)
+{
+    const char *slash = strrchr(path, '/');
+    if (name[0] == '/' || !slash)
+        snprintf(out, size, "%s", name);
+    else
+        snprintf(out, size, "%.*s/%s", (int)(slash - path), path, name);
+}
+
+/* Opens the file a MATRIXREF names: its name beside the referring file,
+ * else the absolute path it had when written. */
+static int open_matrixref(sol_reader *r, const char *path, sol_file *f, char *where, size_t size)
+{
+    const sol_matrixref *m = &r->ref;
+    beside(path, m->name, where, size);
+    if (file_open(f, where, NULL) == RAD_OK)
+        return RAD_OK;
+    int first = f->errnum;
+    int other = strcmp(where, m->abs) != 0;
+    if (other && file_open(f, m->abs, NULL) == RAD_OK) {
+        snprintf(where, size, "%s", m->abs);
+        return RAD_OK;
+    }
+    return sol_rfail(r, RAD_ERR_NOTFOUND,
+                     "the matrix it shares is gone: cannot open %s%s%s%s: %s; render and report "
+                     "still work, a relight needs the scene solved again",
+                     where, other ? " (nor " : "", other ? m->abs : "", other ? ")" : "",
+                     strerror(first ? first : ENOENT));
+}
+
+/* Follows s's MATRIXREF: the named file's MATRIX section must be the one
+ * referenced (same place, length and CRC in its index, same rows key), and
+ * its bytes must still have that CRC. */
+static int follow_matrixref(sol_reader *r, const char *path, rad_solution *s, char *holder,
+                            size_t size, sol_index_entry *found)
+{
+    r->section = sol_sec_name[SEC_MATRIXREF];
+    sol_file f = {.fd = -1};
+    int rc = open_matrixref(r, path, &f, holder, size);
+    if (rc)
+        return rc;
+    uint8_t head[SOL_HEADER_BYTES];
+    sol_index x;
+    const sol_matrixref *m = &r->ref;
+    rc = f.size < SOL_HEADER_BYTES ? rad_fail(r->err, RAD_ERR_CORRUPT, "%s: truncated", holder)
+                                   : file_read(&f, head, sizeof head, 0, r->err);
+    if (!rc)
+        rc = file_index(&f, head, 1, &x, r->err);
+    const sol_index_entry *e = !rc && x.at[SEC_MATRIX] >= 0 ? &x.e[x.at[SEC_MATRIX]] : NULL;
+    if (!rc && (!e || e->offset != m->offset || e->length != m->length || e->crc != m->crc))
+        rc = sol_rfail(r, RAD_ERR_CORRUPT,
+                       "%s has changed since this solution was written: its MATRIX section is not "
+                       "the one referenced (%llu bytes, CRC %016llx); a relight needs the scene "
+                       "solved again", holder, (unsigned long long)m->length,
+                       (unsigned long long)m->crc);
+    if (!rc) {
+        sol_reader h = *r;
+        h.name = holder;
+        rc = file_matrix(&h, &f, e, s);
+    }
+    if (!rc && s->F->key != m->key)
+        rc = sol_rfail(r, RAD_ERR_CORRUPT, "%s: its rows key %016llx is not the one referenced",
+                       holder, (unsigned long long)s->F->key);
+    if (!rc)
+        *found = *e;
+    file_close(&f);
+    return rc;
+}
+
+/* F's entries from the MATRIX of s's own file or from the file its
+ * MATRIXREF names; records where they came from in s->matrix_file. */
+static int load_matrix(sol_reader *r, const sol_file *f, const sol_index *x, rad_solution *s)
+{
+    char holder[PATH_MAX + SOL_MAX_STRING + 2];
+    sol_index_entry e;
+    int rc;
+    if (x->at[SEC_MATRIX] >= 0) {
+        e = x->e[x->at[SEC_MATRIX]];
+        snprintf(holder, sizeof holder, "%s", f->name);
+        rc = file_matrix(r, f, &e, s);
+    } else {
+        rc = file_section(r, f, &x->e[x->at[SEC_MATRIXREF]], SEC_MATRIXREF, s);
+        if (!rc)
+            rc = follow_matrixref(r, f->name, s, holder, sizeof holder, &e);
+    }
+    if (rc)
+        return rc;
+    char *abs = realpath(holder, NULL);
+    free(s->matrix_file.path);
+    s->matrix_file = (rad_matrix_file){.path = abs, .offset = e.offset, .length = e.length,
+                                       .crc = e.crc, .bytes = s->F->bytes};
+    return RAD_OK;
+}
+
+/* A version 6 file: index, then the sections in parse order, the matrix
+ * only when parts asks for it. */
+static int read_v6(sol_reader *r, const sol_file *f, const uint8_t head[SOL_HEADER_BYTES],
+                   unsigned parts, rad_solution *s)
+{
+    sol_index x;
+    int rc = file_index(f, head, r->check_sum, &x, r->err);
+    /* the sections in the order they are parsed (each needs those before it) */
+    for (size_t q = 0; !rc && sol_section_order(q) >= 0; q++) {
+        int sec = sol_section_order(q);
+        if (sec == SEC_LIGHTS && (rc = check_announced(r, &x)))
+            break;
+        if (x.at[sec] >= 0)
+            rc = file_section(r, f, &x.e[x.at[sec]], sec, s);
+    }
+    if (!rc && (parts & RAD_PART_MATRIX))
+        rc = load_matrix(r, f, &x, s);
+    s->file_id = x.id;
+    return rc;
+}
+
+/* A version 1-5 file: read whole (it has one CRC), then parsed. */
+static int read_old(sol_reader *r, const sol_file *f, rad_solution *s)
+{
+    uint64_t avail = rad_available_memory();
+    if (f->size > SIZE_MAX || (avail && f->size > avail))
+        return rad_fail(r->err, RAD_ERR_LIMIT,
+                        "%s: %llu bytes is more than the %llu bytes of memory available", f->name,
+                        (unsigned long long)f->size, (unsigned long long)avail);
+    uint8_t *buf = malloc(f->size ? (size_t)f->size : 1);
+    if (!buf)
+        return rad_fail(r->err, RAD_ERR_NOMEM, "%s: out of memory for %llu bytes", f->name,
+                        (unsigned long long)f->size);
+    int rc = file_read(f, buf, (size_t)f->size, 0, r->err);
+    sol_head h;
+    if (!rc)
+        rc = check_header(buf, f->size, f->name, &h, r->err);
+    if (!rc)
+        rc = check_payload(buf, (size_t)f->size, f->name, &h, 1, r->err);
+    if (!rc)
+        rc = parse_payload(r, s, buf, (size_t)f->size);
+    free(buf);
+    return rc;
+}
+
+static int new_reader(const char *name, int check_sum, sol_reader **r, rad_solution **s,
+                      rad_error *err)
+{
+    *r = calloc(1, sizeof **r);
+    *s = calloc(1, sizeof **s);
+    if (!*r || !*s) {
+        free(*r);
+        free(*s);
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", name);
+    }
+    (*r)->name = name;
+    (*r)->err = err;
+    (*r)->check_sum = check_sum;
+    return RAD_OK;
+}
+
+int rad_solution_read_parts(const char *path, unsigned parts, rad_solution **out, rad_error *err)
+{
+    if (out)
+        *out = NULL;
+    if (!path || !out)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_solution_read: path and out are required");
+    sol_file f = {.fd = -1};
+    int rc = file_open(&f, path, err);
+    if (rc)
+        return rc;
+    uint8_t head[SOL_HEADER_BYTES] = {0};
+    size_t got = f.size < SOL_HEADER_BYTES ? (size_t)f.size : SOL_HEADER_BYTES;
+    sol_head h;
+    if (!(rc = file_read(&f, head, got, 0, err)))
+        rc = check_header(head, f.size, path, &h, err);
+    sol_reader *r = NULL;
+    rad_solution *s = NULL;
+    if (!rc)
+        rc = new_reader(path, 1, &r, &s, err);
+    if (!rc) {
+        r->version = h.version;
+        rc = h.version >= SOL_VERSION_INDEX ? read_v6(r, &f, head, parts, s) : read_old(r, &f, s);
+    }
+    if (!rc && !(s->file = strdup(path)))
+        rc = rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", path);
+    file_close(&f);
+    free(r);
+    if (rc) {
+        rad_solution_destroy(s);
+        return rc;
+    }
+    *out = s;
+    return RAD_OK;
+}
+
+int rad_solution_read(const char *path, rad_solution **out, rad_error *err)
+{
+    return rad_solution_read_parts(path, RAD_PARTS_ALL, out, err);
+}
+
+int rad_solution_load_matrix(rad_solution *s, rad_error *err)
+{
+    if (!s || !s->F)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_solution_load_matrix: no solution");
+    if (s->F->entries_loaded)
+        return RAD_OK;
+    if (!s->file)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_solution_load_matrix: not read from a file");
+    sol_file f = {.fd = -1};
+    int rc = file_open(&f, s->file, err);
+    if (rc)
+        return rc;
+    uint8_t head[SOL_HEADER_BYTES];
+    sol_index x;
+    sol_reader *r = calloc(1, sizeof *r);
+    if (!r)
+        rc = rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->file);
+    if (!rc)
+        rc = f.size < SOL_HEADER_BYTES ? rad_fail(err, RAD_ERR_CORRUPT, "%s: truncated", s->file)
+                                       : file_read(&f, head, sizeof head, 0, err);
+    if (!rc)
+        rc = file_index(&f, head, 1, &x, err);
+    if (!rc && x.id != s->file_id)
+        rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: changed since it was read", s->file);
+    if (!rc) {
+        *r = (sol_reader){.name = s->file, .err = err, .check_sum = 1,
+                          .version = SOL_VERSION_INDEX};
+        rc = load_matrix(r, &f, &x, s);
+    }
+    free(r);
+    file_close(&f);
+    return rc;
+}
+
+/* ------------------------------------------------------------- from memory */
+
+/* A version 6 file held in memory: as read_v6, every section from d. */
+static int parse_v6(sol_reader *r, const uint8_t *d, size_t size, const sol_head *h,
+                    unsigned parts, rad_solution *s)
+{
+    uint64_t len;
+    sol_index x;
+    int rc = index_extent(h, size, r->name, &len, r->err);
+    if (!rc)
+        rc = parse_index(d + h->a, len, h->a, r->name, r->check_sum, h->b, &x, r->err);
+    int matrix = (parts & RAD_PART_MATRIX) ? SEC_MATRIX : -1;
+    if (!rc && matrix >= 0 && x.at[SEC_MATRIX] < 0)
+        rc = rad_fail(r->err, RAD_ERR_USAGE,
+                      "%s: its matrix is in another file (MATRIXREF), which memory cannot follow",
+                      r->name);
+    /* the sections in parse order, then the matrix when asked for */
+    for (size_t q = 0, done = 0; !rc && !done; q++) {
+        int sec = sol_section_order(q);
+        if (sec < 0) {
+            sec = matrix;
+            done = 1;
+        }
+        if (sec == SEC_LIGHTS && (rc = check_announced(r, &x)))
+            break;
+        if (sec < 0 || x.at[sec] < 0)
+            continue;
+        const sol_index_entry *e = &x.e[x.at[sec]];
+        uint64_t got = 0;
+        if (r->check_sum && (!sol_crc64_of(d + e->offset, (size_t)e->length, &got) ||
+                             got != e->crc)) {
+            rc = rad_fail(r->err, RAD_ERR_CORRUPT,
+                          "%s: section %s: checksum mismatch: the file is corrupt", r->name,
+                          sol_sec_name[sec]);
+            break;
+        }
+        r->c.p = d + e->offset;
+        r->c.left = (size_t)e->length;
+        rc = sol_parse_section(r, sec, s);
+    }
+    s->file_id = rc ? 0 : x.id;
+    return rc;
+}
+
+int rad_solution_parse_parts(const void *data, size_t size, const char *name, int check_sum,
+                             unsigned parts, rad_solution **out, rad_error *err)
 {
     if (out)
         *out = NULL;
@@ -961,168 +732,30 @@ int rad_solution_parse(const void *data, size_t size, const char *name, int chec
         return rad_fail(err, RAD_ERR_USAGE, "%s: rad_solution_parse: bad arguments", name);
     static const uint8_t empty[1];
     const uint8_t *d = size ? data : empty;
-    uint32_t version = 0;
-    int rc = check_header(d, size, name, check_sum, &version, err);
-    if (rc)
-        return rc;
-    /* Version 2 is exactly the files with lights: LIGHTS is required there
-     * and has no place in version 1 (a cut at its start must not pass).
-     * Version 3 is the files with elements: ELEMENTS is required, LIGHTS
-     * there exactly when the scene has lights.  Version 4 is the files whose
-     * elements carry their own direct light: LIGHTS, ELEMENTS and
-     * ELEMENTLIGHTS are all required. */
-    int required = sol_version_sections[version];
-
-    reader *r = malloc(sizeof *r);
-    rad_solution *s = calloc(1, sizeof *s);
-    if (!r || !s) {
-        free(r);
-        free(s);
-        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", name);
-    }
-    r->name = name;
-    r->err = err;
-    r->version = version;
-    cursor all = {d + SOL_HEADER_BYTES, size - SOL_HEADER_BYTES};
-    int next = 0;
-    while (all.left > 0) {
-        size_t offset = size - all.left;
-        uint8_t tag[4];
-        uint64_t len;
-        r->section = "header";
-        if (!get_bytes(&all, tag, 4) || !get_u64(&all, &len)) {
-            rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: byte %zu: section header truncated", name,
-                          offset);
-            goto fail;
-        }
-        int k = known_section(tag);
-        if (len > all.left) {
-            rc = rad_fail(err, RAD_ERR_CORRUPT,
-                          "%s: byte %zu: section %s: length %llu exceeds the %zu bytes left", name,
-                          offset, k >= 0 ? sol_sec_name[k] : "(unknown)", (unsigned long long)len,
-                          all.left);
-            goto fail;
-        }
-        if (k >= required) {
-            rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: byte %zu: section %s in a version %u file",
-                          name, offset, sol_sec_name[k], version);
-            goto fail;
-        }
-        if (k < 0) {
-            /* A section from a later version of the format: skip it. */
-            all.p += len;
-            all.left -= (size_t)len;
-            continue;
-        }
-        /* Version 3 without lights goes from PATCHDATA to ELEMENTS. */
-        if (k == SEC_ELEMENTS && next == SEC_LIGHTS && version == 3 && s->scene &&
-            s->scene->light_count == 0)
-            next = SEC_ELEMENTS;
-        /* Version 5 skips the optional sections INFO did not announce. */
-        while (version >= SOL_VERSION_SHEETS && next >= SEC_LIGHTS && next < k &&
-               !announced(r, next))
-            next++;
-        if (version >= SOL_VERSION_SHEETS && k >= SEC_LIGHTS && !announced(r, k)) {
-            rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: byte %zu: section %s not announced in INFO",
-                          name, offset, sol_sec_name[k]);
-            goto fail;
-        }
-        if (k != next) {
-            if (k < next)
-                rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: byte %zu: section %s appears twice", name,
-                              offset, sol_sec_name[k]);
-            else
-                rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: byte %zu: section %s missing before %s",
-                              name, offset, sol_sec_name[next], sol_sec_name[k]);
-            goto fail;
-        }
-        r->section = sol_sec_name[k];
-        r->c.p = all.p;
-        r->c.left = (size_t)len;
-        if ((rc = sec_parse[k](r, s)))
-            goto fail;
-        if (r->c.left) {
-            rc = rfail(r, RAD_ERR_CORRUPT, "%zu unexpected bytes at the end", r->c.left);
-            goto fail;
-        }
-        all.p += len;
-        all.left -= (size_t)len;
-        next++;
-    }
-    while (version >= SOL_VERSION_SHEETS && next >= SEC_LIGHTS && next < SEC_COUNT &&
-           !announced(r, next))
-        next++;
-    if (next < required) {
-        rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: section %s missing", name, sol_sec_name[next]);
-        goto fail;
+    sol_head h;
+    int rc = check_header(d, size, name, &h, err);
+    if (!rc && h.version < SOL_VERSION_INDEX)
+        rc = check_payload(d, size, name, &h, check_sum, err);
+    sol_reader *r = NULL;
+    rad_solution *s = NULL;
+    if (!rc)
+        rc = new_reader(name, check_sum, &r, &s, err);
+    if (!rc) {
+        r->version = h.version;
+        rc = h.version >= SOL_VERSION_INDEX ? parse_v6(r, d, size, &h, parts, s)
+                                            : parse_payload(r, s, d, size);
     }
     free(r);
+    if (rc) {
+        rad_solution_destroy(s);
+        return rc;
+    }
     *out = s;
     return RAD_OK;
-fail:
-    free(r);
-    rad_solution_destroy(s);
-    return rc;
 }
 
-int rad_solution_read(const char *path, rad_solution **out, rad_error *err)
+int rad_solution_parse(const void *data, size_t size, const char *name, int check_sum,
+                       rad_solution **out, rad_error *err)
 {
-    if (out)
-        *out = NULL;
-    if (!path || !out)
-        return rad_fail(err, RAD_ERR_USAGE, "rad_solution_read: path and out are required");
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (fd < 0)
-        return rad_fail(err, RAD_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    struct stat st;
-    if (fstat(fd, &st) < 0) {
-        int e = errno;
-        close(fd);
-        return rad_fail(err, RAD_ERR_IO, "%s: cannot stat: %s", path, strerror(e));
-    }
-    if (!S_ISREG(st.st_mode)) {
-        close(fd);
-        return rad_fail(err, RAD_ERR_IO, "%s: not a regular file", path);
-    }
-    uint64_t size = (uint64_t)st.st_size;
-    uint64_t avail = rad_available_memory();
-    if (size > SOL_MAX_FILE || size > SIZE_MAX) {
-        close(fd);
-        return rad_fail(err, RAD_ERR_LIMIT, "%s: %llu bytes exceeds the 64 GiB limit", path,
-                        (unsigned long long)size);
-    }
-    if (avail && size > avail) {
-        close(fd);
-        return rad_fail(err, RAD_ERR_LIMIT,
-                        "%s: %llu bytes is more than the %llu bytes of memory available", path,
-                        (unsigned long long)size, (unsigned long long)avail);
-    }
-    uint8_t *buf = malloc(size ? (size_t)size : 1);
-    if (!buf) {
-        close(fd);
-        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory for %llu bytes", path,
-                        (unsigned long long)size);
-    }
-    size_t got = 0;
-    while (got < size) {
-        size_t want = (size_t)size - got;
-        if (want > (1u << 30))
-            want = 1u << 30;
-        ssize_t n = read(fd, buf + got, want);
-        if (n < 0) {
-            if (errno == EINTR)
-                continue;
-            int e = errno;
-            close(fd);
-            free(buf);
-            return rad_fail(err, RAD_ERR_IO, "%s: cannot read: %s", path, strerror(e));
-        }
-        if (n == 0)
-            break; /* shrank while we read: the header check reports the truncation */
-        got += (size_t)n;
-    }
-    close(fd);
-    int rc = rad_solution_parse(buf, got, path, 1, out, err);
-    free(buf);
-    return rc;
+    return rad_solution_parse_parts(data, size, name, check_sum, RAD_PARTS_ALL, out, err);
 }

@@ -51,6 +51,9 @@ void rad_solution_destroy(rad_solution *s)
     free(s->light_power);
     free(s->light_intensity);
     rad_elements_destroy(s->elements);
+    free(s->irradiance);
+    free(s->file);
+    free(s->matrix_file.path);
     free(s);
 }
 

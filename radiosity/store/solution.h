@@ -126,6 +126,19 @@ typedef struct rad_elements {
     uint64_t rows_computed; /* element hemi-cubes rendered in the run that made them */
 } rad_elements;
 
+/* Where a solution's F was read from: the MATRIX section of a version 6
+ * file (the solution's own file, or the one its MATRIXREF names).  A
+ * relight that computed no row writes a reference to it instead of the rows
+ * (rad_write_options.share_matrix).  path is NULL when F came from memory
+ * or from an older file. */
+typedef struct rad_matrix_file {
+    char *path;           /* absolute path of the file holding the section (owned) */
+    uint64_t offset;      /* the section as that file's index lists it */
+    uint64_t length;
+    uint64_t crc;         /* CRC-64/XZ of the section */
+    uint64_t bytes;       /* F->bytes when read: a matrix that grew since is another one */
+} rad_matrix_file;
+
 typedef struct rad_solution {
     rad_scene *scene;        /* owned */
     rad_mesh *mesh;          /* owned */
@@ -158,6 +171,14 @@ typedef struct rad_solution {
     uint32_t light_slots_;         /* entries allocated (private to solution.c) */
 
     rad_elements *elements;        /* NULL when the solution has none (owned) */
+
+    /* What a solution read from a file remembers of it. */
+    double *irradiance;            /* H_i per band of the stored B (n × bands, owned), as
+                                    * written: what the report uses when F's entries were not
+                                    * read (rad_solution_irradiance); NULL when not read */
+    char *file;                    /* the file it was read from (owned), NULL from memory */
+    uint64_t file_id;              /* CRC-64 of that file's index (version 6): its content */
+    rad_matrix_file matrix_file;   /* where F's rows are (version 6) */
 } rad_solution;
 
 /* A new solution taking ownership of scene and mesh (on failure they are
@@ -167,18 +188,132 @@ typedef struct rad_solution {
 int rad_solution_create(rad_scene *scene, rad_mesh *mesh, rad_solution **out, rad_error *err);
 void rad_solution_destroy(rad_solution *s); /* NULL does nothing */
 
-/* Writes the solution to path through a temporary file and rename. */
+/* Writes the solution to path (format version 6, docs/solution-format.md)
+ * through a temporary file and rename, F's rows included. */
 int rad_solution_write(const rad_solution *s, const char *path, rad_error *err);
 
-/* Reads and checks a solution file (magic, version, size, checksum, then
- * every index and count against the file's size before allocating).
- * Caller owns *out. */
+/* {0} means defaults: the rows are written. */
+typedef struct rad_write_options {
+    /* 1: when F is still the MATRIX section it was read from (s->matrix_file,
+     * no row added since), write a MATRIXREF to it instead of the rows.  The
+     * file holding it gets a second name, PATH.matrix (a hard link, no
+     * copy), which the reference names, so that moving, replacing or
+     * deleting the original leaves this solution whole; where the file
+     * system has no hard links the reference names the original by its
+     * absolute path.  Either way the section's length and CRC-64 are checked
+     * whenever it is read: a matrix removed or changed is an error, never a
+     * silently different answer. */
+    int share_matrix;
+} rad_write_options;
+
+/* What rad_solution_write_opts did with F. */
+typedef struct rad_write_info {
+    int matrix_shared;        /* 1: a MATRIXREF was written, no rows */
+    int linked;               /* 1: through the hard link PATH.matrix */
+    char matrix_path[4096];   /* the file the reference names */
+} rad_write_info;
+
+/* rad_solution_write with options; info (may be NULL) says what was done. */
+int rad_solution_write_opts(const rad_solution *s, const char *path, const rad_write_options *opt,
+                            rad_write_info *info, rad_error *err);
+
+/* The size in bytes of s's file as a solve writes it now (rad_journal: each
+ * row present in a block of its own; rad_solution_write groups rows into
+ * larger blocks, a little smaller): a counting pass, nothing written, what
+ * a solve's estimate builds on. */
+uint64_t rad_solution_file_bytes(const rad_solution *s);
+
+/* The bytes row i of F adds to that file (0 for a missing row). */
+uint64_t rad_solution_row_file_bytes(const rad_matrix *F, uint32_t i);
+
+/* Reads and checks a solution file, everything in it.  Version 6: the
+ * header, the index (its CRC) and each section (its own CRC, then every
+ * index and count against the section's size before allocating); F comes
+ * from the file's MATRIX or from the file its MATRIXREF names.  Versions
+ * 1-5: the whole file and its one CRC.  Caller owns *out. */
 int rad_solution_read(const char *path, rad_solution **out, rad_error *err);
 
-/* The same from memory; `name` appears in messages.  check_sum = 0 skips the
- * checksum (the fuzzer uses that to reach the structure checks). */
+/* Parts of a solution that a reader may leave out. */
+#define RAD_PART_MATRIX 1u  /* F's entries: without it s->F has the rows present and their
+                             * entry counts only (entries_loaded = 0), and s->irradiance */
+#define RAD_PARTS_ALL RAD_PART_MATRIX
+
+/* rad_solution_read of the parts in `parts` only (everything else is always
+ * read).  A version 6 file's sections that are not needed are neither read
+ * nor checked: render and report read no byte of F.  Older files are read
+ * whole. */
+int rad_solution_read_parts(const char *path, unsigned parts, rad_solution **out,
+                            rad_error *err);
+
+/* Reads F's entries into a solution read without them, from the file it
+ * was read from (which must not have changed since: its index's CRC is
+ * compared). */
+int rad_solution_load_matrix(rad_solution *s, rad_error *err);
+
+/* rad_solution_read from memory; `name` appears in messages.  check_sum = 0
+ * skips the checksums (the fuzzer uses that to reach the structure checks).
+ * A MATRIXREF cannot be followed from memory: with RAD_PART_MATRIX it is an
+ * error. */
 int rad_solution_parse(const void *data, size_t size, const char *name, int check_sum,
                        rad_solution **out, rad_error *err);
+int rad_solution_parse_parts(const void *data, size_t size, const char *name, int check_sum,
+                             unsigned parts, rad_solution **out, rad_error *err);
+
+/* ----------------------------------------- a solve's file in progress (journal.c) */
+
+/* What determines the form-factor rows of a solve: a CRC-64 of the mesh
+ * (every vertex and patch as MESH stores them), the hemi-cube resolution,
+ * the patches with exact factors (may be NULL), `flags` (the options that
+ * change rows) and this program's version.  Rows kept from an earlier run
+ * are reused only under the same key. */
+uint64_t rad_rows_key(const rad_mesh *mesh, uint32_t resolution, const uint8_t *exact,
+                      uint32_t flags);
+
+/* A solve's output file while the solve runs: PATH.partial, a version 6
+ * file whose MATRIX section grows by one block per finished row.  A crash,
+ * a kill or Ctrl-C leaves the rows finished so far in it; the next solve
+ * for the same PATH reads them back (a block cut short by the crash is
+ * detected by its CRC and dropped) and computes only the others.  When the
+ * solve is done, rad_journal_commit appends the other sections and the
+ * index and renames the file onto PATH. */
+typedef struct rad_journal rad_journal;
+
+typedef struct rad_journal_stats {
+    uint32_t kept;        /* rows the file holds now */
+    uint32_t resumed;     /* rows taken from the file */
+    uint32_t discarded;   /* rows of an earlier run with another key (scene, mesh, options) */
+    uint64_t torn_bytes;  /* bytes of an unfinished block at the end, dropped */
+} rad_journal_stats;
+
+/* A journal for PATH; fresh = 1 throws away the rows PATH.partial holds
+ * (they count as discarded).  The file is opened (or created), and locked
+ * against other processes, by rad_journal_attach.  Caller owns *out: it
+ * ends with rad_journal_commit or rad_journal_close. */
+int rad_journal_open(const char *path, int fresh, rad_journal **out, rad_error *err);
+
+/* Loads the rows the file holds under `key` into F (an empty matrix of the
+ * mesh's n), starts the file afresh if it holds another key's rows, and
+ * from then on appends every row F receives (F's sink; F must outlive the
+ * journal or be detached by rad_journal_close). */
+int rad_journal_attach(rad_journal *j, rad_matrix *F, uint64_t key, rad_error *err);
+
+/* What rad_journal_attach found. */
+rad_journal_stats rad_journal_stats_of(const rad_journal *j);
+
+/* The partial file's name, for messages. */
+const char *rad_journal_path(const rad_journal *j);
+
+/* Writes s's other sections and the index after the rows, syncs, and
+ * renames the file onto PATH.  s->F must be the attached matrix.  Frees j
+ * whatever happens; on failure the partial file stays. */
+int rad_journal_commit(rad_journal *j, const rad_solution *s, rad_error *err);
+
+/* Stops taking F's rows (before F is freed: a solve that failed). */
+void rad_journal_detach(rad_journal *j);
+
+/* Syncs and closes, keeping the file for the next run (removing it when it
+ * holds no row); detaches F.  NULL does nothing. */
+void rad_journal_close(rad_journal *j);
 
 /* --------------------------------------------- the element store (elements.c) */
 
@@ -214,7 +349,9 @@ typedef struct rad_object_stats {
 
 /* Irradiance H_i (incident power per area) of every patch, n × bands into
  * the caller's buffer: H_i = Σ_j F_ij B_j from row i when present, else by
- * reciprocity (1/A_i) Σ_j A_j F_ji B_j from the rows present. */
+ * reciprocity (1/A_i) Σ_j A_j F_ji B_j from the rows present.  When F's
+ * entries were not read, the stored s->irradiance (computed so when the
+ * file was written); RAD_ERR_USAGE when neither is there. */
 int rad_solution_irradiance(const rad_solution *s, double *H, rad_error *err);
 
 /* Direct irradiance from the punctual lights, H_d,j = Σ_l I_l Φ_lj / A_j per

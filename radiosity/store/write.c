@@ -1,9 +1,12 @@
 /* write.c - rad_solution_write: the solution file of
- * docs/solution-format.md (header, CRC-64/XZ of the payload, tagged sections
- * INFO, SCENE, MESH, MATRIX, PATCHDATA, LIGHTS when the scene has punctual
- * lights, ELEMENTS when the solution has elements, ELEMENTLIGHTS when it has
- * both, CAMERAS when the scene has orthographic cameras), each section measured first and then streamed through a buffer
- * into a rad_output.
+ * docs/solution-format.md, format version 6.  A header, the sections each
+ * with its own CRC-64 (MATRIX or MATRIXREF, INFO, SCENE, MESH, ROWS,
+ * PATCHDATA, IRRADIANCE, then the optional ones as the solution has them:
+ * LIGHTS, ELEMENTS, ELEMENTLIGHTS, CAMERAS, SURFACE, CLUSTERS), and at the
+ * end the index that lists them, whose CRC the header holds.  The index
+ * comes last so that a solve can stream its matrix first, one row block
+ * per finished row (journal.c), and add the rest when it is done; this file
+ * writes the same layout in one go.
  *
  * Invariant: the writer applies the reader's rules before it creates a
  * file, so it never writes a file the reader would refuse, and it never
@@ -12,138 +15,161 @@
 #include "store_internal.h"
 
 #include <errno.h>
-#include <fcntl.h>
-#include <stdarg.h>
+#include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
-/* ------------------------------------------------------------------ writer */
+/* -------------------------------------------------------------------- sink */
 
-/* Where encoded bytes go: a counting pass (out NULL) only measures a
- * section, the writing pass buffers, checksums and writes.  A write failure
- * sticks in the rad_output, so the encoders need no error paths. */
-typedef struct sink {
-    rad_output *out;
-    uint8_t *buf;
-    size_t len, cap;
-    uint64_t total; /* bytes put, including those still in buf */
-    uint64_t crc;   /* CRC register over the bytes flushed so far */
-    const sol_crc64_tables *tab;
-    int failed;
-} sink;
-
-static void sink_flush(sink *k)
+int sol_sink_init(sol_sink *k, rad_output *out)
 {
-    if (!k->out || k->failed || k->len == 0)
-        return;
-    k->crc = sol_crc64_update(k->tab, k->crc, k->buf, k->len);
-    if (rad_output_write(k->out, k->buf, k->len) < 0)
-        k->failed = 1;
-    k->len = 0;
+    *k = (sol_sink){.out = out, .cap = 1u << 20, .crc = ~0ull};
+    k->buf = malloc(k->cap);
+    k->tab = malloc(sizeof *k->tab);
+    if (!k->buf || !k->tab) {
+        sol_sink_free(k);
+        return -1;
+    }
+    sol_crc64_init(k->tab);
+    k->total = out ? rad_output_size(out) : 0;
+    return 0;
 }
 
-static void put(sink *k, const void *p, size_t n)
+void sol_sink_free(sol_sink *k)
 {
-    k->total += n;
-    if (!k->out || k->failed)
-        return;
+    free(k->buf);
+    free(k->tab);
+    k->buf = NULL;
+    k->tab = NULL;
+}
+
+/* Brings the CRC up to the end of the buffer. */
+static void sink_crc(sol_sink *k)
+{
+    if (k->len == k->crc_from)
+        return; /* nothing new (always so in a counting sink) */
+    k->crc = sol_crc64_update(k->tab, k->crc, k->buf + k->crc_from, k->len - k->crc_from);
+    k->crc_from = k->len;
+}
+
+void sol_sink_flush(sol_sink *k)
+{
+    sink_crc(k);
+    if (k->out && k->len)
+        rad_output_write(k->out, k->buf, k->len); /* a failure sticks in the output */
+    k->len = 0;
+    k->crc_from = 0;
+}
+
+void sol_put(sol_sink *k, const void *p, size_t n)
+{
     const uint8_t *b = p;
+    k->total += n;
+    if (!k->buf)
+        return; /* a counting sink ({0}): only the total */
     while (n) {
         size_t room = k->cap - k->len, step = n < room ? n : room;
         memcpy(k->buf + k->len, b, step);
         k->len += step;
         b += step;
         n -= step;
-        if (k->len == k->cap) {
-            sink_flush(k);
-            if (k->failed)
-                return;
-        }
+        if (k->len == k->cap)
+            sol_sink_flush(k);
     }
 }
 
-static void put_u8(sink *k, uint8_t v) { put(k, &v, 1); }
+void sol_sink_begin(sol_sink *k, sol_index_entry *e, int sec)
+{
+    sink_crc(k);
+    k->crc = ~0ull;
+    memcpy(e->tag, sol_sec_tag[sec], 4);
+    e->offset = k->total;
+}
 
-static void put_u32(sink *k, uint32_t v)
+void sol_sink_end(sol_sink *k, sol_index_entry *e)
+{
+    sink_crc(k);
+    e->length = k->total - e->offset;
+    e->crc = k->crc ^ ~0ull;
+}
+
+static void put(sol_sink *k, const void *p, size_t n) { sol_put(k, p, n); }
+
+static void put_u8(sol_sink *k, uint8_t v) { put(k, &v, 1); }
+
+static void put_u32(sol_sink *k, uint32_t v)
 {
     uint8_t b[4];
-    for (int i = 0; i < 4; i++)
-        b[i] = (uint8_t)(v >> (8 * i));
+    sol_store_le(b, v, 4);
     put(k, b, 4);
 }
 
-static void put_u64(sink *k, uint64_t v)
+static void put_u64(sol_sink *k, uint64_t v)
 {
     uint8_t b[8];
-    for (int i = 0; i < 8; i++)
-        b[i] = (uint8_t)(v >> (8 * i));
+    sol_store_le(b, v, 8);
     put(k, b, 8);
 }
 
-static void put_f64(sink *k, double v)
+static void put_f64(sol_sink *k, double v)
 {
     uint64_t bits;
     memcpy(&bits, &v, sizeof bits);
     put_u64(k, bits);
 }
 
-static void put_f32(sink *k, float v)
+static void put_f32(sol_sink *k, float v)
 {
     uint32_t bits;
     memcpy(&bits, &v, sizeof bits);
     put_u32(k, bits);
 }
 
-static void put_vec3(sink *k, rad_vec3 v)
+static void put_vec3(sol_sink *k, rad_vec3 v)
 {
     put_f64(k, v.x);
     put_f64(k, v.y);
     put_f64(k, v.z);
 }
 
-/* LEB128: 7 bits a byte, low bits first, high bit = more follows. */
-static void put_varint(sink *k, uint32_t v)
+static void put_varint(sol_sink *k, uint32_t v)
 {
     uint8_t b[5];
-    size_t n = 0;
-    do {
-        uint8_t byte = v & 0x7f;
-        v >>= 7;
-        b[n++] = v ? (uint8_t)(byte | 0x80) : byte;
-    } while (v);
-    put(k, b, n);
+    put(k, b, rad_varint_put(b, v));
 }
 
 /* Lengths were checked against SOL_MAX_STRING before writing began. */
-static void put_str(sink *k, const char *s)
+static void put_str(sol_sink *k, const char *s)
 {
     size_t n = s ? strlen(s) : 0;
     put_u32(k, (uint32_t)n);
     put(k, s, n);
 }
 
-static uint32_t version_of(const rad_solution *s);
+/* ---------------------------------------------------------------- sections */
+
 static int section_written(const rad_solution *s, int i);
 
-/* Version 5's INFO ends with the optional sections the file holds, one bit
- * each (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4, CAMERAS 8, SURFACE 16,
- * ELEMENTINDIRECT 32): the reader then knows what
- * must follow, and a file cut or stripped before one of them cannot pass
- * for a file without it. */
+/* INFO (versions 5 and 6) ends with the optional sections the file holds,
+ * one bit each in enum order (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4,
+ * CAMERAS 8, SURFACE 16, CLUSTERS 32, ELEMENTINDIRECT 64): the reader then knows what must be
+ * there, and a file stripped of one of them cannot pass for a file
+ * without it. */
 static uint8_t announced_sections(const rad_solution *s)
 {
     uint8_t bits = 0;
-    for (int i = SEC_LIGHTS; i < SEC_COUNT; i++)
+    for (int i = SEC_LIGHTS; i <= SEC_LAST_ANNOUNCED; i++)
         if (section_written(s, i))
             bits |= (uint8_t)(1u << (i - SEC_LIGHTS));
     return bits;
 }
 
-static void emit_info(sink *k, const rad_solution *s)
+static void emit_info(sol_sink *k, const sol_write_ctx *w)
 {
+    const rad_solution *s = w->s;
     put_f64(k, s->patch_size);
     put_u32(k, s->resolution);
     put_str(k, s->solver);
@@ -156,12 +182,12 @@ static void emit_info(sink *k, const rad_solution *s)
         put_f64(k, s->stages[i].seconds);
         put_u8(k, (uint8_t)s->stages[i].reused);
     }
-    if (version_of(s) >= SOL_VERSION_SHEETS)
-        put_u8(k, announced_sections(s));
+    put_u8(k, announced_sections(s));
 }
 
-static void emit_scene(sink *k, const rad_solution *s)
+static void emit_scene(sol_sink *k, const sol_write_ctx *w)
 {
+    const rad_solution *s = w->s;
     const rad_scene *sc = s->scene;
     uint32_t nb = sc->band_count;
     put_str(k, sc->source);
@@ -209,8 +235,9 @@ static void emit_scene(sink *k, const rad_solution *s)
     }
 }
 
-static void emit_mesh(sink *k, const rad_solution *s)
+static void emit_mesh(sol_sink *k, const sol_write_ctx *w)
 {
+    const rad_solution *s = w->s;
     const rad_mesh *m = s->mesh;
     put_u32(k, m->vertex_count);
     put_u32(k, m->patch_count);
@@ -233,7 +260,7 @@ static void emit_mesh(sink *k, const rad_solution *s)
 
 /* A row's entries: the columns as a first value then gaps (>= 1), then the
  * values. */
-static void put_row(sink *k, uint32_t cnt, const uint32_t *col, const float *val)
+static void put_row(sol_sink *k, uint32_t cnt, const uint32_t *col, const float *val)
 {
     for (uint32_t j = 0; j < cnt; j++)
         put_varint(k, j ? col[j] - col[j - 1] : col[0]);
@@ -241,30 +268,11 @@ static void put_row(sink *k, uint32_t cnt, const uint32_t *col, const float *val
         put_f32(k, val[j]);
 }
 
-/* Row i: index, count, the columns as a first value then gaps (each >= 1,
- * as columns strictly increase), then the values: gaps between visible
- * patches are small, so most columns take one byte instead of four. */
-static void emit_matrix(sink *k, const rad_solution *s)
-{
-    const rad_matrix *F = s->F;
-    put_u32(k, F->n);
-    put_u32(k, F->rows_done);
-    for (uint32_t i = 0; i < F->n; i++) {
-        if (!F->row_done[i])
-            continue;
-        uint32_t cnt = F->row_count[i];
-        put_u32(k, i);
-        put_u32(k, cnt);
-        if (cnt == 0)
-            continue; /* the pool may not exist yet: no pointer into it */
-        put_row(k, cnt, F->col + F->row_start[i], F->val + F->row_start[i]);
-    }
-}
-
 /* Elements: provenance, vertices, then per element its patch, level,
  * corners, B and row (rows encoded like the matrix's). */
-static void emit_elements(sink *k, const rad_solution *s)
+static void emit_elements(sol_sink *k, const sol_write_ctx *w)
 {
+    const rad_solution *s = w->s;
     const rad_elements *el = s->elements;
     const rad_mesh *m = el->mesh;
     uint32_t nb = s->band_count;
@@ -291,9 +299,31 @@ static void emit_elements(sink *k, const rad_solution *s)
     }
 }
 
-/* Each element's h_le, element by element, dense: M × L floats. */
-static void emit_element_lights(sink *k, const rad_solution *s)
+/* The cell layer: per patch its number of cells, then the corners and
+ * polygon of each cell of the patches that have several (a patch of one
+ * cell is that cell; the rest of a cell follows from its polygon). */
+static void emit_clusters(sol_sink *k, const sol_write_ctx *w)
 {
+    const rad_mesh *m = w->s->mesh;
+    put_u32(k, m->patch_count);
+    put_u32(k, m->cell_count);
+    for (uint32_t i = 0; i < m->patch_count; i++)
+        put_varint(k, m->cell_first[i + 1] - m->cell_first[i]);
+    for (uint32_t i = 0; i < m->patch_count; i++) {
+        if (m->cell_first[i + 1] - m->cell_first[i] < 2)
+            continue;
+        for (uint32_t c = m->cell_first[i]; c < m->cell_first[i + 1]; c++) {
+            for (int q = 0; q < 4; q++)
+                put_u32(k, m->cells[c].v[q]);
+            put_u32(k, m->cells[c].polygon);
+        }
+    }
+}
+
+/* Each element's h_le, element by element, dense: M × L floats. */
+static void emit_element_lights(sol_sink *k, const sol_write_ctx *w)
+{
+    const rad_solution *s = w->s;
     const rad_elements *el = s->elements;
     const size_t count = (size_t)el->mesh->patch_count * el->light_count;
     put_u32(k, el->mesh->patch_count);
@@ -304,8 +334,9 @@ static void emit_element_lights(sink *k, const rad_solution *s)
 
 /* Which elements interpolate their indirect light, then which patches are
  * direct sources: one byte each. */
-static void emit_element_indirect(sink *k, const rad_solution *s)
+static void emit_element_indirect(sol_sink *k, const sol_write_ctx *w)
 {
+    const rad_solution *s = w->s;
     const rad_elements *el = s->elements;
     put_u32(k, el->mesh->patch_count);
     put_u32(k, s->mesh->patch_count);
@@ -313,8 +344,9 @@ static void emit_element_indirect(sink *k, const rad_solution *s)
     put(k, el->direct, s->mesh->patch_count);
 }
 
-static void emit_patchdata(sink *k, const rad_solution *s)
+static void emit_patchdata(sol_sink *k, const sol_write_ctx *w)
 {
+    const rad_solution *s = w->s;
     uint32_t n = s->mesh->patch_count, nb = s->band_count;
     size_t count = (size_t)n * nb;
     put_u32(k, n);
@@ -329,8 +361,9 @@ static void emit_patchdata(sink *k, const rad_solution *s)
 
 /* The lights with the intensity solved with and each one's Φ_j, patch
  * indices as a first value then gaps like the matrix's columns. */
-static void emit_lights(sink *k, const rad_solution *s)
+static void emit_lights(sol_sink *k, const sol_write_ctx *w)
 {
+    const rad_solution *s = w->s;
     const rad_scene *sc = s->scene;
     uint32_t nb = s->band_count;
     put_u32(k, sc->light_count);
@@ -361,9 +394,9 @@ static void emit_lights(sink *k, const rad_solution *s)
 
 /* The orthographic cameras: SCENE holds every camera as a perspective one
  * (what a reader that knows no other takes), this says which are not. */
-static void emit_cameras(sink *k, const rad_solution *s)
+static void emit_cameras(sol_sink *k, const sol_write_ctx *w)
 {
-    const rad_scene *sc = s->scene;
+    const rad_scene *sc = w->s->scene;
     uint32_t n = 0;
     for (uint32_t i = 0; i < sc->camera_count; i++)
         n += sc->cameras[i].orthographic != 0;
@@ -401,56 +434,15 @@ static int has_surface(const rad_solution *s)
 /* SURFACE: the materials' glossy lobes, for the gather renderer (the
  * solve never reads them): material count, then per material the
  * roughness and ρ_s per band. */
-static void emit_surface(sink *k, const rad_solution *s)
+static void emit_surface(sol_sink *k, const sol_write_ctx *w)
 {
-    const rad_scene *sc = s->scene;
+    const rad_scene *sc = w->s->scene;
     put_u32(k, sc->material_count);
     for (uint32_t i = 0; i < sc->material_count; i++) {
         put_f64(k, sc->materials[i].roughness);
         for (uint32_t b = 0; b < sc->band_count; b++)
             put_f64(k, sc->materials[i].specular[b]);
     }
-}
-
-typedef void (*emit_fn)(sink *, const rad_solution *);
-static const emit_fn sec_emit[SEC_COUNT] = {emit_info,      emit_scene,  emit_mesh,    emit_matrix,
-                                            emit_patchdata, emit_lights, emit_elements,
-                                            emit_element_lights, emit_cameras, emit_surface,
-                                            emit_element_indirect};
-
-/* LIGHTS is written only when there are lights, ELEMENTS when there are
- * elements, ELEMENTLIGHTS when the elements carry their own direct light,
- * CAMERAS when a camera is orthographic, ELEMENTINDIRECT when some
- * elements interpolate the light reflected onto them. */
-static int section_written(const rad_solution *s, int i)
-{
-    if (i == SEC_CAMERAS)
-        return has_ortho_camera(s->scene);
-    if (i == SEC_LIGHTS)
-        return s->scene->light_count > 0;
-    if (i == SEC_ELEMENTS)
-        return s->elements != NULL;
-    if (i == SEC_ELEMENT_LIGHTS)
-        return s->elements && s->elements->light_h;
-    if (i == SEC_SURFACE)
-        return has_surface(s);
-    if (i == SEC_ELEMENT_INDIRECT)
-        return s->elements && s->elements->interp;
-    return 1;
-}
-
-static uint32_t version_of(const rad_solution *s)
-{
-    /* CAMERAS and SURFACE need version 5's announcement: a reader of an
-     * older version would show an orthographic camera in perspective, or
-     * drop the glossy lobes, without a word; so does ELEMENTINDIRECT (it
-     * would gather interpolated elements without their reflected light). */
-    if (s->mesh->twin || has_ortho_camera(s->scene) || has_surface(s) ||
-        (s->elements && s->elements->interp))
-        return SOL_VERSION_SHEETS;
-    if (s->elements)
-        return s->elements->light_h ? 4u : 3u;
-    return s->scene->light_count ? 2u : 1u;
 }
 
 static int check_string(const char *str, const char *file, const char *what, uint32_t i,
@@ -463,10 +455,15 @@ static int check_string(const char *str, const char *file, const char *what, uin
 }
 
 /* Everything the reader will check, checked before a file is created. */
-static int validate_for_write(const rad_solution *s, const char *path, rad_error *err)
+int sol_validate_for_write(const rad_solution *s, const char *path, int check_matrix,
+                           rad_error *err)
 {
     if (!s || !s->scene || !s->mesh || !s->F || !s->rho || !s->emission || !s->B)
         return rad_fail(err, RAD_ERR_USAGE, "%s: cannot write: incomplete solution", path);
+    if (!s->F->entries_loaded)
+        return rad_fail(err, RAD_ERR_USAGE,
+                        "%s: cannot write: the form factors were not read (read the solution whole)",
+                        path);
     const rad_scene *sc = s->scene;
     const rad_mesh *m = s->mesh;
     if (sc->band_count < 1 || sc->band_count > RAD_MAX_BANDS || s->band_count != sc->band_count)
@@ -514,86 +511,335 @@ static int validate_for_write(const rad_solution *s, const char *path, rad_error
     rad_error sub;
     if (rad_mesh_check(m, sc->polygon_count, sc->object_count, sc->material_count, &sub))
         return rad_fail(err, RAD_ERR_INVALID, "%s: cannot write: mesh: %s", path, sub.message);
-    /* Without a pool every present row is empty and there is nothing to
-     * check (rad_matrix_check would form NULL + 0). */
-    if (s->F->col && rad_matrix_check(s->F, &sub))
+    if (check_matrix && rad_matrix_check(s->F, &sub))
         return rad_fail(err, RAD_ERR_INVALID, "%s: cannot write: %s", path, sub.message);
     if (s->elements && rad_elements_check(s->elements, s, "elements", &sub))
         return rad_fail(err, RAD_ERR_INVALID, "%s: cannot write: %s", path, sub.message);
     return sol_check_patch_values(s, path, "cannot write", RAD_ERR_INVALID, err);
 }
 
-static void store_le(uint8_t *p, uint64_t v, int bytes)
+/* ROWS: which rows F holds and their entry counts, one varint each (0:
+ * absent, c + 1: present with c entries), so that a reader that skips the
+ * matrix still knows which patches see nothing. */
+static void emit_rows(sol_sink *k, const sol_write_ctx *w)
+{
+    const rad_matrix *F = w->s->F;
+    put_u32(k, F->n);
+    for (uint32_t i = 0; i < F->n; i++)
+        put_varint(k, F->row_done[i] ? F->row_count[i] + 1 : 0);
+}
+
+/* IRRADIANCE: H_i per band of the B stored beside it, computed from F when
+ * the file was written, for readers that skip the matrix. */
+static void emit_irradiance(sol_sink *k, const sol_write_ctx *w)
+{
+    uint32_t n = w->s->mesh->patch_count, nb = w->s->band_count;
+    put_u32(k, n);
+    put_u32(k, nb);
+    for (size_t q = 0; q < (size_t)n * nb; q++)
+        put_f64(k, w->H ? w->H[q] : 0.0); /* a counting pass has no H */
+}
+
+/* MATRIXREF: the file holding the matrix and its MATRIX section. */
+static void emit_matrixref(sol_sink *k, const sol_write_ctx *w)
+{
+    const rad_matrix_file *mf = &w->s->matrix_file;
+    put_str(k, w->ref_name);
+    put_str(k, mf->path);
+    put_u64(k, mf->offset);
+    put_u64(k, mf->length);
+    put_u64(k, mf->crc);
+    put_u64(k, w->s->F->key);
+    put_u32(k, w->s->F->n);
+}
+
+/* A block of rows [first, last) of F in row order: the header (length and
+ * CRC-64 of the records, measured first) and the records. */
+static void put_block(sol_sink *k, const rad_matrix *F, uint32_t first, uint32_t last,
+                      uint32_t rows, uint64_t bytes)
+{
+    uint64_t crc = ~0ull;
+    for (uint32_t i = first; i < last; i++)
+        if (F->row_done[i])
+            crc = sol_crc64_update(k->tab, crc, F->data + F->row_start[i] - SOL_RECORD_HEAD,
+                                   (size_t)rad_matrix_record_bytes(F, i));
+    put(k, SOL_BLOCK_TAG, 4);
+    put_u32(k, rows);
+    put_u64(k, bytes);
+    put_u64(k, crc ^ ~0ull);
+    for (uint32_t i = first; i < last; i++)
+        if (F->row_done[i])
+            put(k, F->data + F->row_start[i] - SOL_RECORD_HEAD,
+                (size_t)rad_matrix_record_bytes(F, i));
+}
+
+/* MATRIX: n, the rows key, then the rows present in row order, grouped in
+ * blocks of about SOL_BLOCK_TARGET bytes. */
+static void emit_matrix(sol_sink *k, const sol_write_ctx *w)
+{
+    const rad_matrix *F = w->s->F;
+    sol_put_matrix_head(k, F->n, F->key);
+    uint32_t first = 0, rows = 0;
+    uint64_t bytes = 0;
+    for (uint32_t i = 0; i < F->n; i++) {
+        uint64_t b = rad_matrix_record_bytes(F, i);
+        if (rows && bytes + b > SOL_BLOCK_TARGET) {
+            put_block(k, F, first, i, rows, bytes);
+            first = i;
+            rows = 0;
+            bytes = 0;
+        }
+        rows += F->row_done[i];
+        bytes += b;
+    }
+    if (rows)
+        put_block(k, F, first, F->n, rows, bytes);
+}
+
+void sol_put_matrix_head(sol_sink *k, uint32_t n, uint64_t key)
+{
+    put_u32(k, n);
+    put_u32(k, 0);
+    put_u64(k, key);
+}
+
+typedef void (*emit_fn)(sol_sink *, const sol_write_ctx *);
+static const emit_fn sec_emit[SEC_COUNT] = {
+    [SEC_INFO] = emit_info,
+    [SEC_SCENE] = emit_scene,
+    [SEC_MESH] = emit_mesh,
+    [SEC_MATRIX] = emit_matrix,
+    [SEC_PATCHDATA] = emit_patchdata,
+    [SEC_LIGHTS] = emit_lights,
+    [SEC_ELEMENTS] = emit_elements,
+    [SEC_ELEMENT_LIGHTS] = emit_element_lights,
+    [SEC_CAMERAS] = emit_cameras,
+    [SEC_SURFACE] = emit_surface,
+    [SEC_CLUSTERS] = emit_clusters,
+    [SEC_ELEMENT_INDIRECT] = emit_element_indirect,
+    [SEC_ROWS] = emit_rows,
+    [SEC_IRRADIANCE] = emit_irradiance,
+    [SEC_MATRIXREF] = emit_matrixref,
+};
+
+/* Whether the file holds section i: the optional ones only when the
+ * solution has what they hold (LIGHTS punctual lights, ELEMENTS elements,
+ * ELEMENTLIGHTS elements with their own direct light, CAMERAS an
+ * orthographic camera, SURFACE a glossy material, CLUSTERS patches of
+ * several cells, ELEMENTINDIRECT elements that interpolate the light
+ * reflected onto them); the others always (MATRIX and MATRIXREF are the
+ * writer's choice, not asked here). */
+static int section_written(const rad_solution *s, int i)
+{
+    switch (i) {
+    case SEC_LIGHTS:
+        return s->scene->light_count > 0;
+    case SEC_ELEMENTS:
+        return s->elements != NULL;
+    case SEC_ELEMENT_LIGHTS:
+        return s->elements && s->elements->light_h;
+    case SEC_CAMERAS:
+        return has_ortho_camera(s->scene);
+    case SEC_SURFACE:
+        return has_surface(s);
+    case SEC_CLUSTERS:
+        return s->mesh->cell_first != NULL;
+    case SEC_ELEMENT_INDIRECT:
+        return s->elements && s->elements->interp;
+    default:
+        return 1;
+    }
+}
+
+/* ------------------------------------------------------------------- file */
+
+uint64_t sol_rows_crc(sol_sink *k, const rad_mesh *m)
+{
+    rad_solution s = {.mesh = (rad_mesh *)m}; /* emit_mesh reads only the mesh */
+    sol_write_ctx w = {.s = &s};
+    sol_index_entry e;
+    sol_sink_begin(k, &e, SEC_MESH);
+    emit_mesh(k, &w);
+    sol_sink_end(k, &e);
+    return e.crc;
+}
+
+int sol_write_rest(sol_sink *k, const sol_write_ctx *w, const sol_index_entry *matrix,
+                   rad_error *err)
+{
+    const rad_solution *s = w->s;
+    sol_index_entry idx[SOL_MAX_SECTIONS];
+    uint32_t count = 0;
+    idx[count++] = *matrix;
+    for (size_t q = 0; sol_section_order(q) >= 0; q++) { /* the reader's order */
+        int sec = sol_section_order(q);
+        if (!section_written(s, sec))
+            continue;
+        sol_sink_begin(k, &idx[count], sec);
+        sec_emit[sec](k, w);
+        sol_sink_end(k, &idx[count]);
+        count++;
+    }
+    /* the index, and its CRC into the header */
+    uint64_t at = k->total;
+    uint8_t head[SOL_INDEX_HEAD], ent[SOL_INDEX_ENTRY];
+    sol_store_le(head, count, 4);
+    sol_store_le(head + 4, 0, 4);
+    sol_index_entry crc_of_index;
+    sol_sink_begin(k, &crc_of_index, SEC_INFO);
+    put(k, head, sizeof head);
+    for (uint32_t q = 0; q < count; q++) {
+        memcpy(ent, idx[q].tag, 4);
+        sol_store_le(ent + 4, 0, 4);
+        sol_store_le(ent + 8, idx[q].offset, 8);
+        sol_store_le(ent + 16, idx[q].length, 8);
+        sol_store_le(ent + 24, idx[q].crc, 8);
+        put(k, ent, sizeof ent);
+    }
+    sol_sink_end(k, &crc_of_index);
+    sol_sink_flush(k);
+    uint8_t tail[16];
+    sol_store_le(tail, at, 8);
+    sol_store_le(tail + 8, crc_of_index.crc, 8);
+    rad_output_write_at(k->out, tail, sizeof tail, 16);
+    return rad_output_error(k->out, err);
+}
+
+void sol_header(uint8_t head[SOL_HEADER_BYTES])
+{
+    memset(head, 0, SOL_HEADER_BYTES);
+    memcpy(head, SOL_MAGIC, 8);
+    sol_store_le(head + 8, SOL_VERSION, 4);
+    /* bytes 16..31, the index's offset and CRC, are written last: zero
+     * means "being written" */
+}
+
+void sol_store_le(uint8_t *p, uint64_t v, int bytes)
 {
     for (int i = 0; i < bytes; i++)
         p[i] = (uint8_t)(v >> (8 * i));
 }
 
-int rad_solution_write(const rad_solution *s, const char *path, rad_error *err)
+uint64_t rad_solution_row_file_bytes(const rad_matrix *F, uint32_t i)
 {
+    return F->row_done[i] ? SOL_BLOCK_HEAD + rad_matrix_record_bytes(F, i) : 0;
+}
+
+uint64_t rad_solution_file_bytes(const rad_solution *s)
+{
+    sol_sink count = {0}; /* counts, writes nothing */
+    sol_write_ctx w = {.s = s};
+    uint64_t total = SOL_HEADER_BYTES + SOL_MATRIX_HEAD;
+    for (uint32_t i = 0; i < s->F->n; i++)
+        total += rad_solution_row_file_bytes(s->F, i);
+    uint32_t sections = 1; /* MATRIX */
+    for (size_t q = 0; sol_section_order(q) >= 0; q++) {
+        int sec = sol_section_order(q);
+        if (section_written(s, sec)) {
+            sec_emit[sec](&count, &w);
+            sections++;
+        }
+    }
+    return total + count.total + SOL_INDEX_HEAD + (uint64_t)sections * SOL_INDEX_ENTRY;
+}
+
+int sol_irradiance_for_write(const rad_solution *s, double **H, rad_error *err)
+{
+    size_t count = (size_t)s->mesh->patch_count * s->band_count;
+    *H = malloc((count + 1) * sizeof **H);
+    if (!*H)
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
+    int rc = rad_solution_irradiance(s, *H, err);
+    if (rc) {
+        free(*H);
+        *H = NULL;
+    }
+    return rc;
+}
+
+/* The name a MATRIXREF of a file at `path` gives the matrix: PATH.matrix, a
+ * hard link to the file holding it, named relative to path's directory;
+ * where no hard link can be made, that file's absolute path. */
+static void share_matrix(const rad_solution *s, const char *path, sol_write_ctx *w,
+                         rad_write_info *info)
+{
+    char link_path[sizeof info->matrix_path];
+    int n = snprintf(link_path, sizeof link_path, "%s.matrix", path);
+    const char *slash = strrchr(link_path, '/');
+    const char *name = slash ? slash + 1 : link_path, *target = s->matrix_file.path;
+    rad_error ignored;
+    if (n > 0 && (size_t)n < sizeof link_path && strlen(name) <= SOL_MAX_STRING &&
+        rad_output_link(target, link_path, &ignored) == 0) {
+        memcpy(w->ref_name, name, strlen(name) + 1);
+        memcpy(info->matrix_path, link_path, (size_t)n + 1);
+        info->linked = 1;
+    } else { /* the caller checked that it fits */
+        memcpy(w->ref_name, target, strlen(target) + 1);
+        if (strlen(target) < sizeof info->matrix_path)
+            memcpy(info->matrix_path, target, strlen(target) + 1);
+    }
+    info->matrix_shared = 1;
+}
+
+int rad_solution_write_opts(const rad_solution *s, const char *path, const rad_write_options *opt,
+                            rad_write_info *info, rad_error *err)
+{
+    rad_write_info local;
+    static const rad_write_options defaults;
+    if (!info)
+        info = &local;
+    if (!opt)
+        opt = &defaults;
+    memset(info, 0, sizeof *info);
     if (!path || !*path)
         return rad_fail(err, RAD_ERR_USAGE, "rad_solution_write: no path");
-    int rc = validate_for_write(s, path, err);
+    /* A matrix shared, not written, was checked when it was read and has
+     * not changed since. */
+    int shared = opt->share_matrix && s && s->F && s->matrix_file.path &&
+                 s->F->bytes == s->matrix_file.bytes && strlen(s->matrix_file.path) <= SOL_MAX_STRING;
+    int rc = sol_validate_for_write(s, path, !shared, err);
     if (rc)
         return rc;
+    sol_write_ctx w = {.s = s};
+    if ((rc = sol_irradiance_for_write(s, &w.H, err)))
+        return rc;
+    if (shared)
+        share_matrix(s, path, &w, info);
 
-    /* Measure each section first: its length precedes it in the stream. */
-    uint64_t len[SEC_COUNT], payload = 0;
-    for (int i = 0; i < SEC_COUNT; i++) {
-        len[i] = 0;
-        if (!section_written(s, i))
-            continue;
-        sink count = {0};
-        sec_emit[i](&count, s);
-        len[i] = count.total;
-        payload += SOL_SECTION_HEADER + len[i];
-    }
-    if (payload > SOL_MAX_FILE - SOL_HEADER_BYTES)
-        return rad_fail(err, RAD_ERR_LIMIT,
-                        "%s: cannot write: %llu bytes exceeds the 64 GiB limit of the reader", path,
-                        (unsigned long long)(payload + SOL_HEADER_BYTES));
-
-    sol_crc64_tables *tab = malloc(sizeof *tab);
-    sink k = {.cap = 1u << 20};
-    k.buf = malloc(k.cap);
-    if (!tab || !k.buf) {
-        free(tab);
-        free(k.buf);
-        return rad_fail(err, RAD_ERR_NOMEM, "%s: cannot write: out of memory", path);
-    }
-    rc = rad_output_open(path, &k.out, err);
-    if (rc) {
-        free(tab);
-        free(k.buf);
+    rad_output *out = NULL;
+    sol_sink k;
+    if ((rc = rad_output_open(path, &out, err))) {
+        free(w.H);
         return rc;
     }
-    sol_crc64_init(tab);
-    k.tab = tab;
-    k.crc = ~0ull;
-
-    uint8_t head[SOL_HEADER_BYTES] = {0};
-    memcpy(head, SOL_MAGIC, 8);
-    store_le(head + 8, version_of(s), 4);
-    store_le(head + 12, 0, 4);
-    store_le(head + 16, payload, 8);
-    /* bytes 24..31, the checksum, are written once the payload is through */
-    rad_output_write(k.out, head, sizeof head);
-    for (int i = 0; i < SEC_COUNT; i++) {
-        if (!section_written(s, i))
-            continue;
-        put(&k, sol_sec_tag[i], 4);
-        put_u64(&k, len[i]);
-        uint64_t before = k.total;
-        sec_emit[i](&k, s);
-        RAD_ASSERT(k.total - before == len[i]);
-        (void)before;
+    if (sol_sink_init(&k, out) != 0) {
+        rad_output_abort(out);
+        free(w.H);
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: cannot write: out of memory", path);
     }
-    sink_flush(&k);
-    RAD_ASSERT(k.failed || k.total == payload);
-    store_le(head + 24, k.crc ^ ~0ull, 8);
-    rad_output_write_at(k.out, head + 24, 8, 24);
-    rc = rad_output_commit(k.out, err); /* reports any write's failure */
-    free(tab);
-    free(k.buf);
-    return rc;
+    uint8_t head[SOL_HEADER_BYTES];
+    sol_header(head);
+    put(&k, head, sizeof head);
+    sol_index_entry matrix;
+    int msec = shared ? SEC_MATRIXREF : SEC_MATRIX;
+    sol_sink_begin(&k, &matrix, msec);
+    sec_emit[msec](&k, &w);
+    sol_sink_end(&k, &matrix);
+    rc = sol_write_rest(&k, &w, &matrix, err);
+    if (!rc && k.total > SOL_MAX_FILE)
+        rc = rad_fail(err, RAD_ERR_LIMIT,
+                      "%s: cannot write: %llu bytes exceeds the 64 GiB limit of the reader", path,
+                      (unsigned long long)k.total);
+    sol_sink_free(&k);
+    free(w.H);
+    if (rc) {
+        rad_output_abort(out);
+        return rc;
+    }
+    return rad_output_commit(out, err); /* reports any write's failure */
+}
+
+int rad_solution_write(const rad_solution *s, const char *path, rad_error *err)
+{
+    return rad_solution_write_opts(s, path, NULL, NULL, err);
 }

@@ -370,12 +370,13 @@ static double object_ff(const rad_mesh *m, const rad_matrix *F, uint32_t A, uint
         if (m->patches[i].object != A)
             continue;
         double s = 0;
-        if (F->row_done[i]) {
-            const uint32_t *col = F->col + F->row_start[i];
-            const float *val = F->val + F->row_start[i];
-            for (uint32_t k = 0; k < F->row_count[i]; k++)
-                if (m->patches[col[k]].object == B)
-                    s += val[k];
+        const rad_row r = rad_matrix_row(F, i);
+        const uint8_t *q = r.col;
+        uint32_t j = 0;
+        for (uint32_t k = 0; k < r.count; k++) {
+            j = rad_row_next(&q, j);
+            if (m->patches[j].object == B)
+                s += rad_row_value(&r, k);
         }
         num += m->patches[i].area * s;
         area += m->patches[i].area;

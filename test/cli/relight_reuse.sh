@@ -2,9 +2,10 @@
 # relight_reuse.sh - `relight` reuses the stored form factors, shown without
 # the program's own counters ("0 hemi-cube rows computed" and the report's
 # rows_computed, which relight.sh checks, are the program's word for it):
-#   - the MATRIX section (docs/solution-format.md) of the relit file is the
-#     base file's, byte for byte, and so is MESH; PATCHDATA, which the relight
-#     must change, differs;
+#   - the relit file holds no MATRIX but a MATRIXREF to the base file's
+#     (docs/solution-format.md), through relit.sol.matrix, whose MATRIX is the
+#     base file's byte for byte; MESH is the base's too; PATCHDATA, which the
+#     relight must change, differs;
 #   - no hemi-cube engine is ever started: every command runs with
 #     MESA_GL_VERSION_OVERRIDE=2.1, under which Mesa cannot give a hemi-cube
 #     worker the GL 4.5 context it asks for, so any form-factor row, element
@@ -21,21 +22,23 @@ ok()  { passed=$((passed + 1)); echo "ok   $1"; }
 bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 NOGL="MESA_GL_VERSION_OVERRIDE=2.1"
 
-# section FILE TAG: the body of section TAG of solution FILE on stdout
-# (header 32 bytes; each section a 4-byte tag, a little-endian u64 length
-# and the body), status 1 when the file has no such section.
+# section FILE TAG: the body of section TAG of solution FILE (format version
+# 6: the index at the offset in header bytes 16..23, a u32 count, a u32 0,
+# then per section a 4-byte tag, a u32 0, u64 offset, u64 length, u64 CRC)
+# on stdout; status 1 when the file has no such section.
 section() {
-    local f=$1 tag=$2 off=32 size t len
-    size=$(stat -c %s "$f")
-    while [ "$off" -lt "$size" ]; do
-        t=$(dd if="$f" bs=1 skip="$off" count=4 2> /dev/null)
-        len=$(od --endian=little -An -tu8 -j $((off + 4)) -N8 "$f" | tr -d ' ')
-        [ -n "$len" ] || return 1
+    local f=$1 tag=$2 at count q e t off len
+    at=$(od --endian=little -An -tu8 -j 16 -N8 "$f" | tr -d ' ')
+    count=$(od --endian=little -An -tu4 -j "$at" -N4 "$f" | tr -d ' ')
+    for q in $(seq 0 $((count - 1))); do
+        e=$((at + 8 + 32 * q))
+        t=$(dd if="$f" bs=1 skip="$e" count=4 2> /dev/null)
         if [ "$t" = "$tag" ]; then
-            tail -c +$((off + 13)) "$f" | head -c "$len"
+            off=$(od --endian=little -An -tu8 -j $((e + 8)) -N8 "$f" | tr -d ' ')
+            len=$(od --endian=little -An -tu8 -j $((e + 16)) -N8 "$f" | tr -d ' ')
+            tail -c +$((off + 1)) "$f" | head -c "$len"
             return 0
         fi
-        off=$((off + 12 + len))
     done
     return 1
 }
@@ -73,15 +76,19 @@ else
     bad "relight --variations --render under $NOGL: $(cat "$dir/out")"
 fi
 
-# The stored sections: MATRIX and MESH byte for byte, PATCHDATA changed.
+# The stored sections: MATRIX (through the reference) and MESH byte for
+# byte, PATCHDATA changed.
 if [ -s "$dir/relit.sol" ]; then
-    for tag in MTRX MESH PDAT; do
+    for tag in MESH PDAT; do
         section "$dir/base.sol" "$tag" > "$dir/base.$tag" || bad "base.sol has no $tag section"
         section "$dir/relit.sol" "$tag" > "$dir/relit.$tag" || bad "relit.sol has no $tag section"
     done
+    section "$dir/base.sol" MTRX > "$dir/base.MTRX" || bad "base.sol has no MTRX section"
+    section "$dir/relit.sol.matrix" MTRX > "$dir/relit.MTRX" || bad "relit.sol.matrix has no MTRX section"
     m=$(stat -c %s "$dir/base.MTRX")
-    if [ "$m" -gt 1000 ] && cmp -s "$dir/base.MTRX" "$dir/relit.MTRX"; then
-        ok "MATRIX section identical ($m bytes)"
+    if [ "$m" -gt 1000 ] && cmp -s "$dir/base.MTRX" "$dir/relit.MTRX" &&
+       ! section "$dir/relit.sol" MTRX > /dev/null && section "$dir/relit.sol" MREF > /dev/null; then
+        ok "MATRIX section identical ($m bytes), referred to, not copied"
     else
         bad "MATRIX section: $m bytes in base, $(stat -c %s "$dir/relit.MTRX") relit, $(cmp "$dir/base.MTRX" "$dir/relit.MTRX" 2>&1)"
     fi

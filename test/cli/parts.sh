@@ -1,0 +1,178 @@
+#!/usr/bin/env bash
+# parts.sh - issue 21 from the command line: the solution file in parts.
+# render and report never read F, so a damaged MATRIX section leaves them
+# whole while relight refuses it naming the section; a relight shares its
+# base's matrix (a hard link OUT.matrix, or the base's path where no link
+# can be made) instead of copying it, stays right when the base is moved or
+# solved again, and fails clearly - never silently - when the matrix it
+# shares is removed or altered.  Cost: ~3 s (small Cornell boxes).
+set -u
+. "$(dirname "$0")/lib.bash"
+ok()  { passed=$((passed + 1)); echo "ok   $1"; }
+bad() { failed=$((failed + 1)); echo "FAIL $1"; }
+
+# The byte offset of section TAG's body in a version 6 file (its index at the end).
+section_at() { # FILE TAG
+    python3 - "$1" "$2" <<'P'
+import struct, sys
+b = open(sys.argv[1], 'rb').read()
+at = struct.unpack_from('<Q', b, 16)[0]
+count = struct.unpack_from('<I', b, at)[0]
+for q in range(count):
+    tag, _, off, length, crc = struct.unpack_from('<4sIQQQ', b, at + 8 + 32 * q)
+    if tag == sys.argv[2].encode():
+        print(off, length)
+P
+}
+flip_byte() { # FILE OFFSET: inverts one byte in place (the file keeps its inode)
+    python3 -c "
+import sys
+f = open(sys.argv[1], 'r+b'); f.seek(int(sys.argv[2])); b = f.read(1)
+f.seek(int(sys.argv[2])); f.write(bytes([b[0] ^ 0xFF])); f.close()" "$1" "$2"
+}
+inode() { stat -c %i "$1"; }
+# report without the stage times and the provenance that differs by run
+numbers() { "$BIN" report "$1" --json | sed -e 's/"stages": {.*//' -e 's/"solution": "[^"]*"//'; }
+
+"$BIN" solve models/cornell.rad -o "$dir/base.sol" --patch-size 0.1 > /dev/null 2>&1 ||
+    { echo "cannot solve the base scene"; exit 1; }
+"$BIN" render "$dir/base.sol" -o "$dir/base.exr" --size 64x64 > /dev/null 2>&1 || exit 1
+
+# A damaged MATRIX: render and report do not notice (same image, same
+# numbers), relight refuses naming the section.
+cp "$dir/base.sol" "$dir/damaged.sol"
+read -r m mlen < <(section_at "$dir/damaged.sol" MTRX)
+flip_byte "$dir/damaged.sol" $((m + mlen / 2))
+if "$BIN" render "$dir/damaged.sol" -o "$dir/damaged.exr" --size 64x64 > /dev/null 2>&1 &&
+   cmp -s "$dir/base.exr" "$dir/damaged.exr" &&
+   [ "$(numbers "$dir/damaged.sol")" = "$(numbers "$dir/base.sol")" ]; then
+    ok "render and report of a solution whose MATRIX is damaged: identical"
+else
+    bad "render or report of a damaged MATRIX differs or fails"
+fi
+"$BIN" relight "$dir/damaged.sol" -o "$dir/x.sol" --light light=2 > /dev/null 2> "$dir/stderr"
+rc=$?
+if [ "$rc" -eq 2 ] && grep -q "damaged.sol: section MATRIX: checksum mismatch" "$dir/stderr" &&
+   [ ! -e "$dir/x.sol" ]; then
+    ok "relight of it: $(cat "$dir/stderr")"
+else
+    bad "relight of a damaged MATRIX: exit $rc, $(cat "$dir/stderr")"
+fi
+# a damaged section that render needs is refused by render, named
+read -r p plen < <(section_at "$dir/base.sol" PDAT)
+cp "$dir/base.sol" "$dir/pdat.sol"
+flip_byte "$dir/pdat.sol" $((p + plen / 2))
+if ! "$BIN" render "$dir/pdat.sol" -o "$dir/p.exr" > /dev/null 2> "$dir/stderr" &&
+   grep -q "pdat.sol: section PATCHDATA: checksum mismatch" "$dir/stderr"; then
+    ok "render of a damaged PATCHDATA: $(cat "$dir/stderr")"
+else
+    bad "render of a damaged PATCHDATA: $(cat "$dir/stderr")"
+fi
+
+# A relight shares the matrix: a hard link, no copy; the output is small.
+mkdir -p "$dir/lit"
+if "$BIN" relight "$dir/base.sol" -o "$dir/lit/lit.sol" --light light=2 > "$dir/stdout" 2>&1 &&
+   grep -q "form factors shared with .*lit.sol.matrix (a hard link, no copy)" "$dir/stdout" &&
+   [ "$(inode "$dir/lit/lit.sol.matrix")" = "$(inode "$dir/base.sol")" ] &&
+   [ "$(stat -c %s "$dir/lit/lit.sol")" -lt $(( $(stat -c %s "$dir/base.sol") / 2 )) ]; then
+    ok "relight shares F: $(grep shared "$dir/stdout")"
+else
+    bad "relight sharing: $(cat "$dir/stdout")"
+fi
+"$BIN" render "$dir/lit/lit.sol" -o "$dir/lit.exr" --size 64x64 > /dev/null 2>&1
+"$BIN" relight "$dir/lit/lit.sol" -o "$dir/lit/back.sol" --light light=0.5 > /dev/null 2>&1
+"$BIN" render "$dir/lit/back.sol" -o "$dir/back.exr" --size 64x64 > /dev/null 2>&1
+lit_numbers=$(numbers "$dir/lit/lit.sol")
+
+# The base moved away, then solved again with other options at its old
+# place: the relit solution keeps its own link, its answer is unchanged.
+mkdir -p "$dir/elsewhere"
+mv "$dir/base.sol" "$dir/elsewhere/base.sol"
+"$BIN" solve models/cornell.rad -o "$dir/base.sol" --patch-size 0.2 > /dev/null 2>&1
+if "$BIN" relight "$dir/lit/lit.sol" -o "$dir/lit/again.sol" --light light=0.5 > /dev/null 2>&1 &&
+   "$BIN" render "$dir/lit/again.sol" -o "$dir/again.exr" --size 64x64 > /dev/null 2>&1 &&
+   cmp -s "$dir/back.exr" "$dir/again.exr"; then
+    ok "after the base moved and was solved again, relight of the relit solution is unchanged"
+else
+    bad "relight after the base moved"
+fi
+
+# Its matrix altered in place (the base's bytes, one inode): a clear error.
+read -r m mlen < <(section_at "$dir/elsewhere/base.sol" MTRX)
+flip_byte "$dir/elsewhere/base.sol" $((m + 100))
+"$BIN" relight "$dir/lit/lit.sol" -o "$dir/lit/y.sol" --light light=3 > /dev/null 2> "$dir/stderr"
+rc=$?
+if [ "$rc" -eq 2 ] && grep -q "lit.sol.matrix: section MATRIX: checksum mismatch" "$dir/stderr" &&
+   "$BIN" render "$dir/lit/lit.sol" -o "$dir/lit2.exr" --size 64x64 > /dev/null 2>&1 &&
+   cmp -s "$dir/lit.exr" "$dir/lit2.exr"; then
+    ok "shared matrix altered: render unchanged, relight: $(cat "$dir/stderr")"
+else
+    bad "shared matrix altered: exit $rc, $(cat "$dir/stderr")"
+fi
+flip_byte "$dir/elsewhere/base.sol" $((m + 100))
+
+# Its matrix removed: render and report still work, relight says what is gone.
+# (The reference falls back on the base's path when it was written: the
+# base solved again there is another matrix, which is refused as changed.)
+"$BIN" relight "$dir/lit/lit.sol" -o "$dir/lit/y.sol" --light light=3 > /dev/null 2>&1
+rm "$dir/lit/lit.sol.matrix"
+"$BIN" relight "$dir/lit/lit.sol" -o "$dir/lit/y.sol" --light light=3 > /dev/null 2> "$dir/stderr"
+if [ $? -eq 2 ] && grep -q "base.sol has changed since this solution was written" "$dir/stderr"; then
+    ok "shared link removed, the base's path holds another matrix: $(cat "$dir/stderr")"
+else
+    bad "shared link removed, another base: $(cat "$dir/stderr")"
+fi
+rm "$dir/elsewhere/base.sol" "$dir/base.sol"
+"$BIN" relight "$dir/lit/lit.sol" -o "$dir/lit/y.sol" --light light=3 > /dev/null 2> "$dir/stderr"
+rc=$?
+if [ "$rc" -eq 2 ] && grep -q "section MATRIXREF: the matrix it shares is gone: cannot open .*lit.sol.matrix (nor .*base.sol): No such file" "$dir/stderr" &&
+   [ "$(numbers "$dir/lit/lit.sol")" = "$lit_numbers" ] &&
+   "$BIN" render "$dir/lit/lit.sol" -o "$dir/lit3.exr" --size 64x64 > /dev/null 2>&1 &&
+   cmp -s "$dir/lit.exr" "$dir/lit3.exr"; then
+    ok "shared matrix removed: render and report unchanged, relight: $(cat "$dir/stderr")"
+else
+    bad "shared matrix removed: exit $rc, $(cat "$dir/stderr")"
+fi
+
+# Where no hard link can be made (here: OUT.matrix is a directory), the
+# reference names the base by its path; changing the base is then an error.
+"$BIN" solve models/cornell.rad -o "$dir/b2.sol" --patch-size 0.2 > /dev/null 2>&1
+mkdir -p "$dir/nolink.sol.matrix/blocker"
+if "$BIN" relight "$dir/b2.sol" -o "$dir/nolink.sol" --light light=2 > "$dir/stdout" 2>&1 &&
+   grep -q "shared with .*b2.sol (by path)" "$dir/stdout" &&
+   "$BIN" relight "$dir/nolink.sol" -o "$dir/n2.sol" --light light=0.5 > /dev/null 2>&1; then
+    ok "no hard link: $(grep shared "$dir/stdout")"
+else
+    bad "no hard link: $(cat "$dir/stdout")"
+fi
+"$BIN" solve models/cornell.rad -o "$dir/b2.sol" --patch-size 0.2 --resolution 64 > /dev/null 2>&1
+"$BIN" relight "$dir/nolink.sol" -o "$dir/n3.sol" --light light=0.5 > /dev/null 2> "$dir/stderr"
+rc=$?
+if [ "$rc" -eq 2 ] && grep -q "b2.sol has changed since this solution was written" "$dir/stderr"; then
+    ok "base solved again under a by-path reference: $(cat "$dir/stderr")"
+else
+    bad "base solved again under a by-path reference: exit $rc, $(cat "$dir/stderr")"
+fi
+rm "$dir/b2.sol"
+"$BIN" relight "$dir/nolink.sol" -o "$dir/n3.sol" --light light=0.5 > /dev/null 2> "$dir/stderr"
+if [ $? -eq 2 ] && grep -q "the matrix it shares is gone: cannot open .*b2.sol: No such file" "$dir/stderr"; then
+    ok "base removed under a by-path reference: $(cat "$dir/stderr")"
+else
+    bad "base removed under a by-path reference: $(cat "$dir/stderr")"
+fi
+
+# relight --variations reads F once and every variant shares it.
+printf 'variant dim\n  light light=0.5\nend\nvariant off\n  reflectance white=0.2\nend\n' > "$dir/v.txt"
+mkdir -p "$dir/vars"
+"$BIN" solve models/cornell.rad -o "$dir/b3.sol" --patch-size 0.2 > /dev/null 2>&1
+if "$BIN" relight "$dir/b3.sol" -o "$dir/vars" --variations "$dir/v.txt" > "$dir/stdout" 2>&1 &&
+   [ "$(grep -c 'a hard link, no copy' "$dir/stdout")" -eq 2 ] &&
+   [ "$(inode "$dir/vars/dim.sol.matrix")" = "$(inode "$dir/b3.sol")" ] &&
+   [ "$(inode "$dir/vars/off.sol.matrix")" = "$(inode "$dir/b3.sol")" ]; then
+    ok "relight --variations: both variants share the base's F"
+else
+    bad "relight --variations sharing: $(cat "$dir/stdout")"
+fi
+
+echo "parts.sh: $passed passed, $failed failed"
+[ "$failed" -eq 0 ]
