@@ -13,6 +13,8 @@
  *   rows.c     one hemi-cube row F_ij (or a point receiver's F_ej), with
  *              its exact entries, computed in a worker;
  *   lights.c   punctual lights: the public calls and their worker side;
+ *   column.c   an emitter's exact column for shooting (through lights.c's
+ *              visibility);
  *   analytic.c closed-form factors.
  * Dependencies point one way: pool.c -> wire.c, worker.c; worker.c ->
  * wire.c, rows.c, lights.c, gl.c; rows.c, lights.c -> gl.c (through the

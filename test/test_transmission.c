@@ -110,12 +110,18 @@ typedef struct full_rows {
     rad_matrix *F;
 } full_rows;
 
-static int copy_row(void *user, uint32_t i, rad_error *err)
+static int copy_rows(void *user, const uint32_t *rows, uint32_t count, rad_error *err)
 {
     full_rows *fr = user;
     const rad_matrix *a = fr->all;
-    return rad_matrix_set_row(fr->F, i, a->row_count[i], a->col + a->row_start[i],
-                              a->val + a->row_start[i], err);
+    for (uint32_t k = 0; k < count; k++) {
+        const uint32_t i = rows[k];
+        int rc = rad_matrix_set_row(fr->F, i, a->row_count[i], a->col + a->row_start[i],
+                                    a->val + a->row_start[i], err);
+        if (rc)
+            return rc;
+    }
+    return RAD_OK;
 }
 
 /* 12 patches: pairs (0,1), (2,3), (4,5) are sheets, the rest opaque, 2
@@ -195,7 +201,7 @@ TEST(solver_matches_direct_solution)
         full_rows fr = {all, F};
         sv_system sys = {.n = N, .bands = NB, .F = F, .area = A, .rho = rho, .emission = E,
                          .tau = tau, .twin = twin};
-        sv_options so = {.method = methods[m], .tolerance = 1e-12, .need_row = copy_row,
+        sv_options so = {.method = methods[m], .tolerance = 1e-12, .need_rows = copy_rows,
                          .user = &fr, .max_iterations = 1000000};
         double B[N * NB];
         sv_stats st;

@@ -106,14 +106,34 @@ static int write_preview(void *user, const rad_solution *s, uint32_t shots, cons
     return 0;
 }
 
+/* --preview-every: K shots, or "Ts" seconds of solving (T > 0, decimals
+ * allowed).  0, or the exit status (message printed). */
+static int parse_preview_every(const char *opt, const char *v, uint32_t *shots, double *seconds)
+{
+    size_t len = v ? strlen(v) : 0;
+    if (len > 1 && v[len - 1] == 's') {
+        char num[64];
+        if (len - 1 >= sizeof num)
+            return cli_usage_error("%s: '%s' is not K (shots) or Ts (seconds)", opt, v);
+        memcpy(num, v, len - 1);
+        num[len - 1] = '\0';
+        return cli_parse_double(opt, num, 1e-3, 1e6, seconds);
+    }
+    return cli_parse_u32(opt, v, 1, 100000000, shots);
+}
+
 int cli_solve(int argc, char **argv)
 {
     const char *scene = NULL, *out = NULL, *preview_dir = NULL;
     uint32_t preview_every = 0;
+    double preview_seconds = 0.0;
     int rc;
     rad_solve_options opt = {0};
+    preview_state ps = {0};
     for (int i = 0; i < argc; i++) {
         int r = cli_solve_option(argc, argv, &i, &opt);
+        if (r == 0)
+            r = cli_view_option(argc, argv, &i, &ps.view);
         if (r < 0)
             return 2;
         if (r > 0)
@@ -121,7 +141,7 @@ int cli_solve(int argc, char **argv)
         if (!strcmp(argv[i], "-o") && i + 1 < argc)
             out = argv[++i];
         else if (!strcmp(argv[i], "--preview-every") && i + 1 < argc) {
-            if (cli_parse_u32(argv[i], argv[i + 1], 1, 100000000, &preview_every))
+            if (parse_preview_every(argv[i], argv[i + 1], &preview_every, &preview_seconds))
                 return 2;
             i++;
         } else if (!strcmp(argv[i], "--preview-dir") && i + 1 < argc)
@@ -133,9 +153,10 @@ int cli_solve(int argc, char **argv)
         return cli_usage_error("usage: radiosity solve SCENE -o SOLUTION [options]");
     if (cli_check_output_dir(out))
         return 2;
-    preview_state ps = {0};
+    if (ps.view.png)
+        return cli_usage_error("solve: --png is for render (previews are written as PNG and EXR)");
     char dirbuf[4096];
-    if (preview_every) {
+    if (preview_every || preview_seconds > 0.0) {
         if (opt.solver.method != SV_PROGRESSIVE)
             return cli_usage_error("--preview-every needs --solver progressive");
         if (!preview_dir) {
@@ -149,10 +170,14 @@ int cli_solve(int argc, char **argv)
         }
         ps.dir = preview_dir;
         opt.solver.preview_every = preview_every;
+        opt.solver.preview_seconds = preview_seconds;
         opt.on_preview = write_preview;
         opt.preview_user = &ps;
+    } else if (ps.view.camera || ps.view.have_eye || ps.view.have_target || ps.view.width) {
+        return cli_usage_error("solve: camera options are for previews (--preview-every)");
     }
     cli_enable_progress(&opt);
+    opt.warn = cli_warn;
 
     rad_error err = {0};
     rad_solution *s = NULL;
@@ -172,6 +197,12 @@ int cli_solve(int argc, char **argv)
     printf("%s: %u patches, %u bands, %llu rows computed (R = %u), %s: %u iterations, residual %.3g\n",
            out, s->mesh->patch_count, s->band_count, (unsigned long long)s->rows_computed,
            s->resolution, s->solver, s->iterations, s->residual);
+    if (s->progress)
+        printf("progressive: %.3g of the emitted power unshot, %u previews, %llu rows computed "
+               "again (%llu dropped to stay within --max-memory)\n",
+               s->progress->unshot, s->progress->preview_count,
+               (unsigned long long)s->progress->rows_recomputed,
+               (unsigned long long)s->progress->rows_dropped);
     if (s->elements)
         printf("elements: %u (from %u patches), %llu element hemi-cubes\n",
                s->elements->mesh->patch_count, s->mesh->patch_count,

@@ -1,8 +1,9 @@
 /* matrix.c - the sparse form-factor matrix of rad.h.
  *
  * The matrix keeps its rows in one growing pool (col/val); a row that is
- * set again is appended and the old copy abandoned, which only a relight of
- * a progressive solution can cause and which costs at most one extra row.
+ * set again is appended and the old copy abandoned, as is a row dropped by
+ * a bounded row store (rad_matrix_drop_row), until rad_matrix_compact moves
+ * the rows present together again.
  * Invariant: rows present obey rad.h's row rules (rad_matrix_check: the
  * solution writer and reader always, the pipeline after a solve in debug
  * builds).
@@ -97,6 +98,101 @@ double rad_matrix_row_sum(const rad_matrix *m, uint32_t i)
     for (uint32_t k = 0; k < m->row_count[i]; k++)
         s += v[k];
     return s;
+}
+
+/* One pool entry: its column and its value. */
+#define ENTRY_BYTES (sizeof(uint32_t) + sizeof(float))
+
+uint64_t rad_matrix_pool_bytes(const rad_matrix *m) { return m->capacity * ENTRY_BYTES; }
+
+uint64_t rad_matrix_used_bytes(const rad_matrix *m) { return m->nnz * ENTRY_BYTES; }
+
+uint64_t rad_matrix_row_bytes(uint32_t count) { return (uint64_t)count * ENTRY_BYTES; }
+
+uint64_t rad_matrix_live_bytes(const rad_matrix *m)
+{
+    uint64_t entries = 0;
+    for (uint32_t i = 0; i < m->n; i++)
+        if (m->row_done[i])
+            entries += m->row_count[i];
+    return entries * ENTRY_BYTES;
+}
+
+void rad_matrix_drop_row(rad_matrix *m, uint32_t i)
+{
+    if (!m || i >= m->n || !m->row_done[i])
+        return;
+    m->row_done[i] = 0;
+    m->row_count[i] = 0;
+    m->row_start[i] = 0;
+    m->rows_done--;
+}
+
+/* A row present and where it starts in the pool, sorted by the latter. */
+typedef struct placed {
+    uint64_t start;
+    uint32_t row;
+} placed;
+
+static int by_start(const void *a, const void *b)
+{
+    uint64_t x = ((const placed *)a)->start, y = ((const placed *)b)->start;
+    return x < y ? -1 : x > y;
+}
+
+int rad_matrix_compact(rad_matrix *m, uint64_t bytes, rad_error *err)
+{
+    /* The rows present, in order of their place in the pool: each then
+     * moves towards the front, never over a row not yet moved, so the
+     * compaction needs no second pool (a bounded store has no room for
+     * one). */
+    placed *order = malloc(((size_t)m->rows_done + 1) * sizeof *order);
+    uint32_t count = 0;
+    if (!order)
+        return rad_fail(err, RAD_ERR_NOMEM, "form-factor matrix: out of memory compacting");
+    for (uint32_t i = 0; i < m->n; i++) {
+        if (!m->row_done[i])
+            continue;
+        if (m->row_count[i] == 0)
+            m->row_start[i] = 0; /* an empty row has no pool behind it */
+        else
+            order[count++] = (placed){m->row_start[i], i};
+    }
+    qsort(order, count, sizeof *order, by_start);
+    uint64_t next = 0;
+    for (uint32_t k = 0; k < count; k++) {
+        uint32_t i = order[k].row;
+        if (next != m->row_start[i]) {
+            memmove(m->col + next, m->col + m->row_start[i], (size_t)m->row_count[i] * sizeof *m->col);
+            memmove(m->val + next, m->val + m->row_start[i], (size_t)m->row_count[i] * sizeof *m->val);
+        }
+        m->row_start[i] = next;
+        next += m->row_count[i];
+    }
+    free(order);
+    m->nnz = next;
+    uint64_t cap = bytes / ENTRY_BYTES > next ? bytes / ENTRY_BYTES : next;
+    if (cap == m->capacity)
+        return RAD_OK;
+    if (cap > SIZE_MAX / sizeof(uint32_t))
+        return rad_fail(err, RAD_ERR_NOMEM, "form-factor matrix: %llu entries do not fit in memory",
+                        (unsigned long long)cap);
+    /* col and val are resized one after the other; capacity is the smaller
+     * of the two at every step, so a failure leaves a usable pool. */
+    const uint64_t old = m->capacity;
+    uint32_t *col = realloc(m->col, (size_t)(cap ? cap : 1) * sizeof *col);
+    if (!col)
+        return rad_fail(err, RAD_ERR_NOMEM, "form-factor matrix: out of memory at %llu entries",
+                        (unsigned long long)cap);
+    m->col = col;
+    m->capacity = cap < old ? cap : old;
+    float *val = realloc(m->val, (size_t)(cap ? cap : 1) * sizeof *val);
+    if (!val)
+        return rad_fail(err, RAD_ERR_NOMEM, "form-factor matrix: out of memory at %llu entries",
+                        (unsigned long long)cap);
+    m->val = val;
+    m->capacity = cap;
+    return RAD_OK;
 }
 
 uint64_t rad_matrix_estimate_bytes(uint32_t n, double fill)

@@ -82,6 +82,17 @@ uint64_t rad_available_memory(void)
     return (pages > 0 && size > 0) ? (uint64_t)pages * (uint64_t)size : 0;
 }
 
+const char *rad_format_bytes(double bytes, char *buf, size_t size)
+{
+    if (bytes >= 1073741824.0)
+        snprintf(buf, size, "%.1f GiB", bytes / 1073741824.0);
+    else if (bytes >= 1048576.0)
+        snprintf(buf, size, "%.1f MiB", bytes / 1048576.0);
+    else
+        snprintf(buf, size, "%.1f KiB", bytes / 1024.0);
+    return buf;
+}
+
 double rad_seconds(void)
 {
     struct timespec ts;

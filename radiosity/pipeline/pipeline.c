@@ -13,7 +13,11 @@
  * transmits diffusely (τ > 0) is two patches back to back (mesh twins), and
  * B_i = E_i + ρ_i H_i + τ_i H_twin(i): the twin's row is i's back hemi-cube,
  * computed only there (sv_row_needed).  The progressive solver asks for the
- * rows of the patches it shoots from.
+ * rows of the patches it shoots from, in batches computed on every worker,
+ * within --max-memory (it drops rows and asks for them again), and for the
+ * exact columns of emitters (hc_exact_column): the same factors their
+ * receivers' rows hold, so that it solves the very system Gauss-Seidel
+ * solves.
  *
  * Punctual lights have no patches: each is rendered once as an item-buffer
  * cube at the light (hc_light_power), which gives the power Φ_lj patch j
@@ -41,6 +45,14 @@ typedef struct run {
     uint64_t lights_computed;
     uint64_t max_memory;
     double ff_seconds;    /* time inside the hemi-cube, counted apart from the solve */
+    double t0;            /* when the run began */
+    int quiet_rows;       /* 1 while the progressive solver asks for rows: its own
+                           * progress, not the rows', is what the user follows */
+    /* The progressive solve's previews: when, and how much was unshot. */
+    rad_preview_info *previews;
+    uint32_t preview_count, preview_slots;
+    double preview_seconds; /* time inside the caller's on_preview */
+    double *preview_B;    /* a grey solve's preview, widened to every band */
 } run;
 
 static void run_begin(run *c, rad_solution *s, const rad_solve_options *opt)
@@ -48,7 +60,7 @@ static void run_begin(run *c, rad_solution *s, const rad_solve_options *opt)
     uint64_t limit = opt->max_memory;
     if (!limit)
         limit = (uint64_t)(0.8 * (double)rad_available_memory());
-    *c = (run){.s = s, .opt = opt, .max_memory = limit};
+    *c = (run){.s = s, .opt = opt, .max_memory = limit, .t0 = rad_seconds()};
 }
 
 static void run_end(run *c)
@@ -58,8 +70,30 @@ static void run_end(run *c)
                                                        : HC_DEFAULT_RESOLUTION;
     hc_destroy(c->hc);
     free(c->exact);
+    free(c->previews);
+    free(c->preview_B);
     c->hc = NULL;
     c->exact = NULL;
+    c->previews = NULL;
+    c->preview_B = NULL;
+}
+
+/* The hemi-cube's row progress, passed on unless the progressive solver is
+ * the one asking (its batches would each show as a bar of their own). */
+static void row_progress(void *user, uint32_t done, uint32_t total)
+{
+    run *c = user;
+    if (!c->quiet_rows)
+        c->opt->hemicube.progress(c->opt->hemicube.progress_user, done, total);
+}
+
+/* Does patch i emit (E > 0 in some band; punctual lights do not count)? */
+static int emits(const rad_solution *s, uint32_t i)
+{
+    for (uint32_t b = 0; b < s->band_count; b++)
+        if (s->emission[(size_t)i * s->band_count + b] > 0.0)
+            return 1;
+    return 0;
 }
 
 static int start_hemicube(run *c, rad_error *err)
@@ -68,15 +102,18 @@ static int start_hemicube(run *c, rad_error *err)
         return RAD_OK;
     hc_options ho = c->opt->hemicube;
     ho.exact_near = c->opt->exact_near;
-    uint32_t n = c->s->mesh->patch_count, nb = c->s->band_count;
+    if (ho.progress) {
+        ho.progress = row_progress;
+        ho.progress_user = c;
+    }
+    uint32_t n = c->s->mesh->patch_count;
     if (!c->opt->pixel_emitters && !ho.exact) {
         /* Emitters get exact factors: their few pixels are where aliasing hurts. */
         c->exact = calloc((size_t)n + 1, 1);
         if (!c->exact)
             return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", c->s->scene->source);
         for (uint32_t i = 0; i < n; i++)
-            for (uint32_t b = 0; b < nb; b++)
-                c->exact[i] |= c->s->emission[(size_t)i * nb + b] > 0.0;
+            c->exact[i] = (uint8_t)emits(c->s, i);
         ho.exact = c->exact; /* lives as long as the engine */
     }
     return hc_create(c->s->mesh, &ho, &c->hc, err);
@@ -96,37 +133,61 @@ static int compute_rows(run *c, const uint32_t *rows, uint32_t count, rad_error 
     return rc;
 }
 
-/* "12.3 MiB" / "4.5 GiB": sizes in messages, in a unit that shows digits. */
-static const char *human_bytes(double bytes, char *buf, size_t size)
+/* sv_options.need_rows: a batch of the progressive solver's rows, on every
+ * worker (the solver keeps the matrix within --max-memory). */
+static int need_rows(void *user, const uint32_t *rows, uint32_t count, rad_error *err)
 {
-    if (bytes >= 1073741824.0)
-        snprintf(buf, size, "%.1f GiB", bytes / 1073741824.0);
-    else if (bytes >= 1048576.0)
-        snprintf(buf, size, "%.1f MiB", bytes / 1048576.0);
-    else
-        snprintf(buf, size, "%.1f KiB", bytes / 1024.0);
-    return buf;
+    return compute_rows(user, rows, count, err);
 }
 
-static int need_row(void *user, uint32_t i, rad_error *err)
+/* sv_options.need_column: an emitter's exact column (hc_exact_column), the
+ * factors its receivers' rows hold for it (hc_options.exact); none for a
+ * patch whose receivers count pixels for it. */
+static int need_column(void *user, uint32_t i, uint32_t *col, float *val, uint32_t *count,
+                       rad_error *err)
 {
     run *c = user;
-    uint64_t used = c->s->F->capacity * (sizeof(uint32_t) + sizeof(float));
-    if (used > c->max_memory) {
-        char a[32], b[32];
-        return rad_fail(err, RAD_ERR_LIMIT,
-                        "%s: form factors: the matrix has grown to %s, over the limit of %s; "
-                        "use a larger --patch-size or raise --max-memory",
-                        c->s->scene->source, human_bytes((double)used, a, sizeof a),
-                        human_bytes((double)c->max_memory, b, sizeof b));
+    *count = RAD_NONE;
+    if (c->opt->pixel_emitters || c->opt->hemicube.exact || !emits(c->s, i))
+        return RAD_OK;
+    const double t0 = rad_seconds();
+    int rc = start_hemicube(c, err);
+    if (!rc)
+        rc = hc_exact_column(c->hc, i, rad_light_resolution(c->opt), 1, col, val, count, err);
+    c->ff_seconds += rad_seconds() - t0;
+    return rc;
+}
+
+/* sv_options.on_preview: logs the preview (time since the run began, the
+ * previews' own time left out) and hands it on, widened to every band when
+ * the solve was grey. */
+static int on_preview(void *user, const sv_progress *p)
+{
+    run *c = user;
+    rad_solution *s = c->s;
+    const double t0 = rad_seconds();
+    if (c->preview_count == c->preview_slots) {
+        uint32_t slots = c->preview_slots ? 2 * c->preview_slots : 16;
+        rad_preview_info *more = realloc(c->previews, slots * sizeof *more);
+        if (!more)
+            return 1; /* no memory for the log: stop rather than lose track */
+        c->previews = more;
+        c->preview_slots = slots;
     }
-    return compute_rows(c, &i, 1, err);
-}
-
-static int on_preview(void *user, uint32_t shots, const double *B_display)
-{
-    run *c = user;
-    return c->opt->on_preview(c->opt->preview_user, c->s, shots, B_display);
+    c->previews[c->preview_count++] =
+        (rad_preview_info){.shots = p->shots, .seconds = t0 - c->t0 - c->preview_seconds,
+                           .unshot = p->unshot};
+    const double *B = p->B;
+    if (c->preview_B) {
+        const uint32_t n = s->mesh->patch_count, nb = s->band_count;
+        for (uint32_t i = 0; i < n; i++)
+            for (uint32_t b = 0; b < nb; b++)
+                c->preview_B[(size_t)i * nb + b] = p->B[i];
+        B = c->preview_B;
+    }
+    int stop = c->opt->on_preview(c->opt->preview_user, s, p->shots, B);
+    c->preview_seconds += rad_seconds() - t0;
+    return stop;
 }
 
 /* τ_i of every patch from its material, n × bands, when the mesh has
@@ -171,10 +232,10 @@ static int check_memory(const rad_solution *s, uint32_t rows, uint64_t limit, ra
     char need[32], have[32];
     return rad_fail(err, RAD_ERR_LIMIT,
                     "%s: form factors for %u patches need up to %s, more than the %s "
-                    "allowed; use --solver progressive (rows on demand), a larger --patch-size, "
-                    "or --max-memory",
-                    s->scene->source, n, human_bytes(bytes, need, sizeof need),
-                    human_bytes((double)limit, have, sizeof have));
+                    "allowed; use --solver progressive (keeps the rows within --max-memory), "
+                    "a larger --patch-size, or --max-memory",
+                    s->scene->source, n, rad_format_bytes(bytes, need, sizeof need),
+                    rad_format_bytes((double)limit, have, sizeof have));
 }
 
 int rad_solution_is_grey(const rad_solution *s)
@@ -300,10 +361,68 @@ static int source_term(const rad_solution *s, const double *tau, double **out, r
     return rc;
 }
 
+/* The progressive solve's record into s->progress (NULL for the other
+ * solvers); RAD_ERR_NOMEM only. */
+static int keep_progress(run *c, const sv_stats *st, rad_error *err)
+{
+    rad_solution *s = c->s;
+    rad_progress_destroy(s->progress);
+    s->progress = NULL;
+    if (c->opt->solver.method != SV_PROGRESSIVE)
+        return RAD_OK;
+    rad_progress *p = rad_progress_create(c->preview_count);
+    if (!p)
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
+    if (c->preview_count)
+        memcpy(p->previews, c->previews, c->preview_count * sizeof *p->previews);
+    p->shots = st->iterations;
+    p->unshot = st->estimated_error;
+    p->converged = st->converged;
+    p->rows_recomputed = st->rows_recomputed;
+    p->rows_dropped = st->rows_dropped;
+    p->preview_seconds = c->preview_seconds;
+    s->progress = p;
+    return RAD_OK;
+}
+
+/* One warning line when the iteration limit stopped the solve first. */
+static void warn_unconverged(const run *c, const sv_options *so, const sv_stats *st)
+{
+    const rad_solution *s = c->s;
+    if (st->converged)
+        return;
+    const double tol = so->tolerance > 0 ? so->tolerance : SV_DEFAULT_TOLERANCE;
+    if (so->method == SV_PROGRESSIVE)
+        rad_warn(c->opt->warn, c->opt->warn_user,
+                 "%s: solve: progressive: the shot limit (%u) stopped it with %.3g of the emitted "
+                 "power unshot, above the tolerance %g; raise --max-iterations",
+                 s->scene->source, st->iterations, st->estimated_error, tol);
+    else
+        rad_warn(c->opt->warn, c->opt->warn_user,
+                 "%s: solve: %s: the sweep limit (%u) stopped it at an estimated error of %.3g, "
+                 "above the tolerance %g; raise --max-iterations",
+                 s->scene->source, sv_method_name(so->method), st->iterations,
+                 st->estimated_error, tol);
+}
+
+/* The solver's options for this run: the caller's, with the pipeline's
+ * callbacks (rows in batches, emitters' exact columns, logged previews) and
+ * its memory budget. */
+static sv_options solver_options(run *c)
+{
+    sv_options so = c->opt->solver;
+    so.need_rows = need_rows;
+    so.need_column = need_column;
+    so.on_preview = c->opt->on_preview ? on_preview : NULL;
+    so.user = c;
+    so.max_matrix_bytes = c->max_memory;
+    return so;
+}
+
 /* The stage "solve": B for every band with the source E (one band, copied,
  * when the scene is grey); the progressive solver pulls rows as it shoots,
  * and the time it spends in the hemi-cube meanwhile counts as form factors,
- * not as solving. */
+ * its previews as neither. */
 static int solve_patches(run *c, const sv_system *all, const double *E, rad_error *err)
 {
     rad_solution *s = c->s;
@@ -314,7 +433,9 @@ static int solve_patches(run *c, const sv_system *all, const double *E, rad_erro
     sys.emission = E;
     double *area = malloc(((size_t)n + 1) * sizeof *area);
     double *grey = nb < nbands ? malloc(((size_t)n * 4 + 1) * sizeof *grey) : NULL;
-    if (!area || (nb < nbands && !grey)) {
+    if (nb < nbands && c->opt->on_preview)
+        c->preview_B = malloc(((size_t)n * nbands + 1) * sizeof *c->preview_B);
+    if (!area || (nb < nbands && !grey) || (nb < nbands && c->opt->on_preview && !c->preview_B)) {
         free(area);
         free(grey);
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
@@ -332,28 +453,38 @@ static int solve_patches(run *c, const sv_system *all, const double *E, rad_erro
     for (uint32_t i = 0; i < n; i++)
         area[i] = s->mesh->patches[i].area;
     sys.area = area;
-    sv_options so = c->opt->solver;
-    so.need_row = need_row;
-    so.on_preview = c->opt->on_preview ? on_preview : NULL;
-    so.user = c;
+    const sv_options so = solver_options(c);
     sv_stats st = {0};
-    const double t0 = rad_seconds(), ff0 = c->ff_seconds;
+    const double t0 = rad_seconds(), ff0 = c->ff_seconds, pv0 = c->preview_seconds;
     double *B = grey ? grey + 3 * (size_t)n : s->B;
+    c->quiet_rows = so.method == SV_PROGRESSIVE;
     int rc = sv_solve(&sys, &so, B, &st, err);
+    c->quiet_rows = 0;
+    if (rc && err && strncmp(err->message, "solver: ", 8) == 0) {
+        /* FILE: WHERE: WHAT */
+        rad_error e = *err;
+        rad_fail(err, rc, "%s: %s", s->scene->source, e.message);
+    }
     for (uint32_t i = 0; grey && !rc && i < n; i++)
         for (uint32_t b = 0; b < nbands; b++)
             s->B[(size_t)i * nbands + b] = B[i];
-    /* Rows computed on demand during the solve are form-factor time. */
-    const double solve_seconds = fmax(0.0, rad_seconds() - t0 - (c->ff_seconds - ff0));
+    /* Rows and columns computed during the solve are form-factor time, the
+     * previews' rendering nobody's; never below 0 (a finished solve must
+     * stay saveable whatever the clock did). */
+    const double solve_seconds = rad_seconds() - t0 - (c->ff_seconds - ff0) -
+                                 (c->preview_seconds - pv0);
     free(area);
     free(grey);
+    if (!rc)
+        rc = keep_progress(c, &st, err);
     if (rc)
         return rc;
+    warn_unconverged(c, &so, &st);
     snprintf(s->solver, sizeof s->solver, "%s", sv_method_name(so.method));
     s->tolerance = so.tolerance > 0 ? so.tolerance : SV_DEFAULT_TOLERANCE;
     s->iterations = st.iterations;
     s->residual = st.residual;
-    s->stages[RAD_STAGE_SOLVE].seconds = solve_seconds;
+    s->stages[RAD_STAGE_SOLVE].seconds = solve_seconds > 0.0 ? solve_seconds : 0.0;
     s->stages[RAD_STAGE_SOLVE].reused = 0;
     return RAD_OK;
 }

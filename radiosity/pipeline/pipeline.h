@@ -19,7 +19,10 @@ typedef struct rad_solve_options {
     rad_mesh_options mesh;
     hc_options hemicube;
     sv_options solver;
-    uint64_t max_memory; /* bytes the form-factor matrix may use; 0 = 80 % of available memory */
+    uint64_t max_memory; /* bytes the form-factor matrix may use; 0 = 80 % of available memory.
+                          * Gauss-Seidel and Jacobi refuse a matrix that may not fit; the
+                          * progressive solver keeps its rows within it (dropping and
+                          * computing again the rows of patches that shoot again) */
     int all_rows;        /* compute every row, not only those the solve needs (ff, validation) */
     int pixel_emitters;  /* 1 = form factors to emitters by counting pixels like any patch;
                           * 0 (default) = exactly, by the point-to-polygon integral times
@@ -29,11 +32,18 @@ typedef struct rad_solve_options {
                           * for open configurations; off by default because in closed rooms
                           * its row-by-row rescaling costs ~1 % of energy balance */
     /* Progressive solver only, may be NULL: called every solver.preview_every
-     * shots with the current estimate including the ambient term (patch_count ×
-     * bands).  Non-zero stops the solve. (solver.need_row/on_preview/user are
-     * the pipeline's own and are ignored.) */
+     * shots and/or every solver.preview_seconds of solving, with the current
+     * estimate including the ambient term (patch_count × bands).  Non-zero
+     * stops the solve.  Each call is logged in the solution's progress
+     * record (its time leaves out the previews' own).  (solver.need_rows,
+     * need_column, on_preview, user and max_matrix_bytes are the pipeline's
+     * own and are ignored; solver.progress is passed on.) */
     int (*on_preview)(void *user, const rad_solution *s, uint32_t shots, const double *B_display);
     void *preview_user;
+    /* Warnings (rad.h), may be NULL: a solve stopped by its iteration limit
+     * before its tolerance was met. */
+    rad_warn_fn warn;
+    void *warn_user;
     /* Punctual lights: R of the item-buffer cube rendered at each light
      * (hc_light_power); 0 = the larger of 512 and the hemi-cube resolution. */
     uint32_t light_resolution;

@@ -18,13 +18,15 @@
 
 const char sol_sec_tag[SEC_COUNT][4] = {
     {'I', 'N', 'F', 'O'}, {'S', 'C', 'E', 'N'}, {'M', 'E', 'S', 'H'}, {'M', 'T', 'R', 'X'},
-    {'P', 'D', 'A', 'T'}, {'L', 'G', 'H', 'T'}, {'E', 'L', 'E', 'M'}, {'E', 'L', 'G', 'T'}};
+    {'P', 'D', 'A', 'T'}, {'L', 'G', 'H', 'T'}, {'E', 'L', 'E', 'M'}, {'E', 'L', 'G', 'T'},
+    {'P', 'R', 'O', 'G'}};
 
 const char *const sol_sec_name[SEC_COUNT] = {"INFO",      "SCENE",  "MESH",     "MATRIX",
-                                                "PATCHDATA", "LIGHTS", "ELEMENTS", "ELEMENTLIGHTS"};
+                                                "PATCHDATA", "LIGHTS", "ELEMENTS", "ELEMENTLIGHTS",
+                                                "PROGRESS"};
 
 const int sol_version_sections[SOL_VERSION + 1] = {0, SEC_LIGHTS, SEC_ELEMENTS,
-                                                      SEC_ELEMENT_LIGHTS, SEC_COUNT, SEC_COUNT};
+                                                      SEC_ELEMENT_LIGHTS, SEC_PROGRESS, SEC_COUNT};
 
 /* ------------------------------------------------------------- CRC-64/XZ */
 
@@ -135,6 +137,28 @@ int sol_check_info(const rad_solution *s, const char *file, const char *where, i
         if (s->stages[k].reused != 0 && s->stages[k].reused != 1)
             return rad_fail(err, code, "%s: %s: stage %s: reused flag %d is not 0 or 1", file,
                             where, rad_stage_name((rad_stage)k), s->stages[k].reused);
+    }
+    return RAD_OK;
+}
+
+int sol_check_progress(const rad_solution *s, const char *file, const char *where, int code,
+                       rad_error *err)
+{
+    const rad_progress *p = s->progress;
+    if (!p)
+        return RAD_OK;
+    if (sol_bad_nonneg(p->unshot) || sol_bad_nonneg(p->preview_seconds) || p->converged > 1 ||
+        p->converged < 0 || (p->preview_count && !p->previews))
+        return rad_fail(err, code, "%s: %s: progress: unshot %g, preview time %g or converged "
+                        "flag %d out of range", file, where, p->unshot, p->preview_seconds,
+                        p->converged);
+    for (uint32_t k = 0; k < p->preview_count; k++) {
+        const rad_preview_info *v = &p->previews[k];
+        if (sol_bad_nonneg(v->seconds) || sol_bad_nonneg(v->unshot) || v->shots > p->shots ||
+            (k && (v->shots <= p->previews[k - 1].shots || v->seconds < p->previews[k - 1].seconds)))
+            return rad_fail(err, code, "%s: %s: preview %u: %u shots at %g s (unshot %g) out of "
+                            "range or out of order", file, where, k, v->shots, v->seconds,
+                            v->unshot);
     }
     return RAD_OK;
 }

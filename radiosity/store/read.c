@@ -196,8 +196,8 @@ static int parse_info(reader *r, rad_solution *s)
     if (r->version >= SOL_VERSION_SHEETS) {
         if (!get_u8(c, &r->announced))
             return TRUNC("truncated");
-        if (r->announced > 7)
-            return TRUNC("announced sections 0x%x: only bits 0-2 exist", r->announced);
+        if (r->announced > 15)
+            return TRUNC("announced sections 0x%x: only bits 0-3 exist", r->announced);
     }
     return sol_check_info(s, r->name, "section INFO", RAD_ERR_CORRUPT, r->err);
 }
@@ -800,10 +800,40 @@ static int parse_element_lights(reader *r, rad_solution *s)
     return RAD_OK;
 }
 
+/* PROGRESS (write.c's emit_progress). */
+static int parse_progress(reader *r, rad_solution *s)
+{
+    cursor *c = &r->c;
+    uint32_t shots, count;
+    double unshot, preview_seconds;
+    uint8_t converged;
+    uint64_t recomputed, dropped;
+    if (!get_u32(c, &shots) || !get_f64(c, &unshot) || !get_u8(c, &converged) ||
+        !get_u64(c, &recomputed) || !get_u64(c, &dropped) || !get_f64(c, &preview_seconds) ||
+        !get_u32(c, &count))
+        return TRUNC("truncated");
+    int rc = check_count(r, count, PREVIEW_BYTES, "previews");
+    if (rc)
+        return rc;
+    rad_progress *p = s->progress = rad_progress_create(count);
+    if (!p)
+        return rfail(r, RAD_ERR_NOMEM, "out of memory for %u previews", count);
+    *p = (rad_progress){.shots = shots, .unshot = unshot, .converged = converged,
+                        .rows_recomputed = recomputed, .rows_dropped = dropped,
+                        .preview_seconds = preview_seconds, .preview_count = count,
+                        .previews = p->previews};
+    for (uint32_t i = 0; i < count; i++)
+        if (!get_u32(c, &p->previews[i].shots) || !get_f64(c, &p->previews[i].seconds) ||
+            !get_f64(c, &p->previews[i].unshot))
+            return TRUNC("preview %u: truncated", i);
+    return sol_check_progress(s, r->name, "section PROGRESS", RAD_ERR_CORRUPT, r->err);
+}
+
 typedef int (*parse_fn)(reader *, rad_solution *);
 static const parse_fn sec_parse[SEC_COUNT] = {parse_info,      parse_scene,  parse_mesh,
                                               parse_matrix,    parse_patchdata, parse_lights,
-                                              parse_elements,  parse_element_lights};
+                                              parse_elements,  parse_element_lights,
+                                              parse_progress};
 
 static int known_section(const uint8_t tag[4])
 {

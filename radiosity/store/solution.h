@@ -105,6 +105,28 @@ typedef struct rad_elements {
     uint64_t rows_computed; /* element hemi-cubes rendered in the run that made them */
 } rad_elements;
 
+/* What a progressive solve did (NULL for the other solvers): how far it
+ * got, the rows it computed again under --max-memory, and each preview's
+ * time and unshot power.  Times are seconds since the run began (meshing),
+ * with the previews' own rendering left out; unshot is the unshot power as
+ * a fraction of the emitted power (the worst band). */
+typedef struct rad_preview_info {
+    uint32_t shots;
+    double seconds;
+    double unshot;
+} rad_preview_info;
+
+typedef struct rad_progress {
+    uint32_t shots;
+    double unshot;             /* at the end */
+    int converged;             /* 1: unshot below the tolerance; 0: the shot limit stopped it */
+    uint64_t rows_recomputed;  /* rows computed again after the row store dropped them */
+    uint64_t rows_dropped;     /* rows dropped to stay within --max-memory */
+    double preview_seconds;    /* time spent rendering previews (outside every stage) */
+    uint32_t preview_count;
+    rad_preview_info *previews; /* preview_count entries (owned) */
+} rad_progress;
+
 typedef struct rad_solution {
     rad_scene *scene;        /* owned */
     rad_mesh *mesh;          /* owned */
@@ -137,6 +159,7 @@ typedef struct rad_solution {
     uint32_t light_slots_;         /* entries allocated (private to solution.c) */
 
     rad_elements *elements;        /* NULL when the solution has none (owned) */
+    rad_progress *progress;        /* NULL unless the last solve was progressive (owned) */
 } rad_solution;
 
 /* A new solution taking ownership of scene and mesh (on failure they are
@@ -145,6 +168,11 @@ typedef struct rad_solution {
  * per-patch power not yet computed.  Caller owns *out. */
 int rad_solution_create(rad_scene *scene, rad_mesh *mesh, rad_solution **out, rad_error *err);
 void rad_solution_destroy(rad_solution *s); /* NULL does nothing */
+
+/* A progress record with room for `previews` previews (all fields 0,
+ * preview_count = previews).  NULL when memory runs out.  Caller owns. */
+rad_progress *rad_progress_create(uint32_t previews);
+void rad_progress_destroy(rad_progress *p); /* NULL does nothing */
 
 /* Writes the solution to path through a temporary file and rename. */
 int rad_solution_write(const rad_solution *s, const char *path, rad_error *err);

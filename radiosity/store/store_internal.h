@@ -35,14 +35,18 @@
 #define SOL_ROW_SUM_MAX (1.0 + 1e-3)
 
 /* The first five sections appear in every file; LIGHTS only when the scene
- * has punctual lights, ELEMENTS only when the solution has elements. */
+ * has punctual lights, ELEMENTS only when the solution has elements,
+ * PROGRESS only when the last solve was progressive (its shots, previews
+ * and row store): a file with PROGRESS is written as version 5, where INFO
+ * announces it (bit 3). */
 enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_ELEMENTS,
-       SEC_ELEMENT_LIGHTS, SEC_COUNT };
+       SEC_ELEMENT_LIGHTS, SEC_PROGRESS, SEC_COUNT };
 extern const char sol_sec_tag[SEC_COUNT][4];
 extern const char *const sol_sec_name[SEC_COUNT];
 /* Sections each version may hold: 1 the first five, 2 + LIGHTS, 3 +
  * ELEMENTS (where LIGHTS is there exactly when the scene has lights), 4 +
- * ELEMENTLIGHTS (LIGHTS always), 5 any of them as the content needs. */
+ * ELEMENTLIGHTS (LIGHTS always), 5 any of them (PROGRESS included) as the
+ * content needs. */
 extern const int sol_version_sections[SOL_VERSION + 1];
 
 /* Minimum encoded sizes of one element, used to bound counts before
@@ -54,6 +58,8 @@ extern const int sol_version_sections[SOL_VERSION + 1];
 #define VERTEX_BYTES (3u * 8u + 1u)
 #define MIN_ROW (2u * 4u)
 #define MIN_ENTRY (1u + 4u) /* one varint byte + a float32 */
+/* one preview of PROGRESS: shots, seconds, unshot */
+#define PREVIEW_BYTES (4u + 8u + 8u)
 /* name, kind, position, direction, cones, present flag, count; + 16 per band */
 #define MIN_LIGHT (MIN_STRING + 1u + 48u + 16u + 1u + 4u)
 #define ELEMENT_VERTEX_BYTES (3u * 8u + 1u)
@@ -92,6 +98,11 @@ int sol_check_patch_values(const rad_solution *s, const char *file, const char *
 /* The provenance rules (stage times, solver name, tolerance, ...). */
 int sol_check_info(const rad_solution *s, const char *file, const char *where, int code,
                    rad_error *err);
+
+/* The progress rules (PROGRESS): times and fractions finite and >= 0, the
+ * converged flag 0 or 1, previews in order of shots and time. */
+int sol_check_progress(const rad_solution *s, const char *file, const char *where, int code,
+                       rad_error *err);
 
 /* The light rules; `where` as for sol_check_patch_values. */
 int sol_check_lights(const rad_solution *s, const char *file, const char *where, int code,

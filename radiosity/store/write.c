@@ -129,7 +129,7 @@ static uint32_t version_of(const rad_solution *s);
 static int section_written(const rad_solution *s, int i);
 
 /* Version 5's INFO ends with the optional sections the file holds, one bit
- * each (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4): the reader then knows what
+ * each (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4, PROGRESS 8): the reader then knows what
  * must follow, and a file cut or stripped before one of them cannot pass
  * for a file without it. */
 static uint8_t announced_sections(const rad_solution *s)
@@ -347,10 +347,30 @@ static void emit_lights(sink *k, const rad_solution *s)
     }
 }
 
+/* PROGRESS: the last progressive solve's shots, unshot fraction, converged
+ * flag, rows recomputed and dropped, preview time, then each preview's
+ * shots, seconds and unshot fraction. */
+static void emit_progress(sink *k, const rad_solution *s)
+{
+    const rad_progress *p = s->progress;
+    put_u32(k, p->shots);
+    put_f64(k, p->unshot);
+    put_u8(k, (uint8_t)p->converged);
+    put_u64(k, p->rows_recomputed);
+    put_u64(k, p->rows_dropped);
+    put_f64(k, p->preview_seconds);
+    put_u32(k, p->preview_count);
+    for (uint32_t i = 0; i < p->preview_count; i++) {
+        put_u32(k, p->previews[i].shots);
+        put_f64(k, p->previews[i].seconds);
+        put_f64(k, p->previews[i].unshot);
+    }
+}
+
 typedef void (*emit_fn)(sink *, const rad_solution *);
 static const emit_fn sec_emit[SEC_COUNT] = {emit_info,      emit_scene,  emit_mesh,    emit_matrix,
                                             emit_patchdata, emit_lights, emit_elements,
-                                            emit_element_lights};
+                                            emit_element_lights, emit_progress};
 
 /* LIGHTS is written only when there are lights, ELEMENTS when there are
  * elements, ELEMENTLIGHTS when the elements carry their own direct light. */
@@ -362,12 +382,14 @@ static int section_written(const rad_solution *s, int i)
         return s->elements != NULL;
     if (i == SEC_ELEMENT_LIGHTS)
         return s->elements && s->elements->light_h;
+    if (i == SEC_PROGRESS)
+        return s->progress != NULL;
     return 1;
 }
 
 static uint32_t version_of(const rad_solution *s)
 {
-    if (s->mesh->twin)
+    if (s->mesh->twin || s->progress)
         return SOL_VERSION_SHEETS;
     if (s->elements)
         return s->elements->light_h ? 4u : 3u;
@@ -402,6 +424,8 @@ static int validate_for_write(const rad_solution *s, const char *path, rad_error
         return rad_fail(err, RAD_ERR_USAGE, "%s: cannot write: solver name is not terminated",
                         path);
     int rc = sol_check_info(s, path, "cannot write", RAD_ERR_INVALID, err);
+    if (!rc)
+        rc = sol_check_progress(s, path, "cannot write", RAD_ERR_INVALID, err);
     if (rc)
         return rc;
     if ((rc = check_string(sc->source, path, "scene source", 0, err)))
