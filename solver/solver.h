@@ -35,6 +35,11 @@ typedef struct sv_system {
      * hemi-cube of i). */
     const double *tau;        /* τ_i per band, n × bands, or NULL */
     const uint32_t *twin;     /* n values, or NULL */
+    /* Optional (NULL: none): the flat surface (a scene polygon) of each
+     * patch, n values, consecutive patches of one surface being near each
+     * other.  The progressive solver's previews take a patch without a row
+     * as seeing what the nearest patch of its surface with a row sees. */
+    const uint32_t *group;
 } sv_system;
 
 typedef enum sv_method {
@@ -53,7 +58,8 @@ typedef struct sv_progress {
     uint32_t shots;          /* shots so far */
     double unshot;           /* unshot power / emitted power, the worst band */
     double tolerance;        /* the stopping tolerance on unshot */
-    double seconds;          /* time in the solve so far, the callbacks' own time left out */
+    double seconds;          /* time in the solve so far, the previews' (their making and
+                              * the callbacks) and progress's time left out */
     uint32_t rows_requested; /* rows asked of need_rows so far (recomputed ones included) */
     uint32_t rows_dropped;   /* rows dropped to stay within max_matrix_bytes */
     const double *B;         /* on_preview: the estimate, ambient term included (n × bands) */
@@ -133,6 +139,8 @@ typedef struct sv_stats {
     uint32_t rows_recomputed; /* ... of which had been computed before and dropped */
     uint32_t rows_dropped;  /* rows dropped to stay within max_matrix_bytes */
     uint32_t exact_columns; /* shots with need_column's exact column */
+    double preview_seconds; /* time spent on previews (making them and on_preview) and
+                             * progress calls: left out of sv_progress.seconds */
     int converged;          /* 1 if the tolerance was met, 0 if max_iterations stopped it */
     uint32_t extrapolations;/* Aitken steps taken (gauss-seidel, jacobi) */
 } sv_stats;

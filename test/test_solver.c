@@ -842,9 +842,10 @@ static int log_order(void *user, const uint32_t *rows, uint32_t count, rad_error
     return RAD_OK;
 }
 
-/* Equal unshot power: the lowest index shoots first, and a batch lists its
- * rows in shooting order.  Four patches of equal area, each seeing the
- * others with F = 0.3; patches 1 and 3 emit the same. */
+/* Equal unshot power: the lowest index shoots first (rows asked one at a
+ * time, row_batch 1, so that their order is the shooting order).  Four
+ * patches of equal area, each seeing the others with F = 0.3; patches 1
+ * and 3 emit the same. */
 TEST(progressive_ties)
 {
     tsys t = tsys_new(4, 2);
@@ -862,7 +863,8 @@ TEST(progressive_ties)
         rad_matrix *empty = rad_matrix_create(4);
         order_log l = {t.F, empty, {0}, 0};
         sv_system s = {.n = 4, .bands = 2, .F = empty, .area = t.A, .rho = t.rho, .emission = t.E};
-        sv_options o = {.method = SV_PROGRESSIVE, .need_rows = log_order, .user = &l};
+        sv_options o = {.method = SV_PROGRESSIVE, .need_rows = log_order, .user = &l,
+                        .row_batch = 1};
         double B[8];
         CHECK(sv_solve(&s, &o, B, NULL, NULL) == RAD_OK);
         CHECK(l.count == 4);
@@ -973,11 +975,13 @@ TEST(progressive_ambient)
 }
 
 /* An open scene: the enclosure's rows scaled to sum to 0.6 (40 % of what
- * each patch sends escapes).  Cohen's closed-scene ambient, ρ_avg
- * interreflected with nothing lost, overshoots the converged total by 34 %
- * after n/10 shots; the ambient measured from the shots lands within 2 %
- * of it (measured 2e-10: every patch loses the same fraction here, so the
- * measured one is exact). */
+ * each patch sends escapes).  The ambient measured from the shots (c = 0.6
+ * of what is sent lands, r = 0.42 comes back) puts the preview's total
+ * within 2 % of the converged total after n/10 shots (measured 2e-10:
+ * every patch loses the same fraction here, so the measured one is exact).
+ * Cohen's closed-scene ambient, 1/(1 - ρ_avg) with nothing lost, is 3.2
+ * times as large: the total would be off by tens of per cent (printed:
+ * that formula on the solver's output). */
 TEST(progressive_ambient_open_scene)
 {
     tsys t = make_closed_reciprocal(200, 1, 0.0, 43);
@@ -1014,7 +1018,6 @@ TEST(progressive_ambient_open_scene)
         closed += t.A[i] * (B[i] + t.rho[i] * unshot / (area * (1.0 - 0.7)));
     double ec = fabs(closed - conv) / conv;
     CHECK_MSG(e <= 0.02, "measured ambient: total off by %.3g", e);
-    CHECK(ec > 5 * e);
     printf("     open scene (rows sum to 0.6) after %u shots: measured ambient %.2e, closed-scene "
            "%.2e\n", log.last_shots, e, ec);
     tsys_free(&t);

@@ -167,8 +167,9 @@ static void report_json(FILE *f, const report *r)
                 (unsigned long long)p->rows_recomputed, (unsigned long long)p->rows_dropped,
                 p->preview_seconds);
         for (uint32_t k = 0; k < p->preview_count; k++)
-            fprintf(f, "%s{\"shots\": %u, \"seconds\": %.6f, \"unshot\": %.6g}", k ? ", " : "",
-                    p->previews[k].shots, p->previews[k].seconds, p->previews[k].unshot);
+            fprintf(f, "%s{\"shots\": %u, \"rows\": %u, \"seconds\": %.6f, \"unshot\": %.6g}",
+                    k ? ", " : "", p->previews[k].shots, p->previews[k].rows,
+                    p->previews[k].seconds, p->previews[k].unshot);
         fputs("]}", f);
     }
     fputs("},\n", f);
@@ -223,8 +224,9 @@ static void report_solver(FILE *f, const report *r)
         fprintf(f, "previews: %u (their rendering took %.3f s, left out of every time below)\n",
                 p->preview_count, p->preview_seconds);
     for (uint32_t k = 0; k < p->preview_count; k++)
-        fprintf(f, "  preview at %8.3f s: %8u shots, unshot %.3g\n", p->previews[k].seconds,
-                p->previews[k].shots, p->previews[k].unshot);
+        fprintf(f, "  preview at %8.3f s: %8u shots, %7u rows, unshot %.3g\n",
+                p->previews[k].seconds, p->previews[k].shots, p->previews[k].rows,
+                p->previews[k].unshot);
 }
 
 static void report_text(FILE *f, const report *r)

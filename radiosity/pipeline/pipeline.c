@@ -51,7 +51,7 @@ typedef struct run {
     /* The progressive solve's previews: when, and how much was unshot. */
     rad_preview_info *previews;
     uint32_t preview_count, preview_slots;
-    double preview_seconds; /* time inside the caller's on_preview */
+    double solve_t0;      /* when the solve stage began */
     double *preview_B;    /* a grey solve's preview, widened to every band */
 } run;
 
@@ -159,13 +159,12 @@ static int need_column(void *user, uint32_t i, uint32_t *col, float *val, uint32
 }
 
 /* sv_options.on_preview: logs the preview (time since the run began, the
- * previews' own time left out) and hands it on, widened to every band when
- * the solve was grey. */
+ * previews' own time left out: the solver's time excludes it) and hands it
+ * on, widened to every band when the solve was grey. */
 static int on_preview(void *user, const sv_progress *p)
 {
     run *c = user;
     rad_solution *s = c->s;
-    const double t0 = rad_seconds();
     if (c->preview_count == c->preview_slots) {
         uint32_t slots = c->preview_slots ? 2 * c->preview_slots : 16;
         rad_preview_info *more = realloc(c->previews, slots * sizeof *more);
@@ -175,7 +174,9 @@ static int on_preview(void *user, const sv_progress *p)
         c->preview_slots = slots;
     }
     c->previews[c->preview_count++] =
-        (rad_preview_info){.shots = p->shots, .seconds = t0 - c->t0 - c->preview_seconds,
+        (rad_preview_info){.shots = p->shots,
+                           .rows = (uint32_t)c->rows_computed,
+                           .seconds = c->solve_t0 - c->t0 + p->seconds,
                            .unshot = p->unshot};
     const double *B = p->B;
     if (c->preview_B) {
@@ -185,9 +186,7 @@ static int on_preview(void *user, const sv_progress *p)
                 c->preview_B[(size_t)i * nb + b] = p->B[i];
         B = c->preview_B;
     }
-    int stop = c->opt->on_preview(c->opt->preview_user, s, p->shots, B);
-    c->preview_seconds += rad_seconds() - t0;
-    return stop;
+    return c->opt->on_preview(c->opt->preview_user, s, p->shots, B);
 }
 
 /* τ_i of every patch from its material, n × bands, when the mesh has
@@ -380,7 +379,7 @@ static int keep_progress(run *c, const sv_stats *st, rad_error *err)
     p->converged = st->converged;
     p->rows_recomputed = st->rows_recomputed;
     p->rows_dropped = st->rows_dropped;
-    p->preview_seconds = c->preview_seconds;
+    p->preview_seconds = st->preview_seconds;
     s->progress = p;
     return RAD_OK;
 }
@@ -432,11 +431,14 @@ static int solve_patches(run *c, const sv_system *all, const double *E, rad_erro
     sys.bands = nb;
     sys.emission = E;
     double *area = malloc(((size_t)n + 1) * sizeof *area);
+    uint32_t *group = malloc(((size_t)n + 1) * sizeof *group);
     double *grey = nb < nbands ? malloc(((size_t)n * 4 + 1) * sizeof *grey) : NULL;
     if (nb < nbands && c->opt->on_preview)
         c->preview_B = malloc(((size_t)n * nbands + 1) * sizeof *c->preview_B);
-    if (!area || (nb < nbands && !grey) || (nb < nbands && c->opt->on_preview && !c->preview_B)) {
+    if (!area || !group || (nb < nbands && !grey) ||
+        (nb < nbands && c->opt->on_preview && !c->preview_B)) {
         free(area);
+        free(group);
         free(grey);
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
     }
@@ -450,12 +452,16 @@ static int solve_patches(run *c, const sv_system *all, const double *E, rad_erro
         sys.emission = grey + n;
         sys.tau = all->tau ? grey + 2 * (size_t)n : NULL;
     }
-    for (uint32_t i = 0; i < n; i++)
+    for (uint32_t i = 0; i < n; i++) {
         area[i] = s->mesh->patches[i].area;
+        group[i] = s->mesh->patches[i].polygon;
+    }
     sys.area = area;
+    sys.group = group;
     const sv_options so = solver_options(c);
     sv_stats st = {0};
-    const double t0 = rad_seconds(), ff0 = c->ff_seconds, pv0 = c->preview_seconds;
+    const double t0 = rad_seconds(), ff0 = c->ff_seconds;
+    c->solve_t0 = t0;
     double *B = grey ? grey + 3 * (size_t)n : s->B;
     c->quiet_rows = so.method == SV_PROGRESSIVE;
     int rc = sv_solve(&sys, &so, B, &st, err);
@@ -471,9 +477,9 @@ static int solve_patches(run *c, const sv_system *all, const double *E, rad_erro
     /* Rows and columns computed during the solve are form-factor time, the
      * previews' rendering nobody's; never below 0 (a finished solve must
      * stay saveable whatever the clock did). */
-    const double solve_seconds = rad_seconds() - t0 - (c->ff_seconds - ff0) -
-                                 (c->preview_seconds - pv0);
+    const double solve_seconds = rad_seconds() - t0 - (c->ff_seconds - ff0) - st.preview_seconds;
     free(area);
+    free(group);
     free(grey);
     if (!rc)
         rc = keep_progress(c, &st, err);

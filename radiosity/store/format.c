@@ -155,7 +155,8 @@ int sol_check_progress(const rad_solution *s, const char *file, const char *wher
     for (uint32_t k = 0; k < p->preview_count; k++) {
         const rad_preview_info *v = &p->previews[k];
         if (sol_bad_nonneg(v->seconds) || sol_bad_nonneg(v->unshot) || v->shots > p->shots ||
-            (k && (v->shots <= p->previews[k - 1].shots || v->seconds < p->previews[k - 1].seconds)))
+            (k && (v->shots <= p->previews[k - 1].shots || v->seconds < p->previews[k - 1].seconds ||
+                   v->rows < p->previews[k - 1].rows)))
             return rad_fail(err, code, "%s: %s: preview %u: %u shots at %g s (unshot %g) out of "
                             "range or out of order", file, where, k, v->shots, v->seconds,
                             v->unshot);

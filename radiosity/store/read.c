@@ -823,7 +823,8 @@ static int parse_progress(reader *r, rad_solution *s)
                         .preview_seconds = preview_seconds, .preview_count = count,
                         .previews = p->previews};
     for (uint32_t i = 0; i < count; i++)
-        if (!get_u32(c, &p->previews[i].shots) || !get_f64(c, &p->previews[i].seconds) ||
+        if (!get_u32(c, &p->previews[i].shots) || !get_u32(c, &p->previews[i].rows) ||
+            !get_f64(c, &p->previews[i].seconds) ||
             !get_f64(c, &p->previews[i].unshot))
             return TRUNC("preview %u: truncated", i);
     return sol_check_progress(s, r->name, "section PROGRESS", RAD_ERR_CORRUPT, r->err);

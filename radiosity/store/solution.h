@@ -112,6 +112,7 @@ typedef struct rad_elements {
  * a fraction of the emitted power (the worst band). */
 typedef struct rad_preview_info {
     uint32_t shots;
+    uint32_t rows;   /* rows computed so far in the run (the time's main part) */
     double seconds;
     double unshot;
 } rad_preview_info;

@@ -58,8 +58,8 @@ extern const int sol_version_sections[SOL_VERSION + 1];
 #define VERTEX_BYTES (3u * 8u + 1u)
 #define MIN_ROW (2u * 4u)
 #define MIN_ENTRY (1u + 4u) /* one varint byte + a float32 */
-/* one preview of PROGRESS: shots, seconds, unshot */
-#define PREVIEW_BYTES (4u + 8u + 8u)
+/* one preview of PROGRESS: shots, rows, seconds, unshot */
+#define PREVIEW_BYTES (4u + 4u + 8u + 8u)
 /* name, kind, position, direction, cones, present flag, count; + 16 per band */
 #define MIN_LIGHT (MIN_STRING + 1u + 48u + 16u + 1u + 4u)
 #define ELEMENT_VERTEX_BYTES (3u * 8u + 1u)

@@ -349,7 +349,7 @@ static void emit_lights(sink *k, const rad_solution *s)
 
 /* PROGRESS: the last progressive solve's shots, unshot fraction, converged
  * flag, rows recomputed and dropped, preview time, then each preview's
- * shots, seconds and unshot fraction. */
+ * shots, rows computed, seconds and unshot fraction. */
 static void emit_progress(sink *k, const rad_solution *s)
 {
     const rad_progress *p = s->progress;
@@ -362,6 +362,7 @@ static void emit_progress(sink *k, const rad_solution *s)
     put_u32(k, p->preview_count);
     for (uint32_t i = 0; i < p->preview_count; i++) {
         put_u32(k, p->previews[i].shots);
+        put_u32(k, p->previews[i].rows);
         put_f64(k, p->previews[i].seconds);
         put_f64(k, p->previews[i].unshot);
     }
