@@ -73,6 +73,9 @@
 /* A shooter whose rows are present goes before the best one, whose rows are
  * missing, while it has at least 1/SV_READY_SHARE of its unshot power. */
 #define SV_READY_SHARE 4.0
+/* ... 1/SV_READY_SHARE_BOUNDED when the matrix does not fit in the row
+ * store: a row computed again costs far more than a few more shots. */
+#define SV_READY_SHARE_BOUNDED 64.0
 /* Progress callbacks at most this often (seconds). */
 #define SV_PROGRESS_EVERY 0.25
 /* An eviction frees this fraction of the budget beyond what the batch
@@ -171,6 +174,8 @@ typedef struct prog {
     uint32_t *col;    /* need_column's answer, n entries */
     float *val;
     uint32_t *batch;  /* rows of one need_rows call */
+    uint32_t batch_count;
+    uint32_t max_row; /* the most entries of a row seen */
     uint32_t *heap;   /* candidates of a batch */
     transpose T;
     int have_T;       /* columns from the transpose (every needed row was present) */
@@ -312,6 +317,7 @@ static int prog_init(prog *p, const sv_system *s, const sv_options *o, double to
         if (rc)
             return rc;
         p->state[i] |= ST_COMPUTED;
+        p->max_row = F->row_count[i] > p->max_row ? F->row_count[i] : p->max_row;
     }
     for (uint32_t i = 0; i < n && !p->computing; i++)
         p->computing = !sv_row_present(F, i) && sv_row_needed(s, i);
@@ -480,34 +486,31 @@ static int by_priority(const void *a, const void *b)
     return x->row > y->row ? -1 : x->row < y->row; /* higher index goes first */
 }
 
-/* Makes room in F's pool for `count` rows (at most n - 1 entries each)
- * under max_matrix_bytes, keeping the rows in keep[0..nkeep): drops the
- * rows of least priority when the budget would be exceeded, then compacts
- * the pool to the budget; grows the pool within the budget otherwise.
- * RAD_ERR_LIMIT when even those rows cannot fit. */
-static int make_room(prog *p, uint32_t count, const uint32_t *keep, uint32_t nkeep, rad_error *err)
+/* The bytes a row coming in may take: twice the longest row seen so far
+ * (rows of one scene differ by less), never more than n - 1 entries; n - 1
+ * before any row.  A row longer than that is caught after the fact
+ * (settle). */
+static uint64_t row_estimate(const prog *p)
 {
-    const uint64_t budget = p->o->max_matrix_bytes;
+    const uint64_t worst = p->n > 1 ? p->n - 1 : 1;
+    const uint64_t twice = 2 * (uint64_t)p->max_row;
+    return rad_matrix_row_bytes((uint32_t)(p->max_row && twice < worst ? twice : worst));
+}
+
+/* Drops rows present, least priority first (row_priority), keeping those
+ * in keep[0..nkeep), until the rows present take at most `target` bytes;
+ * returns what they take then. */
+static uint64_t evict(prog *p, double target, const uint32_t *keep, uint32_t nkeep, rad_error *err)
+{
     rad_matrix *F = p->s->F;
-    if (!budget)
-        return RAD_OK;
-    const uint64_t incoming = (uint64_t)count * rad_matrix_row_bytes(p->n - 1);
-    const uint64_t pool = rad_matrix_pool_bytes(F);
-    if (rad_matrix_used_bytes(F) + incoming <= pool)
-        return RAD_OK; /* room at the end of the pool already */
     uint64_t live = rad_matrix_live_bytes(F);
-    if (live + incoming <= budget) {
-        /* Grow (or only compact) within the budget, by half again at least. */
-        uint64_t want = pool + pool / 2;
-        want = want < live + incoming ? live + incoming : want;
-        return rad_matrix_compact(F, want < budget ? want : budget, err);
-    }
-    /* Drop rows, least priority first, down to the budget less the batch
-     * less SV_EVICT_FRACTION of the budget. */
-    const double target = (double)budget - (double)incoming - SV_EVICT_FRACTION * (double)budget;
+    if ((double)live <= target)
+        return live;
     ranked *order = malloc(((size_t)F->rows_done + 1) * sizeof *order);
-    if (!order)
-        return rad_fail(err, RAD_ERR_NOMEM, "solver: out of memory for the row store");
+    if (!order) {
+        rad_fail(err, RAD_ERR_NOMEM, "solver: out of memory for the row store");
+        return UINT64_MAX;
+    }
     uint32_t m = 0;
     for (uint32_t r = 0; r < p->n; r++) {
         if (!sv_row_present(F, r))
@@ -527,6 +530,37 @@ static int make_room(prog *p, uint32_t count, const uint32_t *keep, uint32_t nke
         p->st->rows_dropped++;
     }
     free(order);
+    return live;
+}
+
+/* Makes room in F's pool for `count` rows (row_estimate each) under
+ * max_matrix_bytes, keeping the rows in keep[0..nkeep): grows the pool
+ * within the budget while the rows fit, else drops the rows of least
+ * priority down to the budget less the batch less SV_EVICT_FRACTION of the
+ * budget (so that the pool is compacted once per that much new rows) and
+ * compacts the pool to the budget.  RAD_ERR_LIMIT when even the rows kept
+ * cannot fit. */
+static int make_room(prog *p, uint32_t count, const uint32_t *keep, uint32_t nkeep, rad_error *err)
+{
+    const uint64_t budget = p->o->max_matrix_bytes;
+    rad_matrix *F = p->s->F;
+    if (!budget)
+        return RAD_OK;
+    const uint64_t incoming = (uint64_t)count * row_estimate(p);
+    const uint64_t pool = rad_matrix_pool_bytes(F);
+    if (rad_matrix_used_bytes(F) + incoming <= pool)
+        return RAD_OK; /* room at the end of the pool already */
+    uint64_t live = rad_matrix_live_bytes(F);
+    if (live + incoming <= budget) {
+        /* Grow (or only compact) within the budget, by half again at least. */
+        uint64_t want = pool + pool / 2;
+        want = want < live + incoming ? live + incoming : want;
+        return rad_matrix_compact(F, want < budget ? want : budget, err);
+    }
+    live = evict(p, (double)budget - (double)incoming - SV_EVICT_FRACTION * (double)budget, keep,
+                 nkeep, err);
+    if (live == UINT64_MAX)
+        return RAD_ERR_NOMEM;
     if (live + incoming > budget) {
         char need[32], have[32];
         return rad_fail(err, RAD_ERR_LIMIT,
@@ -535,6 +569,24 @@ static int make_room(prog *p, uint32_t count, const uint32_t *keep, uint32_t nke
                         rad_format_bytes((double)(live + incoming), need, sizeof need),
                         rad_format_bytes((double)budget, have, sizeof have));
     }
+    return rad_matrix_compact(F, budget, err);
+}
+
+/* After need_rows: the longest row seen, and the pool back within the
+ * budget should a row longer than row_estimate have grown it (dropping
+ * rows, the new ones and the shooter's last). */
+static int settle(prog *p, const uint32_t *keep, uint32_t nkeep, rad_error *err)
+{
+    rad_matrix *F = p->s->F;
+    for (uint32_t q = 0; q < p->batch_count; q++)
+        if (F->row_count[p->batch[q]] > p->max_row)
+            p->max_row = F->row_count[p->batch[q]];
+    const uint64_t budget = p->o->max_matrix_bytes;
+    if (!budget || rad_matrix_pool_bytes(F) <= budget)
+        return RAD_OK;
+    const uint64_t live = evict(p, (double)budget, keep, nkeep, err);
+    if (live == UINT64_MAX)
+        return RAD_ERR_NOMEM;
     return rad_matrix_compact(F, budget, err);
 }
 
@@ -567,8 +619,8 @@ static int fetch(prog *p, uint32_t i, int column, int last_phase, rad_error *err
                         "solver: form-factor row %u is missing and no need_rows was given",
                         p->batch[0]);
     uint32_t room = p->batch_max;
-    if (o->max_matrix_bytes) {
-        uint64_t fit = o->max_matrix_bytes / rad_matrix_row_bytes(p->n > 1 ? p->n - 1 : 1) / 2;
+    if (o->max_matrix_bytes) { /* a batch takes at most an eighth of the budget */
+        uint64_t fit = o->max_matrix_bytes / row_estimate(p) / 8;
         room = fit < room ? (uint32_t)fit : room;
     }
     room = room < count ? count : room;
@@ -621,7 +673,8 @@ static int fetch(prog *p, uint32_t i, int column, int last_phase, rad_error *err
             return rad_fail(err, RAD_ERR_USAGE, "solver: need_rows did not fill row %u", r);
         p->state[r] = (uint8_t)((p->state[r] & ~ST_CHECKED) | ST_COMPUTED);
     }
-    return RAD_OK;
+    p->batch_count = count;
+    return settle(p, need, k, err);
 }
 
 /* Checks the rows of i's shot that are present and not yet checked. */
@@ -1042,7 +1095,7 @@ static uint32_t pick(prog *p, int last_phase)
     /* Its rows are missing: shoot what the rows present allow first, while
      * it carries a fair share of the best's power (rows cost, shots not). */
     uint32_t ready = RAD_NONE;
-    double ready_power = best_power / SV_READY_SHARE;
+    double ready_power = best_power / (fits(p) ? SV_READY_SHARE : SV_READY_SHARE_BOUNDED);
     for (uint32_t i = 0; i < p->n; i++)
         if (p->power[i] >= ready_power && p->power[i] > 0.0 && !missing_rows(p, i) &&
             (ready == RAD_NONE || p->power[i] > p->power[ready])) {
