@@ -1114,6 +1114,7 @@ int sv_solve_progressive(const sv_system *s, const sv_options *o, double tol, do
         const int stop = show(&p, err);
         if (stop < 0)
             rc = -stop;
+        st->stopped = stop > 0;
         if (stop)
             break;
         double e = unshot_fraction(&p);

@@ -142,6 +142,7 @@ typedef struct sv_stats {
     double preview_seconds; /* time spent on previews (making them and on_preview) and
                              * progress calls: left out of sv_progress.seconds */
     int converged;          /* 1 if the tolerance was met, 0 if max_iterations stopped it */
+    int stopped;            /* 1 if on_preview asked the solve to stop */
     uint32_t extrapolations;/* Aitken steps taken (gauss-seidel, jacobi) */
 } sv_stats;
 

@@ -111,15 +111,22 @@ static int write_preview(void *user, const rad_solution *s, uint32_t shots, cons
 static int parse_preview_every(const char *opt, const char *v, uint32_t *shots, double *seconds)
 {
     size_t len = v ? strlen(v) : 0;
+    char *end = NULL;
     if (len > 1 && v[len - 1] == 's') {
-        char num[64];
-        if (len - 1 >= sizeof num)
-            return cli_usage_error("%s: '%s' is not K (shots) or Ts (seconds)", opt, v);
-        memcpy(num, v, len - 1);
-        num[len - 1] = '\0';
-        return cli_parse_double(opt, num, 1e-3, 1e6, seconds);
+        double t = strtod(v, &end);
+        if (end == v + len - 1 && isfinite(t) && t >= 1e-3 && t <= 1e6) {
+            *seconds = t;
+            return 0;
+        }
+    } else if (len > 0 && v[0] >= '0' && v[0] <= '9') {
+        unsigned long long k = strtoull(v, &end, 10);
+        if (*end == '\0' && k >= 1 && k <= 100000000) {
+            *shots = (uint32_t)k;
+            return 0;
+        }
     }
-    return cli_parse_u32(opt, v, 1, 100000000, shots);
+    return cli_usage_error("%s: '%s' is not K shots (1..1e8) or Ts seconds (0.001s..1e6s)", opt,
+                           v ? v : "");
 }
 
 int cli_solve(int argc, char **argv)

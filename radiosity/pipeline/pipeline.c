@@ -384,11 +384,12 @@ static int keep_progress(run *c, const sv_stats *st, rad_error *err)
     return RAD_OK;
 }
 
-/* One warning line when the iteration limit stopped the solve first. */
+/* One warning line when the iteration limit stopped the solve first (not
+ * when the caller's on_preview did). */
 static void warn_unconverged(const run *c, const sv_options *so, const sv_stats *st)
 {
     const rad_solution *s = c->s;
-    if (st->converged)
+    if (st->converged || st->stopped)
         return;
     const double tol = so->tolerance > 0 ? so->tolerance : SV_DEFAULT_TOLERANCE;
     if (so->method == SV_PROGRESSIVE)
