@@ -176,6 +176,7 @@ typedef struct prog {
     uint32_t *batch;  /* rows of one need_rows call */
     uint32_t batch_count;
     uint32_t max_row; /* the most entries of a row seen */
+    int fits;         /* the whole matrix looks like it fits in max_matrix_bytes */
     uint32_t *heap;   /* candidates of a batch */
     transpose T;
     int have_T;       /* columns from the transpose (every needed row was present) */
@@ -273,6 +274,16 @@ static int check(prog *p, uint32_t r, rad_error *err)
     return RAD_OK;
 }
 
+/* Does the matrix look like it fits in max_matrix_bytes, by the rows
+ * present (p->fits, kept up to date by settle)? */
+static void update_fits(prog *p)
+{
+    const rad_matrix *F = p->s->F;
+    const uint64_t budget = p->o->max_matrix_bytes;
+    p->fits = !budget || F->rows_done == 0 ||
+              (double)rad_matrix_live_bytes(F) / F->rows_done * p->n <= (double)budget;
+}
+
 /* Every present row checked; whether the solve computes rows; the
  * transpose when it does not; B = 0, R = E and the totals. */
 static int prog_init(prog *p, const sv_system *s, const sv_options *o, double tol, sv_stats *st,
@@ -332,6 +343,7 @@ static int prog_init(prog *p, const sv_system *s, const sv_options *o, double to
         if (!p->col || !p->val)
             return rad_fail(err, RAD_ERR_NOMEM, "solver: out of memory for %u patches", n);
     }
+    update_fits(p);
     memcpy(p->R, s->emission, p->len * sizeof *p->R);
     for (uint32_t i = 0; i < n; i++) {
         const double a = s->area[i];
@@ -572,15 +584,16 @@ static int make_room(prog *p, uint32_t count, const uint32_t *keep, uint32_t nke
     return rad_matrix_compact(F, budget, err);
 }
 
-/* After need_rows: the longest row seen, and the pool back within the
- * budget should a row longer than row_estimate have grown it (dropping
- * rows, the new ones and the shooter's last). */
+/* After need_rows: the longest row seen, whether the matrix fits, and the
+ * pool back within the budget should a row longer than row_estimate have
+ * grown it (dropping rows, the new ones and the shooter's last). */
 static int settle(prog *p, const uint32_t *keep, uint32_t nkeep, rad_error *err)
 {
     rad_matrix *F = p->s->F;
     for (uint32_t q = 0; q < p->batch_count; q++)
         if (F->row_count[p->batch[q]] > p->max_row)
             p->max_row = F->row_count[p->batch[q]];
+    update_fits(p);
     const uint64_t budget = p->o->max_matrix_bytes;
     if (!budget || rad_matrix_pool_bytes(F) <= budget)
         return RAD_OK;
@@ -588,17 +601,6 @@ static int settle(prog *p, const uint32_t *keep, uint32_t nkeep, rad_error *err)
     if (live == UINT64_MAX)
         return RAD_ERR_NOMEM;
     return rad_matrix_compact(F, budget, err);
-}
-
-/* Does the matrix look like it fits in max_matrix_bytes (by the rows
- * present so far, when there are any)? */
-static int fits(const prog *p)
-{
-    const rad_matrix *F = p->s->F;
-    const uint64_t budget = p->o->max_matrix_bytes;
-    if (!budget || F->rows_done == 0)
-        return 1;
-    return (double)rad_matrix_live_bytes(F) / F->rows_done * p->n <= (double)budget;
 }
 
 /* Computes the rows shooter i lacks (need: its rows, those of its shot) and,
@@ -639,7 +641,7 @@ static int fetch(prog *p, uint32_t i, int column, int last_phase, rad_error *err
          * end will draw it).  Measured on the Cornell box: the 10 % image
          * after 27 % of the rows (41 % with an eighth, by power alone
          * more). */
-        const uint32_t quota = fits(p) ? count + 3 * (room - count) / 4 : count;
+        const uint32_t quota = p->fits ? count + 3 * (room - count) / 4 : count;
         for (; p->pscan < p->n && count < quota; p->pscan++) {
             const uint32_t j = (uint32_t)(((uint64_t)p->pscan * p->stride) % p->n);
             if (j != i && gathers(p, j) && !(p->state[j] & ST_GATHERED) && missing_rows(p, j) &&
@@ -1095,7 +1097,7 @@ static uint32_t pick(prog *p, int last_phase)
     /* Its rows are missing: shoot what the rows present allow first, while
      * it carries a fair share of the best's power (rows cost, shots not). */
     uint32_t ready = RAD_NONE;
-    double ready_power = best_power / (fits(p) ? SV_READY_SHARE : SV_READY_SHARE_BOUNDED);
+    double ready_power = best_power / (p->fits ? SV_READY_SHARE : SV_READY_SHARE_BOUNDED);
     for (uint32_t i = 0; i < p->n; i++)
         if (p->power[i] >= ready_power && p->power[i] > 0.0 && !missing_rows(p, i) &&
             (ready == RAD_NONE || p->power[i] > p->power[ready])) {
