@@ -402,6 +402,45 @@ static double sweep(const sv_system *s, const double *src, double *dst, double *
     return isfinite(ball) && bgather > 0.0 ? bgather : ball;
 }
 
+/* Aitken on the dominant mode of each band whose last SV_RATIO_WINDOW
+ * ratios agree: once ΔB_k = q ΔB_k-1, the rest of the geometric series is
+ * ΔB_k·q/(1-q).  Clamping at E only moves a value toward the solution
+ * (B* >= E), and restores B >= 0 for the next Gauss-Seidel sweep to
+ * gather from. */
+static void extrapolate(const sv_system *s, band_monitor *mon, double *cur, const double *D,
+                        sv_stats *st)
+{
+    const uint32_t nb = s->bands;
+    const size_t len = (size_t)s->n * nb;
+    for (uint32_t b = 0; b < nb; b++) {
+        band_monitor *m = &mon[b];
+        if (m->ratios < SV_RATIO_WINDOW || m->aligned < SV_RATIO_WINDOW)
+            continue;
+        double lo = m->ratio[0], hi = m->ratio[0];
+        for (uint32_t r = 1; r < SV_RATIO_WINDOW; r++) {
+            if (m->ratio[r] < lo)
+                lo = m->ratio[r];
+            if (m->ratio[r] > hi)
+                hi = m->ratio[r];
+        }
+        if (!(lo >= SV_AITKEN_MIN_Q && hi < 1.0 && hi - lo <= SV_STABLE * (1.0 - hi)))
+            continue;
+        double q = m->ratio[0], f = q / (1.0 - q);
+        for (size_t x = b; x < len; x += nb) {
+            double v = cur[x] + D[x] * f;
+            cur[x] = v > s->emission[x] ? v : s->emission[x];
+        }
+        /* The next change is measured from the extrapolated B: no ratio
+         * across the jump. */
+        m->ratios = 0;
+        m->aligned = 0;
+        m->d_prev = -1.0;
+        if (hi > m->q_floor)
+            m->q_floor = hi;
+        st->extrapolations++;
+    }
+}
+
 static int solve_sweeps(const sv_system *s, const sv_options *o, double tol, double *B,
                         sv_stats *st, rad_error *err)
 {
@@ -495,37 +534,7 @@ static int solve_sweeps(const sv_system *s, const sv_options *o, double tol, dou
         if (o->no_acceleration || k == max_sweeps)
             continue;
 
-        /* Aitken on the dominant mode: once ΔB_k = q ΔB_k-1, the rest of the
-         * geometric series is ΔB_k·q/(1-q).  Clamping at E only moves a value
-         * toward the solution (B* >= E), and restores B >= 0 for the next
-         * Gauss-Seidel sweep to gather from. */
-        for (uint32_t b = 0; b < nb; b++) {
-            band_monitor *m = &mon[b];
-            if (m->ratios < SV_RATIO_WINDOW || m->aligned < SV_RATIO_WINDOW)
-                continue;
-            double lo = m->ratio[0], hi = m->ratio[0];
-            for (uint32_t r = 1; r < SV_RATIO_WINDOW; r++) {
-                if (m->ratio[r] < lo)
-                    lo = m->ratio[r];
-                if (m->ratio[r] > hi)
-                    hi = m->ratio[r];
-            }
-            if (!(lo >= SV_AITKEN_MIN_Q && hi < 1.0 && hi - lo <= SV_STABLE * (1.0 - hi)))
-                continue;
-            double q = m->ratio[0], f = q / (1.0 - q);
-            for (size_t x = b; x < len; x += nb) {
-                double v = cur[x] + D[x] * f;
-                cur[x] = v > s->emission[x] ? v : s->emission[x];
-            }
-            /* The next change is measured from the extrapolated B: no ratio
-             * across the jump. */
-            m->ratios = 0;
-            m->aligned = 0;
-            m->d_prev = -1.0;
-            if (hi > m->q_floor)
-                m->q_floor = hi;
-            st->extrapolations++;
-        }
+        extrapolate(s, mon, cur, D, st);
     }
     if (rc == RAD_OK && cur != B)
         memcpy(B, cur, len * sizeof *B);
