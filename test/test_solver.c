@@ -886,6 +886,19 @@ typedef struct preview_log {
     uint32_t progress_calls, progress_done, progress_shots;
 } preview_log;
 
+/* A log for t's previews every `every` shots, stopping after stop_after
+ * calls (0: never). */
+static preview_log log_of(const tsys *t, uint32_t every, uint32_t stop_after)
+{
+    preview_log l = {0};
+    l.stop_after = stop_after;
+    l.every = every;
+    l.n = t->n;
+    l.nb = t->nb;
+    l.A = t->A;
+    return l;
+}
+
 static int log_preview(void *user, const sv_progress *p)
 {
     preview_log *l = user;
@@ -943,12 +956,7 @@ TEST(progressive_ambient)
             for (uint32_t b = 0; b < 3; b++)
                 conv[b] += t.A[i] * ref[i * 3 + b];
 
-        preview_log log = {0};
-        log.stop_after = 1;
-        log.every = t.n / 10;
-        log.n = t.n;
-        log.nb = 3;
-        log.A = t.A;
+        preview_log log = log_of(&t, t.n / 10, 1);
         sv_system s = sys_of(&t);
         sv_options o = {.method = SV_PROGRESSIVE, .on_preview = log_preview, .user = &log,
                         .preview_every = t.n / 10};
@@ -1000,12 +1008,7 @@ TEST(progressive_ambient_open_scene)
         emitted += t.A[i] * t.E[i];
         area += t.A[i];
     }
-    preview_log log = {0};
-    log.stop_after = 1;
-    log.every = t.n / 10;
-    log.n = t.n;
-    log.nb = 1;
-    log.A = t.A;
+    preview_log log = log_of(&t, t.n / 10, 1);
     sv_system s = sys_of(&t);
     sv_options o = {.method = SV_PROGRESSIVE, .on_preview = log_preview, .user = &log,
                     .preview_every = t.n / 10};
@@ -1031,12 +1034,7 @@ TEST(progressive_preview_cadence)
 {
     tsys t = make_random(50, 3, 9);
     double B[150];
-    preview_log log = {0};
-    log.stop_after = 3;
-    log.every = 7;
-    log.n = t.n;
-    log.nb = 3;
-    log.A = t.A;
+    preview_log log = log_of(&t, 7, 3);
     sv_system s = sys_of(&t);
     sv_options o = {.method = SV_PROGRESSIVE, .on_preview = log_preview, .user = &log,
                     .preview_every = 7};
@@ -1049,11 +1047,7 @@ TEST(progressive_preview_cadence)
     CHECK(st.converged == 0);
     CHECK(all_valid(&t, B));
     /* Without stopping, the calls keep their cadence to the end. */
-    log = (preview_log){0};
-    log.every = 7;
-    log.n = t.n;
-    log.nb = 3;
-    log.A = t.A;
+    log = log_of(&t, 7, 0);
     o.progress = log_progress;
     o.progress_user = &log;
     CHECK(sv_solve(&s, &o, B, &st, NULL) == RAD_OK);
@@ -1063,10 +1057,7 @@ TEST(progressive_preview_cadence)
     CHECK(log.backwards == 0);
     CHECK(log.progress_done == 1 && log.progress_shots == st.iterations);
     /* A cadence in seconds only, longer than any solve here: no preview. */
-    log = (preview_log){0};
-    log.n = t.n;
-    log.nb = 3;
-    log.A = t.A;
+    log = log_of(&t, 0, 0);
     o.preview_every = 0;
     o.preview_seconds = 1e6;
     CHECK(sv_solve(&s, &o, B, &st, NULL) == RAD_OK);

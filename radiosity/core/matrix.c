@@ -43,21 +43,21 @@ void rad_matrix_destroy(rad_matrix *m)
     free(m);
 }
 
-static int matrix_reserve(rad_matrix *m, uint64_t need, rad_error *err)
+/* Resizes the pool to exactly cap entries (> 0).  col and val are resized
+ * one after the other and capacity is the smaller of the two at every step,
+ * so a failure leaves a usable pool. */
+static int resize_pool(rad_matrix *m, uint64_t cap, rad_error *err)
 {
-    if (need <= m->capacity)
-        return RAD_OK;
-    uint64_t cap = m->capacity ? m->capacity : 1024;
-    while (cap < need)
-        cap += cap / 2 + 1024; /* 1.5×: the pool can be most of memory */
     if (cap > SIZE_MAX / sizeof(uint32_t))
         return rad_fail(err, RAD_ERR_NOMEM, "form-factor matrix: %llu entries do not fit in memory",
                         (unsigned long long)cap);
+    const uint64_t old = m->capacity;
     uint32_t *col = realloc(m->col, (size_t)cap * sizeof *col);
     if (!col)
         return rad_fail(err, RAD_ERR_NOMEM, "form-factor matrix: out of memory at %llu entries",
                         (unsigned long long)cap);
     m->col = col;
+    m->capacity = cap < old ? cap : old;
     float *val = realloc(m->val, (size_t)cap * sizeof *val);
     if (!val)
         return rad_fail(err, RAD_ERR_NOMEM, "form-factor matrix: out of memory at %llu entries",
@@ -65,6 +65,16 @@ static int matrix_reserve(rad_matrix *m, uint64_t need, rad_error *err)
     m->val = val;
     m->capacity = cap;
     return RAD_OK;
+}
+
+static int matrix_reserve(rad_matrix *m, uint64_t need, rad_error *err)
+{
+    if (need <= m->capacity)
+        return RAD_OK;
+    uint64_t cap = m->capacity ? m->capacity : 1024;
+    while (cap < need)
+        cap += cap / 2 + 1024; /* 1.5×: the pool can be most of memory */
+    return resize_pool(m, cap, err);
 }
 
 int rad_matrix_set_row(rad_matrix *m, uint32_t i, uint32_t count, const uint32_t *col,
@@ -172,27 +182,8 @@ int rad_matrix_compact(rad_matrix *m, uint64_t bytes, rad_error *err)
     free(order);
     m->nnz = next;
     uint64_t cap = bytes / ENTRY_BYTES > next ? bytes / ENTRY_BYTES : next;
-    if (cap == m->capacity)
-        return RAD_OK;
-    if (cap > SIZE_MAX / sizeof(uint32_t))
-        return rad_fail(err, RAD_ERR_NOMEM, "form-factor matrix: %llu entries do not fit in memory",
-                        (unsigned long long)cap);
-    /* col and val are resized one after the other; capacity is the smaller
-     * of the two at every step, so a failure leaves a usable pool. */
-    const uint64_t old = m->capacity;
-    uint32_t *col = realloc(m->col, (size_t)(cap ? cap : 1) * sizeof *col);
-    if (!col)
-        return rad_fail(err, RAD_ERR_NOMEM, "form-factor matrix: out of memory at %llu entries",
-                        (unsigned long long)cap);
-    m->col = col;
-    m->capacity = cap < old ? cap : old;
-    float *val = realloc(m->val, (size_t)(cap ? cap : 1) * sizeof *val);
-    if (!val)
-        return rad_fail(err, RAD_ERR_NOMEM, "form-factor matrix: out of memory at %llu entries",
-                        (unsigned long long)cap);
-    m->val = val;
-    m->capacity = cap;
-    return RAD_OK;
+    cap = cap ? cap : 1;
+    return cap == m->capacity ? RAD_OK : resize_pool(m, cap, err);
 }
 
 uint64_t rad_matrix_estimate_bytes(uint32_t n, double fill)

@@ -5,12 +5,9 @@
 # saved, the row store within --max-memory, options refused cleanly.
 # Cost: about 5 s (small scenes, one worker each).
 set -u
-BIN=${RADIOSITY_BIN:-build/release/radiosity}
-dir=$(mktemp -d)
-trap 'rm -rf "$dir"' EXIT
-passed=0; failed=0
-ok()   { passed=$((passed + 1)); echo "ok   $1"; }
-bad()  { failed=$((failed + 1)); echo "FAIL $1"; }
+. "$(dirname "$0")/lib.bash"
+ok()  { passed=$((passed + 1)); echo "ok   $1"; }
+bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 
 # The shot limit before the tolerance: exit 0, the solution saved, exactly
 # one warning line naming the limit and the unshot fraction; report says so.
