@@ -165,6 +165,7 @@ typedef struct prog {
     double *power;    /* A_i Σ_b R_i,b: who shoots next */
     double *inv_area;
     uint8_t *state;   /* ST_ bits */
+    uint8_t *refl;    /* 1: the patch reflects (ρ > 0 in some band) */
     float *rowsum;    /* Σ_j F_ij of row i as checked (ST_CHECKED) */
     double *display;  /* the preview's B, or NULL */
     double *sum;      /* the preview's B + R */
@@ -237,6 +238,7 @@ static void prog_free(prog *p)
     free(p->power);
     free(p->inv_area);
     free(p->state);
+    free(p->refl);
     free(p->rowsum);
     free(p->display);
     free(p->sum);
@@ -306,6 +308,7 @@ static int prog_init(prog *p, const sv_system *s, const sv_options *o, double to
     p->power = malloc((size_t)n * sizeof *p->power);
     p->inv_area = malloc((size_t)n * sizeof *p->inv_area);
     p->state = calloc(n, 1);
+    p->refl = malloc((size_t)n + 1);
     p->rowsum = calloc(n, sizeof *p->rowsum);
     if (o->on_preview) {
         p->display = malloc(p->len * sizeof *p->display);
@@ -316,7 +319,8 @@ static int prog_init(prog *p, const sv_system *s, const sv_options *o, double to
     }
     p->batch = malloc(((size_t)p->batch_max + 2) * sizeof *p->batch);
     p->heap = malloc(((size_t)p->batch_max + 2) * sizeof *p->heap);
-    if (!p->B || !p->R || !p->power || !p->inv_area || !p->state || !p->rowsum || !p->batch ||
+    if (!p->B || !p->R || !p->power || !p->inv_area || !p->state || !p->refl || !p->rowsum ||
+        !p->batch ||
         !p->heap ||
         (o->on_preview && (!p->display || !p->sum || !p->first || !p->rep || !p->swept)))
         return rad_fail(err, RAD_ERR_NOMEM, "solver: out of memory for %u patches", n);
@@ -347,6 +351,7 @@ static int prog_init(prog *p, const sv_system *s, const sv_options *o, double to
     memcpy(p->R, s->emission, p->len * sizeof *p->R);
     for (uint32_t i = 0; i < n; i++) {
         const double a = s->area[i];
+        p->refl[i] = (uint8_t)sv_any_positive(s->rho + (size_t)i * nb, nb);
         p->inv_area[i] = 1.0 / a;
         p->area_sum += a;
         p->pending += gathers(p, i);
@@ -1085,26 +1090,32 @@ static uint32_t pick(prog *p, int last_phase)
                 return p->scan;
         return RAD_NONE;
     }
-    uint32_t best = RAD_NONE;
-    double best_power = 0.0;
-    for (uint32_t i = 0; i < p->n; i++)
-        if (p->power[i] > best_power) { /* strict: the lowest index wins a tie */
-            best_power = p->power[i];
+    /* One pass: the best, and the best whose rows are present. */
+    uint32_t best = RAD_NONE, ready = RAD_NONE;
+    double best_power = 0.0, ready_power = 0.0;
+    const uint8_t *done = p->s->F->row_done;
+    for (uint32_t i = 0; i < p->n; i++) {
+        const double w = p->power[i];
+        if (!(w > ready_power))
+            continue;
+        if (w > best_power) { /* strict: the lowest index wins a tie */
+            best_power = w;
             best = i;
         }
-    if (best == RAD_NONE || !missing_rows(p, best) || !p->o->need_rows)
+        /* present: its own row, or none needed (no sheet), else ask */
+        const int present = p->s->tau ? !missing_rows(p, i)
+                                      : done[i] || (!p->refl[i] && (p->have_T || expects_column(p, i)));
+        if (present) {
+            ready_power = w;
+            ready = i;
+        }
+    }
+    if (best == ready || !p->o->need_rows)
         return best;
     /* Its rows are missing: shoot what the rows present allow first, while
      * it carries a fair share of the best's power (rows cost, shots not). */
-    uint32_t ready = RAD_NONE;
-    double ready_power = best_power / (p->fits ? SV_READY_SHARE : SV_READY_SHARE_BOUNDED);
-    for (uint32_t i = 0; i < p->n; i++)
-        if (p->power[i] >= ready_power && p->power[i] > 0.0 && !missing_rows(p, i) &&
-            (ready == RAD_NONE || p->power[i] > p->power[ready])) {
-            ready = i;
-            ready_power = p->power[i];
-        }
-    return ready != RAD_NONE ? ready : best;
+    const double share = p->fits ? SV_READY_SHARE : SV_READY_SHARE_BOUNDED;
+    return ready != RAD_NONE && ready_power * share >= best_power ? ready : best;
 }
 
 int sv_solve_progressive(const sv_system *s, const sv_options *o, double tol, double *B,
