@@ -8,25 +8,12 @@
  * rad_mesh_count, so the table's sizes are the nearest the mesher makes.
  */
 #include "../radiosity/pipeline/pipeline.h"
+#include "bench_util.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
-
-static double patch_size_for(const rad_scene *scene, uint32_t target)
-{
-    double lo = 1e-4, hi = 1.0;
-    for (int it = 0; it < 60; it++) {
-        double mid = sqrt(lo * hi);
-        rad_mesh_options mo = {.patch_size = mid};
-        if (rad_mesh_count(scene, &mo) > target)
-            lo = mid;
-        else
-            hi = mid;
-    }
-    return hi;
-}
 
 int main(int argc, char **argv)
 {
@@ -47,7 +34,7 @@ int main(int argc, char **argv)
         }
         double load = rad_seconds() - t0;
         rad_solve_options opt = {0};
-        opt.mesh.patch_size = patch_size_for(scene, targets[t]);
+        opt.mesh.patch_size = bench_patch_size_for(scene, targets[t]);
         opt.hemicube.resolution = 128;
         opt.hemicube.processes = processes;
         rad_solution *s = NULL;

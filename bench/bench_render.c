@@ -99,7 +99,8 @@ static int run(uint32_t n_room, uint32_t n_block, const char *dir)
         rn_vertex_radiosity(&b.m, 3, B, vb);
     double t_vertex = (rad_seconds() - t0) / reps;
 
-    rn_camera cam = {rad_v3(4.6, 0.4, 2.8), rad_v3(2.2, 2.4, 1.0), rad_v3(0, 0, 1), 70, 512, 512};
+    rn_camera cam = {.eye = rad_v3(4.6, 0.4, 2.8), .target = rad_v3(2.2, 2.4, 1.0),
+                     .up = rad_v3(0, 0, 1), .yfov_deg = 70, .width = 512, .height = 512};
     rn_image *img = NULL;
     rad_error err;
     for (int r = 0; r < 3; r++) { /* warm-up: caches, the allocator, the clock */

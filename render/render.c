@@ -1,7 +1,8 @@
 /* render.c - vertex radiosities, the item buffer and the interpolated image.
  *
- * Owns rn_vertex_radiosity, rn_render and rn_image_destroy, plus the small
- * helpers the two writers share (rn_internal.h).  Invariant of an image made
+ * Owns rn_vertex_radiosity, rn_render, rn_canvas (the buffers kept from one
+ * view to the next) and rn_image_destroy, plus the small helpers the two
+ * writers share (rn_internal.h).  Invariant of an image made
  * here: each pixel is either background (patch RAD_NONE, every band 0) or the
  * radiance L = B/π of the one front-facing patch nearest along the pixel's
  * eye ray, B interpolated from the vertex radiosities at the point X where
@@ -11,6 +12,10 @@
  * (near plane and a guard band around the screen), projected, snapped to a
  * fixed-point grid and filled with exact integer edge functions under a
  * top-left rule, so a shared edge is owned by exactly one of its two patches.
+ * Perspective and orthographic cameras differ only in the projection
+ * (x/z or x), the depth kept (1/z or a constant minus z, both affine on
+ * the screen over a plane), the back-face test and the pixel ray (from the
+ * eye, or parallel to the view from the pixel's point of the window).
  */
 #include "rn_internal.h"
 
@@ -496,23 +501,19 @@ void rn_vertex_radiosity_fit(const rad_mesh *mesh, uint32_t bands, const double 
 
 /* ---------------------------------------------------------------- camera */
 
-/* Right-handed camera frame: f forward, r right, u up; a pixel (i, j) looks
- * along f + a·r + b·u with a = (i + ½ − cx)/k, b = (cy − j − ½)/k. */
-typedef struct frame {
-    rad_vec3 eye, f, r, u;
-    double k;      /* pixels per unit of x/z: (H/2) / tan(yfov/2) */
-    double cx, cy; /* image centre in pixels */
-    uint32_t w, h;
-} frame;
-
-static int camera_frame(const rn_camera *cam, frame *fr, rad_error *err)
+int rn_camera_frame(const rn_camera *cam, rn_frame *fr, rad_error *err)
 {
     if (!cam)
         return rad_fail(err, RAD_ERR_USAGE, "render: camera: none given");
+    fr->ortho = cam->orthographic != 0;
     if (!rad_finite3(cam->eye) || !rad_finite3(cam->target) || !rad_finite3(cam->up) ||
-        !isfinite(cam->yfov_deg))
+        (!fr->ortho && !isfinite(cam->yfov_deg)))
         return rad_fail(err, RAD_ERR_USAGE, "render: camera: eye, target, up and fov must be finite");
-    if (!(cam->yfov_deg > 0.0 && cam->yfov_deg < 180.0))
+    if (fr->ortho && !(cam->ymag > 0.0 && isfinite(cam->ymag)))
+        return rad_fail(err, RAD_ERR_USAGE,
+                        "render: camera: orthographic half-height %g must be finite and > 0",
+                        cam->ymag);
+    if (!fr->ortho && !(cam->yfov_deg > 0.0 && cam->yfov_deg < 180.0))
         return rad_fail(err, RAD_ERR_USAGE, "render: camera: field of view %g not in (0, 180) degrees",
                         cam->yfov_deg);
     if (cam->width < 1 || cam->height < 1 || cam->width > RN_MAX_SIDE || cam->height > RN_MAX_SIDE)
@@ -537,6 +538,13 @@ static int camera_frame(const rn_camera *cam, frame *fr, rad_error *err)
     fr->h = cam->height;
     fr->cx = 0.5 * cam->width;
     fr->cy = 0.5 * cam->height;
+    if (fr->ortho) {
+        fr->k = fr->cy / cam->ymag;
+        if (!(fr->k > 0.0) || !isfinite(fr->k))
+            return rad_fail(err, RAD_ERR_USAGE, "render: camera: orthographic half-height %g unusable",
+                            cam->ymag);
+        return RAD_OK;
+    }
     fr->k = fr->cy / tan(0.5 * cam->yfov_deg * (M_PI / 180.0));
     if (!(fr->k > 0.0) || !isfinite(fr->k))
         return rad_fail(err, RAD_ERR_USAGE, "render: camera: field of view %g unusable", cam->yfov_deg);
@@ -676,61 +684,29 @@ static void raster_triangle(ibuf *ib, const int64_t *X, const int64_t *Y, int i0
 
 /* ------------------------------------------------------- interpolation */
 
-/* What shading one patch needs, prepared once per run of pixels that see it.
- * The patch plane gets 2-D coordinates (e1, e2) with the corner v0 at the
- * origin.  For the pixel ray d = f + a·r + b·u every needed dot product is
- * affine in (a, b), so a pixel costs a few multiply-adds before (u, v). */
-typedef struct shade_setup {
-    uint32_t patch;
-    int corners;
-    double Dn;             /* n·(centre − eye) */
-    double nf, nr, nu;     /* n·f, n·r, n·u */
-    double of1, of2;       /* (eye − v0)·e1, ·e2 */
-    double f1, r1, u1;     /* f·e1, r·e1, u·e1 */
-    double f2, r2, u2;     /* f·e2, r·e2, u·e2 */
-    double p[4][2];        /* corners in plane coordinates; p[0] = (0, 0) */
-    /* Quads, x = u·e + v·f + u·v·g: */
-    double ex, ey, fx, fy, gx, gy, k2, kef;
-    double det;            /* triangles: p1 × p2 */
-} shade_setup;
-
-static void shade_prepare(shade_setup *s, const rad_mesh *m, uint32_t patch, const frame *fr)
+void rn_cell2d_init(rn_cell2d *c, const rad_mesh *m, uint32_t cell)
 {
-    const rad_patch *pa = &m->patches[patch];
-    rad_vec3 n = pa->normal, v0 = m->vertices[pa->v[0]];
-    rad_vec3 e1 = rad_normalize(rad_sub(m->vertices[pa->v[1]], v0));
-    rad_vec3 e2 = rad_cross(n, e1);
-    rad_vec3 o = rad_sub(fr->eye, v0);
-    s->patch = patch;
-    s->corners = rad_patch_corners(pa);
-    s->Dn = rad_dot(n, rad_sub(pa->center, fr->eye));
-    s->nf = rad_dot(n, fr->f);
-    s->nr = rad_dot(n, fr->r);
-    s->nu = rad_dot(n, fr->u);
-    s->of1 = rad_dot(o, e1);
-    s->of2 = rad_dot(o, e2);
-    s->f1 = rad_dot(fr->f, e1);
-    s->r1 = rad_dot(fr->r, e1);
-    s->u1 = rad_dot(fr->u, e1);
-    s->f2 = rad_dot(fr->f, e2);
-    s->r2 = rad_dot(fr->r, e2);
-    s->u2 = rad_dot(fr->u, e2);
-    for (int c = 0; c < s->corners; c++) {
-        rad_vec3 q = rad_sub(m->vertices[pa->v[c]], v0);
-        s->p[c][0] = rad_dot(q, e1);
-        s->p[c][1] = rad_dot(q, e2);
+    const rad_patch *pa = &m->patches[cell];
+    c->corners = rad_patch_corners(pa);
+    c->v0 = m->vertices[pa->v[0]];
+    c->e1 = rad_normalize(rad_sub(m->vertices[pa->v[1]], c->v0));
+    c->e2 = rad_cross(pa->normal, c->e1);
+    for (int k = 0; k < c->corners; k++) {
+        rad_vec3 q = rad_sub(m->vertices[pa->v[k]], c->v0);
+        c->p[k][0] = rad_dot(q, c->e1);
+        c->p[k][1] = rad_dot(q, c->e2);
     }
-    if (s->corners == 4) {
-        s->ex = s->p[1][0];
-        s->ey = s->p[1][1];
-        s->fx = s->p[3][0];
-        s->fy = s->p[3][1];
-        s->gx = -s->p[1][0] + s->p[2][0] - s->p[3][0];
-        s->gy = -s->p[1][1] + s->p[2][1] - s->p[3][1];
-        s->k2 = s->gx * s->fy - s->gy * s->fx;
-        s->kef = s->ex * s->fy - s->ey * s->fx;
+    if (c->corners == 4) {
+        c->ex = c->p[1][0];
+        c->ey = c->p[1][1];
+        c->fx = c->p[3][0];
+        c->fy = c->p[3][1];
+        c->gx = -c->p[1][0] + c->p[2][0] - c->p[3][0];
+        c->gy = -c->p[1][1] + c->p[2][1] - c->p[3][1];
+        c->k2 = c->gx * c->fy - c->gy * c->fx;
+        c->kef = c->ex * c->fy - c->ey * c->fx;
     } else {
-        s->det = s->p[1][0] * s->p[2][1] - s->p[1][1] * s->p[2][0];
+        c->det = c->p[1][0] * c->p[2][1] - c->p[1][1] * c->p[2][0];
     }
 }
 
@@ -741,7 +717,7 @@ static void shade_prepare(shade_setup *s, const rad_mesh *m, uint32_t patch, con
  * e + v·g.  Both are clamped to [0, 1]: a pixel centre may sit a snapping
  * error outside the patch that owns it, and clamping keeps B a convex
  * combination of the corner values (never negative). */
-static void inverse_bilinear(const shade_setup *s, double hx, double hy, double *uo, double *vo)
+static void inverse_bilinear(const rn_cell2d *s, double hx, double hy, double *uo, double *vo)
 {
     double k1 = s->kef + hx * s->gy - hy * s->gx;
     double k0 = hx * s->ey - hy * s->ex;
@@ -779,15 +755,8 @@ static void inverse_bilinear(const shade_setup *s, double hx, double hy, double 
     *vo = v;
 }
 
-/* Interpolation weights of the patch's corners where the ray of pixel
- * direction (a, b) meets its plane: bilinear for quads, barycentric
- * (clamped, renormalised) for triangles. */
-static void shade_weights(const shade_setup *s, double a, double b, double *w)
+void rn_cell2d_weights(const rn_cell2d *s, double hx, double hy, double *w)
 {
-    double dn = s->nf + a * s->nr + b * s->nu;
-    double t = dn != 0.0 ? s->Dn / dn : 0.0;
-    double hx = s->of1 + t * (s->f1 + a * s->r1 + b * s->u1);
-    double hy = s->of2 + t * (s->f2 + a * s->r2 + b * s->u2);
     if (!isfinite(hx) || !isfinite(hy))
         hx = hy = 0.0;
     if (s->corners == 4) {
@@ -816,9 +785,64 @@ static void shade_weights(const shade_setup *s, double a, double b, double *w)
     w[2] = w2 / sum;
 }
 
+/* What shading one patch needs, prepared once per run of pixels that see it.
+ * For the pixel ray d = f + a·r + b·u every needed dot product is affine in
+ * (a, b), so a pixel costs a few multiply-adds before (u, v). */
+typedef struct shade_setup {
+    uint32_t patch;
+    rn_cell2d cell;
+    int ortho;             /* rays parallel to f from the window, not from the eye */
+    double Dn;             /* n·(centre − eye) */
+    double nf, nr, nu;     /* n·f, n·r, n·u */
+    double of1, of2;       /* (eye − v0)·e1, ·e2 */
+    double f1, r1, u1;     /* f·e1, r·e1, u·e1 */
+    double f2, r2, u2;     /* f·e2, r·e2, u·e2 */
+} shade_setup;
+
+static void shade_prepare(shade_setup *s, const rad_mesh *m, uint32_t patch, const rn_frame *fr)
+{
+    const rad_patch *pa = &m->patches[patch];
+    rn_cell2d_init(&s->cell, m, patch);
+    rad_vec3 n = pa->normal, e1 = s->cell.e1, e2 = s->cell.e2;
+    rad_vec3 o = rad_sub(fr->eye, s->cell.v0);
+    s->patch = patch;
+    s->ortho = fr->ortho;
+    s->Dn = rad_dot(n, rad_sub(pa->center, fr->eye));
+    s->nf = rad_dot(n, fr->f);
+    s->nr = rad_dot(n, fr->r);
+    s->nu = rad_dot(n, fr->u);
+    s->of1 = rad_dot(o, e1);
+    s->of2 = rad_dot(o, e2);
+    s->f1 = rad_dot(fr->f, e1);
+    s->r1 = rad_dot(fr->r, e1);
+    s->u1 = rad_dot(fr->u, e1);
+    s->f2 = rad_dot(fr->f, e2);
+    s->r2 = rad_dot(fr->r, e2);
+    s->u2 = rad_dot(fr->u, e2);
+}
+
+/* Interpolation weights of the patch's corners where the ray of pixel
+ * (a, b) meets its plane (from the eye along f + a·r + b·u, or, for an
+ * orthographic view, from eye + a·r + b·u along f). */
+static void shade_weights(const shade_setup *s, double a, double b, double *w)
+{
+    double hx, hy;
+    if (s->ortho) { /* eye + a·r + b·u + t·f */
+        double t = s->nf != 0.0 ? (s->Dn - a * s->nr - b * s->nu) / s->nf : 0.0;
+        hx = s->of1 + a * s->r1 + b * s->u1 + t * s->f1;
+        hy = s->of2 + a * s->r2 + b * s->u2 + t * s->f2;
+    } else { /* eye + t·(f + a·r + b·u) */
+        double dn = s->nf + a * s->nr + b * s->nu;
+        double t = dn != 0.0 ? s->Dn / dn : 0.0;
+        hx = s->of1 + t * (s->f1 + a * s->r1 + b * s->u1);
+        hy = s->of2 + t * (s->f2 + a * s->r2 + b * s->u2);
+    }
+    rn_cell2d_weights(&s->cell, hx, hy, w);
+}
+
 /* -------------------------------------------------------------- render */
 
-static int mesh_check(const rad_mesh *m, rad_error *err)
+int rn_mesh_check(const rad_mesh *m, rad_error *err)
 {
     if (m->vertex_count > 0 && !m->vertices)
         return rad_fail(err, RAD_ERR_USAGE, "render: mesh: %u vertices but no vertex array", m->vertex_count);
@@ -839,44 +863,128 @@ static int mesh_check(const rad_mesh *m, rad_error *err)
     return RAD_OK;
 }
 
+int rn_camera_check(const rn_camera *cam, rad_error *err)
+{
+    rn_frame fr;
+    rad_error why;
+    int rc = rn_camera_frame(cam, &fr, &why);
+    if (!rc)
+        return RAD_OK;
+    /* The reason alone: the caller says which camera. */
+    const char *prefix = "render: camera: ";
+    size_t n = strlen(prefix);
+    return rad_fail(err, rc, "%s", strncmp(why.message, prefix, n) ? why.message : why.message + n);
+}
+
+/* What a canvas keeps between views: the image drawn last, its depth buffer
+ * (1/z per pixel) and room for the camera-space vertices. */
+struct rn_canvas {
+    rn_image *img;
+    double *invz;      /* img->width × img->height */
+    rad_vec3 *cv;      /* cv_cap entries */
+    uint32_t cv_cap;
+};
+
+rn_canvas *rn_canvas_create(void) { return calloc(1, sizeof(rn_canvas)); }
+
+void rn_canvas_destroy(rn_canvas *c)
+{
+    if (!c)
+        return;
+    rn_image_destroy(c->img);
+    free(c->invz);
+    free(c->cv);
+    free(c);
+}
+
+/* Makes c's buffers fit a w×h image of `bands` channels and a mesh of nv
+ * vertices, and clears them: every pixel background, every depth 0 (at
+ * infinity).  Buffers of the right size are kept; new ones are written
+ * here first, so each page is faulted in once, not read as the shared
+ * zero page and copied on the first depth test. */
+static int canvas_prepare(rn_canvas *c, uint32_t w, uint32_t h, uint32_t bands, uint32_t nv,
+                          rad_error *err)
+{
+    size_t npix = (size_t)w * h;
+    rn_image *img = c->img;
+    if (!img || img->width != w || img->height != h || img->channels != bands) {
+        uint64_t need = (uint64_t)npix * (4u * bands + sizeof(uint32_t) + sizeof(double)) +
+                        (uint64_t)nv * sizeof(rad_vec3);
+        uint64_t avail = rad_available_memory();
+        if (avail && need > avail)
+            return rad_fail(err, RAD_ERR_LIMIT,
+                            "render: a %ux%u image of %u bands needs %llu bytes, %llu available", w,
+                            h, bands, (unsigned long long)need, (unsigned long long)avail);
+        rn_image_destroy(c->img);
+        free(c->invz);
+        c->img = NULL;
+        c->invz = malloc(npix * sizeof *c->invz);
+        img = c->invz ? rn_image_alloc(w, h, bands) : NULL;
+        if (!img)
+            return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory for a %ux%u image", w, h);
+        c->img = img;
+    } else {
+        memset(img->pixels, 0, npix * bands * sizeof *img->pixels);
+        for (size_t k = 0; k < npix; k++)
+            img->patch[k] = RAD_NONE;
+    }
+    memset(c->invz, 0, npix * sizeof *c->invz);
+    if (c->cv_cap < nv + 1) {
+        free(c->cv);
+        c->cv_cap = 0;
+        c->cv = malloc(((size_t)nv + 1) * sizeof *c->cv);
+        if (!c->cv)
+            return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory for %u vertices", nv);
+        c->cv_cap = nv + 1;
+    }
+    return RAD_OK;
+}
+
 int rn_render(const rad_mesh *mesh, uint32_t bands, const double *vertex_B, const rn_camera *cam,
               rn_image **out, rad_error *err)
 {
     if (!out)
         return rad_fail(err, RAD_ERR_USAGE, "render: no output pointer");
     *out = NULL;
+    rn_canvas *c = rn_canvas_create();
+    if (!c)
+        return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory");
+    int rc = rn_canvas_draw(c, mesh, bands, vertex_B, cam, out, err);
+    if (!rc)
+        c->img = NULL; /* the caller takes the image, the rest goes */
+    rn_canvas_destroy(c);
+    return rc;
+}
+
+int rn_canvas_draw(rn_canvas *canvas, const rad_mesh *mesh, uint32_t bands,
+                   const double *vertex_B, const rn_camera *cam, rn_image **out,
+                   rad_error *err)
+{
+    if (!out)
+        return rad_fail(err, RAD_ERR_USAGE, "render: no output pointer");
+    *out = NULL;
+    if (!canvas)
+        return rad_fail(err, RAD_ERR_USAGE, "render: no canvas");
     if (!mesh)
         return rad_fail(err, RAD_ERR_USAGE, "render: no mesh");
     if (bands == 0 || bands > RAD_MAX_BANDS)
         return rad_fail(err, RAD_ERR_USAGE, "render: %u bands, not 1..%d", bands, RAD_MAX_BANDS);
     if (mesh->vertex_count > 0 && !vertex_B)
         return rad_fail(err, RAD_ERR_USAGE, "render: no vertex radiosities");
-    frame fr;
+    rn_frame fr;
     memset(&fr, 0, sizeof fr);
-    int rc = camera_frame(cam, &fr, err);
+    int rc = rn_camera_frame(cam, &fr, err);
     if (rc)
         return rc;
-    rc = mesh_check(mesh, err);
+    rc = rn_mesh_check(mesh, err);
     if (rc)
         return rc;
-
-    uint64_t npix = (uint64_t)fr.w * fr.h;
-    uint64_t need = npix * (4u * bands + sizeof(uint32_t) + sizeof(double)) +
-                    (uint64_t)mesh->vertex_count * sizeof(rad_vec3);
-    uint64_t avail = rad_available_memory();
-    if (avail && need > avail)
-        return rad_fail(err, RAD_ERR_LIMIT, "render: a %ux%u image of %u bands needs %llu bytes, %llu available",
-                        fr.w, fr.h, bands, (unsigned long long)need, (unsigned long long)avail);
-
-    rn_image *img = rn_image_alloc(fr.w, fr.h, bands);
-    double *invz = calloc((size_t)npix, sizeof *invz);
-    rad_vec3 *cv = malloc(((size_t)mesh->vertex_count + 1) * sizeof *cv);
-    if (!img || !invz || !cv) {
-        rn_image_destroy(img);
-        free(invz);
-        free(cv);
-        return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory for a %ux%u image", fr.w, fr.h);
-    }
+    rc = canvas_prepare(canvas, fr.w, fr.h, bands, mesh->vertex_count, err);
+    if (rc)
+        return rc;
+    rn_image *img = canvas->img;
+    double *invz = canvas->invz;
+    rad_vec3 *cv = canvas->cv;
 
     /* Camera-space vertices, once each, so shared corners stay identical. */
     double extent = 0.0;
@@ -893,15 +1001,23 @@ int rn_render(const rad_mesh *mesh, uint32_t bands, const double *vertex_B, cons
 
     /* Near plane, then a guard band one image size wide around the screen:
      * it bounds the snapped coordinates (|x| < 3·16384 < 2^16 pixels) so the
-     * edge functions are exact in int64, and the cuts it makes lie off screen. */
+     * edge functions are exact in int64, and the cuts it makes lie off screen.
+     * A perspective band scales with z (sx = cx + k·x/z), an orthographic
+     * one does not (sx = cx + k·x): its constant goes to the z or the 1
+     * coefficient. */
     double G = fr.w > fr.h ? fr.w : fr.h;
+    double zc = fr.ortho ? 0.0 : 1.0, oc = fr.ortho ? 1.0 : 0.0;
     plane4 planes[5] = {
         {0, 0, 1, -znear},
-        {fr.k, 0, fr.cx + G, 0},           /* sx >= -G */
-        {-fr.k, 0, fr.w + G - fr.cx, 0},   /* sx <= W + G */
-        {0, -fr.k, fr.cy + G, 0},          /* sy >= -G */
-        {0, fr.k, fr.h + G - fr.cy, 0},    /* sy <= H + G */
+        {fr.k, 0, zc * (fr.cx + G), oc * (fr.cx + G)},                   /* sx >= -G */
+        {-fr.k, 0, zc * (fr.w + G - fr.cx), oc * (fr.w + G - fr.cx)},    /* sx <= W + G */
+        {0, -fr.k, zc * (fr.cy + G), oc * (fr.cy + G)},                  /* sy >= -G */
+        {0, fr.k, zc * (fr.h + G - fr.cy), oc * (fr.h + G - fr.cy)},     /* sy <= H + G */
     };
+    /* Orthographic depth: zfar − z, positive for everything in front of
+     * the eye up to the scene's extent, so that "larger is nearer" and "0
+     * is background" hold as for 1/z. */
+    double zfar = 2.0 * extent > DBL_MIN ? 2.0 * extent : 1.0;
 
     ibuf ib = {invz, img->patch, fr.w, fr.h};
     rad_vec3 bufa[CLIP_MAX], bufb[CLIP_MAX];
@@ -911,11 +1027,18 @@ int rn_render(const rad_mesh *mesh, uint32_t bands, const double *vertex_B, cons
         rad_vec3 n = pa->normal;
         /* One-sided patch: seen only from the side its normal points to. */
         double Dn = rad_dot(n, rad_sub(pa->center, fr.eye));
-        if (!(Dn < 0.0))
-            continue;
         double nf = rad_dot(n, fr.f), nr = rad_dot(n, fr.r), nu = rad_dot(n, fr.u);
-        depth_plane dp = {nr / (fr.k * Dn), -nu / (fr.k * Dn),
-                          (nf + (0.5 - fr.cx) / fr.k * nr + (fr.cy - 0.5) / fr.k * nu) / Dn};
+        if (fr.ortho ? !(nf < 0.0) : !(Dn < 0.0))
+            continue;
+        depth_plane dp;
+        if (fr.ortho) { /* zfar − z, z = (Dn − x·nr − y·nu)/nf */
+            double q = 1.0 / (fr.k * nf);
+            dp = (depth_plane){nr * q, -nu * q,
+                               zfar - Dn / nf + (0.5 - fr.cx) * nr * q + (fr.cy - 0.5) * nu * q};
+        } else {
+            dp = (depth_plane){nr / (fr.k * Dn), -nu / (fr.k * Dn),
+                               (nf + (0.5 - fr.cx) / fr.k * nr + (fr.cy - 0.5) / fr.k * nu) / Dn};
+        }
         int nc = rad_patch_corners(pa);
         for (int c = 0; c < nc; c++)
             bufa[c] = cv[pa->v[c]];
@@ -930,8 +1053,8 @@ int rn_render(const rad_mesh *mesh, uint32_t bands, const double *vertex_B, cons
             continue;
         int ok = 1;
         for (int c = 0; c < nc; c++) {
-            double sx = fr.cx + fr.k * cur[c].x / cur[c].z;
-            double sy = fr.cy - fr.k * cur[c].y / cur[c].z;
+            double sx = fr.ortho ? fr.cx + fr.k * cur[c].x : fr.cx + fr.k * cur[c].x / cur[c].z;
+            double sy = fr.ortho ? fr.cy - fr.k * cur[c].y : fr.cy - fr.k * cur[c].y / cur[c].z;
             if (!(fabs(sx) < 65536.0) || !(fabs(sy) < 65536.0)) { /* unreachable after the guard band */
                 ok = 0;
                 break;
@@ -966,14 +1089,12 @@ int rn_render(const rad_mesh *mesh, uint32_t bands, const double *vertex_B, cons
             float *px = img->pixels + k * bands;
             for (uint32_t c = 0; c < bands; c++) {
                 double sum = 0.0;
-                for (int q = 0; q < ss.corners; q++)
+                for (int q = 0; q < ss.cell.corners; q++)
                     sum += w[q] * vertex_B[(size_t)v[q] * bands + c];
                 px[c] = (float)(sum * inv_pi);
             }
         }
     }
-    free(invz);
-    free(cv);
     *out = img;
     return RAD_OK;
 }

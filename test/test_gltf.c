@@ -9,6 +9,7 @@
 #include "../radiosity/mesh/mesh.h"
 #include "../radiosity/scene/scene.h"
 #include "test.h"
+#include "util.h"
 
 #include <stdarg.h>
 #include <stdint.h>
@@ -107,6 +108,9 @@ typedef struct spec {
     const char *nodes;      /* whole "nodes" array; NULL = one node "quad" */
     const char *extra;      /* more top-level members, without a trailing comma */
     int glb;                /* wrap as .glb, the buffer in the BIN chunk */
+    int strict;             /* rad_load_options.strict */
+    const unsigned char *tail; /* bytes appended to the buffer (an image), as buffer view 2 */
+    size_t tail_size;
 } spec;
 
 static const char *default_materials =
@@ -139,6 +143,14 @@ static unsigned char *build(const spec *given, size_t *size)
         for (size_t c = 0; c < isz; c++)
             b.d[b.n++] = (unsigned char)(sp->idx[k] >> (8 * c));
     size_t idx_bytes = b.n - pos_bytes;
+    while (b.n % 4)
+        b.d[b.n++] = 0;
+    size_t tail_at = b.n;
+    if (sp->tail_size > sizeof b.d - b.n)
+        abort();
+    if (sp->tail_size)
+        memcpy(b.d + b.n, sp->tail, sp->tail_size);
+    b.n += sp->tail_size;
     while (b.n % 4)
         b.d[b.n++] = 0;
 
@@ -176,6 +188,9 @@ static unsigned char *build(const spec *given, size_t *size)
     if (sp->idx)
         tx_add(&t, ",{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", pos_bytes,
                idx_bytes);
+    if (sp->tail)
+        tx_add(&t, ",{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}", tail_at,
+               sp->tail_size);
     tx_add(&t, "],\"buffers\":[{\"byteLength\":%zu", b.n);
     if (!sp->glb) {
         tx_add(&t, ",\"uri\":\"data:application/octet-stream;base64,");
@@ -213,15 +228,27 @@ static unsigned char *build(const spec *given, size_t *size)
     return out;
 }
 
-/* Parses sp as "test.gltf"; returns the result code, the scene in *out. */
-static int parse(const spec *sp, rad_scene **out, rad_error *err)
+typedef test_warnings caught;
+
+/* Parses sp as "test.gltf" with the warnings into *c (may be NULL);
+ * returns the result code, the scene in *out. */
+static int parse_warn(const spec *sp, rad_scene **out, rad_error *err, caught *c)
 {
     size_t n;
     unsigned char *d = build(sp, &n);
     memset(err, 0, sizeof *err);
-    int rc = rad_scene_parse_gltf(d, n, sp->glb ? "test.glb" : "test.gltf", NULL, out, err);
+    if (c)
+        memset(c, 0, sizeof *c);
+    rad_load_options opt = {.strict = sp->strict, .warn = c ? test_catch_warning : NULL,
+                            .warn_user = c};
+    int rc = rad_scene_parse_gltf(d, n, sp->glb ? "test.glb" : "test.gltf", &opt, out, err);
     free(d);
     return rc;
+}
+
+static int parse(const spec *sp, rad_scene **out, rad_error *err)
+{
+    return parse_warn(sp, out, err, NULL);
 }
 
 /* Parses and expects failure with `code` and `needle` in the message. */
@@ -512,8 +539,8 @@ TEST(glb_container)
 
 /* A camera node at (1,2,3) turned 90° about y looks along the turned -z:
  * R_y(90°) takes (0,0,-1) to (-1,0,0), so the target is (0,2,3); up stays
- * +y; yfov 0.5 rad = 28.64788975654116°.  An orthographic camera is
- * skipped; an unnamed camera takes its node's name. */
+ * +y; yfov 0.5 rad = 28.64788975654116°.  An orthographic camera keeps
+ * xmag and ymag (here 2 and 1); an unnamed camera takes its node's name. */
 TEST(camera_conversion)
 {
     spec sp = {
@@ -525,7 +552,7 @@ TEST(camera_conversion)
         .extra = "\"cameras\":[{\"name\":\"cam\",\"type\":\"perspective\",\"perspective\":"
                  "{\"yfov\":0.5,\"aspectRatio\":1.5,\"znear\":0.1}},"
                  "{\"type\":\"orthographic\",\"orthographic\":"
-                 "{\"xmag\":1,\"ymag\":1,\"znear\":0.1,\"zfar\":10}},"
+                 "{\"xmag\":2,\"ymag\":1,\"znear\":0.1,\"zfar\":10}},"
                  "{\"type\":\"perspective\",\"perspective\":{\"yfov\":1,\"znear\":0.1}}]",
     };
     rad_scene *s;
@@ -534,8 +561,8 @@ TEST(camera_conversion)
     CHECK_MSG(rc == RAD_OK, "%s", err.message);
     if (rc)
         return;
-    CHECK(s->camera_count == 2);
-    if (s->camera_count == 2) {
+    CHECK(s->camera_count == 3);
+    if (s->camera_count == 3) {
         const rad_camera *c = &s->cameras[0];
         CHECK(strcmp(c->name, "cam") == 0);
         CHECK_NEAR(c->eye.x, 1, 1e-12);
@@ -549,7 +576,12 @@ TEST(camera_conversion)
         CHECK_NEAR(u.y, 1, 1e-12);
         CHECK_NEAR(c->yfov_deg, 0.5 * 180.0 / M_PI, 1e-12);
         CHECK_NEAR(c->aspect, 1.5, 0);
-        const rad_camera *c2 = &s->cameras[1];
+        CHECK(!c->orthographic);
+        const rad_camera *o = &s->cameras[1];
+        CHECK(strcmp(o->name, "n2") == 0 && o->orthographic && o->xmag == 2 && o->ymag == 1);
+        CHECK_NEAR(o->aspect, 2, 0);
+        CHECK_NEAR(rad_normalize(rad_sub(o->target, o->eye)).z, -1, 1e-12);
+        const rad_camera *c2 = &s->cameras[2];
         CHECK(strcmp(c2->name, "nodecam") == 0);
         CHECK_NEAR(c2->aspect, 0, 0);
         CHECK_NEAR(rad_normalize(rad_sub(c2->target, c2->eye)).z, -1, 1e-12);
@@ -682,11 +714,152 @@ TEST(ignored_extension)
                .extra = "\"extensionsUsed\":[\"KHR_materials_specular\",\"KHR_materials_ior\"]"};
     rad_scene *s;
     rad_error err;
-    int rc = parse(&sp, &s, &err);
+    caught c;
+    int rc = parse_warn(&sp, &s, &err, &c);
     CHECK_MSG(rc == RAD_OK, "%s", err.message);
     if (rc == RAD_OK)
         CHECK(s->polygon_count == 1);
+    /* named, in one line */
+    CHECK_MSG(c.count == 1 && strcmp(c.line[0], "test.gltf: extensions KHR_materials_specular, "
+                                                "KHR_materials_ior: ignored") == 0,
+              "%d: %s", c.count, c.line[0]);
     rad_scene_destroy(s);
+}
+
+/* ---------------------------------------------------------------- textures */
+
+static uint32_t crc32_of(const unsigned char *p, size_t n)
+{
+    uint32_t c = 0xffffffffu;
+    for (size_t k = 0; k < n; k++) {
+        c ^= p[k];
+        for (int b = 0; b < 8; b++)
+            c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
+    }
+    return c ^ 0xffffffffu;
+}
+
+/* The signature and IHDR of a w × h RGB PNG, no pixel data: enough for a
+ * decoder to know the size. */
+static size_t png_header(unsigned char *out, uint32_t w, uint32_t h)
+{
+    static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    unsigned char ihdr[17] = {'I', 'H', 'D', 'R'};
+    for (int k = 0; k < 4; k++) {
+        ihdr[4 + k] = (unsigned char)(w >> (24 - 8 * k));
+        ihdr[8 + k] = (unsigned char)(h >> (24 - 8 * k));
+    }
+    ihdr[12] = 8; /* bit depth */
+    ihdr[13] = 2; /* RGB */
+    size_t n = 0;
+    memcpy(out, sig, 8);
+    n = 8;
+    out[n++] = 0, out[n++] = 0, out[n++] = 0, out[n++] = 13;
+    memcpy(out + n, ihdr, 17);
+    n += 17;
+    uint32_t crc = crc32_of(ihdr, 17);
+    for (int k = 0; k < 4; k++)
+        out[n++] = (unsigned char)(crc >> (24 - 8 * k));
+    return n;
+}
+
+/* A texture that cannot be read costs a warning and leaves the factor
+ * alone (--strict refuses it instead): undecodable bytes, a texture or
+ * buffer view that does not exist, a file with no directory to look in,
+ * and an image too large to average, refused from its header. */
+TEST(unreadable_textures)
+{
+    unsigned char huge[64];
+    /* 10^8 texels: within what stb_image itself decodes (w·h·3 < 2^30),
+     * beyond the loader's limit of 8192² */
+    size_t huge_n = png_header(huge, 10000, 10000);
+    static const char *const mats =
+        "[{\"name\":\"junk\",\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.5,0.5,1],"
+        "\"baseColorTexture\":{\"index\":0}},\"emissiveFactor\":[1,1,1]}]";
+    struct {
+        const char *extra, *needle;
+    } cases[] = {
+        {"\"textures\":[{\"source\":0}],\"images\":[{\"uri\":\"data:image/png;base64,AAAAAAAA\"}]",
+         "image 0: not a PNG or JPEG image the decoder reads"},
+        {"\"textures\":[],\"images\":[]", "texture 0 does not exist (0 textures)"},
+        {"\"textures\":[{\"source\":0}],\"images\":[{\"bufferView\":9,\"mimeType\":\"image/png\"}]",
+         "image 0: buffer view 9 does not exist"},
+        {"\"textures\":[{\"source\":0}],\"images\":[{\"uri\":\"no%20such.png\"}]",
+         "image 0 'no%20such.png': cannot open 'no such.png'"},
+        {"\"textures\":[{\"source\":0}],\"images\":[{\"uri\":\"../up.png\"}]",
+         "external file '../up.png' refused"},
+        {"\"textures\":[{\"source\":0}],\"images\":[{\"bufferView\":2,\"mimeType\":\"image/png\","
+         "\"name\":\"big\"}]",
+         "image 0 'big': 10000 × 10000 texels, more than the limit of 67108864"},
+        {"\"textures\":[{\"extensions\":{\"EXT_texture_webp\":{\"source\":0}}}],"
+         "\"images\":[{\"uri\":\"a.webp\"}]",
+         "texture 0: no PNG or JPEG source"},
+    };
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        for (int glb = 0; glb < 2; glb++) {
+            spec sp = {.materials = mats, .extra = cases[k].extra, .glb = glb,
+                       .tail = huge, .tail_size = huge_n};
+            rad_scene *s;
+            rad_error err;
+            caught c;
+            int rc = parse_warn(&sp, &s, &err, &c);
+            CHECK_MSG(rc == RAD_OK, "case %zu: %s", k, err.message);
+            if (rc == RAD_OK) {
+                CHECK(s->materials[0].rho[0] == 0.5); /* the factor alone */
+                CHECK_MSG(c.count == 1 && strstr(c.line[0], "texture 'junk' baseColorTexture (") &&
+                              strstr(c.line[0], cases[k].needle) &&
+                              strstr(c.line[0], "not read: the factor alone is used"),
+                          "case %zu: %d lines: %s", k, c.count, c.line[0]);
+            }
+            rad_scene_destroy(s);
+            sp.strict = 1;
+            expect_error(&sp, RAD_ERR_INVALID, cases[k].needle);
+        }
+    }
+}
+
+/* COLOR_0 must match POSITION and hold colours; float colours are taken as
+ * they are (linear), normalised integers divided by their maximum. */
+TEST(vertex_color_accessors)
+{
+    /* accessor 2: 4 float RGB colours in buffer view 2 */
+    static const float col[12] = {0.2f, 0.4f, 0.6f, 0.2f, 0.4f, 0.6f,
+                                  0.2f, 0.4f, 0.6f, 0.2f, 0.4f, 0.6f};
+    unsigned char bytes[48];
+    memcpy(bytes, col, sizeof bytes); /* little-endian hosts only, like the rest */
+    spec sp = {.tail = bytes, .tail_size = sizeof bytes,
+               .accessors = ",{\"bufferView\":2,\"componentType\":5126,\"count\":4,"
+                            "\"type\":\"VEC3\"}",
+               .prim = "\"material\":0,\"attributes\":{\"POSITION\":0,\"COLOR_0\":2}"};
+    /* the builder writes its own attributes first; give the primitive whole */
+    sp.meshes = "[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"COLOR_0\":2},"
+                "\"indices\":1,\"material\":0}]}]";
+    rad_scene *s;
+    rad_error err;
+    int rc = parse(&sp, &s, &err);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc == RAD_OK && s->polygon_count == 1) {
+        const double *rho = rad_polygon_rho(s, 0);
+        /* grey 0.5 × colour; float32 0.2 etc. carried exactly to double */
+        CHECK_NEAR(rho[0], 0.5 * (double)0.2f, 1e-15);
+        CHECK_NEAR(rho[1], 0.5 * (double)0.4f, 1e-15);
+        CHECK_NEAR(rho[2], 0.5 * (double)0.6f, 1e-15);
+        CHECK(s->materials[0].rho[0] == 0.5); /* the material keeps its own */
+    }
+    rad_scene_destroy(s);
+
+    spec three = sp;
+    three.accessors = ",{\"bufferView\":2,\"componentType\":5126,\"count\":3,\"type\":\"VEC3\"}";
+    expect_error(&three, RAD_ERR_PARSE, "COLOR_0 has 3 elements, POSITION 4");
+    spec vec2 = sp;
+    vec2.accessors = ",{\"bufferView\":2,\"componentType\":5126,\"count\":4,\"type\":\"VEC2\"}";
+    expect_error(&vec2, RAD_ERR_PARSE, "COLOR_0 accessor 2: type VEC2, expected VEC3 or VEC4");
+    static const float neg[12] = {0.2f, -0.4f, 0.6f};
+    unsigned char nb[48];
+    memcpy(nb, neg, sizeof nb);
+    spec negative = sp;
+    negative.tail = nb;
+    expect_error(&negative, RAD_ERR_PARSE, "COLOR_0 of vertex 0 is -0.4");
 }
 
 /* ----------------------------------------------------------------- errors */
@@ -717,9 +890,12 @@ TEST(error_malformed_json)
 
 TEST(error_mode_lines)
 {
-    spec sp = {.mesh_name = "M",
-               .prim = "\"material\":0,\"mode\":1"};
+    /* --strict refuses a primitive without area */
+    spec sp = {.mesh_name = "M", .strict = 1, .prim = "\"material\":0,\"mode\":1"};
     expect_error(&sp, RAD_ERR_INVALID, "mesh 'M' primitive 0: mode LINES not supported");
+    /* a strip is refused either way */
+    spec strip = {.mesh_name = "M", .prim = "\"material\":0,\"mode\":5"};
+    expect_error(&strip, RAD_ERR_INVALID, "mesh 'M' primitive 0: mode TRIANGLE_STRIP not supported");
 }
 
 TEST(error_index_out_of_range)
@@ -750,19 +926,61 @@ TEST(error_required_extension)
 
 TEST(error_base_color_one)
 {
-    spec sp = {.materials = "[{\"name\":\"X\",\"pbrMetallicRoughness\":"
+    spec sp = {.strict = 1,
+               .materials = "[{\"name\":\"X\",\"pbrMetallicRoughness\":"
                             "{\"baseColorFactor\":[0.5,1.0,0.5,1]}}]"};
     expect_error(&sp, RAD_ERR_INVALID, "material 'X': baseColorFactor 1 is not a reflectance below 1");
     /* no pbrMetallicRoughness at all: glTF's default white 1.0 */
-    spec sp2 = {.materials = "[{\"name\":\"plain\"}]"};
+    spec sp2 = {.strict = 1, .materials = "[{\"name\":\"plain\"}]"};
     expect_error(&sp2, RAD_ERR_INVALID, "material 'plain': baseColorFactor 1");
 }
 
 TEST(error_no_material)
 {
-    spec sp = {.mesh_name = "M",
-               .prim = "\"mode\":4"};
+    spec sp = {.mesh_name = "M", .strict = 1, .prim = "\"mode\":4"};
     expect_error(&sp, RAD_ERR_INVALID, "mesh 'M' primitive 0: no material");
+}
+
+/* Without --strict: a factor of 1 is clamped to 0.95 per band (the others
+ * kept), a primitive without a material gets glTF's white, clamped the
+ * same way; each named once in its line. */
+TEST(clamp_and_default_material)
+{
+    spec sp = {.materials = "[{\"name\":\"X\",\"emissiveFactor\":[1,1,1],"
+                            "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,1.0,0.5,1]}}]"};
+    rad_scene *s;
+    rad_error err;
+    caught c;
+    int rc = parse_warn(&sp, &s, &err, &c);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc == RAD_OK) {
+        CHECK(s->materials[0].rho[0] == 0.5 && s->materials[0].rho[1] == 0.95 &&
+              s->materials[0].rho[2] == 0.5);
+        CHECK_MSG(c.count == 1 && strstr(c.line[0], "test.gltf: material 'X': reflectance >= 1 "
+                                                    "clamped to 0.95") != NULL,
+                  "%d: %s", c.count, c.line[0]);
+    }
+    rad_scene_destroy(s);
+
+    /* two primitives without a material, one with: one default material */
+    spec nm = {.mesh_name = "M",
+               .meshes = "[{\"name\":\"M\",\"primitives\":["
+                         "{\"attributes\":{\"POSITION\":0},\"indices\":1},"
+                         "{\"attributes\":{\"POSITION\":0},\"indices\":1,\"material\":0},"
+                         "{\"attributes\":{\"POSITION\":0},\"indices\":1,\"mode\":1}]}]"};
+    rc = parse_warn(&nm, &s, &err, &c);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc == RAD_OK) {
+        uint32_t d = rad_scene_find_material(s, "default");
+        CHECK(d != RAD_NONE && s->material_count == 2);
+        if (d != RAD_NONE)
+            CHECK(s->materials[d].rho[0] == 0.95 && s->materials[d].emission[0] == 0.0);
+        CHECK(s->polygon_count == 2);
+        CHECK_MSG(c.count == 2, "%d warning lines", c.count);
+        CHECK(strstr(c.line[0], "mesh 'M': primitives without a material") != NULL);
+        CHECK(strstr(c.line[1], "mesh 'M' (LINES): primitives without area") != NULL);
+    }
+    rad_scene_destroy(s);
 }
 
 TEST(error_truncated_glb)
@@ -1030,6 +1248,9 @@ int main(void)
     RUN(error_required_extension);
     RUN(error_base_color_one);
     RUN(error_no_material);
+    RUN(clamp_and_default_material);
+    RUN(unreadable_textures);
+    RUN(vertex_color_accessors);
     RUN(error_truncated_glb);
     RUN(error_structure);
     RUN(external_buffers);

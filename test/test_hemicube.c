@@ -208,10 +208,11 @@ TEST(parallel_squares_analytic)
         double f12 = polygon_ff(&b, F, 0, 256, 256, 512);
         double f21 = polygon_ff(&b, F, 256, 512, 0, 256);
         printf("     parallel squares: F12 = %.8f F21 = %.8f (Howell C-11: 0.19982490)\n", f12, f21);
-        /* Hemi-cube aliasing at R=128 with 16×16 patches stays well under
-         * 0.5 % (the brief's bound). */
-        CHECK_REL(f12, 0.19982490, 5e-3);
-        CHECK_REL(f21, 0.19982490, 5e-3);
+        /* Hemi-cube aliasing and centre sampling at R = 128 with 16×16
+         * patches: +5.9e-4 (measured; the brief's bound is 0.5 %).  0.2 %,
+         * so that a factor shifted by 0.4 % either way fails. */
+        CHECK_REL(f12, 0.19982490, 2e-3);
+        CHECK_REL(f21, 0.19982490, 2e-3);
         rad_error err;
         CHECK(rad_matrix_check(F, &err) == RAD_OK);
     }
@@ -230,9 +231,9 @@ TEST(perpendicular_squares_analytic)
         printf("     perpendicular squares: F12 = %.8f (Howell C-14: 0.20004378), rel. error %.2e\n",
                f12, f12 / 0.20004378 - 1);
         /* Patches next to the common edge see the other square at close
-         * range where the hemi-cube's point-at-centre assumption is coarse;
-         * the brief allows 1 %. */
-        CHECK_REL(f12, 0.20004378, 1e-2);
+         * range where the hemi-cube's point-at-centre assumption is coarse
+         * (the brief allows 1 %); measured -1.5e-4, so 5e-4. */
+        CHECK_REL(f12, 0.20004378, 5e-4);
     }
     rad_matrix_destroy(F);
     builder_free(&b);
@@ -484,7 +485,7 @@ TEST(far_from_origin)
         /* Geometry is sent relative to the scene centre, so the offset costs
          * (almost) nothing; 1e-3 per the brief. */
         CHECK_REL(g, f, 1e-3);
-        CHECK_REL(g, 0.19982490, 5e-3);
+        CHECK_REL(g, 0.19982490, 2e-3); /* as parallel_squares_analytic */
     }
     rad_matrix_destroy(F);
     rad_matrix_destroy(G);

@@ -56,8 +56,9 @@ static rad_solution *solve_text(const char *text, rad_solve_options *opt)
 }
 
 /* Furnace: every patch of a closed cube with E = 1 and ρ = 0.5 has B = 2.
- * Tolerance 0.5 % (issue 2): the hemi-cube's row sums are 1 within 1e-3,
- * which moves B by at most ρ/(1-ρ)·1e-3 = 0.1 %, plus the solver's 1e-4. */
+ * The hemi-cube's rows sum to 1 up to float rounding of the entries, so
+ * what is left is the solver's tolerance, 1e-4 of max B (measured 3.8e-5):
+ * 2e-4.  Rows summing to 1.004 would move B by ρ/(1 − ρ)·0.004 = 0.4 %. */
 TEST(furnace_cube)
 {
     char text[8192];
@@ -70,14 +71,16 @@ TEST(furnace_cube)
     double worst = 0;
     for (size_t k = 0; k < (size_t)s->mesh->patch_count * 3; k++)
         worst = fmax(worst, fabs(s->B[k] - 2.0) / 2.0);
-    CHECK_MSG(worst < 5e-3, "worst relative error %.3g", worst);
+    CHECK_MSG(worst < 2e-4, "worst relative error %.3g", worst);
     printf("  furnace: %u patches, worst |B - 2E|/2E = %.2e\n", s->mesh->patch_count, worst);
     rad_solution_destroy(s);
 }
 
 /* Two parallel unit squares one unit apart, 16×16 patches each: the
- * area-weighted polygon-to-polygon factor within 0.5 % of Howell C-11's
- * 0.19982490 (issue 2's acceptance tolerance). */
+ * area-weighted polygon-to-polygon factor (rad_object_form_factors) within
+ * 0.2 % of Howell C-11's 0.19982490: the hemi-cube at R = 128 on this mesh
+ * is +5.9e-4 off (measured; `radiosity validate` shows the same), so a
+ * factor shifted by 0.4 % either way fails. */
 TEST(parallel_squares_ff)
 {
     const char *text = "bands 1\n"
@@ -92,9 +95,10 @@ TEST(parallel_squares_ff)
     double M[4];
     rad_error err;
     CHECK(rad_object_form_factors(s, M, &err) == RAD_OK);
-    CHECK_REL(M[0 * 2 + 1], 0.19982490, 5e-3);
-    CHECK_REL(M[1 * 2 + 0], 0.19982490, 5e-3);
-    printf("  F_bottom,top = %.6f, F_top,bottom = %.6f (analytic 0.19982490)\n", M[1], M[2]);
+    CHECK_REL(M[0 * 2 + 1], 0.19982490, 2e-3);
+    CHECK_REL(M[1 * 2 + 0], 0.19982490, 2e-3);
+    printf("  F_bottom,top = %.6f (%+.1e), F_top,bottom = %.6f (%+.1e) (analytic 0.19982490)\n",
+           M[1], M[1] / 0.19982490 - 1, M[2], M[2] / 0.19982490 - 1);
     rad_solution_destroy(s);
 }
 

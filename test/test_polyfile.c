@@ -45,7 +45,8 @@ static const char *GOOD =
     "  polygon side wall 0 0 0  0.2 0 0  0.2 0.5 0 0 0.5 0 end\n"
     "end\n"
     "camera front eye 0.5 0.5 -1 target 0.5 0.5 0 up 0 1 0 fov 45\n"
-    "camera side eye -1 0.5 0.5 target 0 0.5 0.5 up 0 1 0 fov 30.5\n";
+    "camera side eye -1 0.5 0.5 target 0 0.5 0.5 up 0 1 0 fov 30.5\n"
+    "camera plan eye 0.5 2 0.5 target 0.5 0 0.5 up 0 0 1 ortho 0.75\n";
 
 TEST(good_file)
 {
@@ -61,7 +62,7 @@ TEST(good_file)
     CHECK(s->material_count == 3);
     CHECK(s->polygon_count == 5);
     CHECK(s->object_count == 4); /* floor, light, pane, box */
-    CHECK(s->camera_count == 2);
+    CHECK(s->camera_count == 3);
     CHECK(s->point_count == 4 + 4 + 3 + 3 + 4);
 
     uint32_t wall = rad_scene_find_material(s, "wall"), lamp = rad_scene_find_material(s, "lamp"),
@@ -100,7 +101,10 @@ TEST(good_file)
     CHECK(cam == 1);
     CHECK(s->cameras[cam].eye.x == -1 && s->cameras[cam].target.z == 0.5 &&
           s->cameras[cam].up.y == 1 && s->cameras[cam].yfov_deg == 30.5);
-    CHECK(s->cameras[0].aspect == 0.0);
+    CHECK(s->cameras[0].aspect == 0.0 && !s->cameras[0].orthographic);
+    uint32_t plan = rad_scene_find_camera(s, "plan");
+    CHECK(plan == 2 && s->cameras[plan].orthographic && s->cameras[plan].ymag == 0.75 &&
+          s->cameras[plan].xmag == 0.75);
     CHECK(rad_scene_validate(s, &e) == RAD_OK);
     rad_scene_destroy(s);
 }
@@ -149,8 +153,10 @@ TEST(material_errors)
     CHECK(refuses(HEAD "material x emission 1e999\n", RAD_ERR_PARSE,
                   "line 4: material 'x': emission '1e999' is not a finite number"));
     CHECK(refuses(HEAD "material x\n\ncolour 1\n", RAD_ERR_PARSE,
-                  "room.rad: line 6: material 'x': expected reflectance, emission or "
-                  "transmittance, found 'colour'"));
+                  "room.rad: line 6: material 'x': expected reflectance, emission, "
+                  "transmittance, metallic or roughness, found 'colour'"));
+    CHECK(refuses(HEAD "material x reflectance 0.5 metallic 2\n", RAD_ERR_INVALID,
+                  "room.rad: line 4: material 'x': metallic 2 outside [0, 1]"));
     CHECK(refuses(HEAD "material x reflectance 0.1\n reflectance 0.2", RAD_ERR_PARSE,
                   "room.rad: line 5: material 'x': reflectance given twice"));
     CHECK(refuses(HEAD "material x reflectance 0.5 1.2 0.5\n", RAD_ERR_INVALID,
@@ -237,6 +243,10 @@ TEST(camera_errors)
     CHECK(refuses(HEAD "camera c eye 0 0 0 target 0 0 1 up 0 1 0 fov 40\n"
                        "camera c eye 0 0 0 target 0 0 1 up 0 1 0 fov 40\n",
                   RAD_ERR_INVALID, "line 5: camera 'c': a camera of this name already exists"));
+    CHECK(refuses(HEAD "camera c eye 0 0 0 target 0 0 1 up 0 1 0 ortho -2\n", RAD_ERR_INVALID,
+                  "line 4: camera 'c': orthographic half-sizes -2 × -2 must be finite and > 0"));
+    CHECK(refuses(HEAD "camera c eye 0 0 0 target 0 0 1 up 0 1 0 ortho\n", RAD_ERR_PARSE,
+                  "expected ortho (half-height), found end of file"));
 }
 
 TEST(lexical_errors)

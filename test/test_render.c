@@ -107,16 +107,22 @@ static void rect_z(rad_vec3 c[4], double x0, double y0, double x1, double y1, do
 
 /* ------------------------------------------------------------ camera */
 
-/* The eye ray of pixel (i, j), written from render.h's convention. */
-static rad_vec3 ray_dir(const rn_camera *cam, uint32_t i, uint32_t j, double di, double dj)
+/* The ray of pixel (i, j), written from render.h's convention: from the
+ * eye through the pixel (perspective), or along the view from the pixel's
+ * point of the window 2·ymag high (orthographic).  Returns the direction,
+ * the origin in *o. */
+static rad_vec3 pixel_ray(const rn_camera *cam, uint32_t i, uint32_t j, double di, double dj,
+                          rad_vec3 *o)
 {
     rad_vec3 f = rad_normalize(rad_sub(cam->target, cam->eye));
     rad_vec3 r = rad_normalize(rad_cross(f, cam->up));
     rad_vec3 u = rad_cross(r, f);
-    double t = tan(cam->yfov_deg * M_PI / 360.0);
+    double t = cam->orthographic ? cam->ymag : tan(cam->yfov_deg * M_PI / 360.0);
     double a = (2.0 * (i + 0.5 + di) / cam->width - 1.0) * t * cam->width / cam->height;
     double b = (1.0 - 2.0 * (j + 0.5 + dj) / cam->height) * t;
-    return rad_add(f, rad_add(rad_scale(r, a), rad_scale(u, b)));
+    rad_vec3 across = rad_add(rad_scale(r, a), rad_scale(u, b));
+    *o = cam->orthographic ? rad_add(cam->eye, across) : cam->eye;
+    return cam->orthographic ? f : rad_add(f, across);
 }
 
 /* Where the ray meets the plane (p0, n); 0 when it does not (in front). */
@@ -156,7 +162,7 @@ static int patch_at(const rad_mesh *m, rad_vec3 x, int *any)
 
 static rn_camera camera(rad_vec3 eye, rad_vec3 target, rad_vec3 up, double fov, uint32_t w, uint32_t h)
 {
-    rn_camera c = {eye, target, up, fov, w, h};
+    rn_camera c = {.eye = eye, .target = target, .up = up, .yfov_deg = fov, .width = w, .height = h};
     return c;
 }
 
@@ -349,7 +355,8 @@ static int check_view(const rad_mesh *m, uint32_t bands, const double *vb, const
         return 0;
     CHECK(img->width == cam->width && img->height == cam->height && img->channels == bands);
     rad_vec3 p0 = m->patches[0].center, n = m->patches[0].normal;
-    int front = rad_dot(rad_sub(cam->eye, p0), n) > 0.0;
+    int front = cam->orthographic ? rad_dot(rad_sub(cam->target, cam->eye), n) < 0.0
+                                  : rad_dot(rad_sub(cam->eye, p0), n) > 0.0;
     int certain = 0, bad_cov = 0, bad_id = 0, bad_bg = 0, bad_val = 0;
     for (uint32_t j = 0; j < cam->height; j++)
         for (uint32_t i = 0; i < cam->width; i++) {
@@ -357,9 +364,10 @@ static int check_view(const rad_mesh *m, uint32_t bands, const double *vb, const
             int same = -2, all_in = 1, none = 1;
             rad_vec3 xc = {0, 0, 0};
             for (int q = 0; q < 5; q++) {
-                rad_vec3 x;
+                rad_vec3 x, o;
                 int any = 0, p = -1;
-                if (front && ray_plane(cam->eye, ray_dir(cam, i, j, off[q][0], off[q][1]), p0, n, &x))
+                rad_vec3 d = pixel_ray(cam, i, j, off[q][0], off[q][1], &o);
+                if (front && ray_plane(o, d, p0, n, &x))
                     p = patch_at(m, x, &any);
                 if (q == 0)
                     xc = x;
@@ -600,6 +608,64 @@ TEST(occlusion_and_culling)
         seen += img->patch[k] != RAD_NONE || img->pixels[k] != 0.0f;
     CHECK(img && seen == 0);
     rn_image_destroy(img);
+    mesh_free(m);
+}
+
+/* Orthographic views: pixel by pixel against the geometry (coverage, the
+ * patch seen, a linear field exactly), head-on and oblique; the window is
+ * 2·ymag high whatever the distance, and nothing behind the eye shows. */
+TEST(orthographic_views)
+{
+    rad_vec3 c[4];
+    rect_z(c, -1, -1, 1, 1, 0, 0);
+    rad_mesh *m = mesh_new(25, 16);
+    add_grid(m, c, 4, 4, 0, 0);
+    const double k[4] = {3.0, 1.1, -0.6, 0.0};
+    double *vb = vertex_field(m, 2, k);
+    rn_camera cam = camera(rad_v3(0, 0, 5), rad_v3(0, 0, 0), rad_v3(0, 1, 0), 45, 40, 40);
+    cam.orthographic = 1;
+    cam.ymag = 2.0; /* 10 pixels per unit: the quad covers columns and rows 10..29 */
+    rn_image *img = NULL;
+    CHECK(check_view(m, 2, vb, &cam, field_lin, k, &img) > 300);
+    if (img) {
+        CHECK(img->patch[20 * 40 + 9] == RAD_NONE && img->patch[20 * 40 + 10] != RAD_NONE);
+        CHECK(img->patch[20 * 40 + 29] != RAD_NONE && img->patch[20 * 40 + 30] == RAD_NONE);
+        CHECK(img->patch[9 * 40 + 20] == RAD_NONE && img->patch[10 * 40 + 20] != RAD_NONE);
+    }
+    rn_image_destroy(img);
+    img = NULL;
+    /* ten times farther, the same picture (a perspective one would shrink) */
+    rn_camera far = cam;
+    far.eye = rad_v3(0, 0, 50);
+    CHECK(check_view(m, 2, vb, &far, field_lin, k, &img) > 300);
+    if (img)
+        CHECK(img->patch[20 * 40 + 10] != RAD_NONE && img->patch[20 * 40 + 9] == RAD_NONE);
+    rn_image_destroy(img);
+    /* obliquely, wider than high */
+    rn_camera ob = camera(rad_v3(1.5, -2.0, 3.0), rad_v3(0.1, 0.1, 0.5), rad_v3(0, 0, 1), 45, 90, 70);
+    ob.orthographic = 1;
+    ob.ymag = 1.3;
+    CHECK(check_view(m, 2, vb, &ob, field_lin, k, NULL) > 1000);
+    free(vb);
+    mesh_free(m);
+
+    /* a front-facing quad behind the eye is not drawn */
+    rect_z(c, -1, -1, 1, 1, 6, 0);
+    m = mesh_new(4, 1);
+    add_grid(m, c, 1, 1, 0, 0);
+    double v1[4] = {1, 1, 1, 1};
+    rad_error err;
+    img = NULL;
+    CHECK(rn_render(m, 1, v1, &cam, &img, &err) == RAD_OK);
+    int seen = 0;
+    for (size_t q = 0; img && q < 40u * 40u; q++)
+        seen += img->patch[q] != RAD_NONE;
+    CHECK(img && seen == 0);
+    rn_image_destroy(img);
+
+    /* a half-height that is not a positive number is refused */
+    cam.ymag = 0.0;
+    CHECK(rn_render(m, 1, v1, &cam, &img, &err) == RAD_ERR_USAGE);
     mesh_free(m);
 }
 
@@ -882,6 +948,7 @@ int main(void)
     RUN(linear_ramp_triangles);
     RUN(no_cracks);
     RUN(occlusion_and_culling);
+    RUN(orthographic_views);
     RUN(equal_depth_lower_index_wins);
     RUN(bad_arguments);
     RUN(exr_round_trip);

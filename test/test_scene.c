@@ -375,6 +375,78 @@ TEST(camera_checks)
     rad_scene_destroy(s);
 }
 
+/* Orthographic cameras: positive finite half-sizes, the shared checks
+ * otherwise; a placeholder fov so that perspective-only readers take them. */
+TEST(ortho_camera_checks)
+{
+    rad_scene *s = base_scene();
+    rad_error e = {0};
+    rad_vec3 eye = {0, 0, -1}, target = {0, 0, 0}, up = {0, 1, 0};
+    CHECK(rad_scene_add_ortho_camera(s, "o", eye, target, up, 2, 0, "line 9", NULL, &e) ==
+          RAD_ERR_INVALID);
+    CHECK_MSG(has(&e, "t.rad: line 9: camera 'o': orthographic half-sizes 2 × 0 must be finite "
+                      "and > 0"),
+              "%s", e.message);
+    CHECK(rad_scene_add_ortho_camera(s, "o", eye, target, up, INFINITY, 1, "line 9", NULL, &e) ==
+          RAD_ERR_INVALID);
+    CHECK(rad_scene_add_ortho_camera(s, "o", eye, eye, up, 1, 1, "line 9", NULL, &e) ==
+          RAD_ERR_INVALID);
+    CHECK_MSG(has(&e, "eye and target coincide"), "%s", e.message);
+    uint32_t idx;
+    CHECK(rad_scene_add_ortho_camera(s, "o", eye, target, up, 3, 1.5, "line 9", &idx, &e) ==
+          RAD_OK);
+    const rad_camera *c = &s->cameras[idx];
+    CHECK(c->orthographic && c->xmag == 3 && c->ymag == 1.5 && c->aspect == 2 &&
+          c->yfov_deg > 0 && c->yfov_deg < 180);
+    /* a perspective camera made orthographic (the solution reader's way) */
+    CHECK(rad_scene_add_camera(s, "p", eye, target, up, 40, 0, "line 10", &idx, &e) == RAD_OK);
+    CHECK(!s->cameras[idx].orthographic);
+    CHECK(rad_scene_set_camera_ortho(s, idx, -1, 1, "CAMS", &e) == RAD_ERR_INVALID);
+    CHECK(!s->cameras[idx].orthographic);
+    CHECK(rad_scene_set_camera_ortho(s, idx, 1, 2, "CAMS", &e) == RAD_OK);
+    CHECK(s->cameras[idx].orthographic && s->cameras[idx].ymag == 2);
+    rad_scene_destroy(s);
+}
+
+/* A polygon's own ρ: refused outside [0, 1) or with τ reaching 1; given,
+ * it overrides the material's for that polygon only, and polygons added
+ * later start from their material's. */
+TEST(polygon_reflectance)
+{
+    rad_scene *s = base_scene();
+    rad_error e = {0};
+    double tau[3] = {0.3, 0.3, 0.3}, rho[3] = {0.2, 0.2, 0.2}, zero[3] = {0, 0, 0};
+    uint32_t sheet;
+    CHECK(rad_scene_add_material(s, "sheet", rho, zero, tau, "line 3", &sheet, &e) == RAD_OK);
+    rad_vec3 sq[4] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+    CHECK(rad_scene_add_polygon(s, "a", 0, 0, sq, 4, 0, 0, "line 4", NULL, &e) == RAD_OK);
+    CHECK(rad_scene_add_polygon(s, "b", 0, sheet, sq, 4, 0, 0, "line 5", NULL, &e) == RAD_OK);
+    CHECK(s->polygon_rho == NULL && rad_polygon_rho(s, 0)[0] == 0.5);
+    double bad[3] = {0.1, 1.0, 0.1};
+    CHECK(rad_scene_set_polygon_rho(s, 0, bad, "tri 7", &e) == RAD_ERR_INVALID);
+    CHECK_MSG(has(&e, "t.rad: tri 7: polygon 'a': reflectance 1 outside [0, 1) in band 1"), "%s",
+              e.message);
+    double over[3] = {0.1, 0.75, 0.1}; /* + τ 0.3 */
+    CHECK(rad_scene_set_polygon_rho(s, 1, over, "tri 8", &e) == RAD_ERR_INVALID);
+    CHECK_MSG(has(&e, "reflectance + transmittance = 1.05 must be < 1"), "%s", e.message);
+    CHECK(s->polygon_rho == NULL); /* nothing changed on failure */
+    double own[3] = {0.1, 0.6, 0.3};
+    CHECK(rad_scene_set_polygon_rho(s, 0, own, "tri 9", &e) == RAD_OK);
+    CHECK(rad_polygon_rho(s, 0)[1] == 0.6 && rad_polygon_rho(s, 1)[1] == 0.2);
+    CHECK(s->materials[0].rho[1] == 0.5); /* the material keeps its own */
+    /* many more polygons: the array grows with them, each its material's */
+    for (int k = 0; k < 40; k++) {
+        char name[16];
+        snprintf(name, sizeof name, "c%d", k);
+        CHECK(rad_scene_add_polygon(s, name, 0, k % 2 ? sheet : 0, sq, 4, 0, 0, "line 6", NULL,
+                                    &e) == RAD_OK);
+    }
+    CHECK(rad_polygon_rho(s, 41)[2] == 0.2 && rad_polygon_rho(s, 40)[2] == 0.5);
+    CHECK(rad_polygon_rho(s, 0)[2] == 0.3);
+    CHECK(rad_scene_set_polygon_rho(s, 42, own, "x", &e) == RAD_ERR_USAGE);
+    rad_scene_destroy(s);
+}
+
 TEST(validate_scene)
 {
     rad_error e = {0};
@@ -430,6 +502,8 @@ int main(void)
     RUN(polygon_bad_indices);
     RUN(where_names_element_once);
     RUN(camera_checks);
+    RUN(ortho_camera_checks);
+    RUN(polygon_reflectance);
     RUN(validate_scene);
     RUN(empty_scene_bounds);
     return test_finish("test_scene");

@@ -25,7 +25,7 @@
 
 /* CRC-64/XZ written from its definition (bit by bit, reflected polynomial
  * 0xC96C5795D7870F42, init and final XOR all ones), independent of
- * solution.c's table-driven code.  crc_step advances the raw register. */
+ * store/format.c's table-driven code.  crc_step advances the raw register. */
 static uint64_t crc_step(uint64_t reg, uint8_t byte)
 {
     reg ^= byte;
@@ -601,7 +601,7 @@ static int load_golden(void)
 TEST(crc_matches_published_check_value)
 {
     /* The catalogue check value of CRC-64/XZ: validates this file's CRC,
-     * which the layout tests below use to judge solution.c's. */
+     * which the layout tests below use to judge store/read.c's. */
     CHECK(crc64_xz((const uint8_t *)"123456789", 9) == 0x995DC9BBDF1939FAull);
     CHECK(crc64_xz(NULL, 0) == 0);
 }

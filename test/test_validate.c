@@ -3,9 +3,10 @@
  *
  * Expected values are catalog numbers written here (Howell's tables, as
  * printed to 8 digits), closed forms (B = E/(1 − ρ), the 2×2 plate system),
- * or geometric facts (a polygon's area); the promises are the bounds the
- * report states for the default settings.  No expected value comes from a
- * run of the code under test.
+ * or geometric facts (a polygon's area); every bound is written here
+ * beside the error measured when it was set (the library's own promises,
+ * which `radiosity validate` checks, are not trusted).  No expected value
+ * comes from a run of the code under test.
  */
 #include "../radiosity/validate/validate.h"
 #include "test.h"
@@ -25,9 +26,47 @@ static rad_val_result run(rad_val_case c)
     return r;
 }
 
-/* Every standard case at the default settings (R = 128, the documented
- * subdivision) is within the error the report promises for it. */
-TEST(defaults_within_promise)
+/* The standard cases at the default settings (R = 128, the subdivision
+ * written here) and the bound each must meet, |value/exact − 1| <= bound.
+ * The bounds are this test's own, not the promises the library keeps for
+ * `radiosity validate`: about 1.5-2× the error measured (beside each; the
+ * release and sanitizer builds measure the same), so that any factor
+ * shifted by 0.4 % fails several of them.  The enclosure's row sums are
+ * bounded by float storage of F_ij (at most 6e-8 of a row), the closed
+ * cubes by the solver's tolerance 1e-7. */
+static const struct expected_case {
+    rad_val_config config;
+    const char *label;
+    double a, b, c, rho, rho_a;
+    uint32_t subdiv;
+    double bound;    /* |rel_error| */
+    double measured; /* rel_error when the bound was set (documentation only) */
+} expected[] = {
+    {RAD_VAL_PARALLEL, "near", 1, 1, 0.1, 0.5, 0, 16, 5e-3, +3.31e-3},
+    {RAD_VAL_PARALLEL, "unit", 1, 1, 1, 0.5, 0, 16, 1e-3, +5.93e-4},
+    {RAD_VAL_PARALLEL, "far", 1, 1, 10, 0.5, 0, 16, 1.2e-2, -7.69e-3},
+    {RAD_VAL_PARALLEL, "elongated", 10, 1, 1, 0.5, 0, 8, 2e-3, +1.15e-3},
+    {RAD_VAL_PERPENDICULAR, "unit", 1, 1, 1, 0.5, 0, 16, 3e-4, +1.24e-4},
+    {RAD_VAL_PERPENDICULAR, "elongated", 10, 1, 1, 0.5, 0, 8, 1.5e-3, -6.92e-4},
+    {RAD_VAL_DISKS, "near", 0.5, 0.5, 0.1, 0.5, 0, 4, 1.5e-2, +9.71e-3},
+    {RAD_VAL_DISKS, "unit", 0.5, 0.5, 1, 0.5, 0, 4, 1.5e-3, +8.68e-4},
+    {RAD_VAL_DISKS, "far", 0.5, 0.5, 10, 0.5, 0, 4, 1.5e-3, -8.87e-4},
+    {RAD_VAL_ELEMENT, "near", 1, 1, 0.1, 0.5, 0, 4, 1.5e-3, +9.83e-4},
+    {RAD_VAL_ELEMENT, "unit", 1, 1, 1, 0.5, 0, 4, 1e-4, -1.70e-5},
+    /* a 1e-3 element 10 away sees the square as ~13 pixels: pixel error */
+    {RAD_VAL_ELEMENT, "far", 1, 1, 10, 0.5, 0, 4, 0.15, -1.20e-1},
+    {RAD_VAL_ELEMENT, "elongated", 10, 1, 1, 0.5, 0, 4, 3.5e-3, +2.36e-3},
+    {RAD_VAL_ENCLOSURE, "", 1, 1, 1, 0.5, 0, 4, 1e-7, -4.89e-9},
+    {RAD_VAL_CLOSED_CUBE, "", 1, 1, 1, 0.5, 0, 4, 3e-7, -3.88e-8},
+    {RAD_VAL_CLOSED_CUBE, "", 1, 1, 1, 0.9, 0, 4, 3e-7, -5.20e-8},
+    {RAD_VAL_PLATES, "black emitter", 1, 1, 1, 0.5, 0, 16, 1e-3, +5.93e-4},
+    {RAD_VAL_PLATES, "both reflect", 1, 1, 1, 0.5, 0.5, 16, 1.5e-3, +8.72e-4},
+    {RAD_VAL_CUBE_LAMP, "", 1, 1, 1, 0.5, 0, 8, 5e-3, +2.95e-3},
+};
+
+/* Every standard case the `validate` command runs is one of the cases
+ * above, with the same settings, and within this test's bound. */
+TEST(defaults_within_bounds)
 {
     rad_validate_options o = {.quick = 1};
     rad_val_result *r = NULL;
@@ -35,25 +74,27 @@ TEST(defaults_within_promise)
     rad_error err = {0};
     int rc = rad_validate_run(&o, &r, &n, &err);
     CHECK_MSG(rc == RAD_OK, "%s", err.message);
-    rad_val_case std[64];
-    double promised[64];
-    uint32_t ns = rad_validate_standard(std, promised, 64);
-    CHECK(n == ns);
-    CHECK(ns >= 19);
-    for (uint32_t k = 0; rc == RAD_OK && k < n; k++) {
-        CHECK(r[k].c.resolution == 128);
-        CHECK(r[k].promised > 0 && r[k].promised == promised[k]);
-        CHECK_MSG(fabs(r[k].rel_error) <= r[k].promised, "%s (%s): error %.3g, promised %.3g",
-                  r[k].name, r[k].c.label, r[k].rel_error, r[k].promised);
+    const uint32_t ne = (uint32_t)(sizeof expected / sizeof expected[0]);
+    CHECK(n == ne);
+    for (uint32_t k = 0; rc == RAD_OK && k < n && k < ne; k++) {
+        const struct expected_case *x = &expected[k];
+        const rad_val_case *c = &r[k].c;
+        CHECK_MSG(c->config == x->config && !strcmp(c->label, x->label) && c->a == x->a &&
+                      c->b == x->b && c->c == x->c && c->rho == x->rho && c->rho_a == x->rho_a &&
+                      c->subdiv == x->subdiv && c->resolution == 128,
+                  "case %u (%s) is not %s '%s' with subdivision %u at R = 128", k, r[k].name,
+                  rad_validate_config_name(x->config), x->label, x->subdiv);
+        CHECK_MSG(fabs(r[k].rel_error) <= x->bound, "%s (%s): error %.3g, bound %.3g (measured %.3g)",
+                  r[k].name, c->label, r[k].rel_error, x->bound, x->measured);
         CHECK(r[k].patches > 0 && r[k].rows > 0 && r[k].seconds > 0);
     }
     /* Near, unit and far spacing and the 10:1 shapes are all covered. */
     int seen[RAD_VAL_CONFIG_COUNT] = {0}, near = 0, far = 0, elongated = 0;
-    for (uint32_t k = 0; k < ns; k++) {
-        seen[std[k].config] = 1;
-        near += !strcmp(std[k].label, "near");
-        far += !strcmp(std[k].label, "far");
-        elongated += !strcmp(std[k].label, "elongated");
+    for (uint32_t k = 0; k < ne; k++) {
+        seen[expected[k].config] = 1;
+        near += !strcmp(expected[k].label, "near");
+        far += !strcmp(expected[k].label, "far");
+        elongated += !strcmp(expected[k].label, "elongated");
     }
     for (int c = 0; c < RAD_VAL_CONFIG_COUNT; c++)
         CHECK_MSG(seen[c], "configuration %s missing", rad_validate_config_name((rad_val_config)c));
@@ -242,7 +283,7 @@ TEST(bad_cases)
 
 int main(void)
 {
-    RUN(defaults_within_promise);
+    RUN(defaults_within_bounds);
     RUN(catalog_squares_within_0_2_percent);
     RUN(closed_cube_B_is_E_over_1_minus_rho);
     RUN(enclosure_rows_sum_to_one);

@@ -9,6 +9,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* Parses polygon-file text (`name` in messages) and solves it; NULL, with
@@ -28,6 +29,44 @@ static inline rad_solution *test_solve_text(const char *text, const char *name,
         return NULL;
     }
     return s;
+}
+
+/* Warning lines caught through rad_load_options.warn: the first 16 kept,
+ * all counted. */
+typedef struct test_warnings {
+    char line[16][1024];
+    int count;
+} test_warnings;
+
+static inline void test_catch_warning(void *user, const char *message)
+{
+    test_warnings *w = user;
+    if (w->count < 16)
+        snprintf(w->line[w->count], sizeof w->line[0], "%s", message);
+    w->count++;
+}
+
+/* A whole file in memory with a NUL after its `*size` bytes; NULL when it
+ * cannot be read.  Caller frees. */
+static inline char *test_slurp(const char *path, size_t *size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *buf = n >= 0 ? malloc((size_t)n + 1) : NULL;
+    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) {
+        free(buf);
+        buf = NULL;
+    }
+    fclose(f);
+    if (buf) {
+        buf[n] = '\0';
+        *size = (size_t)n;
+    }
+    return buf;
 }
 
 /* Solves A x = b in place by Gaussian elimination with partial pivoting:

@@ -6,7 +6,7 @@
 # `make report` only check, so they never run apt-get.
 set -euo pipefail
 pkgs=(build-essential libosmesa6-dev libopenexr-dev libtinygltf-dev nlohmann-json3-dev
-      libpng-dev clang libclang-rt-14-dev)
+      libpng-dev libstb-dev libembree-dev clang libclang-rt-14-dev)
 missing=()
 for p in "${pkgs[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")

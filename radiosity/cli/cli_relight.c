@@ -7,50 +7,9 @@
  */
 #include "cli.h"
 
-#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-
-static int read_text(const char *path, char **text, size_t *size, rad_error *err)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return rad_fail(err, RAD_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    char *buf = NULL;
-    size_t len = 0, cap = 0;
-    for (;;) {
-        if (len == cap) {
-            cap = cap ? cap * 2 : 4096;
-            if (cap > (64u << 20)) {
-                free(buf);
-                fclose(f);
-                return rad_fail(err, RAD_ERR_LIMIT, "%s: larger than 64 MiB", path);
-            }
-            char *nb = realloc(buf, cap);
-            if (!nb) {
-                free(buf);
-                fclose(f);
-                return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", path);
-            }
-            buf = nb;
-        }
-        size_t got = fread(buf + len, 1, cap - len, f);
-        len += got;
-        if (got == 0)
-            break;
-    }
-    int bad = ferror(f);
-    fclose(f);
-    if (bad) {
-        free(buf);
-        return rad_fail(err, RAD_ERR_IO, "%s: read error", path);
-    }
-    *text = buf;
-    *size = len;
-    return RAD_OK;
-}
 
 /* The solve options a relight uses: the stored solver and tolerance unless
  * the command line says otherwise. */
@@ -120,20 +79,19 @@ int cli_relight(int argc, char **argv)
         rc = cli_usage_error("relight: nothing to change (give --light, --emission, --reflectance or --variations)");
     if (!rc && render && !variations)
         rc = cli_usage_error("relight: --render goes with --variations (use 'radiosity render' on the result)");
+    if (!rc && view.camera_args > 1)
+        rc = cli_usage_error("relight: --render draws one view per variant (one --camera)");
     if (!rc && !variations && cli_check_output_dir(out))
         rc = 2;
-    if (!rc && variations) {
-        struct stat st;
-        if (stat(out, &st) != 0 || !S_ISDIR(st.st_mode))
-            rc = cli_usage_error("relight --variations: -o '%s' must be an existing directory", out);
-    }
+    if (!rc && variations)
+        rc = cli_need_dir("relight --variations", out);
 
     rad_variant *var = NULL;
     uint32_t nvar = 0;
     if (!rc && variations) {
         char *text = NULL;
         size_t size = 0;
-        rc = read_text(variations, &text, &size, &err);
+        rc = cli_read_text(variations, &text, &size, &err);
         if (!rc)
             rc = rad_variants_parse(text, size, variations, &var, &nvar, &err);
         free(text);
@@ -302,6 +260,7 @@ int cli_ff(int argc, char **argv)
     rad_solution *s = NULL;
     opt.all_rows = 1; /* every row: F_BA needs B's rows even where B is black */
     opt.load.allow_no_emitter = 1;
+    opt.load.warn = cli_warn;
     cli_enable_progress(&opt);
     if (has_suffix(in, ".sol")) {
         if (rad_solution_read(in, &s, &err) || rad_resolve(s, &opt, &err)) {

@@ -8,7 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-static void json_string(FILE *f, const char *s)
+void cli_json_string(FILE *f, const char *s)
 {
     fputc('"', f);
     for (; *s; s++) {
@@ -108,22 +108,22 @@ static void report_json(FILE *f, const report *r)
     const rad_scene *sc = r->sc;
     const char *in = r->in;
     fprintf(f, "{\"solution\": ");
-    json_string(f, in);
+    cli_json_string(f, in);
     fprintf(f, ", \"bands\": %u, \"band_names\": [", r->nb);
     for (uint32_t b = 0; b < r->nb; b++) {
         fputs(b ? ", " : "", f);
         if (sc->band_names[b])
-            json_string(f, sc->band_names[b]);
+            cli_json_string(f, sc->band_names[b]);
         else
             fprintf(f, "\"%u\"", b);
     }
     fprintf(f, "], \"patches\": %u, \"objects\": [", s->mesh->patch_count);
     for (uint32_t o = 0; o < r->no; o++) {
         fprintf(f, "%s\n  {\"name\": ", o ? "," : "");
-        json_string(f, sc->objects[o].name);
+        cli_json_string(f, sc->objects[o].name);
         fprintf(f, ", \"material\": ");
         if (r->st[o].material != RAD_NONE)
-            json_string(f, sc->materials[r->st[o].material].name);
+            cli_json_string(f, sc->materials[r->st[o].material].name);
         else
             fputs("null", f);
         fprintf(f, ", \"patches\": %u, \"area\": %.9g, \"radiosity\": ", r->st[o].patch_count,
@@ -138,7 +138,7 @@ static void report_json(FILE *f, const report *r)
     fprintf(f, "],\n \"lights\": [");
     for (uint32_t l = 0; l < r->nl; l++) {
         fprintf(f, "%s\n  {\"name\": ", l ? "," : "");
-        json_string(f, sc->lights[l].name);
+        cli_json_string(f, sc->lights[l].name);
         fprintf(f, ", \"kind\": \"%s\", \"intensity\": ", kind_name[sc->lights[l].kind]);
         json_bands(f, s->light_intensity + (size_t)l * r->nb, r->nb);
         fputs(", \"emitted\": ", f);
@@ -154,7 +154,7 @@ static void report_json(FILE *f, const report *r)
     fputs(", \"absorbed\": ", f);
     json_bands(f, r->tot_a, r->nb);
     fprintf(f, "},\n \"solver\": {\"name\": ");
-    json_string(f, s->solver);
+    cli_json_string(f, s->solver);
     fprintf(f, ", \"iterations\": %u, \"residual\": %.6g, \"residual_unchecked\": %u, "
                "\"tolerance\": %.6g", s->iterations, s->residual, r->eco.reflecting_without_row,
             s->tolerance);
@@ -192,7 +192,9 @@ static void report_json(FILE *f, const report *r)
     for (int k = 0; k < RAD_STAGE_COUNT; k++)
         fprintf(f, "%s\"%s\": %s", k ? ", " : "", rad_stage_name(k),
                 s->stages[k].reused ? "true" : "false");
-    fprintf(f, "}}\n");
+    fprintf(f, "},\n \"gather_cache\": ");
+    cli_report_cache(f, in, s, 1);
+    fprintf(f, "}\n");
 }
 
 /* The solver's lines: what its tolerance bounds (Gauss-Seidel and Jacobi:
@@ -298,6 +300,7 @@ static void report_text(FILE *f, const report *r)
         fprintf(f, "  %s %.3f s%s", rad_stage_name(k), s->stages[k].seconds,
                 s->stages[k].reused ? " (reused)" : "");
     fputc('\n', f);
+    cli_report_cache(f, in, s, 0);
 }
 
 int cli_report(int argc, char **argv)

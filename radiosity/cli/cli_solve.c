@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* ------------------------------------------------------------------ views */
 
@@ -17,7 +18,10 @@ int cli_view_option(int argc, char **argv, int *i, cli_view *v)
     if (!strcmp(a, "--camera")) {
         if (!val)
             return cli_usage_error("--camera needs a name"), -1;
-        v->camera = val;
+        if (v->camera_args == CLI_MAX_CAMERA_ARGS)
+            return cli_usage_error("--camera given more than %d times (list cameras as A,B,C)",
+                                   CLI_MAX_CAMERA_ARGS), -1;
+        v->camera = v->cameras[v->camera_args++] = val;
     } else if (!strcmp(a, "--eye")) {
         rc = cli_parse_vec3(a, val, &v->eye), v->have_eye = 1;
     } else if (!strcmp(a, "--target")) {
@@ -26,6 +30,8 @@ int cli_view_option(int argc, char **argv, int *i, cli_view *v)
         rc = cli_parse_vec3(a, val, &v->up), v->have_up = 1;
     } else if (!strcmp(a, "--fov")) {
         rc = cli_parse_double(a, val, 0.01, 179.99, &v->fov), v->have_fov = 1;
+    } else if (!strcmp(a, "--ortho")) {
+        rc = cli_parse_double(a, val, 1e-12, 1e12, &v->ortho), v->have_ortho = 1;
     } else if (!strcmp(a, "--size")) {
         unsigned w, h;
         char tail;
@@ -48,12 +54,13 @@ int cli_view_option(int argc, char **argv, int *i, cli_view *v)
     return 1;
 }
 
-int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *exr_path,
-                        const char *png_path)
+int cli_view_camera(const rad_solution *s, const cli_view *v, rn_camera *out)
 {
     rad_error err = {0};
     rn_camera cam;
     uint32_t w = v->width ? v->width : 512, h = v->height ? v->height : 512;
+    if (v->have_fov && v->have_ortho)
+        return cli_usage_error("--fov and --ortho exclude each other");
     if (v->have_eye || v->have_target) {
         if (!v->have_eye || !v->have_target)
             return cli_usage_error("--eye and --target go together");
@@ -67,13 +74,27 @@ int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *ex
             return cli_error(&err);
         if (v->have_up)
             cam.up = v->up;
-        if (v->have_fov)
-            cam.yfov_deg = v->fov;
+        if (v->have_fov) /* a field of view makes any camera perspective */
+            cam.yfov_deg = v->fov, cam.orthographic = 0;
     }
+    if (v->have_ortho)
+        cam.orthographic = 1, cam.ymag = v->ortho;
+    *out = cam;
+    return 0;
+}
+
+int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *exr_path,
+                        const char *png_path)
+{
+    rad_error err = {0};
+    rn_camera cam;
+    int rc = cli_view_camera(s, v, &cam);
+    if (rc)
+        return rc;
     if (cli_check_output_dir(exr_path) || (png_path && cli_check_output_dir(png_path)))
         return 2;
     rn_image *img = NULL;
-    int rc = rad_render_solution(s, &cam, &img, &err);
+    rc = rad_render_solution(s, &cam, &img, &err);
     if (!rc)
         rc = rn_write_exr(img, exr_path, &err);
     if (!rc && png_path)
@@ -185,6 +206,7 @@ int cli_solve(int argc, char **argv)
     }
     cli_enable_progress(&opt);
     opt.warn = cli_warn;
+    opt.load.warn = cli_warn;
 
     rad_error err = {0};
     rad_solution *s = NULL;
@@ -227,9 +249,15 @@ int cli_render(int argc, char **argv)
 {
     const char *in = NULL, *out = NULL;
     cli_view view = {0};
+    cli_many many = {0};
+    cli_gather gather = {0};
     int rc;
     for (int i = 0; i < argc; i++) {
         int r = cli_view_option(argc, argv, &i, &view);
+        if (!r)
+            r = cli_many_option(argc, argv, &i, &many);
+        if (!r)
+            r = cli_gather_option(argc, argv, &i, &gather);
         if (r < 0)
             return 2;
         if (r > 0)
@@ -241,11 +269,32 @@ int cli_render(int argc, char **argv)
     }
     if (!in || !out)
         return cli_usage_error("usage: radiosity render SOLUTION -o IMAGE.exr [options]");
+    if (gather.given && !gather.on)
+        return cli_usage_error("render: %s is a --gather option", gather.given);
+    if (cli_many_views(&view, &many, NULL)) {
+        if (gather.on)
+            return cli_usage_error("render: --gather draws one view (several views: run it per view)");
+        if (cli_need_dir("render", out))
+            return 2;
+    }
+    /* --threads: drawing threads for several views, shading threads for a
+     * gather (default: one per CPU, as for several views). */
+    long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    gather.opt.threads = many.threads ? many.threads : cpus > 64 ? 64 : cpus > 1 ? (uint32_t)cpus : 1;
     rad_error err = {0};
     rad_solution *s = NULL;
     if (rad_solution_read(in, &s, &err))
         return cli_error(&err);
-    rc = cli_render_to_files(s, &view, out, view.png);
+    if (cli_many_views(&view, &many, s->scene))
+        rc = gather.on ? cli_usage_error("render: --gather draws one view (several views: run it "
+                                         "per view)")
+                       : cli_render_many(s, &view, &many, out);
+    else if ((many.threads && !gather.on) || many.no_png)
+        rc = cli_usage_error("render: --threads and --no-png go with several views "
+                             "(--all-cameras, --path or --camera A,B) or, --threads, with --gather");
+    else
+        rc = gather.on ? cli_gather_to_files(s, in, &view, &gather, out)
+                       : cli_render_to_files(s, &view, out, view.png);
     rad_solution_destroy(s);
     return rc;
 }

@@ -2,12 +2,14 @@
  * codes around the library.  Nothing else in the project prints or exits.
  *
  *   radiosity solve    SCENE -o SOLUTION [options]
- *   radiosity render   SOLUTION -o IMAGE.exr [--png FILE] [camera options]
+ *   radiosity render   SOLUTION -o IMAGE.exr [--png FILE] [camera options] [--gather ...]
+ *   radiosity render   SOLUTION -o DIR --all-cameras | --camera A,B | --path FILE
  *   radiosity report   SOLUTION [--json]
  *   radiosity relight  SOLUTION -o OUT [--light N=off|on|S] [--emission N=v,..]
  *                      [--reflectance N=v,..] [--variations FILE [--render]]
  *   radiosity ff       SCENE_OR_SOLUTION --from A --to B [--json] [--matrix]
  *   radiosity validate [--json] [--quick]
+ *   radiosity export   SOLUTION -o DIR
  *
  * Errors print one line "radiosity: error: FILE: WHERE: WHAT" and exit 2 for
  * bad input or usage, 1 for failures of the machine (memory, GL).  Outputs
@@ -181,6 +183,10 @@ int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt)
         opt->exact_near = 1;
         return 1;
     }
+    if (!strcmp(a, "--strict")) {
+        opt->load.strict = 1;
+        return 1;
+    }
     if (!strcmp(a, "--solver")) {
         if (!v || sv_method_parse(v, &opt->solver.method)) {
             cli_usage_error("--solver: '%s' is not gauss-seidel, jacobi or progressive", v ? v : "");
@@ -203,6 +209,45 @@ int cli_other_arg(const char *cmd, const char *what, const char *arg, const char
     return 0;
 }
 
+int cli_read_text(const char *path, char **text, size_t *size, rad_error *err)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return rad_fail(err, RAD_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    char *buf = NULL;
+    size_t len = 0, cap = 0;
+    for (;;) {
+        if (len == cap) {
+            cap = cap ? cap * 2 : 4096;
+            if (cap > (64u << 20)) {
+                free(buf);
+                fclose(f);
+                return rad_fail(err, RAD_ERR_LIMIT, "%s: larger than 64 MiB", path);
+            }
+            char *nb = realloc(buf, cap);
+            if (!nb) {
+                free(buf);
+                fclose(f);
+                return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", path);
+            }
+            buf = nb;
+        }
+        size_t got = fread(buf + len, 1, cap - len, f);
+        len += got;
+        if (got == 0)
+            break;
+    }
+    int bad = ferror(f);
+    fclose(f);
+    if (bad) {
+        free(buf);
+        return rad_fail(err, RAD_ERR_IO, "%s: read error", path);
+    }
+    *text = buf;
+    *size = len;
+    return RAD_OK;
+}
+
 /* Checks that an output's directory exists, so the error names it plainly
  * instead of surfacing as a failed temporary file. */
 int cli_check_output_dir(const char *path)
@@ -218,6 +263,14 @@ int cli_check_output_dir(const char *path)
     struct stat st;
     if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode))
         return cli_usage_error("%s: directory '%s' does not exist", path, dir);
+    return 0;
+}
+
+int cli_need_dir(const char *what, const char *path)
+{
+    struct stat st;
+    if (stat(path, &st) != 0 || !S_ISDIR(st.st_mode))
+        return cli_usage_error("%s: -o '%s' must be an existing directory", what, path);
     return 0;
 }
 
@@ -238,6 +291,9 @@ static const char usage[] =
     "                               keeps its rows within it, computing some again\n"
     "      --pixel-emitters         form factors to emitters by pixel counts, not exactly\n"
     "      --exact-near             near patches (closer than their size) exactly too\n"
+    "      --strict                 glTF: refuse reflectance >= 1, primitives without a\n"
+    "                               material or area, unreadable textures (default: clamp\n"
+    "                               to 0.95, glTF's default material, skip, warn)\n"
     "      --refine-threshold T     elements: split where the drawn B misses the B of the\n"
     "                               element's four children by more than T × the brightest\n"
     "                               reflecting patch's B, weighted by area (e.g. 0.0001)\n"
@@ -252,7 +308,31 @@ static const char usage[] =
     "      --exposure EV            PNG exposure in stops (default 0)\n"
     "      --camera NAME            a camera of the scene (default: the first)\n"
     "      --eye X,Y,Z --target X,Y,Z --up X,Y,Z --fov DEG   an explicit camera\n"
+    "      --ortho H                orthographic, a view 2H high (scene units)\n"
     "      --size WxH               image size (default 512x512)\n"
+    "  render SOLUTION -o DIR VIEWS many views from one load, on every CPU: DIR/NAME.exr\n"
+    "                               and DIR/NAME.png for each (DIR must exist)\n"
+    "      --all-cameras            every camera of the scene (NAME: the camera's)\n"
+    "      --camera A,B,C           these cameras (or --camera repeated)\n"
+    "      --path FILE              a fly-through, one view per line (NAME: frame-0001..):\n"
+    "                               eye X,Y,Z target X,Y,Z [up X,Y,Z] [fov DEG]\n"
+    "      --threads N              drawing threads, or shading threads with --gather\n"
+    "                               (default: CPUs)\n"
+    "      --no-png                 EXR only\n"
+    "      --gather                 ray-trace the view from the solution (final gather):\n"
+    "                               direct light per pixel, indirect gathered from the\n"
+    "                               stored B through Ward's irradiance cache, glossy lobes\n"
+    "      --epsilon A              cache error bound a (default " CLI_STR(RN_DEFAULT_EPSILON) ")\n"
+    "      --no-cache               gather at every pixel (the reference; slow)\n"
+    "      --cache FILE             the cache file (default SOLUTION.icache)\n"
+    "      --no-cache-file          neither read nor write a cache file\n"
+    "      --no-gradients           cache without Ward & Heckbert's gradients\n"
+    "      --gather-rays N          hemisphere rays per gather (default " CLI_STR(RN_DEFAULT_GATHER_RAYS) ")\n"
+    "      --light-samples N        samples per area light and pixel (default " CLI_STR(RN_DEFAULT_LIGHT_SAMPLES) ")\n"
+    "      --glossy-rays N          lobe samples per glossy pixel (default " CLI_STR(RN_DEFAULT_GLOSSY_RAYS) ")\n"
+    "      --glossy MODE            auto, sample or light-vector (indirect light on lobes)\n"
+    "      --max-depth D            mirror reflections followed (default " CLI_STR(RN_DEFAULT_MAX_DEPTH) ")\n"
+    "      --min-radius PX          smallest valid radius of a cache record, pixels (default " CLI_STR(RN_DEFAULT_MIN_RADIUS_PX) ")\n"
     "  report SOLUTION [--json]     per-object power balance, solver and stage times\n"
     "  relight SOLUTION -o OUT      re-solve with changed lights or colours, no new hemi-cubes\n"
     "      --light NAME=off|on|S    switch or scale an emitting object, punctual light or material\n"
@@ -263,6 +343,9 @@ static const char usage[] =
     "  ff SCENE_OR_SOLUTION --from A --to B [--json] | --matrix\n"
     "                               object-to-object form factors\n"
     "  validate [--json] [--quick]  form factors against analytic catalog values\n"
+    "  export SOLUTION -o DIR       open data: DIR/patches.csv (ρ, E, B per patch), F.mtx\n"
+    "                               (Matrix Market), elements.csv and elements-F.mtx\n"
+    "                               (docs/export.md; DIR must exist)\n"
     "\n"
     "  --help, --version\n";
 
@@ -291,5 +374,7 @@ int main(int argc, char **argv)
         return cli_ff(argc - 2, argv + 2);
     if (!strcmp(cmd, "validate"))
         return cli_validate(argc - 2, argv + 2);
+    if (!strcmp(cmd, "export"))
+        return cli_export(argc - 2, argv + 2);
     return cli_usage_error("unknown command '%s'", cmd);
 }

@@ -222,6 +222,17 @@ uint64_t rad_matrix_estimate_bytes(uint32_t n, double fill);
  * offending row in the message. */
 int rad_matrix_check(const rad_matrix *m, rad_error *err);
 
+/* --------------------------------------------------------------- geometry */
+
+/* F from the differential element at p with unit normal n to the planar
+ * polygon poly[0..count) (either winding), by Lambert's contour integral
+ * over the part of the polygon in front of the element:
+ *   F = 1/(2π) |Σ_k β_k n·unit(r_k × r_{k+1})|,  r_k = P_k − p.
+ * E·F is the irradiance at p from a Lambertian polygon of exitance E with
+ * nothing in between.  In [0, 1]; NAN for non-finite input or n = 0; 0
+ * for fewer than 3 corners. */
+double rad_point_polygon_factor(rad_vec3 p, rad_vec3 n, const rad_vec3 *poly, uint32_t count);
+
 /* ------------------------------------------------------------------ memory */
 
 /* Physical memory the system reports as available, in bytes (0 if unknown). */

@@ -28,6 +28,12 @@ int rad_elements_gather(const rad_solution *s, rad_elements *el, rad_error *err)
 int rad_elements_direct_irradiance(const rad_solution *s, const rad_elements *el, double *Hd,
                                    rad_error *err);
 
+/* τ_p H_twin(p) per patch and band (patch_count × bands, caller owns *out)
+ * when the mesh has two-sided sheets, else *out NULL: the exitance a sheet
+ * lets through from its other side, at patch resolution, as the element
+ * gather adds it.  What the gather renderer adds to a sheet's own E. */
+int rad_elements_transmitted(const rad_solution *s, double **out, rad_error *err);
+
 /* ------------------------------------------------------------ drawing (draw.c) */
 
 /* What the renderer should draw for each element of el (el->mesh->patch_count

@@ -87,6 +87,11 @@ int el_transmitted(const rad_solution *s, double **out, rad_error *err)
     return RAD_OK;
 }
 
+int rad_elements_transmitted(const rad_solution *s, double **out, rad_error *err)
+{
+    return el_transmitted(s, out, err);
+}
+
 /* H_d of every patch when the scene has punctual lights, else NULL (no
  * direct term).  *hd_out NULL with RAD_OK means none. */
 static int direct_irradiance(const rad_solution *s, double **hd_out, rad_error *err)

@@ -661,47 +661,12 @@ int rad_solve_scene_file(const char *path, const rad_solve_options *opt, rad_sol
     return rc;
 }
 
-int rad_render_solution(const rad_solution *s, const rn_camera *cam, rn_image **out,
-                        rad_error *err)
+/* The renderer's camera for scene camera c (the size is the caller's). */
+static void scene_camera(const rad_camera *c, rn_camera *cam)
 {
-    *out = NULL;
-    const rad_mesh *mesh = s->mesh;
-    rad_mesh *cells = NULL;
-    uint32_t *cell_element = NULL;
-    double *vertex_B = NULL;
-    const uint32_t nb = s->band_count;
-    int rc = RAD_OK;
-    if (s->elements) {
-        /* Elements: the crack-free mesh of their cells. */
-        rc = rad_elements_render_mesh(s->elements, &cells, &cell_element, err);
-        if (rc != RAD_OK)
-            return rc;
-        mesh = cells;
-    }
-    /* What each element (or patch) is drawn with - its B, buried ones
-     * extrapolated from their seen neighbours - fitted to the vertices,
-     * then the view. */
-    vertex_B = malloc(((size_t)mesh->vertex_count * nb + 1) * sizeof *vertex_B);
-    if (!vertex_B) {
-        rc = rad_fail(err, RAD_ERR_NOMEM, "render: out of memory");
-        goto done;
-    }
-    rc = rad_elements_vertex_radiosity(s, s->elements, mesh, cell_element, NULL, vertex_B, err);
-    if (rc != RAD_OK)
-        goto done;
-    rc = rn_render(mesh, nb, vertex_B, cam, out, err);
-    /* The image names patches, whatever was drawn. */
-    if (!rc && cells) {
-        uint32_t *id = (*out)->patch;
-        for (size_t q = 0; q < (size_t)(*out)->width * (*out)->height; q++)
-            if (id[q] != RAD_NONE)
-                id[q] = s->elements->patch[cell_element[id[q]]];
-    }
-done:
-    free(vertex_B);
-    free(cell_element);
-    rad_mesh_destroy(cells);
-    return rc;
+    cam->eye = c->eye, cam->target = c->target, cam->up = c->up, cam->yfov_deg = c->yfov_deg;
+    cam->orthographic = c->orthographic;
+    cam->ymag = c->ymag;
 }
 
 int rad_camera_from_scene(const rad_scene *scene, const char *name, uint32_t width,
@@ -722,13 +687,11 @@ int rad_camera_from_scene(const rad_scene *scene, const char *name, uint32_t wid
             return rad_fail(err, RAD_ERR_NOTFOUND, "%s: camera '%s' not found (cameras: %s)",
                             scene->source, name, scene->camera_count ? list : "none");
         }
-        const rad_camera *c = &scene->cameras[k];
-        cam->eye = c->eye, cam->target = c->target, cam->up = c->up, cam->yfov_deg = c->yfov_deg;
+        scene_camera(&scene->cameras[k], cam);
         return RAD_OK;
     }
     if (scene->camera_count) {
-        const rad_camera *c = &scene->cameras[0];
-        cam->eye = c->eye, cam->target = c->target, cam->up = c->up, cam->yfov_deg = c->yfov_deg;
+        scene_camera(&scene->cameras[0], cam);
         return RAD_OK;
     }
     /* No camera: look at the bounds' centre from -z, far enough to see it all. */

@@ -96,13 +96,103 @@ uint32_t rad_light_resolution(const rad_solve_options *opt);
  * fraction of the work). */
 int rad_solution_is_grey(const rad_solution *s);
 
-/* Renders a solution from cam into *out (radiance). */
+/* ----------------------------------------------------- drawing (views.c) */
+
+/* Renders a solution from cam into *out (radiance): rad_drawing_create,
+ * one view, rad_drawing_destroy. */
 int rad_render_solution(const rad_solution *s, const rn_camera *cam, rn_image **out,
                         rad_error *err);
+
+/* A solution made ready to draw: the mesh drawn (the elements' fans, or the
+ * patches) and its vertex radiosities, computed once for any number of
+ * views.  Read-only once made: threads may draw from one drawing at once. */
+typedef struct rad_drawing rad_drawing;
+
+/* Prepares s for drawing.  s's mesh is drawn in place when it has no
+ * elements, so s must outlive the drawing and keep its mesh.  Caller owns
+ * *out. */
+int rad_drawing_create(const rad_solution *s, rad_drawing **out, rad_error *err);
+void rad_drawing_destroy(rad_drawing *d); /* NULL does nothing */
+
+/* One view into canvas c (rn_canvas_draw: *out is c's image until its next
+ * draw); pixel ids name patches, elements or not. */
+int rad_drawing_draw(const rad_drawing *d, rn_canvas *c, const rn_camera *cam, rn_image **out,
+                     rad_error *err);
+
+/* Called with each view's image as soon as it is drawn, from the thread
+ * that drew it (several at once: it must only touch what belongs to view
+ * k, e.g. write files of its own).  img is valid during the call.  Non-zero
+ * (a rad_result, err filled) fails the run. */
+typedef int (*rad_view_fn)(void *user, uint32_t view, const rn_image *img, rad_error *err);
+
+/* Draws views 0..count-1 from cams, each image handed to done (may be
+ * NULL), on `threads` threads (rad_view_threads), each with a canvas of its
+ * own.  Every camera is checked before any view is drawn.  On a failure no
+ * further view starts, the views already handed to done stay done, and the
+ * error of the lowest failed view is returned. */
+int rad_drawing_views(const rad_drawing *d, const rn_camera *cams, uint32_t count,
+                      uint32_t threads, rad_view_fn done, void *user, rad_error *err);
+
+/* The threads rad_drawing_views uses for `views` views: `threads`, or 0 =
+ * one per online CPU; never more than the views, at least 1. */
+uint32_t rad_view_threads(uint32_t threads, uint32_t views);
+
+/* A camera path (a fly-through) held in memory, one view per line:
+ *   eye X,Y,Z target X,Y,Z [up X,Y,Z] [fov DEG]
+ * '#' starts a comment; blank lines are skipped.  A view's up and fov
+ * default to base's, its size is base's.  Every view is checked
+ * (rn_camera_check); messages are "NAME: line N: WHAT".  Caller owns *out
+ * (free). */
+int rad_camera_path_parse(const char *text, size_t size, const char *name, const rn_camera *base,
+                          rn_camera **out, uint32_t *count, rad_error *err);
 
 /* A camera from the scene by name (NULL/"" = the first, else a default view
  * of the scene's bounds), sized width×height. */
 int rad_camera_from_scene(const rad_scene *scene, const char *name, uint32_t width,
                           uint32_t height, rn_camera *cam, rad_error *err);
+
+/* ------------------------------------------ the final gather (gather.c here) */
+
+/* The gather renderer's input (render.h's rn_scene) built from a solution,
+ * with the arrays it points to: the cells the vertex renderer draws (the
+ * patches, or the elements' fans) and their vertex radiosities (the same
+ * rad_elements_vertex_radiosity gives rn_render), each cell's ρ and E from
+ * its patch (as solved, so relights count), a sheet's transmitted exitance
+ * (rad_elements_transmitted), the materials' glossy lobes, the emitting
+ * polygons with their patches' E, and the punctual lights at the
+ * intensities solved with.  The form factors stay behind. */
+typedef struct rad_gather_scene {
+    rn_scene scene;
+    uint32_t *cell_patch;   /* scene.mesh->patch_count: the patch each cell lies in */
+    /* owned storage behind scene */
+    rad_mesh *cells_;
+    double *vertex_B_, *rho_, *emission_, *transmitted_;
+    rn_material *materials_;
+    rn_emitter *emitters_;
+    rn_light *lights_;
+} rad_gather_scene;
+
+/* Caller owns *out (rad_gather_scene_destroy); s must outlive it. */
+int rad_gather_scene_create(const rad_solution *s, rad_gather_scene **out, rad_error *err);
+void rad_gather_scene_destroy(rad_gather_scene *g); /* NULL does nothing */
+
+/* {0} means defaults. */
+typedef struct rad_gather_options {
+    rn_gather_options render;
+    /* Ward's cache file, read before and written after (NULL = none): a
+     * file made for another solution or other settings, or damaged, is
+     * refused with a warning and the cache is computed anew. */
+    const char *cache_path;
+    rad_warn_fn warn;
+    void *warn_user;
+} rad_gather_options;
+
+/* The gather render of s from cam into *out (img->patch holds patches, as
+ * rad_render_solution's).  stats may be NULL.  Caller owns *out. */
+int rad_render_gather(const rad_solution *s, const rn_camera *cam, const rad_gather_options *opt,
+                      rn_image **out, rn_gather_stats *stats, rad_error *err);
+
+/* The cache file's usual place beside a solution: SOLUTION.icache. */
+void rad_gather_cache_path(const char *solution_path, char *buf, size_t size);
 
 #endif /* RAD_PIPELINE_H */

@@ -1,31 +1,61 @@
 /* gltf.c - rad_scene_parse_gltf: a glTF 2.0 document -> a rad_scene.
  *
- * The glTF bridge (gltf_bridge.cpp, gltf_vet.cpp: tinygltf) reads and checks
- * the document; this file applies the radiosity rules to what it returns.
- * Invariant: the scene holds exactly
- * the surfaces of the displayed glTF scene, in world space, obeying scene.h,
- * or the call fails with "FILE: WHERE: WHAT" and leaves nothing behind.
+ * The glTF bridge (gltf_bridge.cpp, gltf_vet.cpp, gltf_texture.cpp:
+ * tinygltf; gltf_image.c: stb_image) reads and checks the document; this
+ * file applies the radiosity rules to what it returns.  Invariant: the
+ * scene holds exactly the surfaces of the displayed glTF scene, in world
+ * space, obeying scene.h, or the call fails with "FILE: WHERE: WHAT" and
+ * leaves nothing behind (and says nothing else: warnings go out only on
+ * success).  Everything repaired or ignored on the way is named in one
+ * warning line per kind (rad_load_options.warn), never dropped silently.
  *
- * The rules:
+ * The rules, for files as Blender, three.js and the Khronos samples write
+ * them:
  *   - Three bands named R, G, B.
- *   - ρ = baseColorFactor RGB, which must lie in [0, 1): a surface that
- *     reflects all it receives has no place in an energy balance, and glTF's
- *     default material (white 1.0) is therefore refused, as is a primitive
- *     without a material.
+ *   - ρ = baseColorFactor RGB × the mean linear colour of baseColorTexture
+ *     (gltf_image.c: every texel sRGB-decoded, alpha ignored; a patch has
+ *     one ρ, so texture coordinates, samplers and KHR_texture_transform are
+ *     not read, and the warning says so) × COLOR_0 (below).  A texture the
+ *     engine cannot read counts as white (the factor alone), with a
+ *     warning.
+ *   - ρ must lie in [0, 1): a surface that reflects all it receives has no
+ *     place in an energy balance.  glTF's default base colour is 1, and
+ *     exporters leave it on every textured material and on plain white
+ *     ones, so a value >= 1 is clamped to MAX_REFLECTANCE (0.95), per band,
+ *     with a warning naming the material.  A primitive without a material
+ *     gets glTF's default material (white, so 0.95; not emitting;
+ *     single-sided), named "default", with a warning naming the mesh.
+ *   - COLOR_0 (vertex colours, linear, alpha dropped) multiplies the base
+ *     colour per polygon: a triangle takes the mean of its three corners'
+ *     colours (the mean of the colour glTF interpolates over it), a merged
+ *     quad the mean of its two triangles'; the polygon's ρ is set on it
+ *     (rad_scene_set_polygon_rho) and clamped like a material's.  A
+ *     polygon the mesher subdivides gives every patch that mean.
+ *   - --strict (rad_load_options.strict) refuses instead of repairing: ρ >=
+ *     1 anywhere, a primitive without a material, an unreadable texture,
+ *     points and lines.
  *   - E = π · emissiveFactor · emissiveStrength (KHR_materials_emissive_
- *     strength, default 1).  glTF's emissive value is a radiance L_e; a
- *     Lambertian emitter's exitance is π L_e, so an emitter seen directly
- *     renders with pixel value emissiveFactor × strength.
+ *     strength, default 1) · the mean of emissiveTexture (as for ρ).
+ *     glTF's emissive value is a radiance L_e; a Lambertian emitter's
+ *     exitance is π L_e, so an emitter seen directly renders with pixel
+ *     value emissiveFactor × strength.
  *   - KHR_materials_diffuse_transmission (factor t, colour c, default 0
  *     and white; textures ignored) splits the diffuse lobe as the extension
  *     does: ρ = (1 − t)·baseColor, τ = t·c per band.  A transmitting
  *     material makes thin two-sided sheets (mesh twins), whatever
  *     doubleSided says; ρ + τ must stay below 1 in every band.
- *   - Only TRIANGLES primitives; extensionsRequired may only name
+ *   - TRIANGLES primitives become polygons; POINTS and LINES (Blender's
+ *     loose edges) have no area and are skipped with a warning; strips and
+ *     fans are refused.  extensionsRequired may only name
  *     KHR_materials_emissive_strength, KHR_materials_diffuse_transmission
- *     and KHR_lights_punctual.  Other
- *     extensions in extensionsUsed (Blender writes KHR_materials_specular,
- *     KHR_materials_ior) are ignored.
+ *     and KHR_lights_punctual.  Other extensions in extensionsUsed (Blender
+ *     writes KHR_materials_specular, KHR_materials_ior) are ignored and
+ *     named; so are normal, occlusion and metallic-roughness textures, a
+ *     stated metallicFactor > 0 (its lobe is drawn by the gather renderer
+ *     only; glTF's default metal, 1, is what exporters leave on diffuse
+ *     surfaces, so only a stated one is named and counts), alphaMode
+ *     other than OPAQUE, animations, skins and morph targets, and a light's
+ *     range (the bridge's notes).
  *   - KHR_lights_punctual lights placed by nodes of the scene become scene
  *     lights: position = the node's world origin, direction (spot,
  *     directional) = the node's world -Z, normalised.  Units: glTF gives a
@@ -64,10 +94,11 @@
  *   - A doubleSided opaque material gives each polygon a second, reversed
  *     copy in the same object, right after it, so that both faces take part
  *     in the exchange; a single-sided polygon has only its front face.
- *   - Perspective cameras become scene cameras (eye at the node's world
- *     origin, looking along its -Z, up its +Y, yfov in degrees, aspectRatio
- *     or 0); orthographic ones are skipped (a hemi-cube renderer has no use
- *     for them).  Name: camera name, else node name, else "camera<index>".
+ *   - Cameras become scene cameras (eye at the node's world origin, looking
+ *     along its -Z, up its +Y): perspective ones with yfov in degrees and
+ *     aspectRatio or 0, orthographic ones with xmag and ymag (the renderer
+ *     draws them; znear and zfar are not used).  Name: camera name, else
+ *     node name, else "camera<index>".
  *   - Polygons are named "mesh/primitive/triangle" for messages.
  */
 #include "gltf_bridge.h"
@@ -84,6 +115,75 @@
  * transform while refusing any visible shear. */
 #define QUAD_TOL 1e-6
 
+/* The largest reflectance a glTF colour becomes: a value >= 1 (glTF's
+ * default white, an untextured factor of 1, a bright vertex colour) is
+ * clamped to it unless --strict.  0.95 is the reflectance of the whitest
+ * real paints and papers, and keeps ρ F well below 1 so an enclosure's
+ * solve converges in a few dozen sweeps. */
+#define MAX_REFLECTANCE 0.95
+
+/* The kinds of warning, one line each, in the order printed.  The first
+ * RAD_GLTF_NOTE_COUNT are the bridge's notes (gltf_bridge.h). */
+enum {
+    W_TEXTURES = RAD_GLTF_NOTE_TEXTURES,
+    W_METALLIC = RAD_GLTF_NOTE_METALLIC,
+    W_ALPHA = RAD_GLTF_NOTE_ALPHA,
+    W_ANIMATION = RAD_GLTF_NOTE_ANIMATION,
+    W_LIGHT_RANGE = RAD_GLTF_NOTE_LIGHT_RANGE,
+    W_EXTENSION = RAD_GLTF_NOTE_COUNT,
+    W_TEXCOORD,
+    W_UNREADABLE,
+    W_NO_MATERIAL,
+    W_CLAMPED,
+    W_SKIPPED,
+    W_COUNT
+};
+
+/* Each kind's line, "FILE: WHERE SUBJECTS: WHAT", WHERE in the singular
+ * or the plural as the subjects are one or more ("" when the subjects say
+ * what they are). */
+static const struct {
+    const char *one, *many, *what;
+} warn_text[W_COUNT] = {
+    [W_TEXTURES] = {"material", "materials",
+                    "normal, occlusion and metallic-roughness textures ignored (surfaces are "
+                    "diffuse)"},
+    [W_METALLIC] = {"material", "materials", "metallicFactor drawn by render --gather only (the solve treats them as diffuse)"},
+    [W_ALPHA] = {"material", "materials", "alphaMode ignored (surfaces are opaque)"},
+    [W_ANIMATION] = {"", "", "ignored (the scene as its nodes place it)"},
+    [W_LIGHT_RANGE] = {"light", "lights", "range ignored (light falls off as 1/r² everywhere)"},
+    [W_EXTENSION] = {"extension", "extensions", "ignored"},
+    [W_TEXCOORD] = {"material", "materials",
+                    "texture coordinates ignored: a texture counts by the mean colour of all "
+                    "its texels"},
+    [W_UNREADABLE] = {"texture", "textures", "not read: the factor alone is used"},
+    [W_NO_MATERIAL] = {"mesh", "meshes",
+                       "primitives without a material get glTF's default material (white: "
+                       "reflectance 0.95 unless vertex colours make it less)"},
+    [W_CLAMPED] = {"material", "materials",
+                   "reflectance >= 1 clamped to 0.95 (--strict refuses it)"},
+    [W_SKIPPED] = {"mesh", "meshes", "primitives without area (points, lines) skipped"},
+};
+
+/* Subjects named in one warning line before "and N more". */
+#define WARN_LIST_MAX 8
+
+typedef struct warn_list {
+    char *subject[WARN_LIST_MAX];
+    uint32_t count; /* all subjects, named or not */
+} warn_list;
+
+/* What the polygons of one used material need of it. */
+typedef struct mat_info {
+    uint32_t index;     /* scene material; RAD_NONE until added */
+    int two_sided;      /* a doubleSided opaque material: each polygon gets a back copy */
+    double base[3];     /* baseColorFactor × texture mean, before clamping */
+    double t;           /* diffuse transmission factor */
+    int clamped;        /* its own ρ was clamped */
+    int clamp_noted;    /* named in the W_CLAMPED line already */
+    const char *name;   /* the scene's name for it (owned by the scene) */
+} mat_info;
+
 typedef struct gltf_ctx {
     const char *src;
     rad_scene *s;
@@ -91,6 +191,8 @@ typedef struct gltf_ctx {
     uint64_t max_polygons;
     double min_area;          /* 1e-14 × scene diagonal² */
     uint64_t triangles_dropped;
+    int strict;               /* rad_load_options.strict */
+    warn_list warn[W_COUNT];
 } gltf_ctx;
 
 static char *dup_str(const char *s)
@@ -125,6 +227,58 @@ static double det3(const double *m)
 {
     return m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) +
            m[8] * (m[1] * m[6] - m[5] * m[2]);
+}
+
+/* --------------------------------------------------------------- warnings */
+
+/* Adds a subject to a warning line (named while there is room, counted
+ * always); the caller sees to it that a subject comes once.  0, or -1 when
+ * memory runs out. */
+static int warn_add(gltf_ctx *c, int kind, const char *subject)
+{
+    warn_list *w = &c->warn[kind];
+    if (w->count < WARN_LIST_MAX && !(w->subject[w->count] = dup_str(subject)))
+        return -1;
+    w->count++;
+    return 0;
+}
+
+/* warn_add for a quoted name, "'name'", cut like the bridge's names. */
+static int warn_name(gltf_ctx *c, int kind, const char *name)
+{
+    char q[100];
+    snprintf(q, sizeof q, strlen(name) > 80 ? "'%.77s...'" : "'%s'", name);
+    return warn_add(c, kind, q);
+}
+
+/* One line per kind that has subjects, through opt->warn. */
+static void warn_flush(const gltf_ctx *c, const rad_load_options *opt)
+{
+    if (!opt || !opt->warn)
+        return;
+    for (int k = 0; k < W_COUNT; k++) {
+        const warn_list *w = &c->warn[k];
+        if (w->count == 0)
+            continue;
+        char list[700] = "";
+        size_t used = 0;
+        uint32_t named = w->count < WARN_LIST_MAX ? w->count : WARN_LIST_MAX;
+        for (uint32_t i = 0; i < named && used < sizeof list; i++)
+            used += (size_t)snprintf(list + used, sizeof list - used, "%s%s", i ? ", " : "",
+                                     w->subject[i]);
+        if (w->count > named && used < sizeof list)
+            snprintf(list + used, sizeof list - used, " and %u more", w->count - named);
+        const char *where = w->count == 1 ? warn_text[k].one : warn_text[k].many;
+        rad_warn(opt->warn, opt->warn_user, "%s: %s%s%s: %s", c->src, where, *where ? " " : "",
+                 list, warn_text[k].what);
+    }
+}
+
+static void warn_free(gltf_ctx *c)
+{
+    for (int k = 0; k < W_COUNT; k++)
+        for (uint32_t i = 0; i < c->warn[k].count && i < WARN_LIST_MAX; i++)
+            free(c->warn[k].subject[i]);
 }
 
 /* ----------------------------------------------------------------- naming */
@@ -283,11 +437,64 @@ static int emit(gltf_ctx *c, const char *pname, uint32_t object, uint32_t materi
     return RAD_OK;
 }
 
+/* ρ of a polygon whose mean vertex colour is C: the material's base times
+ * C, clamped (or refused under --strict) at 1 like a material's, then split
+ * by the material's diffuse transmission.  Set on the polygons added since
+ * `from` (the polygon and its back copy). */
+static int color_polygons(gltf_ctx *c, uint32_t from, const double *C, mat_info *mi,
+                          const char *where)
+{
+    double rho[3];
+    for (int b = 0; b < 3; b++) {
+        double r = mi->base[b] * C[b];
+        if (r >= 1.0) {
+            if (c->strict)
+                return rad_fail(c->err, RAD_ERR_INVALID,
+                                "%s: %s: material '%s' × vertex colour = %g is not a "
+                                "reflectance below 1 (band %s)",
+                                c->src, where, mi->name, r, c->s->band_names[b]);
+            if (!mi->clamp_noted && warn_name(c, W_CLAMPED, mi->name) != 0)
+                return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
+            mi->clamp_noted = 1;
+            r = MAX_REFLECTANCE;
+        }
+        rho[b] = (1.0 - mi->t) * r;
+    }
+    for (uint32_t p = from; p < c->s->polygon_count; p++) {
+        int rc = rad_scene_set_polygon_rho(c->s, p, rho, where, c->err);
+        if (rc)
+            return rc;
+    }
+    return RAD_OK;
+}
+
+/* Mean colour of triangle T (three vertex indices) into C. */
+static void triangle_color(const double *colors, const uint32_t *T, double *C)
+{
+    for (int b = 0; b < 3; b++)
+        C[b] = (colors[3 * (size_t)T[0] + b] + colors[3 * (size_t)T[1] + b] +
+                colors[3 * (size_t)T[2] + b]) /
+               3.0;
+}
+
+/* emit, then the polygons' own ρ when the primitive has vertex colours
+ * (C, else NULL). */
+static int emit_colored(gltf_ctx *c, const char *pname, uint32_t object, mat_info *mi,
+                        const rad_vec3 *pts, uint32_t n, const char *where, const double *C)
+{
+    uint32_t before = c->s->polygon_count;
+    int rc = emit(c, pname, object, mi->index, mi->two_sided, pts, n, where);
+    if (rc == RAD_OK && C)
+        rc = color_polygons(c, before, C, mi, where);
+    return rc;
+}
+
 /* Converts one primitive of one node: transform, drop slivers, merge
- * parallelogram pairs, add.  *object is created on the first polygon. */
+ * parallelogram pairs, add (with each polygon's mean vertex colour when
+ * the primitive has COLOR_0).  *object is created on the first polygon. */
 static int convert_primitive(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_t pi,
                              const double *world, const char *object_name, uint32_t *object,
-                             uint32_t material, int double_sided)
+                             mat_info *mi)
 {
     const rad_gltf_raw_primitive *pr = &mesh->primitives[pi];
     uint32_t nv = pr->vertex_count, nt = pr->index_count / 3;
@@ -424,11 +631,23 @@ static int convert_primitive(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_
         }
         const uint32_t *T = &tri[4 * (size_t)t];
         snprintf(pname, sizeof pname, "%.200s/%u/%u", mesh->name, pi, T[3]);
+        /* Vertex colours: a triangle's mean is the mean of its corners'
+         * (exact for the linear interpolation glTF draws); a quad's, of
+         * its two triangles of equal area. */
+        double Ct[3], Cu[3], Cq[3];
+        const double *col = pr->colors;
+        if (col)
+            triangle_color(col, T, Ct);
         if (u != RAD_NONE) {
             uint32_t s = pslot[t];
             uint32_t i1 = T[s], i2 = T[(s + 1) % 3], i0 = T[(s + 2) % 3];
             uint32_t r = tri[4 * (size_t)u + (pslot[u] + 2) % 3];
             rad_vec3 quad[4] = {W[i0], W[i1], W[r], W[i2]};
+            if (col) {
+                triangle_color(col, &tri[4 * (size_t)u], Cu);
+                for (int b = 0; b < 3; b++)
+                    Cq[b] = 0.5 * (Ct[b] + Cu[b]);
+            }
             /* A pair that passes the test above but not scene.c's own
              * planarity or convexity check stays two triangles; any other
              * failure is the caller's. */
@@ -437,7 +656,8 @@ static int convert_primitive(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_
             uint32_t before = c->s->polygon_count;
             gltf_ctx probe = *c;
             probe.err = &scratch;
-            rc = emit(&probe, pname, *object, material, double_sided, quad, 4, where);
+            rc = emit_colored(&probe, pname, *object, mi, quad, 4, where, col ? Cq : NULL);
+            memcpy(c->warn, probe.warn, sizeof c->warn); /* what the probe noted */
             if (rc == RAD_OK)
                 continue;
             if (rc != RAD_ERR_INVALID || c->s->polygon_count != before) {
@@ -448,12 +668,12 @@ static int convert_primitive(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_
             rc = RAD_OK;
         }
         rad_vec3 p3[3] = {W[T[0]], W[T[1]], W[T[2]]};
-        rc = emit(c, pname, *object, material, double_sided, p3, 3, where);
+        rc = emit_colored(c, pname, *object, mi, p3, 3, where, col ? Ct : NULL);
         if (rc == RAD_OK && u != RAD_NONE) {
             const uint32_t *U = &tri[4 * (size_t)u];
             rad_vec3 q3[3] = {W[U[0]], W[U[1]], W[U[2]]};
             snprintf(pname, sizeof pname, "%.200s/%u/%u", mesh->name, pi, U[3]);
-            rc = emit(c, pname, *object, material, double_sided, q3, 3, where);
+            rc = emit_colored(c, pname, *object, mi, q3, 3, where, col ? Cu : NULL);
         }
     }
 
@@ -470,9 +690,32 @@ done:
 
 /* -------------------------------------------------------------- materials */
 
-static int add_material(gltf_ctx *c, const rad_gltf_raw_material *m, uint32_t *index)
+/* A texture's mean (1 in every band when there is none); an unreadable one
+ * is named in a warning and counts as none, or is an error under --strict.
+ * Sets *read when the mean came from an image. */
+static int texture_mean(gltf_ctx *c, const rad_gltf_raw_material *m,
+                        const rad_gltf_raw_texture *tx, const char *slot, double mean[3],
+                        int *read)
 {
-    double rho[3], e[3], tau[3];
+    mean[0] = mean[1] = mean[2] = 1.0;
+    if (tx->state == RAD_GLTF_TEXTURE_READ) {
+        memcpy(mean, tx->mean, sizeof tx->mean);
+        *read = 1;
+    } else if (tx->state == RAD_GLTF_TEXTURE_UNREADABLE) {
+        if (c->strict)
+            return rad_fail(c->err, RAD_ERR_INVALID, "%s: material '%s': %s: %s", c->src,
+                            m->name, slot, tx->problem);
+        char subject[500];
+        snprintf(subject, sizeof subject, "'%.80s' %s (%s)", m->name, slot, tx->problem);
+        if (warn_add(c, W_UNREADABLE, subject) != 0)
+            return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
+    }
+    return RAD_OK;
+}
+
+/* The checks of the document's own numbers (before any texture or clamp). */
+static int check_material(gltf_ctx *c, const rad_gltf_raw_material *m)
+{
     const char *band[3] = {"R", "G", "B"};
     double st = m->emissive_strength, t = m->diffuse_transmission;
     if (!isfinite(st) || st < 0.0)
@@ -484,43 +727,86 @@ static int add_material(gltf_ctx *c, const rad_gltf_raw_material *m, uint32_t *i
                         "%s: material '%s': diffuseTransmissionFactor %g is not in [0, 1]", c->src,
                         m->name, t);
     for (int b = 0; b < 3; b++) {
-        double r = m->base_color[b];
+        double r = m->base_color[b], f = m->emissive[b], tc = m->diffuse_transmission_color[b];
         if (!isfinite(r) || r < 0.0)
             return rad_fail(c->err, RAD_ERR_INVALID,
                             "%s: material '%s': baseColorFactor %g is not a reflectance "
                             "(band %s)",
                             c->src, m->name, r, band[b]);
-        if (r >= 1.0)
-            return rad_fail(c->err, RAD_ERR_INVALID,
-                            "%s: material '%s': baseColorFactor %g is not a reflectance "
-                            "below 1 (band %s)",
-                            c->src, m->name, r, band[b]);
-        double f = m->emissive[b];
         if (!isfinite(f) || f < 0.0)
             return rad_fail(c->err, RAD_ERR_INVALID,
                             "%s: material '%s': emissiveFactor %g must be finite and >= 0 "
                             "(band %s)",
                             c->src, m->name, f, band[b]);
-        double tc = m->diffuse_transmission_color[b];
         if (!(tc >= 0.0 && tc <= 1.0))
             return rad_fail(c->err, RAD_ERR_INVALID,
                             "%s: material '%s': diffuseTransmissionColorFactor %g is not in "
                             "[0, 1] (band %s)",
                             c->src, m->name, tc, band[b]);
+    }
+    return RAD_OK;
+}
+
+/* Adds material m to the scene and fills *mi (whether its own ρ was
+ * clamped: it is named in the warning once a polygon without vertex colours
+ * uses it, see convert). */
+static int add_material(gltf_ctx *c, const rad_gltf_raw_material *m, mat_info *mi)
+{
+    int rc = check_material(c, m);
+    if (rc)
+        return rc;
+    double base_tex[3], emit_tex[3], rho[3], e[3], tau[3];
+    int read = 0, clamped = 0;
+    if ((rc = texture_mean(c, m, &m->base_texture, "baseColorTexture", base_tex, &read)) ||
+        (rc = texture_mean(c, m, &m->emissive_texture, "emissiveTexture", emit_tex, &read)))
+        return rc;
+    double t = m->diffuse_transmission;
+    for (int b = 0; b < 3; b++) {
+        double r = m->base_color[b] * base_tex[b];
+        mi->base[b] = r;
+        if (r >= 1.0) {
+            if (c->strict)
+                return rad_fail(c->err, RAD_ERR_INVALID,
+                                m->base_texture.state == RAD_GLTF_TEXTURE_READ
+                                    ? "%s: material '%s': baseColorFactor × texture mean %g is "
+                                      "not a reflectance below 1 (band %s)"
+                                    : "%s: material '%s': baseColorFactor %g is not a "
+                                      "reflectance below 1 (band %s)",
+                                c->src, m->name, r, c->s->band_names[b]);
+            r = MAX_REFLECTANCE;
+            clamped = 1;
+        }
         /* KHR_materials_diffuse_transmission mixes the diffuse lobe: a share
          * t of it is transmitted (colour tc), the rest reflected. */
         rho[b] = (1.0 - t) * r;
-        tau[b] = t * tc;
-        e[b] = M_PI * f * st;
+        tau[b] = t * m->diffuse_transmission_color[b];
+        e[b] = M_PI * m->emissive[b] * m->emissive_strength * emit_tex[b];
     }
     /* glTF names need not be unique; ours must be. */
     char *name = unique_name(c->s, rad_scene_find_material, m->name, 1), where[340];
     if (!name)
         return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
     snprintf(where, sizeof where, "material '%.200s'", name);
-    int rc = rad_scene_add_material(c->s, name, rho, e, tau, where, index, c->err);
+    rc = rad_scene_add_material(c->s, name, rho, e, tau, where, &mi->index, c->err);
+    /* pbrMetallicRoughness: the glossy lobe of the gather renderer (scene.h
+     * gives the mapping).  An unstated metallicFactor counts as 0, not
+     * glTF's 1: this engine has always read baseColorFactor as a diffuse ρ,
+     * and a document that says nothing of metals keeps that meaning. */
+    if (!rc && (m->metallic != 0.0 || m->roughness != 1.0))
+        rc = rad_scene_set_material_gloss(c->s, mi->index, m->metallic, m->roughness, where,
+                                          c->err);
     free(name);
-    return rc;
+    if (rc)
+        return rc;
+    mi->t = t;
+    mi->name = c->s->materials[mi->index].name;
+    /* a transmitting sheet has both sides already (mesh twins) */
+    mi->two_sided = m->double_sided &&
+                    !rad_material_transmits(&c->s->materials[mi->index], c->s->band_count);
+    mi->clamped = clamped;
+    if (read && warn_name(c, W_TEXCOORD, mi->name) != 0)
+        return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
+    return RAD_OK;
 }
 
 /* ----------------------------------------------------------------- lights */
@@ -567,35 +853,129 @@ static char *dir_of(const char *path)
     return d;
 }
 
-static int convert(gltf_ctx *c, const rad_gltf_raw *raw)
+/* The extensions this loader reads; a required one outside this list is
+ * refused, a used one is named in a warning. */
+static int supported_extension(const char *name)
+{
+    return strcmp(name, "KHR_materials_emissive_strength") == 0 ||
+           strcmp(name, "KHR_materials_diffuse_transmission") == 0 ||
+           strcmp(name, "KHR_lights_punctual") == 0;
+}
+
+/* extensionsRequired we cannot honour fail; the rest of extensionsUsed
+ * and the bridge's notes go to the warnings. */
+static int check_extensions(gltf_ctx *c, const rad_gltf_raw *raw)
 {
     for (uint32_t k = 0; k < raw->extensions_required_count; k++)
-        if (strcmp(raw->extensions_required[k], "KHR_materials_emissive_strength") != 0 &&
-            strcmp(raw->extensions_required[k], "KHR_materials_diffuse_transmission") != 0 &&
-            strcmp(raw->extensions_required[k], "KHR_lights_punctual") != 0)
+        if (!supported_extension(raw->extensions_required[k]))
             return rad_fail(c->err, RAD_ERR_INVALID,
                             "%s: extension '%s' is required but not supported", c->src,
                             raw->extensions_required[k]);
-
-    static const char *const bands[3] = {"R", "G", "B"};
-    for (int b = 0; b < 3; b++)
-        if (!(c->s->band_names[b] = dup_str(bands[b])))
+    for (uint32_t k = 0; k < raw->extensions_used_count; k++) {
+        const char *e = raw->extensions_used[k];
+        int again = 0;
+        for (uint32_t j = 0; j < k; j++)
+            again |= strcmp(raw->extensions_used[j], e) == 0;
+        if (!again && !supported_extension(e) && warn_add(c, W_EXTENSION, e) != 0)
             return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
-
-    /* Pass 1: mode and material of every primitive the scene shows, the
-     * materials they use, and the scene's extent for the sliver threshold. */
-    uint32_t *mat_index = malloc((size_t)(raw->material_count ? raw->material_count : 1) *
-                                 sizeof *mat_index);
-    name_rank *ranks = malloc((size_t)(raw->node_count ? raw->node_count : 1) * sizeof *ranks);
-    uint32_t *rank_of = malloc((size_t)(raw->node_count ? raw->node_count : 1) * sizeof *rank_of);
-    int rc = RAD_OK;
-    if (!mat_index || !ranks || !rank_of) {
-        rc = rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
-        goto done;
     }
-    for (uint32_t m = 0; m < raw->material_count; m++)
-        mat_index[m] = RAD_NONE;
-    int have_box = 0;
+    for (uint32_t k = 0; k < raw->note_count; k++)
+        if (raw->notes[k].kind >= 0 && raw->notes[k].kind < RAD_GLTF_NOTE_COUNT &&
+            warn_add(c, raw->notes[k].kind, raw->notes[k].subject) != 0)
+            return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
+    return RAD_OK;
+}
+
+/* What pass 1 learns for pass 2: the materials in use (mats[material_count]
+ * is glTF's default material, for primitives without one), and per mesh
+ * which warnings named it already. */
+typedef struct plan {
+    mat_info *mats;
+    uint8_t *mesh_noted; /* bit 1: W_SKIPPED, bit 2: W_NO_MATERIAL */
+} plan;
+
+/* glTF's default material: white, not emitting, single-sided, diffuse
+ * (roughness 1; metallic 0 as for every material that states none). */
+static const rad_gltf_raw_material default_material = {
+    .name = "default",
+    .base_color = {1, 1, 1},
+    .roughness = 1,
+    .emissive_strength = 1,
+    .diffuse_transmission_color = {1, 1, 1},
+};
+
+/* The mat_info of primitive p of mesh me (node instancing meets it again:
+ * the material is added once), or NULL with rc set. */
+static mat_info *primitive_material(gltf_ctx *c, const rad_gltf_raw *raw, plan *pl,
+                                    int32_t mesh, uint32_t p, int *rc)
+{
+    const rad_gltf_raw_mesh *me = &raw->meshes[mesh];
+    const rad_gltf_raw_primitive *pr = &me->primitives[p];
+    const rad_gltf_raw_material *m = &default_material;
+    mat_info *mi = &pl->mats[raw->material_count];
+    if (pr->material >= 0) {
+        m = &raw->materials[pr->material];
+        mi = &pl->mats[pr->material];
+    } else if (c->strict) {
+        *rc = rad_fail(c->err, RAD_ERR_INVALID,
+                       "%s: mesh '%s' primitive %u: no material (glTF's default material is "
+                       "white 1.0, not a physical reflectance)",
+                       c->src, me->name, p);
+        return NULL;
+    } else if (!(pl->mesh_noted[mesh] & 2)) {
+        pl->mesh_noted[mesh] |= 2;
+        if (warn_name(c, W_NO_MATERIAL, me->name) != 0)
+            goto nomem;
+    }
+    if (mi->index == RAD_NONE && (*rc = add_material(c, m, mi)))
+        return NULL;
+    /* Its own ρ is what a primitive without vertex colours gets. */
+    if (!pr->colors && mi->clamped && !mi->clamp_noted) {
+        mi->clamp_noted = 1;
+        if (warn_name(c, W_CLAMPED, mi->name) != 0)
+            goto nomem;
+    }
+    return mi;
+nomem:
+    *rc = rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
+    return NULL;
+}
+
+/* A primitive mode without area (points, lines): skipped with a warning, or
+ * refused under --strict; any mode but TRIANGLES is refused.  1 = skip it,
+ * 0 = convert it, -1 = refused (rc set). */
+static int skip_mode(gltf_ctx *c, const rad_gltf_raw *raw, plan *pl, int32_t mesh, uint32_t p,
+                     int *rc)
+{
+    const rad_gltf_raw_mesh *me = &raw->meshes[mesh];
+    int mode = me->primitives[p].mode;
+    if (mode == RAD_GLTF_MODE_TRIANGLES)
+        return 0;
+    char mb[16];
+    if (mode >= 0 && mode <= 3 && !c->strict) { /* POINTS, LINES, LINE_LOOP, LINE_STRIP */
+        if (!(pl->mesh_noted[mesh] & 1)) {
+            pl->mesh_noted[mesh] |= 1;
+            char subject[200];
+            snprintf(subject, sizeof subject, "'%.80s' (%s)", me->name,
+                     mode_name(mode, mb, sizeof mb));
+            if (warn_add(c, W_SKIPPED, subject) != 0) {
+                *rc = rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
+                return -1;
+            }
+        }
+        return 1;
+    }
+    *rc = rad_fail(c->err, RAD_ERR_INVALID,
+                   "%s: mesh '%s' primitive %u: mode %s not supported (only TRIANGLES)", c->src,
+                   me->name, p, mode_name(mode, mb, sizeof mb));
+    return -1;
+}
+
+/* Pass 1: mode and material of every primitive the scene shows, the
+ * materials they use, and the scene's extent for the sliver threshold. */
+static int plan_primitives(gltf_ctx *c, const rad_gltf_raw *raw, plan *pl)
+{
+    int rc = RAD_OK, have_box = 0;
     rad_vec3 lo = rad_v3(0, 0, 0), hi = lo;
     for (uint32_t i = 0; i < raw->node_count; i++) {
         const rad_gltf_raw_node *nd = &raw->nodes[i];
@@ -604,25 +984,10 @@ static int convert(gltf_ctx *c, const rad_gltf_raw *raw)
         const rad_gltf_raw_mesh *me = &raw->meshes[nd->mesh];
         for (uint32_t p = 0; p < me->primitive_count; p++) {
             const rad_gltf_raw_primitive *pr = &me->primitives[p];
-            if (pr->mode != RAD_GLTF_MODE_TRIANGLES) {
-                char mb[16];
-                rc = rad_fail(c->err, RAD_ERR_INVALID,
-                              "%s: mesh '%s' primitive %u: mode %s not supported (only "
-                              "TRIANGLES)",
-                              c->src, me->name, p, mode_name(pr->mode, mb, sizeof mb));
-                goto done;
-            }
-            if (pr->material < 0) {
-                rc = rad_fail(c->err, RAD_ERR_INVALID,
-                              "%s: mesh '%s' primitive %u: no material (glTF's default "
-                              "material is white 1.0, not a physical reflectance)",
-                              c->src, me->name, p);
-                goto done;
-            }
-            if (mat_index[pr->material] == RAD_NONE &&
-                (rc = add_material(c, &raw->materials[pr->material], &mat_index[pr->material])))
-                goto done;
-            for (uint32_t k = 0; k < pr->index_count; k++) {
+            int skip = skip_mode(c, raw, pl, nd->mesh, p, &rc);
+            if (skip < 0 || (!skip && !primitive_material(c, raw, pl, nd->mesh, p, &rc)))
+                return rc;
+            for (uint32_t k = 0; !skip && k < pr->index_count; k++) {
                 rad_vec3 w = xform_point(nd->world, pr->positions + 3 * (size_t)pr->indices[k]);
                 if (!have_box) {
                     lo = hi = w;
@@ -635,14 +1000,16 @@ static int convert(gltf_ctx *c, const rad_gltf_raw *raw)
     }
     double diag = rad_length(rad_sub(hi, lo));
     c->min_area = 1e-14 * diag * diag;
-    if (!isfinite(c->min_area)) {
-        rc = rad_fail(c->err, RAD_ERR_INVALID, "%s: coordinates too large to compute with",
-                      c->src);
-        goto done;
-    }
+    if (!isfinite(c->min_area))
+        return rad_fail(c->err, RAD_ERR_INVALID, "%s: coordinates too large to compute with",
+                        c->src);
+    return RAD_OK;
+}
 
-    /* Object names: rank equal base names in node order, so the k-th node
-     * called "floor" becomes "floor#k" without a quadratic search. */
+/* Object names: rank equal base names in node order, so the k-th node
+ * called "floor" becomes "floor#k" without a quadratic search. */
+static void rank_names(const rad_gltf_raw *raw, name_rank *ranks, uint32_t *rank_of)
+{
     uint32_t nr = 0;
     for (uint32_t i = 0; i < raw->node_count; i++) {
         if (raw->nodes[i].in_scene && raw->nodes[i].mesh >= 0) {
@@ -656,63 +1023,97 @@ static int convert(gltf_ctx *c, const rad_gltf_raw *raw)
         rank_of[ranks[k].node] =
             (k > 0 && strcmp(ranks[k].name, ranks[k - 1].name) == 0) ? rank_of[ranks[k - 1].node] + 1
                                                                       : 1;
+}
 
-    /* Pass 2: the polygons, node by node. */
+/* Pass 2: the polygons, node by node. */
+static int add_polygons(gltf_ctx *c, const rad_gltf_raw *raw, plan *pl, const uint32_t *rank_of)
+{
+    int rc = RAD_OK;
     for (uint32_t i = 0; i < raw->node_count && rc == RAD_OK; i++) {
         const rad_gltf_raw_node *nd = &raw->nodes[i];
         if (!nd->in_scene || nd->mesh < 0)
             continue;
         /* A literal "floor#2" elsewhere could still collide: step on. */
         char *oname = unique_name(c->s, rad_scene_find_object, nd->name, rank_of[i]);
-        if (!oname) {
-            rc = rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
-            break;
-        }
+        if (!oname)
+            return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
         uint32_t object = RAD_NONE;
         const rad_gltf_raw_mesh *me = &raw->meshes[nd->mesh];
         for (uint32_t p = 0; p < me->primitive_count && rc == RAD_OK; p++) {
             const rad_gltf_raw_primitive *pr = &me->primitives[p];
-            uint32_t mat = mat_index[pr->material];
-            /* a transmitting sheet has both sides already (mesh twins) */
-            int two = raw->materials[pr->material].double_sided &&
-                      !rad_material_transmits(&c->s->materials[mat], c->s->band_count);
-            rc = convert_primitive(c, me, p, nd->world, oname, &object, mat, two);
+            if (pr->mode != RAD_GLTF_MODE_TRIANGLES)
+                continue; /* pass 1 refused or skipped it */
+            mat_info *mi = &pl->mats[pr->material >= 0 ? (uint32_t)pr->material
+                                                       : raw->material_count];
+            rc = convert_primitive(c, me, p, nd->world, oname, &object, mi);
         }
         free(oname);
     }
-    if (rc)
-        goto done;
-    if (c->s->polygon_count == 0 && c->triangles_dropped > 0) {
+    if (rc == RAD_OK && c->s->polygon_count == 0 && c->triangles_dropped > 0)
         rc = rad_fail(c->err, RAD_ERR_INVALID,
                       "%s: all %llu triangles have zero area (nothing to light)", c->src,
                       (unsigned long long)c->triangles_dropped);
+    return rc;
+}
+
+/* Cameras: eye at the node's world origin, looking along its -Z, up its +Y;
+ * perspective with yfov in degrees, orthographic with xmag and ymag. */
+static int add_camera(gltf_ctx *c, const rad_gltf_raw_camera *cam)
+{
+    const double *w = cam->world;
+    rad_vec3 eye = rad_v3(w[12], w[13], w[14]);
+    rad_vec3 dir = rad_normalize(rad_v3(-w[8], -w[9], -w[10]));
+    rad_vec3 up = rad_normalize(rad_v3(w[4], w[5], w[6]));
+    char *cname = unique_name(c->s, rad_scene_find_camera, cam->name, 1), where[340];
+    if (!cname)
+        return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
+    snprintf(where, sizeof where, "camera '%.200s'", cname);
+    int rc = cam->perspective
+                 ? rad_scene_add_camera(c->s, cname, eye, rad_add(eye, dir), up,
+                                        cam->yfov * (180.0 / M_PI), cam->aspect, where, NULL,
+                                        c->err)
+                 : rad_scene_add_ortho_camera(c->s, cname, eye, rad_add(eye, dir), up,
+                                              cam->xmag, cam->ymag, where, NULL, c->err);
+    free(cname);
+    return rc;
+}
+
+static int convert(gltf_ctx *c, const rad_gltf_raw *raw)
+{
+    int rc = check_extensions(c, raw);
+    if (rc)
+        return rc;
+    static const char *const bands[3] = {"R", "G", "B"};
+    for (int b = 0; b < 3; b++)
+        if (!(c->s->band_names[b] = dup_str(bands[b])))
+            return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
+
+    plan pl;
+    pl.mats = calloc((size_t)raw->material_count + 1, sizeof *pl.mats);
+    pl.mesh_noted = calloc(raw->mesh_count ? raw->mesh_count : 1, 1);
+    name_rank *ranks = malloc((size_t)(raw->node_count ? raw->node_count : 1) * sizeof *ranks);
+    uint32_t *rank_of = malloc((size_t)(raw->node_count ? raw->node_count : 1) * sizeof *rank_of);
+    if (!pl.mats || !pl.mesh_noted || !ranks || !rank_of) {
+        rc = rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
         goto done;
     }
-
-    for (uint32_t k = 0; k < raw->camera_count && rc == RAD_OK; k++) {
-        const rad_gltf_raw_camera *cam = &raw->cameras[k];
-        if (!cam->perspective)
-            continue;
-        const double *w = cam->world;
-        rad_vec3 eye = rad_v3(w[12], w[13], w[14]);
-        rad_vec3 dir = rad_normalize(rad_v3(-w[8], -w[9], -w[10]));
-        rad_vec3 up = rad_normalize(rad_v3(w[4], w[5], w[6]));
-        char *cname = unique_name(c->s, rad_scene_find_camera, cam->name, 1), where[340];
-        if (!cname) {
-            rc = rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
-            break;
-        }
-        snprintf(where, sizeof where, "camera '%.200s'", cname);
-        rc = rad_scene_add_camera(c->s, cname, eye, rad_add(eye, dir), up,
-                                  cam->yfov * (180.0 / M_PI), cam->aspect, where, NULL, c->err);
-        free(cname);
-    }
-
+    for (uint32_t m = 0; m <= raw->material_count; m++)
+        pl.mats[m].index = RAD_NONE;
+    /* glTF's default material is clamped by definition: W_NO_MATERIAL says so */
+    pl.mats[raw->material_count].clamp_noted = 1;
+    if ((rc = plan_primitives(c, raw, &pl)))
+        goto done;
+    rank_names(raw, ranks, rank_of);
+    if ((rc = add_polygons(c, raw, &pl, rank_of)))
+        goto done;
+    for (uint32_t k = 0; k < raw->camera_count && rc == RAD_OK; k++)
+        rc = add_camera(c, &raw->cameras[k]);
     for (uint32_t k = 0; k < raw->light_count && rc == RAD_OK; k++)
         rc = add_light(c, &raw->lights[k]);
 
 done:
-    free(mat_index);
+    free(pl.mats);
+    free(pl.mesh_noted);
     free(ranks);
     free(rank_of);
     return rc;
@@ -732,6 +1133,7 @@ int rad_scene_parse_gltf(const void *data, size_t size, const char *name,
     c.src = src;
     c.err = err;
     c.max_polygons = opt && opt->max_polygons ? opt->max_polygons : DEFAULT_MAX_POLYGONS;
+    c.strict = opt && opt->strict;
 
     char *base = NULL;
     if (name && !(base = dir_of(name)))
@@ -750,6 +1152,9 @@ int rad_scene_parse_gltf(const void *data, size_t size, const char *name,
     }
     rc = convert(&c, raw);
     rad_gltf_raw_free(raw);
+    if (rc == RAD_OK)
+        warn_flush(&c, opt); /* a failed load says only why it failed */
+    warn_free(&c);
     if (rc) {
         rad_scene_destroy(c.s);
         return rc;

@@ -4,9 +4,10 @@
  * files apart).  This file owns the second pass: tinygltf parses the document
  * gltf_vet.cpp has vetted, through file callbacks confined to the vetted
  * buffers, and its Model becomes the plain-C rad_gltf_raw of gltf_bridge.h --
- * node hierarchy to world matrices, accessors to double positions and uint32
- * triangle indices, materials, cameras and KHR_lights_punctual lights as
- * numbers.  It includes tiny_gltf.h's declarations only (tinygltf_impl.cpp
+ * node hierarchy to world matrices, accessors to double positions, linear
+ * vertex colours and uint32 triangle indices, materials (their textures
+ * averaged by gltf_texture.cpp), cameras and KHR_lights_punctual lights as
+ * numbers, and notes of what a diffuse scene ignores.  It includes tiny_gltf.h's declarations only (tinygltf_impl.cpp
  * compiles its code), so an edit here recompiles in seconds.
  *
  * Invariant: no exception and no C++ type leaves this file, and no input can
@@ -146,15 +147,6 @@ tinygltf::Model parse_model(const vetted_doc &doc, fs_context &fs, const char *b
 
 /* ----------------------------------------------------------- raw ownership */
 
-char *dup_c(const std::string &s)
-{
-    char *p = static_cast<char *>(malloc(s.size() + 1));
-    if (!p)
-        throw std::bad_alloc();
-    memcpy(p, s.c_str(), s.size() + 1);
-    return p;
-}
-
 template <typename T> T *calloc_n(size_t n)
 {
     T *p = static_cast<T *>(calloc(n ? n : 1, sizeof(T)));
@@ -274,11 +266,16 @@ void local_matrix(const tinygltf::Model &m, size_t i, double out[16])
 
 /* -------------------------------------------------------------- accessors */
 
+/* What an accessor must hold. */
+enum accessor_role { ROLE_POSITION, ROLE_INDEX, ROLE_COLOR };
+
 struct data_span {
     const unsigned char *base = nullptr;
     size_t stride = 0;
     size_t count = 0;
     size_t component = 0; /* bytes per component */
+    size_t width = 0;     /* components per element */
+    int type = 0;         /* glTF componentType */
 };
 
 const char *type_name(int type)
@@ -295,28 +292,56 @@ const char *type_name(int type)
     }
 }
 
-/* Checks that accessor `a` (named by w) holds `what` (POSITION: float VEC3,
- * at most kMaxVertices; indices: unsigned SCALAR, at most kMaxIndices) and
- * returns the bytes per component. */
-size_t check_element(const tinygltf::Accessor &a, const std::string &w, bool is_index)
+/* Indices: unsigned SCALAR, at most kMaxIndices; returns bytes per component. */
+size_t check_index_element(const tinygltf::Accessor &a, const std::string &w)
 {
     size_t component = 0;
-    if (is_index) {
-        if (a.type != TINYGLTF_TYPE_SCALAR)
-            fail(RAD_ERR_PARSE, w + ": type " + type_name(a.type) + ", expected SCALAR");
-        switch (a.componentType) {
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: component = 1; break;
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: component = 2; break;
-        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: component = 4; break;
-        default:
-            fail(RAD_ERR_PARSE,
-                 format("%s: componentType %d, expected unsigned byte, short or int (5121, "
-                        "5123, 5125)",
-                        w.c_str(), a.componentType));
-        }
-        if (a.count > kMaxIndices)
-            fail(RAD_ERR_LIMIT, format("%s: %zu indices, more than the limit of %llu", w.c_str(),
-                                       a.count, (unsigned long long)kMaxIndices));
+    if (a.type != TINYGLTF_TYPE_SCALAR)
+        fail(RAD_ERR_PARSE, w + ": type " + type_name(a.type) + ", expected SCALAR");
+    switch (a.componentType) {
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: component = 1; break;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: component = 2; break;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: component = 4; break;
+    default:
+        fail(RAD_ERR_PARSE,
+             format("%s: componentType %d, expected unsigned byte, short or int (5121, "
+                    "5123, 5125)",
+                    w.c_str(), a.componentType));
+    }
+    if (a.count > kMaxIndices)
+        fail(RAD_ERR_LIMIT, format("%s: %zu indices, more than the limit of %llu", w.c_str(),
+                                   a.count, (unsigned long long)kMaxIndices));
+    return component;
+}
+
+/* COLOR_0: VEC3 or VEC4 of float, or of unsigned byte or short (normalised,
+ * as glTF requires of colours); returns bytes per component. */
+size_t check_color_element(const tinygltf::Accessor &a, const std::string &w)
+{
+    if (a.type != TINYGLTF_TYPE_VEC3 && a.type != TINYGLTF_TYPE_VEC4)
+        fail(RAD_ERR_PARSE, w + ": type " + type_name(a.type) + ", expected VEC3 or VEC4");
+    switch (a.componentType) {
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    default:
+        fail(RAD_ERR_PARSE,
+             format("%s: componentType %d, expected float, unsigned byte or unsigned short "
+                    "(5126, 5121, 5123)",
+                    w.c_str(), a.componentType));
+    }
+}
+
+/* Checks that accessor `a` (named by w) holds what `role` needs and
+ * returns the bytes per component; elements per accessor are at most
+ * kMaxVertices (POSITION, COLOR_0) or kMaxIndices. */
+size_t check_element(const tinygltf::Accessor &a, const std::string &w, accessor_role role)
+{
+    if (role == ROLE_INDEX)
+        return check_index_element(a, w);
+    size_t component = 4;
+    if (role == ROLE_COLOR) {
+        component = check_color_element(a, w);
     } else {
         if (a.type != TINYGLTF_TYPE_VEC3)
             fail(RAD_ERR_PARSE, w + ": type " + type_name(a.type) + ", expected VEC3");
@@ -324,11 +349,10 @@ size_t check_element(const tinygltf::Accessor &a, const std::string &w, bool is_
             fail(RAD_ERR_PARSE,
                  format("%s: componentType %d, expected float (5126)", w.c_str(),
                         a.componentType));
-        component = 4;
-        if (a.count > kMaxVertices)
-            fail(RAD_ERR_LIMIT, format("%s: %zu vertices, more than the limit of %llu",
-                                       w.c_str(), a.count, (unsigned long long)kMaxVertices));
     }
+    if (a.count > kMaxVertices)
+        fail(RAD_ERR_LIMIT, format("%s: %zu vertices, more than the limit of %llu", w.c_str(),
+                                   a.count, (unsigned long long)kMaxVertices));
     return component;
 }
 
@@ -336,7 +360,7 @@ size_t check_element(const tinygltf::Accessor &a, const std::string &w, bool is_
  * element lies inside its buffer view and the view inside its buffer.
  * Allocates nothing. */
 data_span check_accessor(const tinygltf::Model &m, int idx, const std::string &where,
-                         const char *what, bool is_index)
+                         const char *what, accessor_role role)
 {
     size_t na = m.accessors.size();
     if (idx < 0 || (size_t)idx >= na)
@@ -348,8 +372,10 @@ data_span check_accessor(const tinygltf::Model &m, int idx, const std::string &w
     if (a.sparse.isSparse)
         fail(RAD_ERR_PARSE, w + ": sparse accessors are not supported");
     data_span sp;
-    sp.component = check_element(a, w, is_index);
-    size_t elem = sp.component * (is_index ? 1 : 3);
+    sp.component = check_element(a, w, role);
+    sp.width = role == ROLE_INDEX ? 1 : a.type == TINYGLTF_TYPE_VEC4 ? 4 : 3;
+    sp.type = a.componentType;
+    size_t elem = sp.component * sp.width;
     sp.count = a.count;
     /* An accessor without a buffer view is all zeros: legal glTF, but it
      * would let a few bytes of JSON demand gigabytes, and holds no surface. */
@@ -461,6 +487,10 @@ void convert_material(const tinygltf::Material &src, size_t i, rad_gltf_raw_mate
     dst.emissive_strength = emissive_strength(src, where);
     diffuse_transmission(src, where, dst);
     dst.double_sided = src.doubleSided ? 1 : 0;
+    /* tinygltf fills pbrMetallicRoughness with glTF's defaults; `values`
+     * holds only the keys the document wrote. */
+    dst.metallic = src.values.count("metallicFactor") ? src.pbrMetallicRoughness.metallicFactor : 0.0;
+    dst.roughness = src.pbrMetallicRoughness.roughnessFactor;
 }
 
 void convert_materials(const tinygltf::Model &m, rad_gltf_raw *raw)
@@ -619,8 +649,9 @@ void convert_nodes(const tinygltf::Model &m, rad_gltf_raw *raw)
 
 /* What one primitive will copy, found before anything is allocated. */
 struct prim_plan {
-    data_span pos, idx;
+    data_span pos, idx, col;
     bool indexed = false;
+    bool colored = false; /* COLOR_0 present */
     uint64_t triangles = 0;
 };
 
@@ -629,8 +660,8 @@ std::string primitive_label(const char *mesh_name, size_t p)
     return format("mesh %s primitive %zu", q(mesh_name).c_str(), p);
 }
 
-/* Checks one primitive: its material index, and for TRIANGLES its POSITION
- * and index accessors and a whole number of triangles.  Other modes get an
+/* Checks one primitive: its material index, and for TRIANGLES its POSITION,
+ * COLOR_0 and index accessors and a whole number of triangles.  Other modes get an
  * empty plan: gltf.c refuses them with the mode's name. */
 prim_plan plan_primitive(const tinygltf::Model &m, const tinygltf::Primitive &pr,
                          const std::string &where)
@@ -645,10 +676,18 @@ prim_plan plan_primitive(const tinygltf::Model &m, const tinygltf::Primitive &pr
     auto pos = pr.attributes.find("POSITION");
     if (pos == pr.attributes.end())
         fail(RAD_ERR_PARSE, where + ": no POSITION attribute");
-    pl.pos = check_accessor(m, pos->second, where, "POSITION", false);
+    pl.pos = check_accessor(m, pos->second, where, "POSITION", ROLE_POSITION);
+    auto col = pr.attributes.find("COLOR_0");
+    if (col != pr.attributes.end()) {
+        pl.colored = true;
+        pl.col = check_accessor(m, col->second, where, "COLOR_0", ROLE_COLOR);
+        if (pl.col.count != pl.pos.count)
+            fail(RAD_ERR_PARSE, format("%s: COLOR_0 has %zu elements, POSITION %zu",
+                                       where.c_str(), pl.col.count, pl.pos.count));
+    }
     if (pr.indices >= 0) {
         pl.indexed = true;
-        pl.idx = check_accessor(m, pr.indices, where, "indices", true);
+        pl.idx = check_accessor(m, pr.indices, where, "indices", ROLE_INDEX);
         if (pl.idx.count % 3 != 0)
             fail(RAD_ERR_PARSE, format("%s: %zu indices, not a multiple of 3", where.c_str(),
                                        pl.idx.count));
@@ -695,6 +734,33 @@ void copy_positions(const prim_plan &pl, const std::string &where, rad_gltf_raw_
     }
 }
 
+/* The planned COLOR_0 elements as linear RGB doubles (alpha dropped:
+ * coverage, not reflectance), each finite and >= 0.  Integer colours are
+ * normalised, as glTF requires of them: v / 255 or v / 65535. */
+void copy_colors(const prim_plan &pl, const std::string &where, rad_gltf_raw_primitive &out)
+{
+    if (!pl.colored)
+        return;
+    size_t nv = pl.col.count;
+    out.colors = calloc_n<double>(3 * nv);
+    for (size_t v = 0; v < nv; v++) {
+        const unsigned char *e = pl.col.base + v * pl.col.stride;
+        for (int c = 0; c < 3; c++) {
+            double x;
+            if (pl.col.type == TINYGLTF_COMPONENT_TYPE_FLOAT)
+                x = le_float(e + 4 * c);
+            else if (pl.col.type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT)
+                x = (double)(e[2 * c] | e[2 * c + 1] << 8) / 65535.0;
+            else
+                x = (double)e[c] / 255.0;
+            if (!std::isfinite(x) || x < 0.0)
+                fail(RAD_ERR_PARSE, format("%s: COLOR_0 of vertex %zu is %g, not a colour",
+                                           where.c_str(), v, x));
+            out.colors[3 * v + c] = x;
+        }
+    }
+}
+
 /* The planned indices as uint32, each below the vertex count; a primitive
  * without indices gets 0, 1, 2, ... */
 void copy_indices(const prim_plan &pl, const std::string &where, rad_gltf_raw_primitive &out)
@@ -734,12 +800,14 @@ void fill_mesh(const tinygltf::Mesh &src, const std::vector<prim_plan> &plans,
         std::string where = primitive_label(dst.name, p);
         copy_positions(plans[p], where, out);
         copy_indices(plans[p], where, out);
+        copy_colors(plans[p], where, out);
     }
 }
 
 /* Meshes -> raw->meshes: every primitive of every instanced mesh is checked
  * and the triangles the scene would hold are counted, all before any vertex
- * is copied.  Needs raw->nodes (convert_nodes). */
+ * is copied; the materials their triangles use are marked used.  Needs
+ * raw->nodes (convert_nodes) and raw->materials. */
 void convert_meshes(const tinygltf::Model &m, uint64_t max_triangles, rad_gltf_raw *raw)
 {
     size_t nme = m.meshes.size();
@@ -762,9 +830,14 @@ void convert_meshes(const tinygltf::Model &m, uint64_t max_triangles, rad_gltf_r
         }
     }
     check_triangle_budget(raw, mesh_triangles, max_triangles);
-    for (size_t i = 0; i < nme; i++)
-        if (raw->meshes[i].used)
-            fill_mesh(m.meshes[i], plans[i], raw->meshes[i]);
+    for (size_t i = 0; i < nme; i++) {
+        if (!raw->meshes[i].used)
+            continue;
+        fill_mesh(m.meshes[i], plans[i], raw->meshes[i]);
+        for (const tinygltf::Primitive &pr : m.meshes[i].primitives)
+            if (pr.mode == TINYGLTF_MODE_TRIANGLES && pr.material >= 0)
+                raw->materials[(size_t)pr.material].used = 1;
+    }
 }
 
 /* ------------------------------------------------------- cameras and lights */
@@ -784,6 +857,8 @@ void convert_camera(const tinygltf::Model &m, size_t i, const rad_gltf_raw_node 
     dst.perspective = c.type == "perspective";
     dst.yfov = c.perspective.yfov;
     dst.aspect = c.perspective.aspectRatio;
+    dst.xmag = c.orthographic.xmag;
+    dst.ymag = c.orthographic.ymag;
     memcpy(dst.world, node.world, sizeof dst.world);
 }
 
@@ -858,25 +933,108 @@ void convert_lights(const tinygltf::Model &m, const std::vector<light_def> &ligh
                           raw->lights[raw->light_count++]);
 }
 
+/* ------------------------------------------------------------------- notes */
+
+/* The notes of ignored features (gltf_bridge.h), each subject once per kind,
+ * in the order first met. */
+struct note_list {
+    std::vector<std::pair<int, std::string>> items;
+    std::vector<std::vector<std::string>> seen = std::vector<std::vector<std::string>>(
+        RAD_GLTF_NOTE_COUNT);
+
+    void add(int kind, const std::string &subject)
+    {
+        std::vector<std::string> &s = seen[(size_t)kind];
+        for (const std::string &x : s)
+            if (x == subject)
+                return;
+        s.push_back(subject);
+        items.emplace_back(kind, subject);
+    }
+};
+
+/* What the used materials carry that a diffuse surface ignores. */
+void material_notes(const tinygltf::Model &m, const vetted_doc &doc, const rad_gltf_raw *raw,
+                    note_list &notes)
+{
+    for (size_t i = 0; i < raw->material_count; i++) {
+        if (!raw->materials[i].used)
+            continue;
+        const tinygltf::Material &src = m.materials[i];
+        std::string name = q(raw->materials[i].name);
+        if (src.normalTexture.index >= 0 || src.occlusionTexture.index >= 0 ||
+            src.pbrMetallicRoughness.metallicRoughnessTexture.index >= 0)
+            notes.add(RAD_GLTF_NOTE_TEXTURES, name);
+        if (i < doc.metallic.size() && doc.metallic[i])
+            notes.add(RAD_GLTF_NOTE_METALLIC, name);
+        if (!src.alphaMode.empty() && src.alphaMode != "OPAQUE")
+            notes.add(RAD_GLTF_NOTE_ALPHA, name + " (" + src.alphaMode.substr(0, 16) + ")");
+    }
+}
+
+/* Every note of the document, after the conversion: only what the displayed
+ * scene uses is named. */
+void collect_notes(const tinygltf::Model &m, const vetted_doc &doc, rad_gltf_raw *raw)
+{
+    note_list notes;
+    material_notes(m, doc, raw, notes);
+    if (doc.animations)
+        notes.add(RAD_GLTF_NOTE_ANIMATION, format("%zu animation%s", doc.animations,
+                                                  doc.animations == 1 ? "" : "s"));
+    if (doc.skins)
+        notes.add(RAD_GLTF_NOTE_ANIMATION,
+                  format("%zu skin%s", doc.skins, doc.skins == 1 ? "" : "s"));
+    for (size_t i = 0; i < raw->mesh_count; i++) {
+        if (!raw->meshes[i].used)
+            continue;
+        for (const tinygltf::Primitive &pr : m.meshes[i].primitives)
+            if (!pr.targets.empty())
+                notes.add(RAD_GLTF_NOTE_ANIMATION,
+                          "morph targets of mesh " + q(raw->meshes[i].name));
+    }
+    for (size_t k = 0; k < raw->light_count; k++)
+        if (doc.lights[raw->lights[k].light].has_range)
+            notes.add(RAD_GLTF_NOTE_LIGHT_RANGE, q(raw->lights[k].name));
+    raw->notes = calloc_n<rad_gltf_raw_note>(notes.items.size());
+    for (const auto &it : notes.items) {
+        rad_gltf_raw_note &n = raw->notes[raw->note_count];
+        n.kind = it.first;
+        n.subject = dup_c(it.second);
+        raw->note_count++;
+    }
+}
+
 /* --------------------------------------------------------------- converter */
 
+char **string_array(const std::vector<std::string> &v, uint32_t *count, const char *what)
+{
+    *count = count32(v.size(), what);
+    char **out = calloc_n<char *>(v.size());
+    for (size_t k = 0; k < v.size(); k++)
+        out[k] = dup_c(v[k]);
+    return out;
+}
+
 /* tinygltf's Model -> raw, in an order where each part finds what it needs:
- * nodes before meshes (which are read only when instanced), cameras and
- * lights (placed by nodes). */
-void convert(const tinygltf::Model &m, const std::vector<light_def> &lights,
+ * nodes before meshes (which are read only when instanced), meshes before
+ * textures (read only for the materials they use), cameras and lights
+ * (placed by nodes), and the notes last. */
+void convert(const tinygltf::Model &m, const vetted_doc &doc, const fs_context &fs,
              uint64_t max_triangles, rad_gltf_raw *raw)
 {
-    /* extensionsRequired: passed on, judged by gltf.c. */
-    raw->extensions_required_count = count32(m.extensionsRequired.size(), "extensions");
-    raw->extensions_required = calloc_n<char *>(m.extensionsRequired.size());
-    for (size_t k = 0; k < m.extensionsRequired.size(); k++)
-        raw->extensions_required[k] = dup_c(m.extensionsRequired[k]);
+    /* extensionsRequired and extensionsUsed: passed on, judged by gltf.c. */
+    raw->extensions_required =
+        string_array(m.extensionsRequired, &raw->extensions_required_count, "extensions");
+    raw->extensions_used =
+        string_array(m.extensionsUsed, &raw->extensions_used_count, "extensions");
 
     convert_materials(m, raw);
     convert_nodes(m, raw);
     convert_meshes(m, max_triangles, raw);
+    convert_textures(m, doc, fs, raw);
     convert_cameras(m, raw);
-    convert_lights(m, lights, raw);
+    convert_lights(m, doc.lights, raw);
+    collect_notes(m, doc, raw);
 }
 
 int load(const void *data, size_t size, const char *base_dir, uint64_t max_triangles,
@@ -892,7 +1050,7 @@ int load(const void *data, size_t size, const char *base_dir, uint64_t max_trian
     vetted_doc doc = vet_document(data, size, fs);
     tinygltf::Model model = parse_model(doc, fs, base_dir);
     raw_ptr raw(calloc_n<rad_gltf_raw>(1));
-    convert(model, doc.lights, max_triangles, raw.get());
+    convert(model, doc, fs, max_triangles, raw.get());
     *out = raw.release();
     return RAD_OK;
 }
@@ -949,13 +1107,17 @@ extern "C" void rad_gltf_raw_free(rad_gltf_raw *raw)
         for (uint32_t p = 0; me->primitives && p < me->primitive_count; p++) {
             free(me->primitives[p].positions);
             free(me->primitives[p].indices);
+            free(me->primitives[p].colors);
         }
         free(me->primitives);
         free(me->name);
     }
     free(raw->meshes);
-    for (uint32_t i = 0; raw->materials && i < raw->material_count; i++)
+    for (uint32_t i = 0; raw->materials && i < raw->material_count; i++) {
         free(raw->materials[i].name);
+        free(raw->materials[i].base_texture.problem);
+        free(raw->materials[i].emissive_texture.problem);
+    }
     free(raw->materials);
     for (uint32_t i = 0; raw->cameras && i < raw->camera_count; i++)
         free(raw->cameras[i].name);
@@ -966,5 +1128,11 @@ extern "C" void rad_gltf_raw_free(rad_gltf_raw *raw)
     for (uint32_t i = 0; raw->extensions_required && i < raw->extensions_required_count; i++)
         free(raw->extensions_required[i]);
     free(raw->extensions_required);
+    for (uint32_t i = 0; raw->extensions_used && i < raw->extensions_used_count; i++)
+        free(raw->extensions_used[i]);
+    free(raw->extensions_used);
+    for (uint32_t i = 0; raw->notes && i < raw->note_count; i++)
+        free(raw->notes[i].subject);
+    free(raw->notes);
     free(raw);
 }

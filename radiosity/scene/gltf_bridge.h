@@ -6,7 +6,10 @@
  * every vertex and matrix is finite, triangle index lists have a multiple of
  * 3 entries and every entry is below the primitive's vertex count.  Only the
  * radiosity-specific rules (ρ < 1, TRIANGLES only, supported extensions) are
- * left to gltf.c.  No C++ type or exception crosses this header.
+ * left to gltf.c.  Textures arrive as their mean linear colour (decoded by
+ * gltf_image.c, never as pixels); what the document holds that a diffuse
+ * radiosity scene ignores arrives as notes, for gltf.c to warn about.  No
+ * C++ type or exception crosses this header.
  */
 #ifndef RAD_GLTF_BRIDGE_H
 #define RAD_GLTF_BRIDGE_H
@@ -28,6 +31,8 @@ typedef struct rad_gltf_raw_primitive {
     double *positions;     /* 3 × vertex_count, the mesh's own (model) space */
     uint32_t index_count;  /* multiple of 3; a non-indexed primitive gets 0,1,2,... */
     uint32_t *indices;     /* every entry < vertex_count */
+    double *colors;        /* COLOR_0 as linear RGB (alpha dropped), 3 × vertex_count, each
+                            * finite and >= 0; NULL = no vertex colours */
 } rad_gltf_raw_primitive;
 
 typedef struct rad_gltf_raw_mesh {
@@ -44,8 +49,23 @@ typedef struct rad_gltf_raw_node {
     double world[16];  /* node-to-world matrix, column-major as glTF stores it */
 } rad_gltf_raw_node;
 
+/* What a material's baseColorTexture or emissiveTexture came to. */
+#define RAD_GLTF_TEXTURE_NONE 0       /* the material names none */
+#define RAD_GLTF_TEXTURE_READ 1       /* mean holds the image's mean linear colour */
+#define RAD_GLTF_TEXTURE_UNREADABLE 2 /* problem says why ("image 2 'a.png': ...") */
+
+typedef struct rad_gltf_raw_texture {
+    int state;       /* RAD_GLTF_TEXTURE_* */
+    double mean[3];  /* READ: mean over texels of the sRGB-decoded RGB, each in [0, 1] */
+    char *problem;   /* UNREADABLE: one line; else NULL */
+} rad_gltf_raw_texture;
+
 typedef struct rad_gltf_raw_material {
     char *name;               /* glTF name, else "material<index>" */
+    int used;                 /* by a primitive of the displayed scene; only then are its
+                               * textures read */
+    rad_gltf_raw_texture base_texture;     /* pbrMetallicRoughness.baseColorTexture */
+    rad_gltf_raw_texture emissive_texture; /* emissiveTexture */
     double base_color[3];     /* pbrMetallicRoughness.baseColorFactor RGB (default 1) */
     double emissive[3];       /* emissiveFactor (default 0) */
     double emissive_strength; /* KHR_materials_emissive_strength (default 1) */
@@ -54,6 +74,10 @@ typedef struct rad_gltf_raw_material {
     double diffuse_transmission;
     double diffuse_transmission_color[3];
     int double_sided;
+    /* pbrMetallicRoughness.metallicFactor when the material states it, else
+     * 0 (not glTF's default 1: see gltf.c), and roughnessFactor (default 1) */
+    double metallic;
+    double roughness;
 } rad_gltf_raw_material;
 
 /* One camera as placed by a node of the scene (a glTF camera used by two
@@ -65,6 +89,7 @@ typedef struct rad_gltf_raw_camera {
     int perspective;   /* 0 = orthographic */
     double yfov;       /* radians (perspective only) */
     double aspect;     /* aspectRatio, 0 = absent */
+    double xmag, ymag; /* orthographic only: half-width and half-height of the view */
     double world[16];  /* of the node, column-major */
 } rad_gltf_raw_camera;
 
@@ -89,6 +114,23 @@ typedef struct rad_gltf_raw_light {
     double world[16];    /* of the node, column-major */
 } rad_gltf_raw_light;
 
+/* Something of the document a diffuse radiosity scene ignores, for one
+ * warning line per kind (gltf.c words them); subject names the instance. */
+typedef enum rad_gltf_note_kind {
+    RAD_GLTF_NOTE_TEXTURES = 0,  /* subject: a material with normal, occlusion or
+                                  * metallic-roughness textures */
+    RAD_GLTF_NOTE_METALLIC,      /* subject: a material whose metallicFactor is given > 0 */
+    RAD_GLTF_NOTE_ALPHA,         /* subject: a material whose alphaMode is not OPAQUE */
+    RAD_GLTF_NOTE_ANIMATION,     /* subject: "N animations", "N skins", "mesh 'x' morph targets" */
+    RAD_GLTF_NOTE_LIGHT_RANGE,   /* subject: a light with a range */
+    RAD_GLTF_NOTE_COUNT
+} rad_gltf_note_kind;
+
+typedef struct rad_gltf_raw_note {
+    int kind;      /* rad_gltf_note_kind */
+    char *subject; /* e.g. "KHR_materials_specular", "'glass'" */
+} rad_gltf_raw_note;
+
 typedef struct rad_gltf_raw {
     rad_gltf_raw_node *nodes;
     uint32_t node_count;
@@ -102,12 +144,16 @@ typedef struct rad_gltf_raw {
     uint32_t light_count;
     char **extensions_required;
     uint32_t extensions_required_count;
+    char **extensions_used;            /* extensionsUsed, for gltf.c to name those it ignores */
+    uint32_t extensions_used_count;
+    rad_gltf_raw_note *notes;          /* in document order, each subject once per kind */
+    uint32_t note_count;
 } rad_gltf_raw;
 
 /* Reads a glTF document (.gltf JSON or .glb, told apart by the "glTF" magic)
- * from memory.  base_dir is the directory external buffers are resolved in;
- * only relative URIs below it are opened, and with base_dir NULL no external
- * file is.  max_triangles bounds the triangles the scene would hold (counted
+ * from memory.  base_dir is the directory external buffers and images are
+ * resolved in; only relative URIs below it are opened, and with base_dir
+ * NULL no external file is.  max_triangles bounds the triangles the scene would hold (counted
  * over node instances) before anything big is allocated.
  *
  * Returns RAD_OK and sets *out (caller owns it; free with rad_gltf_raw_free),

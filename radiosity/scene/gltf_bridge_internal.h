@@ -1,11 +1,12 @@
 /* gltf_bridge_internal.h - private to the C++ files of the glTF bridge
- * (gltf_vet.cpp, gltf_bridge.cpp); C never includes it.
+ * (gltf_vet.cpp, gltf_bridge.cpp, gltf_texture.cpp); C never includes it.
  *
  * The bridge reads a document in two passes kept in separate files so that
  * neither recompiles the other's heavy headers: gltf_vet.cpp reads the raw
  * bytes with nlohmann::json and hands back a vetted document (vet_document
  * below); gltf_bridge.cpp lets tinygltf parse that and turns tinygltf's
- * Model into the plain-C rad_gltf_raw.  tinygltf's implementation is
+ * Model into the plain-C rad_gltf_raw, and gltf_texture.cpp finds the
+ * materials' texture images and has them averaged.  tinygltf's implementation is
  * compiled once, in tinygltf_impl.cpp, which does not include this header
  * (an edit here must not recompile it).  This header names neither library,
  * so including it costs nothing.
@@ -29,9 +30,16 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <map>
+#include <new>
 #include <string>
 #include <vector>
+
+namespace tinygltf {
+class Model;
+}
 
 namespace rad_gltf {
 
@@ -83,6 +91,17 @@ inline std::string first_line(const std::string &s)
     return line.size() > 300 ? line.substr(0, 297) + "..." : line;
 }
 
+/* A malloc'ed copy of s for the plain-C rad_gltf_raw (freed by
+ * rad_gltf_raw_free); throws std::bad_alloc when memory runs out. */
+inline char *dup_c(const std::string &s)
+{
+    char *p = static_cast<char *>(malloc(s.size() + 1));
+    if (!p)
+        throw std::bad_alloc();
+    memcpy(p, s.c_str(), s.size() + 1);
+    return p;
+}
+
 /* Little-endian 32-bit word, as .glb headers and glTF buffers store them. */
 inline uint32_t le32(const unsigned char *p)
 {
@@ -100,6 +119,25 @@ struct light_def {
     double color[3] = {1, 1, 1};
     double intensity = 1.0;
     double inner = 0.0, outer = M_PI / 4;
+    bool has_range = false; /* given, and ignored: light falls off as 1/r² */
+};
+
+/* One entry of `images`, as far as the vet pass could read it: tinygltf
+ * never sees images (it would read a buffer view's bytes unchecked), so
+ * gltf_texture.cpp finds their bytes itself.  A malformed entry is not an
+ * error of the document: it makes the textures using it unreadable. */
+struct image_def {
+    std::string name;
+    std::string uri;        /* data URI or relative path; empty with a buffer view */
+    int64_t buffer_view = -1;
+    std::string problem;    /* non-empty: why the entry cannot be used */
+};
+
+/* One entry of `textures`: the image it samples (-1 = none, e.g. only an
+ * EXT_texture_webp source). */
+struct texture_def {
+    int64_t source = -1;
+    std::string problem;    /* non-empty: why the entry cannot be used */
 };
 
 /* Which files tinygltf may open: gltf_vet.cpp fills `sizes` with the vetted
@@ -117,6 +155,10 @@ struct vetted_doc {
     std::string json;                 /* the kept members only, as JSON text */
     std::vector<unsigned char> glb;   /* a fresh .glb around `json` and the BIN chunk */
     std::vector<light_def> lights;    /* KHR_lights_punctual.lights, type-checked */
+    std::vector<texture_def> textures;
+    std::vector<image_def> images;
+    std::vector<bool> metallic;       /* per material: metallicFactor given and > 0 */
+    size_t animations = 0, skins = 0; /* entries of the dropped arrays, for the notes */
 };
 
 /* Reads `size` bytes of .gltf or .glb (told apart by the "glTF" magic):
@@ -125,6 +167,18 @@ struct vetted_doc {
  * buffer URIs into fs.sizes (fs.allow_external and fs.prefix set by the
  * caller).  Throws bridge_error on bad input.  gltf_vet.cpp. */
 vetted_doc vet_document(const void *data, size_t size, fs_context &fs);
+
+/* A relative path below the document's directory: not empty, not absolute,
+ * no backslash, colon or NUL, no ".." component.  gltf_vet.cpp. */
+bool confined_path(const std::string &path);
+
+/* Fills the textures of every used material of raw (raw->materials, after
+ * the meshes have marked them used): the image each names, its bytes (a
+ * buffer view of m, a data URI, or a file below fs.prefix) and their mean
+ * colour (gltf_image.c).  A texture that cannot be read is marked so, with
+ * the reason; only running out of memory throws.  gltf_texture.cpp. */
+void convert_textures(const tinygltf::Model &m, const vetted_doc &doc, const fs_context &fs,
+                      rad_gltf_raw *raw);
 
 } /* namespace rad_gltf */
 

@@ -4,8 +4,11 @@
  * It owns everything done before tinygltf sees a byte: the .glb container's
  * header and chunk table, the JSON's nesting depth, the JSON itself (read
  * with nlohmann::json), the KHR_lights_punctual lights (read here, before the
- * top-level `extensions` member is dropped), the choice of top-level members
- * that reach tinygltf, and the external buffer URIs.
+ * top-level `extensions` member is dropped), the `images` and `textures`
+ * entries (read here: tinygltf never sees them), what the notes of ignored
+ * features need from dropped members (animations, skins, which materials
+ * give metallicFactor), the choice of top-level members that reach
+ * tinygltf, and the external buffer URIs.
  *
  * Invariant: what it hands on is nested at most kMaxDepth levels, holds only
  * kKeptMembers (so tinygltf never meets images, textures or animations, and
@@ -30,9 +33,10 @@ namespace {
 const int kMaxDepth = 64;
 
 /* Only these top-level members reach tinygltf; the rest (images, textures,
- * samplers, animations, skins, extensions such as lights) carry nothing a
- * diffuse radiosity scene uses, and leaving them out means they can neither
- * trigger image decoding nor unchecked buffer reads. */
+ * samplers, animations, skins, extensions such as lights) are read here or
+ * carry nothing a diffuse radiosity scene uses, and leaving them out means
+ * tinygltf can neither decode images nor read buffer views unchecked for
+ * them (gltf_texture.cpp reads image bytes with its own checks). */
 const char *const kKeptMembers[] = {"asset",     "scene",       "scenes",    "nodes",
                                     "meshes",    "accessors",   "bufferViews", "buffers",
                                     "materials", "cameras",     "extensionsUsed",
@@ -180,8 +184,8 @@ nlohmann::json parse_json(const unsigned char *p, size_t n)
 
 /* ----------------------------------------------------------------- buffers */
 
-/* A relative path below the document's directory: not empty, not absolute,
- * no backslash, colon or NUL, no ".." component. */
+} /* namespace */
+
 bool confined_path(const std::string &path)
 {
     if (path.empty() || path[0] == '/' || path.find('\\') != std::string::npos ||
@@ -200,6 +204,8 @@ bool confined_path(const std::string &path)
     }
     return true;
 }
+
+namespace {
 
 /* External buffer URIs are relative paths inside base_dir: no scheme, no
  * absolute path, no '..' component (checked after the same percent-decoding
@@ -293,6 +299,7 @@ light_def parse_light(const nlohmann::json &o, std::string where)
     json_number(o, "intensity", where, &d.intensity);
     double range = 0.0; /* checked for type, then ignored: light falls off as 1/r² */
     json_number(o, "range", where, &range);
+    d.has_range = o.find("range") != o.end();
     if (d.type == RAD_GLTF_LIGHT_SPOT) {
         auto sp = o.find("spot");
         if (sp == o.end() || !sp->is_object())
@@ -326,6 +333,111 @@ std::vector<light_def> parse_lights(const nlohmann::json &doc)
     return out;
 }
 
+/* ------------------------------------------------------- images, textures */
+
+/* doc's member `what` when it is an array, else nullptr (absent, or of
+ * another type: these members are read for what they can give, and a
+ * malformed one gives nothing). */
+const nlohmann::json *array_member(const nlohmann::json &doc, const char *what)
+{
+    auto it = doc.find(what);
+    return it != doc.end() && it->is_array() ? &*it : nullptr;
+}
+
+/* A non-negative integer member into *out (untouched when absent); false
+ * when it is present but not one. */
+bool json_index(const nlohmann::json &o, const char *what, int64_t *out)
+{
+    auto it = o.find(what);
+    if (it == o.end())
+        return true;
+    if (!it->is_number_integer() || it->get<int64_t>() < 0)
+        return false;
+    *out = it->get<int64_t>();
+    return true;
+}
+
+/* The `images` entries, each with what it points to or why it cannot be
+ * used; `uri` and `bufferView` are exclusive (glTF: exactly one). */
+std::vector<image_def> parse_images(const nlohmann::json &doc)
+{
+    std::vector<image_def> out;
+    const nlohmann::json *arr = array_member(doc, "images");
+    for (size_t k = 0; arr && k < arr->size(); k++) {
+        const nlohmann::json &o = (*arr)[k];
+        image_def d;
+        if (!o.is_object()) {
+            d.problem = "not a JSON object";
+            out.push_back(d);
+            continue;
+        }
+        auto nm = o.find("name");
+        if (nm != o.end() && nm->is_string())
+            d.name = nm->get<std::string>();
+        auto uri = o.find("uri");
+        bool has_view = o.find("bufferView") != o.end();
+        if (uri != o.end() && has_view)
+            d.problem = "gives both uri and bufferView";
+        else if (uri != o.end() && !uri->is_string())
+            d.problem = "uri is not a string";
+        else if (uri != o.end())
+            d.uri = uri->get<std::string>();
+        else if (!json_index(o, "bufferView", &d.buffer_view))
+            d.problem = "bufferView is not an index";
+        else if (d.buffer_view < 0)
+            d.problem = "neither uri nor bufferView";
+        out.push_back(d);
+    }
+    return out;
+}
+
+/* The `textures` entries: the image each samples. */
+std::vector<texture_def> parse_textures(const nlohmann::json &doc)
+{
+    std::vector<texture_def> out;
+    const nlohmann::json *arr = array_member(doc, "textures");
+    for (size_t k = 0; arr && k < arr->size(); k++) {
+        const nlohmann::json &o = (*arr)[k];
+        texture_def d;
+        if (!o.is_object())
+            d.problem = "not a JSON object";
+        else if (!json_index(o, "source", &d.source))
+            d.problem = "source is not an index";
+        else if (d.source < 0)
+            d.problem = "no PNG or JPEG source (only an extension's image format)";
+        out.push_back(d);
+    }
+    return out;
+}
+
+/* Per material: pbrMetallicRoughness.metallicFactor given and > 0.  glTF's
+ * default is 1 (metal), but a file that says nothing is taken as the usual
+ * export of a diffuse surface, and only a stated metal is noted. */
+std::vector<bool> parse_metallic(const nlohmann::json &doc)
+{
+    std::vector<bool> out;
+    const nlohmann::json *arr = array_member(doc, "materials");
+    for (size_t k = 0; arr && k < arr->size(); k++) {
+        const nlohmann::json &o = (*arr)[k];
+        bool metal = false;
+        if (o.is_object()) {
+            auto pbr = o.find("pbrMetallicRoughness");
+            if (pbr != o.end() && pbr->is_object()) {
+                auto mf = pbr->find("metallicFactor");
+                metal = mf != pbr->end() && mf->is_number() && mf->get<double>() > 0.0;
+            }
+        }
+        out.push_back(metal);
+    }
+    return out;
+}
+
+size_t array_size(const nlohmann::json &doc, const char *what)
+{
+    const nlohmann::json *arr = array_member(doc, what);
+    return arr ? arr->size() : 0;
+}
+
 } /* namespace */
 
 vetted_doc vet_document(const void *data, size_t size, fs_context &fs)
@@ -351,6 +463,11 @@ vetted_doc vet_document(const void *data, size_t size, fs_context &fs)
 
     nlohmann::json doc = parse_json(g.json, g.json_size);
     out.lights = parse_lights(doc);
+    out.images = parse_images(doc);
+    out.textures = parse_textures(doc);
+    out.metallic = parse_metallic(doc);
+    out.animations = array_size(doc, "animations");
+    out.skins = array_size(doc, "skins");
 
     nlohmann::json kept = nlohmann::json::object();
     for (const char *key : kKeptMembers) {

@@ -305,13 +305,17 @@ static int parse_material(parser *P, unsigned long long line)
     if (rc)
         return rc;
     double rho[RAD_MAX_BANDS] = {0}, em[RAD_MAX_BANDS] = {0}, tr[RAD_MAX_BANDS] = {0};
-    int seen[3] = {0, 0, 0}, any = 0;
-    static const char *const props[3] = {"reflectance", "emission", "transmittance"};
-    double *dst[3] = {rho, em, tr};
+    /* metallic and roughness: one number each, glTF's meaning (scene.h). */
+    double metal = 0.0, rough = 1.0;
+    enum { NPROP = 5 };
+    int seen[NPROP] = {0}, any = 0;
+    static const char *const props[NPROP] = {"reflectance", "emission", "transmittance",
+                                             "metallic", "roughness"};
+    double *dst[NPROP] = {rho, em, tr, &metal, &rough};
     for (;;) {
         int k = -1;
         if (lex_peek(P, &rc)) {
-            for (int i = 0; i < 3; i++)
+            for (int i = 0; i < NPROP; i++)
                 if (tok_is(P, props[i]))
                     k = i;
         }
@@ -330,7 +334,7 @@ static int parse_material(parser *P, unsigned long long line)
         lex_take(P);
         char what[300];
         snprintf(what, sizeof what, "material '%s': %s", name, props[k]);
-        if ((rc = parse_values(P, what, pl, dst[k]))) {
+        if ((rc = k < 3 ? parse_values(P, what, pl, dst[k]) : need_number(P, what, dst[k]))) {
             free(name);
             return rc;
         }
@@ -339,14 +343,18 @@ static int parse_material(parser *P, unsigned long long line)
     if (!any) {
         char b[64];
         rc = perr(P, P->lx.tok_line, RAD_ERR_PARSE,
-                  "material '%s': expected reflectance, emission or transmittance, found '%s'",
+                  "material '%s': expected reflectance, emission, transmittance, metallic or "
+                  "roughness, found '%s'",
                   name, tok_show(P, b, sizeof b));
         free(name);
         return rc;
     }
     char where[40];
     snprintf(where, sizeof where, "line %llu", line);
-    rc = rad_scene_add_material(P->s, name, rho, em, tr, where, NULL, P->err);
+    uint32_t index;
+    rc = rad_scene_add_material(P->s, name, rho, em, tr, where, &index, P->err);
+    if (!rc && (seen[3] || seen[4]))
+        rc = rad_scene_set_material_gloss(P->s, index, metal, rough, where, P->err);
     free(name);
     return rc;
 }
@@ -526,6 +534,8 @@ done:
     return rc;
 }
 
+/* camera NAME eye X Y Z target X Y Z up X Y Z fov DEGREES
+ * camera NAME eye X Y Z target X Y Z up X Y Z ortho HALF_HEIGHT */
 static int parse_camera(parser *P, unsigned long long line)
 {
     char *name = NULL, ctx[300], where[40];
@@ -534,20 +544,33 @@ static int parse_camera(parser *P, unsigned long long line)
         return rc;
     snprintf(ctx, sizeof ctx, "camera '%s'", name);
     double v[10];
-    static const char *const keys[4] = {"eye", "target", "up", "fov"};
-    static const char *const what[10] = {"eye x", "eye y", "eye z", "target x", "target y",
-                                         "target z", "up x", "up y", "up z", "fov (degrees)"};
-    int k = 0;
-    for (int key = 0; key < 4; key++) {
+    static const char *const keys[3] = {"eye", "target", "up"};
+    static const char *const what[9] = {"eye x",    "eye y", "eye z", "target x", "target y",
+                                        "target z", "up x",  "up y",  "up z"};
+    for (int key = 0, k = 0; key < 3; key++) {
         if ((rc = need_keyword(P, keys[key], ctx)))
             goto done;
-        for (int c = 0; c < (key < 3 ? 3 : 1); c++, k++)
+        for (int c = 0; c < 3; c++, k++)
             if ((rc = need_number(P, what[k], &v[k])))
                 goto done;
     }
+    /* the last keyword says the projection */
+    int ortho = lex_peek(P, &rc) && tok_is(P, "ortho");
+    if (rc)
+        goto done;
+    if (ortho)
+        lex_take(P);
+    else if ((rc = need_keyword(P, "fov", ctx)))
+        goto done;
+    if ((rc = need_number(P, ortho ? "ortho (half-height)" : "fov (degrees)", &v[9])))
+        goto done;
     snprintf(where, sizeof where, "line %llu", line);
-    rc = rad_scene_add_camera(P->s, name, rad_v3(v[0], v[1], v[2]), rad_v3(v[3], v[4], v[5]),
-                              rad_v3(v[6], v[7], v[8]), v[9], 0.0, where, NULL, P->err);
+    rad_vec3 eye = rad_v3(v[0], v[1], v[2]), target = rad_v3(v[3], v[4], v[5]),
+             up = rad_v3(v[6], v[7], v[8]);
+    rc = ortho ? rad_scene_add_ortho_camera(P->s, name, eye, target, up, v[9], v[9], where,
+                                            NULL, P->err)
+               : rad_scene_add_camera(P->s, name, eye, target, up, v[9], 0.0, where, NULL,
+                                      P->err);
 done:
     free(name);
     return rc;

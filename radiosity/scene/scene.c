@@ -7,7 +7,8 @@
  * winding decides which side is lit); 0 <= ρ < 1 and E >= 0 in every band;
  * unique non-empty names; punctual lights finite, of non-negative
  * intensity, with unit directions and valid cones.  Once added, an element is
- * never changed.
+ * never changed, except that a polygon may be given a reflectance of its own
+ * (rad_scene_set_polygon_rho), under the same rules as a material's.
  *
  * Also holds the private name set (scene_internal.h) that keeps the
  * uniqueness checks linear in the number of names.
@@ -308,6 +309,7 @@ void rad_scene_destroy(rad_scene *s)
     free(s->points);
     free(s->cameras);
     free(s->lights);
+    free(s->polygon_rho);
     free(s->source);
     free(s);
 }
@@ -334,6 +336,7 @@ int rad_scene_add_material(rad_scene *s, const char *name, const double *rho,
 
     rad_material m;
     memset(&m, 0, sizeof m);
+    m.roughness = 1.0; /* no lobe: pure diffuse */
     for (uint32_t b = 0; b < s->band_count; b++) {
         double r = rho ? rho[b] : 0.0;
         double e = emission ? emission[b] : 0.0;
@@ -372,6 +375,69 @@ int rad_scene_add_material(rad_scene *s, const char *name, const double *rho,
         *index = s->material_count;
     s->material_count++;
     return RAD_OK;
+}
+
+int rad_scene_set_material_lobe(rad_scene *s, uint32_t material, const double *specular,
+                                double roughness, const char *where, rad_error *err)
+{
+    if (!s || material >= s->material_count || !specular)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_scene_set_material_lobe: bad arguments");
+    rad_material *m = &s->materials[material];
+    char eb[320], bb[80];
+    const char *el = element(eb, sizeof eb, "material", m->name, where);
+    if (!(roughness >= 0.0 && roughness <= 1.0))
+        return failf(err, s, RAD_ERR_INVALID, where, "%sroughness %g outside [0, 1]", el,
+                     roughness);
+    for (uint32_t b = 0; b < s->band_count; b++) {
+        double r = specular[b];
+        if (!isfinite(r) || r < 0.0)
+            return failf(err, s, RAD_ERR_INVALID, where,
+                         "%sspecular reflectance %g must be finite and >= 0%s", el, r,
+                         band_label(bb, sizeof bb, s, b));
+        /* Energy: what the surface reflects and transmits stays below 1. */
+        if (!(m->rho[b] + r + m->transmit[b] < 1.0))
+            return failf(err, s, RAD_ERR_INVALID, where,
+                         "%sdiffuse + specular reflectance + transmittance = %g must be < 1%s",
+                         el, m->rho[b] + r + m->transmit[b], band_label(bb, sizeof bb, s, b));
+    }
+    for (uint32_t b = 0; b < s->band_count; b++)
+        m->specular[b] = specular[b];
+    m->roughness = roughness;
+    return RAD_OK;
+}
+
+int rad_scene_set_material_gloss(rad_scene *s, uint32_t material, double metallic,
+                                 double roughness, const char *where, rad_error *err)
+{
+    if (!s || material >= s->material_count)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_scene_set_material_gloss: bad arguments");
+    rad_material *m = &s->materials[material];
+    char eb[320];
+    const char *el = element(eb, sizeof eb, "material", m->name, where);
+    if (!(metallic >= 0.0 && metallic <= 1.0))
+        return failf(err, s, RAD_ERR_INVALID, where, "%smetallic %g outside [0, 1]", el,
+                     metallic);
+    if (!(roughness >= 0.0 && roughness <= 1.0))
+        return failf(err, s, RAD_ERR_INVALID, where, "%sroughness %g outside [0, 1]", el,
+                     roughness);
+    double spec[RAD_MAX_BANDS] = {0}, rho[RAD_MAX_BANDS];
+    for (uint32_t b = 0; b < s->band_count; b++) {
+        double c = m->rho[b];
+        rho[b] = c;
+        if (roughness < 1.0) {
+            /* glTF's split: a metal reflects its base colour in the lobe, a
+             * dielectric F0 there and the rest of its base colour diffusely. */
+            spec[b] = RAD_DIELECTRIC_F0 * (1.0 - metallic) + metallic * c;
+            rho[b] = (1.0 - metallic) * (1.0 - RAD_DIELECTRIC_F0) * c;
+        }
+    }
+    double keep[RAD_MAX_BANDS];
+    memcpy(keep, m->rho, sizeof keep);
+    memcpy(m->rho, rho, sizeof rho);
+    int rc = rad_scene_set_material_lobe(s, material, spec, roughness, where, err);
+    if (rc)
+        memcpy(m->rho, keep, sizeof keep);
+    return rc;
 }
 
 /* ------------------------------------------------------------------ objects */
@@ -510,6 +576,22 @@ static int polygon_geometry(const rad_vec3 *p, uint32_t n, rad_vec3 *normal, dou
     return 0;
 }
 
+/* Room in polygon_rho (allocated when NULL) for `need` polygons; 0 or -1. */
+static int polygon_rho_room(rad_scene *s, uint64_t need)
+{
+    if (s->polygon_rho && need <= s->polygon_rho_cap_)
+        return 0;
+    uint64_t cap = s->polygon_cap_ > need ? s->polygon_cap_ : need;
+    if (cap > UINT32_MAX || cap * s->band_count > SIZE_MAX / sizeof(double))
+        return -1;
+    double *p = realloc(s->polygon_rho, (size_t)(cap * s->band_count) * sizeof *p);
+    if (!p)
+        return -1;
+    s->polygon_rho = p;
+    s->polygon_rho_cap_ = (uint32_t)cap;
+    return 0;
+}
+
 int rad_scene_add_polygon(rad_scene *s, const char *name, uint32_t object, uint32_t material,
                           const rad_vec3 *points, uint32_t count, uint32_t subdiv_u,
                           uint32_t subdiv_v, const char *where, uint32_t *index, rad_error *err)
@@ -544,10 +626,15 @@ int rad_scene_add_polygon(rad_scene *s, const char *name, uint32_t object, uint3
         grow((void **)&s->points, &s->point_cap_, (uint64_t)s->point_count + count,
              sizeof *s->points) != 0)
         return failf(err, s, RAD_ERR_NOMEM, where, "%sout of memory", el);
+    if (s->polygon_rho && polygon_rho_room(s, (uint64_t)s->polygon_count + 1) != 0)
+        return failf(err, s, RAD_ERR_NOMEM, where, "%sout of memory", el);
     rad_polygon *pg = &s->polygons[s->polygon_count];
     pg->name = dup_string(pname);
     if (!pg->name)
         return failf(err, s, RAD_ERR_NOMEM, where, "%sout of memory", el);
+    if (s->polygon_rho) /* until told otherwise, its material's */
+        memcpy(s->polygon_rho + (size_t)s->polygon_count * s->band_count,
+               s->materials[material].rho, s->band_count * sizeof(double));
     memcpy(s->points + s->point_count, points, (size_t)count * sizeof *points);
     pg->first_point = s->point_count;
     pg->point_count = count;
@@ -564,11 +651,47 @@ int rad_scene_add_polygon(rad_scene *s, const char *name, uint32_t object, uint3
     return RAD_OK;
 }
 
+int rad_scene_set_polygon_rho(rad_scene *s, uint32_t polygon, const double *rho,
+                              const char *where, rad_error *err)
+{
+    if (!s || !rho)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_scene_set_polygon_rho: no scene or no values");
+    if (polygon >= s->polygon_count)
+        return failf(err, s, RAD_ERR_USAGE, where, "polygon %u does not exist (%u polygons)",
+                     polygon, s->polygon_count);
+    const rad_polygon *pg = &s->polygons[polygon];
+    const rad_material *m = &s->materials[pg->material];
+    char eb[320], bb[80];
+    const char *el = element(eb, sizeof eb, "polygon", pg->name, where);
+    for (uint32_t b = 0; b < s->band_count; b++) {
+        /* the rules of rad_scene_add_material, for the same reasons */
+        if (!isfinite(rho[b]) || rho[b] < 0.0 || rho[b] >= 1.0)
+            return failf(err, s, RAD_ERR_INVALID, where, "%sreflectance %g outside [0, 1)%s", el,
+                         rho[b], band_label(bb, sizeof bb, s, b));
+        if (!(rho[b] + m->transmit[b] < 1.0))
+            return failf(err, s, RAD_ERR_INVALID, where,
+                         "%sreflectance + transmittance = %g must be < 1%s", el,
+                         rho[b] + m->transmit[b], band_label(bb, sizeof bb, s, b));
+    }
+    if (!s->polygon_rho) {
+        if (polygon_rho_room(s, s->polygon_count) != 0)
+            return failf(err, s, RAD_ERR_NOMEM, where, "%sout of memory", el);
+        for (uint32_t p = 0; p < s->polygon_count; p++)
+            memcpy(s->polygon_rho + (size_t)p * s->band_count,
+                   s->materials[s->polygons[p].material].rho, s->band_count * sizeof(double));
+    }
+    memcpy(s->polygon_rho + (size_t)polygon * s->band_count, rho,
+           s->band_count * sizeof(double));
+    return RAD_OK;
+}
+
 /* ------------------------------------------------------------------ cameras */
 
-int rad_scene_add_camera(rad_scene *s, const char *name, rad_vec3 eye, rad_vec3 target,
-                         rad_vec3 up, double yfov_deg, double aspect, const char *where,
-                         uint32_t *index, rad_error *err)
+/* A camera of either projection; the checks both share, then the one
+ * each has (fov, or the window's half-sizes). */
+static int add_camera(rad_scene *s, const char *name, rad_vec3 eye, rad_vec3 target,
+                      rad_vec3 up, double yfov_deg, double aspect, int ortho, double xmag,
+                      double ymag, const char *where, uint32_t *index, rad_error *err)
 {
     if (!s)
         return rad_fail(err, RAD_ERR_USAGE, "rad_scene_add_camera: no scene");
@@ -593,6 +716,9 @@ int rad_scene_add_camera(rad_scene *s, const char *name, rad_vec3 eye, rad_vec3 
     if (!isfinite(aspect) || aspect < 0.0)
         return failf(err, s, RAD_ERR_INVALID, where, "%saspect %g must be finite and >= 0", el,
                      aspect);
+    if (ortho && (!isfinite(xmag) || !isfinite(ymag) || !(xmag > 0.0) || !(ymag > 0.0)))
+        return failf(err, s, RAD_ERR_INVALID, where,
+                     "%sorthographic half-sizes %g × %g must be finite and > 0", el, xmag, ymag);
     scene_names *nm = names_of(s);
     if (!nm || names_sync(&nm->camera, s->cameras, sizeof(rad_camera),
                           offsetof(rad_camera, name), s->camera_count) != 0)
@@ -609,15 +735,59 @@ int rad_scene_add_camera(rad_scene *s, const char *name, rad_vec3 eye, rad_vec3 
         return failf(err, s, RAD_ERR_NOMEM, where, "%sout of memory", el);
     }
     rad_camera *c = &s->cameras[s->camera_count];
+    memset(c, 0, sizeof *c);
     c->name = copy;
     c->eye = eye;
     c->target = target;
     c->up = up;
     c->yfov_deg = yfov_deg;
     c->aspect = aspect;
+    c->orthographic = ortho;
+    c->xmag = ortho ? xmag : 0.0;
+    c->ymag = ortho ? ymag : 0.0;
     if (index)
         *index = s->camera_count;
     s->camera_count++;
+    return RAD_OK;
+}
+
+int rad_scene_add_camera(rad_scene *s, const char *name, rad_vec3 eye, rad_vec3 target,
+                         rad_vec3 up, double yfov_deg, double aspect, const char *where,
+                         uint32_t *index, rad_error *err)
+{
+    return add_camera(s, name, eye, target, up, yfov_deg, aspect, 0, 0.0, 0.0, where, index,
+                      err);
+}
+
+/* The yfov an orthographic camera carries: any valid angle, so that code
+ * and files that know only perspective cameras still take it. */
+#define ORTHO_PLACEHOLDER_FOV 45.0
+
+int rad_scene_add_ortho_camera(rad_scene *s, const char *name, rad_vec3 eye, rad_vec3 target,
+                               rad_vec3 up, double xmag, double ymag, const char *where,
+                               uint32_t *index, rad_error *err)
+{
+    double aspect = xmag / ymag; /* refused below unless both are finite and > 0 */
+    return add_camera(s, name, eye, target, up, ORTHO_PLACEHOLDER_FOV,
+                      isfinite(aspect) && aspect > 0.0 ? aspect : 0.0, 1, xmag, ymag, where,
+                      index, err);
+}
+
+int rad_scene_set_camera_ortho(rad_scene *s, uint32_t camera, double xmag, double ymag,
+                               const char *where, rad_error *err)
+{
+    if (!s || camera >= s->camera_count)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_scene_set_camera_ortho: no scene or no camera %u",
+                        camera);
+    rad_camera *c = &s->cameras[camera];
+    char eb[320];
+    const char *el = element(eb, sizeof eb, "camera", c->name, where);
+    if (!isfinite(xmag) || !isfinite(ymag) || !(xmag > 0.0) || !(ymag > 0.0))
+        return failf(err, s, RAD_ERR_INVALID, where,
+                     "%sorthographic half-sizes %g × %g must be finite and > 0", el, xmag, ymag);
+    c->orthographic = 1;
+    c->xmag = xmag;
+    c->ymag = ymag;
     return RAD_OK;
 }
 

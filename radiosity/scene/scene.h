@@ -6,7 +6,8 @@
  * through the functions here, which enforce the invariants:
  *   - every polygon has >= 3 points, finite coordinates, area > 0, is planar
  *     and convex, and its points run counter-clockwise about `normal`;
- *   - 0 <= ρ < 1 and E >= 0 in every band;
+ *   - 0 <= ρ < 1 and E >= 0 in every band, ρ + τ < 1 (for a material, and
+ *     for a polygon's own ρ when it has one);
  *   - names are unique within materials, within objects and within cameras.
  * Ownership: the scene owns every string and array it points to.
  */
@@ -20,7 +21,24 @@ typedef struct rad_material {
     double rho[RAD_MAX_BANDS];      /* ρ: diffuse reflectance per band, [0, 1) */
     double emission[RAD_MAX_BANDS]; /* E: emitted exitance per band, >= 0 */
     double transmit[RAD_MAX_BANDS]; /* diffuse transmittance per band (0 = opaque) */
+    /* A glossy lobe (Ward's isotropic Gaussian), seen only by the gather
+     * renderer: the radiosity solve treats every surface as diffuse with ρ
+     * and ignores these.  specular = ρ_s, the lobe's reflectance per band
+     * (0 = none); roughness r in [0, 1], the lobe's α = r².  Defaults
+     * ρ_s = 0, r = 1: pure diffuse (rad_scene_set_material_gloss maps glTF's
+     * metallic and roughness here).  Invariant: ρ + ρ_s + τ < 1 per band. */
+    double specular[RAD_MAX_BANDS];
+    double roughness;
 } rad_material;
+
+/* 1 when the material has a glossy lobe in some band. */
+static inline int rad_material_glossy(const rad_material *m, uint32_t bands)
+{
+    for (uint32_t b = 0; b < bands; b++)
+        if (m->specular[b] > 0.0)
+            return 1;
+    return 0;
+}
 
 /* 1 when the material transmits in some of the scene's bands: its polygons
  * are thin sheets with two sides (rad_mesh twins). */
@@ -48,11 +66,19 @@ typedef struct rad_polygon {
     double area;
 } rad_polygon;
 
+/* A camera looks from eye towards target, up tilting the view.  A
+ * perspective camera spans yfov_deg vertically; an orthographic one (glTF's
+ * orthographic camera, the polygon file's `ortho`) projects along the view
+ * direction onto a window 2·ymag high (and 2·xmag wide where the image's
+ * shape agrees; the image's aspect decides, like yfov's), in scene units. */
 typedef struct rad_camera {
     char *name;
     rad_vec3 eye, target, up;
-    double yfov_deg; /* vertical field of view in degrees */
+    double yfov_deg; /* vertical field of view in degrees; orthographic: 45, unused */
     double aspect;   /* width / height, 0 = from the image size */
+    /* appended for orthographic cameras */
+    int orthographic;   /* 0 = perspective */
+    double xmag, ymag;  /* orthographic: half-width and half-height of the view, > 0 */
 } rad_camera;
 
 /* A punctual light (glTF KHR_lights_punctual): no surface of its own, so it
@@ -103,7 +129,21 @@ typedef struct rad_scene {
     rad_light *lights;
     uint32_t light_count;
     uint32_t light_cap_;   /* private to scene.c */
+    /* Per-polygon reflectance (glTF vertex colours): NULL when every polygon
+     * reflects as its material does, else polygon_count × band_count values
+     * ρ of polygon p at
+     * [p · band_count + b]; polygons never given one hold their material's.
+     * Read it through rad_polygon_rho.  Set by rad_scene_set_polygon_rho. */
+    double *polygon_rho;
+    uint32_t polygon_rho_cap_; /* polygons polygon_rho has room for (private to scene.c) */
 } rad_scene;
+
+/* ρ per band of polygon p: its own (polygon_rho) or its material's. */
+static inline const double *rad_polygon_rho(const rad_scene *s, uint32_t p)
+{
+    return s->polygon_rho ? s->polygon_rho + (size_t)p * s->band_count
+                          : s->materials[s->polygons[p].material].rho;
+}
 
 /* Options for loading; {0} means defaults. */
 typedef struct rad_load_options {
@@ -112,6 +152,17 @@ typedef struct rad_load_options {
     uint64_t max_polygons;
     /* 1 = accept a scene without emitters (form-factor work needs none). */
     int allow_no_emitter;
+    /* Warnings (rad.h): what a loader ignored, clamped or replaced, one
+     * line per kind naming the materials, extensions or cameras concerned.
+     * NULL drops them. */
+    rad_warn_fn warn;
+    void *warn_user;
+    /* 1 = refuse instead of repairing: a glTF reflectance >= 1 (glTF's
+     * default white included) is an error rather than clamped, a primitive
+     * without a material is an error rather than given glTF's default
+     * material, an unreadable texture or a primitive without area (points,
+     * lines) is an error rather than skipped. */
+    int strict;
 } rad_load_options;
 
 /* Loads a scene, choosing the format by extension (.gltf, .glb, else the
@@ -143,6 +194,26 @@ int rad_scene_add_material(rad_scene *s, const char *name, const double *rho,
                            const char *where, uint32_t *index, rad_error *err);
 int rad_scene_add_object(rad_scene *s, const char *name, const char *where, uint32_t *index,
                          rad_error *err);
+
+/* The dielectric reflectance at normal incidence that glTF's
+ * metallic-roughness model gives a non-metal (F0 = 0.04). */
+#define RAD_DIELECTRIC_F0 0.04
+
+/* Gives material `material` a glossy lobe from glTF's metallic-roughness
+ * parameters, taking its current ρ as the base colour c (call it right
+ * after rad_scene_add_material):
+ *   roughness r < 1:  ρ_s = F0 (1 − m) + m c,  ρ = (1 − m)(1 − F0) c,  α = r²
+ *   roughness r = 1:  no lobe, ρ = c (a fully rough surface is diffuse, so a
+ *                     scene that never names metallic or roughness renders
+ *                     exactly as before),
+ * F0 = RAD_DIELECTRIC_F0.  0 <= m, r <= 1; fails when ρ + ρ_s + τ >= 1. */
+int rad_scene_set_material_gloss(rad_scene *s, uint32_t material, double metallic,
+                                 double roughness, const char *where, rad_error *err);
+
+/* Sets the lobe directly (what a stored solution holds): ρ_s per band >= 0,
+ * 0 <= roughness <= 1, ρ + ρ_s + τ < 1; nothing changes on failure. */
+int rad_scene_set_material_lobe(rad_scene *s, uint32_t material, const double *specular,
+                                double roughness, const char *where, rad_error *err);
 /* Checks the polygon (count, finite, area, planarity, convexity) and stores
  * it with its normal and area.  Points must run counter-clockwise about the
  * front normal. */
@@ -152,6 +223,22 @@ int rad_scene_add_polygon(rad_scene *s, const char *name, uint32_t object, uint3
 int rad_scene_add_camera(rad_scene *s, const char *name, rad_vec3 eye, rad_vec3 target,
                          rad_vec3 up, double yfov_deg, double aspect, const char *where,
                          uint32_t *index, rad_error *err);
+/* An orthographic camera (see rad_camera): xmag and ymag finite and > 0. */
+int rad_scene_add_ortho_camera(rad_scene *s, const char *name, rad_vec3 eye, rad_vec3 target,
+                               rad_vec3 up, double xmag, double ymag, const char *where,
+                               uint32_t *index, rad_error *err);
+
+/* Makes camera i orthographic with these half-sizes (finite, > 0): what the
+ * solution reader does for a camera its SCENE section stored as a
+ * perspective placeholder. */
+int rad_scene_set_camera_ortho(rad_scene *s, uint32_t camera, double xmag, double ymag,
+                               const char *where, rad_error *err);
+
+/* Gives polygon p a reflectance of its own (band_count values, copied),
+ * overriding its material's: 0 <= ρ < 1 and ρ + τ < 1 with the material's
+ * transmittance τ, in every band.  The first call allocates polygon_rho. */
+int rad_scene_set_polygon_rho(rad_scene *s, uint32_t polygon, const double *rho,
+                              const char *where, rad_error *err);
 
 /* Checks and stores a punctual light (see rad_light).  direction is
  * normalised here (it must not be zero for a spot or directional light;

@@ -9,8 +9,9 @@
  * tinygltf_impl.cpp defines TINYGLTF_IMPLEMENTATION before including it, so
  * tinygltf's code (and the nlohmann::json it parses with) is compiled once.
  *
- * We never decode images (a radiosity scene has no textures), never write
- * glTF, and give tinygltf our own vetted file callbacks instead of its own.
+ * tinygltf never decodes images (it never sees them: gltf_texture.cpp finds
+ * a texture's bytes and gltf_image.c averages them), never writes glTF, and
+ * gets our own vetted file callbacks instead of its own.
  */
 #ifndef RAD_TINYGLTF_CONFIG_H
 #define RAD_TINYGLTF_CONFIG_H

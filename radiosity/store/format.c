@@ -19,14 +19,14 @@
 const char sol_sec_tag[SEC_COUNT][4] = {
     {'I', 'N', 'F', 'O'}, {'S', 'C', 'E', 'N'}, {'M', 'E', 'S', 'H'}, {'M', 'T', 'R', 'X'},
     {'P', 'D', 'A', 'T'}, {'L', 'G', 'H', 'T'}, {'E', 'L', 'E', 'M'}, {'E', 'L', 'G', 'T'},
-    {'P', 'R', 'O', 'G'}};
+    {'C', 'A', 'M', 'S'}, {'S', 'U', 'R', 'F'}, {'P', 'R', 'O', 'G'}};
 
 const char *const sol_sec_name[SEC_COUNT] = {"INFO",      "SCENE",  "MESH",     "MATRIX",
                                                 "PATCHDATA", "LIGHTS", "ELEMENTS", "ELEMENTLIGHTS",
-                                                "PROGRESS"};
+                                                "CAMERAS",   "SURFACE", "PROGRESS"};
 
 const int sol_version_sections[SOL_VERSION + 1] = {0, SEC_LIGHTS, SEC_ELEMENTS,
-                                                      SEC_ELEMENT_LIGHTS, SEC_PROGRESS, SEC_COUNT};
+                                                      SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_COUNT};
 
 /* ------------------------------------------------------------- CRC-64/XZ */
 

@@ -196,8 +196,9 @@ static int parse_info(reader *r, rad_solution *s)
     if (r->version >= SOL_VERSION_SHEETS) {
         if (!get_u8(c, &r->announced))
             return TRUNC("truncated");
-        if (r->announced > 15)
-            return TRUNC("announced sections 0x%x: only bits 0-3 exist", r->announced);
+        if (r->announced >> (SEC_COUNT - SEC_LIGHTS))
+            return TRUNC("announced sections 0x%x: only bits 0-%d exist", r->announced,
+                         SEC_COUNT - SEC_LIGHTS - 1);
     }
     return sol_check_info(s, r->name, "section INFO", RAD_ERR_CORRUPT, r->err);
 }
@@ -800,6 +801,68 @@ static int parse_element_lights(reader *r, rad_solution *s)
     return RAD_OK;
 }
 
+/* CAMERAS: which of SCENE's cameras are orthographic, in increasing order. */
+static int parse_cameras(reader *r, rad_solution *s)
+{
+    cursor *c = &r->c;
+    rad_scene *sc = s->scene;
+    uint32_t n;
+    if (!get_u32(c, &n))
+        return TRUNC("truncated");
+    int rc = check_count(r, n, ORTHO_CAMERA_BYTES, "orthographic cameras");
+    if (rc)
+        return rc;
+    if (n == 0)
+        return TRUNC("no orthographic camera (the section is written only for some)");
+    for (uint32_t k = 0, last = 0; k < n; k++) {
+        uint32_t i = 0;
+        uint8_t projection = 0;
+        double xmag = 0.0, ymag = 0.0;
+        if (!get_u32(c, &i) || !get_u8(c, &projection) || !get_f64(c, &xmag) ||
+            !get_f64(c, &ymag)) /* cannot fail after check_count, said for the compiler */
+            return TRUNC("camera %u of %u: truncated", k, n);
+        if (i >= sc->camera_count || (k > 0 && i <= last))
+            return TRUNC("camera %u: out of range or out of order (%u cameras)", i,
+                         sc->camera_count);
+        if (projection != 1)
+            return TRUNC("camera %u: projection %u is not 1 (orthographic)", i, projection);
+        last = i;
+        /* scene.c names the file being read, as in parse_scene */
+        char *stored_source = sc->source;
+        sc->source = (char *)r->name;
+        rc = rad_scene_set_camera_ortho(sc, i, xmag, ymag, "section CAMERAS", r->err);
+        sc->source = stored_source;
+        if (rc)
+            return scene_rc(r, rc);
+    }
+    return RAD_OK;
+}
+
+/* SURFACE: one lobe per material of the scene, checked by
+ * rad_scene_set_material_lobe (the rules a loader meets). */
+static int parse_surface(reader *r, rad_solution *s)
+{
+    cursor *c = &r->c;
+    rad_scene *sc = s->scene;
+    uint32_t n;
+    if (!get_u32(c, &n))
+        return TRUNC("truncated");
+    if (n != sc->material_count)
+        return TRUNC("%u materials, but the scene has %u", n, sc->material_count);
+    for (uint32_t i = 0; i < n; i++) {
+        double rough, spec[RAD_MAX_BANDS];
+        if (!get_f64(c, &rough))
+            return TRUNC("material %u: truncated", i);
+        for (uint32_t b = 0; b < sc->band_count; b++)
+            if (!get_f64(c, &spec[b]))
+                return TRUNC("material %u: truncated", i);
+        rad_error sub;
+        if (rad_scene_set_material_lobe(sc, i, spec, rough, "section SURFACE", &sub))
+            return rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
+    }
+    return RAD_OK;
+}
+
 /* PROGRESS (write.c's emit_progress). */
 static int parse_progress(reader *r, rad_solution *s)
 {
@@ -834,7 +897,7 @@ typedef int (*parse_fn)(reader *, rad_solution *);
 static const parse_fn sec_parse[SEC_COUNT] = {parse_info,      parse_scene,  parse_mesh,
                                               parse_matrix,    parse_patchdata, parse_lights,
                                               parse_elements,  parse_element_lights,
-                                              parse_progress};
+                                              parse_cameras, parse_surface, parse_progress};
 
 static int known_section(const uint8_t tag[4])
 {

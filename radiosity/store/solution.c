@@ -1,5 +1,6 @@
 /* solution.c - creating and destroying a rad_solution (solution.h): the
- * per-patch ρ and E from the scene's materials, B = E, an empty matrix, the
+ * per-patch ρ (its polygon's, rad_polygon_rho) and E from the scene's
+ * materials, B = E, an empty matrix, the
  * punctual lights' nominal intensities.  The file is read and written by
  * read.c and write.c.
  *
@@ -147,8 +148,13 @@ int rad_solution_create(rad_scene *scene, rad_mesh *mesh, rad_solution **out, ra
     }
     for (uint32_t i = 0; i < n; i++) {
         const rad_material *m = &scene->materials[mesh->patches[i].material];
+        /* ρ of the patch's polygon: its own (glTF vertex colours) or its
+         * material's */
+        const double *rho = mesh->patches[i].polygon < scene->polygon_count
+                                ? rad_polygon_rho(scene, mesh->patches[i].polygon)
+                                : m->rho;
         for (uint32_t b = 0; b < nb; b++) {
-            s->rho[(size_t)i * nb + b] = m->rho[b];
+            s->rho[(size_t)i * nb + b] = rho[b];
             s->emission[(size_t)i * nb + b] = m->emission[b];
             s->B[(size_t)i * nb + b] = m->emission[b]; /* B = E before any bounce */
         }

@@ -305,4 +305,17 @@ int rad_variants_parse(const char *text, size_t size, const char *name, rad_vari
                        uint32_t *count, rad_error *err);
 void rad_variants_free(rad_variant *v, uint32_t count); /* NULL does nothing */
 
+/* ------------------------------------------------------ open data (export.c) */
+
+/* Writes s as open data into the existing directory dir (docs/export.md):
+ *   patches.csv     patch, object, material, area, centroid, normal, F_row,
+ *                   then ρ, E and B per band (rho_R, E_R, B_R, ...)
+ *   F.mtx           F_ij, Matrix Market coordinate real general, row i =
+ *                   patch i - 1 = line i of patches.csv; rows never
+ *                   computed are absent (F_row 0), not zero
+ *   elements.csv, elements-F.mtx   the same for elements, when s has them
+ * Numbers read back exactly (doubles 15-17 digits, the float F_ij 9).  Files are renamed into
+ * place only once all are written: a failure before that replaces none. */
+int rad_solution_export(const rad_solution *s, const char *dir, rad_error *err);
+
 #endif /* RAD_SOLUTION_H */

@@ -14,7 +14,8 @@
  * section; version 4 = + the ELEMENTLIGHTS section (each element's own
  * direct light); version 5 = MESH may hold two-sided sheets (a transmitting
  * polygon's front cells followed by their back twins), with the sections of
- * versions 1-4 as its content needs them.  A file is written with the lowest
+ * versions 1-4 as its content needs them, and CAMERAS when the scene has
+ * orthographic cameras.  A file is written with the lowest
  * version that holds what it has (1 without punctual lights or elements, 2
  * with lights, 3 with elements, 4 with elements that carry their own direct
  * light, 5 with sheets), so older programs still read what they understand,
@@ -36,16 +37,19 @@
 
 /* The first five sections appear in every file; LIGHTS only when the scene
  * has punctual lights, ELEMENTS only when the solution has elements,
- * PROGRESS only when the last solve was progressive (its shots, previews
- * and row store): a file with PROGRESS is written as version 5, where INFO
- * announces it (bit 3). */
+ * CAMERAS (version 5 only) only when the scene has orthographic cameras,
+ * SURFACE (version 5 only) only when a material has a glossy lobe
+ * (rad_material's specular and roughness, which only the gather renderer
+ * reads), PROGRESS (version 5 only) only when the last solve was
+ * progressive (its shots, previews and row store). */
 enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_ELEMENTS,
-       SEC_ELEMENT_LIGHTS, SEC_PROGRESS, SEC_COUNT };
+       SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_SURFACE, SEC_PROGRESS, SEC_COUNT };
 extern const char sol_sec_tag[SEC_COUNT][4];
 extern const char *const sol_sec_name[SEC_COUNT];
 /* Sections each version may hold: 1 the first five, 2 + LIGHTS, 3 +
  * ELEMENTS (where LIGHTS is there exactly when the scene has lights), 4 +
- * ELEMENTLIGHTS (LIGHTS always), 5 any of them (PROGRESS included) as the
+ * ELEMENTLIGHTS (LIGHTS always), 5 any of them (CAMERAS, SURFACE and
+ * PROGRESS included) as the
  * content needs. */
 extern const int sol_version_sections[SOL_VERSION + 1];
 
@@ -53,7 +57,7 @@ extern const int sol_version_sections[SOL_VERSION + 1];
  * allocating: a count of k elements needs at least k × this many bytes. */
 #define MIN_STRING 4u
 #define MIN_CAMERA (MIN_STRING + 11u * 8u)
-#define MIN_POLYGON (MIN_STRING + 6u * 4u + 3u * 24u)
+#define MIN_POLYGON (MIN_STRING + 5u * 4u + 3u * 24u) /* material, object, subdivisions, count */
 #define PATCH_BYTES (7u * 4u + 7u * 8u)
 #define VERTEX_BYTES (3u * 8u + 1u)
 #define MIN_ROW (2u * 4u)
@@ -65,6 +69,8 @@ extern const int sol_version_sections[SOL_VERSION + 1];
 #define ELEMENT_VERTEX_BYTES (3u * 8u + 1u)
 /* patch, level, four corners, row count; + 8 per band */
 #define MIN_ELEMENT (4u + 1u + 16u + 4u)
+/* camera index, projection, xmag, ymag */
+#define ORTHO_CAMERA_BYTES (4u + 1u + 16u)
 
 
 /* ------------------------------------------------- checksum (format.c) */

@@ -2,7 +2,7 @@
  * docs/solution-format.md (header, CRC-64/XZ of the payload, tagged sections
  * INFO, SCENE, MESH, MATRIX, PATCHDATA, LIGHTS when the scene has punctual
  * lights, ELEMENTS when the solution has elements, ELEMENTLIGHTS when it has
- * both), each section measured first and then streamed through a buffer
+ * both, CAMERAS when the scene has orthographic cameras), each section measured first and then streamed through a buffer
  * into a rad_output.
  *
  * Invariant: the writer applies the reader's rules before it creates a
@@ -129,7 +129,8 @@ static uint32_t version_of(const rad_solution *s);
 static int section_written(const rad_solution *s, int i);
 
 /* Version 5's INFO ends with the optional sections the file holds, one bit
- * each (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4, PROGRESS 8): the reader then knows what
+ * each (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4, CAMERAS 8, SURFACE 16, PROGRESS 32): the
+ * reader then knows what
  * must follow, and a file cut or stripped before one of them cannot pass
  * for a file without it. */
 static uint8_t announced_sections(const rad_solution *s)
@@ -347,6 +348,59 @@ static void emit_lights(sink *k, const rad_solution *s)
     }
 }
 
+/* The orthographic cameras: SCENE holds every camera as a perspective one
+ * (what a reader that knows no other takes), this says which are not. */
+static void emit_cameras(sink *k, const rad_solution *s)
+{
+    const rad_scene *sc = s->scene;
+    uint32_t n = 0;
+    for (uint32_t i = 0; i < sc->camera_count; i++)
+        n += sc->cameras[i].orthographic != 0;
+    put_u32(k, n);
+    for (uint32_t i = 0; i < sc->camera_count; i++) {
+        const rad_camera *c = &sc->cameras[i];
+        if (!c->orthographic)
+            continue;
+        put_u32(k, i);
+        put_u8(k, 1); /* projection: 1 = orthographic, the only other one */
+        put_f64(k, c->xmag);
+        put_f64(k, c->ymag);
+    }
+}
+
+static int has_ortho_camera(const rad_scene *sc)
+{
+    for (uint32_t i = 0; i < sc->camera_count; i++)
+        if (sc->cameras[i].orthographic)
+            return 1;
+    return 0;
+}
+
+/* 1 when some material has a glossy lobe or a roughness of its own. */
+static int has_surface(const rad_solution *s)
+{
+    const rad_scene *sc = s->scene;
+    for (uint32_t i = 0; i < sc->material_count; i++)
+        if (rad_material_glossy(&sc->materials[i], sc->band_count) ||
+            sc->materials[i].roughness != 1.0)
+            return 1;
+    return 0;
+}
+
+/* SURFACE: the materials' glossy lobes, for the gather renderer (the
+ * solve never reads them): material count, then per material the
+ * roughness and ρ_s per band. */
+static void emit_surface(sink *k, const rad_solution *s)
+{
+    const rad_scene *sc = s->scene;
+    put_u32(k, sc->material_count);
+    for (uint32_t i = 0; i < sc->material_count; i++) {
+        put_f64(k, sc->materials[i].roughness);
+        for (uint32_t b = 0; b < sc->band_count; b++)
+            put_f64(k, sc->materials[i].specular[b]);
+    }
+}
+
 /* PROGRESS: the last progressive solve's shots, unshot fraction, converged
  * flag, rows recomputed and dropped, preview time, then each preview's
  * shots, rows computed, seconds and unshot fraction. */
@@ -371,18 +425,24 @@ static void emit_progress(sink *k, const rad_solution *s)
 typedef void (*emit_fn)(sink *, const rad_solution *);
 static const emit_fn sec_emit[SEC_COUNT] = {emit_info,      emit_scene,  emit_mesh,    emit_matrix,
                                             emit_patchdata, emit_lights, emit_elements,
-                                            emit_element_lights, emit_progress};
+                                            emit_element_lights, emit_cameras, emit_surface,
+                                            emit_progress};
 
 /* LIGHTS is written only when there are lights, ELEMENTS when there are
- * elements, ELEMENTLIGHTS when the elements carry their own direct light. */
+ * elements, ELEMENTLIGHTS when the elements carry their own direct light,
+ * CAMERAS when a camera is orthographic. */
 static int section_written(const rad_solution *s, int i)
 {
+    if (i == SEC_CAMERAS)
+        return has_ortho_camera(s->scene);
     if (i == SEC_LIGHTS)
         return s->scene->light_count > 0;
     if (i == SEC_ELEMENTS)
         return s->elements != NULL;
     if (i == SEC_ELEMENT_LIGHTS)
         return s->elements && s->elements->light_h;
+    if (i == SEC_SURFACE)
+        return has_surface(s);
     if (i == SEC_PROGRESS)
         return s->progress != NULL;
     return 1;
@@ -390,7 +450,10 @@ static int section_written(const rad_solution *s, int i)
 
 static uint32_t version_of(const rad_solution *s)
 {
-    if (s->mesh->twin || s->progress)
+    /* CAMERAS, SURFACE and PROGRESS need version 5's announcement: a reader
+     * of an older version would show an orthographic camera in perspective,
+     * or drop the glossy lobes, without a word (PROGRESS follows them). */
+    if (s->mesh->twin || has_ortho_camera(s->scene) || has_surface(s) || s->progress)
         return SOL_VERSION_SHEETS;
     if (s->elements)
         return s->elements->light_h ? 4u : 3u;

@@ -602,6 +602,53 @@ int rad_validate_reference(const rad_val_case *cin, double *reference, double *s
     return RAD_OK;
 }
 
+/* The radiosity cases: solve the single band with Gauss-Seidel from the
+ * rows in F and record the mean B of object B (and, for the closed cube,
+ * the worst patch against the reference).  t2: when the solve started. */
+static int solve_case(const rad_val_case *c, const rad_scene *s, const rad_mesh *m,
+                      rad_matrix *F, uint32_t B, double t2, rad_val_result *out,
+                      rad_error *err)
+{
+    const uint32_t n = m->patch_count;
+    double *area = malloc((n ? n : 1) * sizeof *area), *rho = malloc((n ? n : 1) * sizeof *rho);
+    double *E = malloc((n ? n : 1) * sizeof *E), *Bv = malloc((n ? n : 1) * sizeof *Bv);
+    int rc = RAD_OK;
+    if (!area || !rho || !E || !Bv) {
+        rc = rad_fail(err, RAD_ERR_NOMEM, "validate: %s: out of memory", out->name);
+        goto done;
+    }
+    for (uint32_t i = 0; i < n; i++) {
+        const rad_material *mt = &s->materials[m->patches[i].material];
+        area[i] = m->patches[i].area;
+        rho[i] = mt->rho[0];
+        E[i] = mt->emission[0];
+    }
+    sv_system sys = {.n = n, .bands = 1, .F = F, .area = area, .rho = rho, .emission = E};
+    sv_options so = {.method = SV_GAUSS_SEIDEL, .tolerance = c->tolerance};
+    sv_stats st;
+    rc = sv_solve(&sys, &so, Bv, &st, err);
+    if (rc)
+        goto done;
+    out->iterations = st.iterations;
+    out->t_solve = rad_seconds() - t2;
+    out->value = mean_B(m, Bv, B);
+    if (c->config == RAD_VAL_CLOSED_CUBE) {
+        double w = 0;
+        for (uint32_t i = 0; i < n; i++)
+            w = fmax(w, fabs(Bv[i] / out->reference - 1));
+        out->worst = w;
+    }
+    snprintf(out->quantity, sizeof out->quantity, "%s",
+             c->config == RAD_VAL_CLOSED_CUBE ? "B mean" :
+             c->config == RAD_VAL_PLATES ? "B plate B" : "B floor");
+done:
+    free(area);
+    free(rho);
+    free(E);
+    free(Bv);
+    return rc;
+}
+
 int rad_validate_case(const rad_val_case *cin, rad_val_result *out, rad_error *err)
 {
     if (!out)
@@ -652,7 +699,6 @@ int rad_validate_case(const rad_val_case *cin, rad_val_result *out, rad_error *e
                 c.config == RAD_VAL_CUBE_LAMP;
     uint32_t *rows = malloc((n ? n : 1) * sizeof *rows);
     rad_matrix *F = rad_matrix_create(n);
-    double *area = NULL, *rho = NULL, *E = NULL, *Bv = NULL;
     hc_engine *hc = NULL;
     if (!rows || !F) {
         rc = rad_fail(err, RAD_ERR_NOMEM, "validate: %s: out of memory", out->name);
@@ -689,47 +735,14 @@ int rad_validate_case(const rad_val_case *cin, rad_val_result *out, rad_error *e
         snprintf(out->quantity, sizeof out->quantity, "%s",
                  c.config == RAD_VAL_ELEMENT ? "F_dA-B" : "F_AB");
     } else {
-        area = malloc(n * sizeof *area);
-        rho = malloc(n * sizeof *rho);
-        E = malloc(n * sizeof *E);
-        Bv = malloc(n * sizeof *Bv);
-        if (!area || !rho || !E || !Bv) {
-            rc = rad_fail(err, RAD_ERR_NOMEM, "validate: %s: out of memory", out->name);
-            goto done;
-        }
-        for (uint32_t i = 0; i < n; i++) {
-            const rad_material *mt = &s->materials[m->patches[i].material];
-            area[i] = m->patches[i].area;
-            rho[i] = mt->rho[0];
-            E[i] = mt->emission[0];
-        }
-        sv_system sys = {.n = n, .bands = 1, .F = F, .area = area, .rho = rho, .emission = E};
-        sv_options so = {.method = SV_GAUSS_SEIDEL, .tolerance = c.tolerance};
-        sv_stats st;
-        rc = sv_solve(&sys, &so, Bv, &st, err);
+        rc = solve_case(&c, s, m, F, B, t2, out, err);
         if (rc)
             goto done;
-        out->iterations = st.iterations;
-        out->t_solve = rad_seconds() - t2;
-        out->value = mean_B(m, Bv, B);
-        if (c.config == RAD_VAL_CLOSED_CUBE) {
-            double w = 0;
-            for (uint32_t i = 0; i < n; i++)
-                w = fmax(w, fabs(Bv[i] / out->reference - 1));
-            out->worst = w;
-        }
-        snprintf(out->quantity, sizeof out->quantity, "%s",
-                 c.config == RAD_VAL_CLOSED_CUBE ? "B mean" :
-                 c.config == RAD_VAL_PLATES ? "B plate B" : "B floor");
     }
     out->rel_error = out->reference != 0 ? out->value / out->reference - 1.0 : NAN;
     out->seconds = out->t_mesh + out->t_form_factors + out->t_solve;
 done:
     free(rows);
-    free(area);
-    free(rho);
-    free(E);
-    free(Bv);
     rad_matrix_destroy(F);
     rad_mesh_destroy(m);
     rad_scene_destroy(s);

@@ -5,13 +5,14 @@
 set -u
 . "$(dirname "$0")/lib.bash"
 
-# expect NAME FILE PATTERN: solve FILE must fail with status 2, a single
-# stderr line that names FILE and matches PATTERN (extended regex, any case),
-# and no output.
+# expect NAME FILE PATTERN [OPTION...]: solve FILE (with the options) must
+# fail with status 2, a single stderr line that names FILE and matches
+# PATTERN (extended regex, any case), and no output.
 expect() {
     local name=$1 file=$2 pattern=$3
+    shift 3
     rm -f "$dir"/out.sol "$dir"/out.sol.*
-    "$BIN" solve "$file" -o "$dir/out.sol" > "$dir/stdout" 2> "$dir/stderr"
+    "$BIN" solve "$file" -o "$dir/out.sol" "$@" > "$dir/stdout" 2> "$dir/stderr"
     local rc=$? lines msg
     lines=$(wc -l < "$dir/stderr")
     msg=$(cat "$dir/stderr")
@@ -47,7 +48,17 @@ cat > "$dir/lines.gltf" <<'G'
  "bufferViews":[{"buffer":0,"byteLength":36}],
  "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}]}
 G
-expect "primitive mode LINES" "$dir/lines.gltf" "mode|TRIANGLES"
+expect "primitive mode LINES, --strict" "$dir/lines.gltf" "mode|TRIANGLES" --strict
+# without --strict the lines are skipped with a warning, and nothing is left
+"$BIN" solve "$dir/lines.gltf" -o "$dir/out.sol" > /dev/null 2> "$dir/stderr"
+if [ $? -eq 2 ] && [ "$(wc -l < "$dir/stderr")" -eq 2 ] &&
+   grep -q "^radiosity: warning: .*lines.gltf: mesh 'tri' (LINES): primitives without area" "$dir/stderr" &&
+   grep -q "^radiosity: error: .*lines.gltf: no polygons: the scene is empty" "$dir/stderr" &&
+   [ ! -e "$dir/out.sol" ]; then
+    passed=$((passed + 1)); echo "ok   primitive mode LINES: skipped, then the empty scene refused"
+else
+    failed=$((failed + 1)); echo "FAIL primitive mode LINES without --strict: $(cat "$dir/stderr")"
+fi
 
 room | sed 's/  0 0 0   0 0 1   1 0 1   1 0 0/  0 0 0   1 0 0/' > "$dir/two.rad"
 expect "polygon with 2 vertices" "$dir/two.rad" "at least 3|fewer than 3|3 points|3 vertices"

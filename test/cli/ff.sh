@@ -5,11 +5,10 @@
 # names the object).
 #
 # Expected value: Howell C-11, F = 0.19982490 for directly opposed unit
-# squares at unit distance.  Tolerance 0.5 %: the command runs at its
-# defaults (R = 128) on 16×16 patches, where the validation suite measures
-# +0.06 %; 0.5 % leaves room for a changed default without hiding a wrong
-# answer (the next-nearest plausible mistakes, F_BA of unequal areas or a
-# missing half of the rows, are off by far more).
+# squares at unit distance.  Tolerance 0.2 % (TOL): the command runs at its
+# defaults (R = 128) on 16×16 patches, where it measures +5.9e-4 (F_AB
+# 0.1999434, F_BA 0.1999427), so a factor shifted by 0.4 % either way fails
+# (a changed default must come with a new measurement here).
 set -u
 BIN=${RADIOSITY_BIN:-build/release/radiosity}
 dir=$(mktemp -d)
@@ -19,6 +18,7 @@ ok()   { passed=$((passed + 1)); echo "ok   $1"; }
 fail() { failed=$((failed + 1)); echo "FAIL $1"; }
 
 # |value/expected - 1| <= tol, with awk (no other tools assumed)
+TOL=0.002
 near() { awk -v v="$1" -v e="$2" -v t="$3" 'BEGIN { d = v / e - 1; if (d < 0) d = -d; exit !(v != "" && d <= t) }'; }
 
 cat > "$dir/two.rad" <<'R'
@@ -39,13 +39,13 @@ R
 rc=$?
 fab=$(sed -n 's/^F(A -> B) = \([0-9.eE+-]*\).*/\1/p' "$dir/out")
 fba=$(sed -n 's/^F(B -> A) = \([0-9.eE+-]*\).*/\1/p' "$dir/out")
-if [ "$rc" -eq 0 ] && [ -n "$fab" ] && near "$fab" 0.19982490 0.005; then
+if [ "$rc" -eq 0 ] && [ -n "$fab" ] && near "$fab" 0.19982490 "$TOL"; then
     ok "ff text: F(A -> B) = $fab (Howell 0.19982490)"
 else
     fail "ff text: exit $rc, F(A -> B) = '$fab', output: $(cat "$dir/out" "$dir/err")"
 fi
 # equal areas: reciprocity makes F_BA = F_AB (to the hemi-cube's accuracy)
-if [ -n "$fba" ] && near "$fba" 0.19982490 0.005; then
+if [ -n "$fba" ] && near "$fba" 0.19982490 "$TOL"; then
     ok "ff text: F(B -> A) = $fba"
 else
     fail "ff text: F(B -> A) = '$fba'"
@@ -63,13 +63,15 @@ jfrom=$(sed -n 's/.*"from": *"\([^"]*\)".*/\1/p' "$dir/json")
 jto=$(sed -n 's/.*"to": *"\([^"]*\)".*/\1/p' "$dir/json")
 gap=$(sed -n 's/.*"reciprocity_gap": *\([0-9.eE+-]*\).*/\1/p' "$dir/json")
 if [ "$rc" -eq 0 ] && [ -z "$missing" ] && [ "$jfrom" = A ] && [ "$jto" = B ] &&
-   near "$jab" 0.19982490 0.005; then
+   near "$jab" 0.19982490 "$TOL"; then
     ok "ff --json: keys present, F_AB = $jab"
 else
     fail "ff --json: exit $rc, missing keys:$missing, from '$jfrom', to '$jto', F_AB '$jab': $(cat "$dir/json" "$dir/err")"
 fi
 # A_A F_AB - A_B F_BA: both areas are 1, so the gap is F_AB - F_BA, far below F
-if [ -n "$gap" ] && awk -v g="$gap" 'BEGIN { if (g < 0) g = -g; exit !(g <= 0.005 * 0.1998) }'; then
+# (measured 7.5e-7: A's rows see no emitter and B's rows have A's entries
+# exact, which the mirror-image pixel counts of A's rows match to that)
+if [ -n "$gap" ] && awk -v g="$gap" 'BEGIN { if (g < 0) g = -g; exit !(g <= 4e-6) }'; then
     ok "ff --json: reciprocity gap $gap"
 else
     fail "ff --json: reciprocity gap '$gap'"
@@ -94,7 +96,7 @@ sed 's/^polygon A lamp/polygon A grey/' "$dir/two.rad" > "$dir/dark.rad"
 "$BIN" ff "$dir/dark.rad" --from A --to B > "$dir/out" 2> "$dir/err"
 rc=$?
 fab=$(sed -n 's/^F(A -> B) = \([0-9.eE+-]*\).*/\1/p' "$dir/out")
-if [ "$rc" -eq 0 ] && [ -n "$fab" ] && near "$fab" 0.19982490 0.005; then
+if [ "$rc" -eq 0 ] && [ -n "$fab" ] && near "$fab" 0.19982490 "$TOL"; then
     ok "ff without an emitter: F(A -> B) = $fab"
 else
     fail "ff without an emitter: exit $rc: $(cat "$dir/out" "$dir/err")"

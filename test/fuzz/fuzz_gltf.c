@@ -6,9 +6,11 @@
  * then to rad_scene_validate and rad_mesh_build (capped at
  * FUZZ_MAX_PATCHES).  Invariants under test: no input crashes, leaks, hangs
  * or trips a sanitizer (in gltf.c, in the C++ bridge or in tinygltf as the
- * bridge drives it); a failure hands back no scene and a non-empty message;
- * an accepted scene has three bands, 0 <= ρ < 1, E >= 0 and finite, and
- * polygons whose indices, normals and areas are sound; a mesh the mesher
+ * bridge drives it, or in stb_image as gltf_image.c drives it on embedded
+ * textures); a failure hands back no scene and a non-empty message; an
+ * accepted scene has three bands, 0 <= ρ < 1 (materials' and polygons'
+ * own), E >= 0 and finite, polygons whose indices, normals and areas are
+ * sound, and cameras with finite views; a mesh the mesher
  * accepts passes rad_mesh_check.
  * Seeds: test/fuzz/corpus/gltf/; dictionary: test/fuzz/gltf.dict.
  */
@@ -50,8 +52,19 @@ static void check_scene(const rad_scene *s)
             abort();
     for (uint32_t c = 0; c < s->camera_count; c++)
         if (!s->cameras[c].name || !rad_finite3(s->cameras[c].eye) ||
-            !(s->cameras[c].yfov_deg > 0.0 && s->cameras[c].yfov_deg < 180.0))
+            !(s->cameras[c].yfov_deg > 0.0 && s->cameras[c].yfov_deg < 180.0) ||
+            (s->cameras[c].orthographic &&
+             !(s->cameras[c].xmag > 0.0 && s->cameras[c].ymag > 0.0 &&
+               isfinite(s->cameras[c].xmag) && isfinite(s->cameras[c].ymag))))
             abort();
+    /* a polygon's own ρ (vertex colours) obeys the material rules */
+    for (uint32_t k = 0; s->polygon_rho && k < s->polygon_count; k++)
+        for (uint32_t b = 0; b < 3; b++) {
+            double r = rad_polygon_rho(s, k)[b];
+            if (!(r >= 0.0 && r < 1.0) ||
+                !(r + s->materials[s->polygons[k].material].transmit[b] < 1.0))
+                abort();
+        }
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -60,6 +73,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     rad_scene *s = NULL;
     rad_error err;
     memset(&err, 0, sizeof err);
+    /* warnings dropped (NULL warn), not strict: the repairs are fuzzed too */
     rad_load_options lo = {.max_polygons = 100000};
     int rc = rad_scene_parse_gltf(data, size, name, &lo, &s, &err);
     if (rc != RAD_OK) {

@@ -1,0 +1,26 @@
+/* bench_util.h - what several benchmarks share: the patch size that meshes
+ * a scene into about a target number of patches.  Static functions in a
+ * header, like test/util.h: each benchmark is one translation unit.
+ */
+#ifndef BENCH_UTIL_H
+#define BENCH_UTIL_H
+
+#include "../radiosity/mesh/mesh.h"
+
+/* The patch size for about `target` patches, by bisection on rad_mesh_count,
+ * so a table's sizes are the nearest the mesher makes. */
+static inline double bench_patch_size_for(const rad_scene *scene, uint32_t target)
+{
+    double lo = 1e-4, hi = 1.0;
+    for (int it = 0; it < 60; it++) {
+        double mid = sqrt(lo * hi);
+        rad_mesh_options mo = {.patch_size = mid};
+        if (rad_mesh_count(scene, &mo) > target)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return hi;
+}
+
+#endif /* BENCH_UTIL_H */

@@ -1,0 +1,280 @@
+/* cli_views.c - `render` with many views: every camera of the scene
+ * (--all-cameras), a list of them (--camera A,B or --camera repeated) or a
+ * camera path (--path FILE, a fly-through), one image each, from one load
+ * of the solution and one preparation of the drawing, on every CPU.
+ *
+ * -o names an existing directory; a view of camera NAME becomes NAME.exr
+ * and NAME.png (characters other than letters, digits, '.', '_' and '-'
+ * replaced by '_'), view k of a path frame-000k.exr and .png (from 1).
+ * Every view and every file name is settled before the first is drawn, so
+ * a bad camera or a clash writes nothing; each file is written through a
+ * temporary and renamed (rad_output), as any other output.
+ */
+#include "cli.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+int cli_many_option(int argc, char **argv, int *i, cli_many *m)
+{
+    const char *a = argv[*i];
+    const char *val = *i + 1 < argc ? argv[*i + 1] : NULL;
+    if (!strcmp(a, "--all-cameras")) {
+        m->all_cameras = 1;
+        return 1;
+    }
+    if (!strcmp(a, "--no-png")) {
+        m->no_png = 1;
+        return 1;
+    }
+    if (!strcmp(a, "--path")) {
+        if (!val)
+            return cli_usage_error("--path needs a file"), -1;
+        m->path = val;
+    } else if (!strcmp(a, "--threads")) {
+        if (cli_parse_u32(a, val, 1, 256, &m->threads))
+            return -1;
+    } else {
+        return 0;
+    }
+    (*i)++;
+    return 1;
+}
+
+int cli_many_views(const cli_view *v, const cli_many *m, const rad_scene *scene)
+{
+    if (m->all_cameras || m->path || v->camera_args > 1)
+        return 1;
+    /* One --camera: a list when it names no camera but its parts might. */
+    return scene && v->camera_args == 1 && strchr(v->camera, ',') &&
+           rad_scene_find_camera(scene, v->camera) == RAD_NONE;
+}
+
+/* Each view's camera and the stem of its files. */
+typedef struct view_list {
+    rn_camera *cams;
+    char (*stem)[256];
+    uint32_t count;
+} view_list;
+
+static void views_free(view_list *l)
+{
+    free(l->cams);
+    free(l->stem);
+}
+
+/* Makes room for n views (count unchanged). */
+static int views_reserve(view_list *l, uint32_t n, rad_error *err)
+{
+    rn_camera *cams = realloc(l->cams, ((size_t)n + 1) * sizeof *cams);
+    if (cams)
+        l->cams = cams;
+    void *stem = cams ? realloc(l->stem, ((size_t)n + 1) * sizeof *l->stem) : NULL;
+    if (!stem)
+        return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory for %u views", n);
+    l->stem = stem;
+    return RAD_OK;
+}
+
+/* A camera's name as a file stem: letters, digits, '.', '_' and '-' kept,
+ * anything else '_', no leading '.'. */
+static void safe_stem(const char *name, char *out, size_t size)
+{
+    size_t n = 0;
+    for (const char *p = name; *p && n + 1 < size; p++) {
+        char c = *p;
+        int keep = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                   c == '_' || c == '-' || (c == '.' && n > 0);
+        out[n++] = keep ? c : '_';
+    }
+    out[n] = '\0';
+    if (!n)
+        snprintf(out, size, "camera");
+}
+
+/* Adds camera `name` of the scene (with the view options' size, up and
+ * fov).  A camera named twice is an error: two views, one file. */
+static int add_camera(view_list *l, const rad_solution *s, const cli_view *v, const char *name,
+                      rad_error *err)
+{
+    uint32_t w = v->width ? v->width : 512, h = v->height ? v->height : 512;
+    rn_camera cam;
+    int rc = rad_camera_from_scene(s->scene, name, w, h, &cam, err);
+    if (rc)
+        return rc;
+    if (v->have_up)
+        cam.up = v->up;
+    if (v->have_fov)
+        cam.yfov_deg = v->fov, cam.orthographic = 0;
+    if (v->have_ortho)
+        cam.orthographic = 1, cam.ymag = v->ortho;
+    rad_error why;
+    if (rn_camera_check(&cam, &why))
+        return rad_fail(err, RAD_ERR_INVALID, "%s: camera '%s': %s", s->scene->source, name,
+                        why.message);
+    for (uint32_t j = 0; j < l->count; j++)
+        if (!strcmp(name, l->stem[j]))
+            return rad_fail(err, RAD_ERR_USAGE, "render: camera '%s' named twice", name);
+    l->cams[l->count] = cam;
+    /* The name for now; turned into a file stem once all are known. */
+    snprintf(l->stem[l->count], sizeof l->stem[0], "%s", name);
+    l->count++;
+    return RAD_OK;
+}
+
+/* The cameras named by --camera values: each value one camera, or a list
+ * A,B,C when it names none. */
+static int named_cameras(view_list *l, const rad_solution *s, const cli_view *v, rad_error *err)
+{
+    uint32_t most = 0;
+    for (uint32_t a = 0; a < v->camera_args; a++) {
+        most++;
+        for (const char *p = v->cameras[a]; *p; p++)
+            most += *p == ',';
+    }
+    int rc = views_reserve(l, most, err);
+    for (uint32_t a = 0; a < v->camera_args && !rc; a++) {
+        const char *val = v->cameras[a];
+        if (rad_scene_find_camera(s->scene, val) != RAD_NONE || !strchr(val, ',')) {
+            rc = add_camera(l, s, v, val, err);
+            continue;
+        }
+        for (const char *p = val; !rc;) {
+            const char *comma = strchr(p, ',');
+            size_t len = comma ? (size_t)(comma - p) : strlen(p);
+            char part[1024];
+            if (len >= sizeof part)
+                return rad_fail(err, RAD_ERR_USAGE, "--camera: a name longer than %zu characters",
+                                sizeof part - 1);
+            memcpy(part, p, len);
+            part[len] = '\0';
+            if (!len)
+                return rad_fail(err, RAD_ERR_USAGE, "--camera '%s': an empty name in the list", val);
+            rc = add_camera(l, s, v, part, err);
+            if (!comma)
+                break;
+            p = comma + 1;
+        }
+    }
+    return rc;
+}
+
+/* Cameras of the scene or the command line: file stems from their names,
+ * made distinct (a clash after replacing characters gets "-K", K the
+ * view's number). */
+static int camera_views(view_list *l, const rad_solution *s, const cli_view *v, const cli_many *m,
+                        rad_error *err)
+{
+    int rc;
+    if (m->all_cameras) {
+        const rad_scene *sc = s->scene;
+        if (!sc->camera_count)
+            return rad_fail(err, RAD_ERR_USAGE, "%s: --all-cameras: the scene has no cameras",
+                            sc->source);
+        rc = views_reserve(l, sc->camera_count, err);
+        for (uint32_t c = 0; c < sc->camera_count && !rc; c++)
+            rc = add_camera(l, s, v, sc->cameras[c].name, err);
+    } else {
+        rc = named_cameras(l, s, v, err);
+    }
+    for (uint32_t k = 0; k < l->count && !rc; k++) {
+        char stem[256];
+        safe_stem(l->stem[k], stem, sizeof stem);
+        memcpy(l->stem[k], stem, sizeof stem);
+    }
+    for (uint32_t k = 0; k < l->count && !rc; k++)
+        for (int pass = 0; pass < 2 && !rc; pass++) {
+            uint32_t j = 0;
+            while (j < k && strcmp(l->stem[j], l->stem[k]))
+                j++;
+            if (j == k)
+                break;
+            if (pass)
+                rc = rad_fail(err, RAD_ERR_USAGE, "render: views %u and %u would both write '%s'",
+                              j + 1, k + 1, l->stem[k]);
+            size_t n = strlen(l->stem[k]);
+            snprintf(l->stem[k] + (n < 240 ? n : 240), 16, "-%u", k + 1);
+        }
+    return rc;
+}
+
+/* The views of a camera path file: frame-0001, frame-0002, ... */
+static int path_views(view_list *l, const cli_view *v, const cli_many *m, rad_error *err)
+{
+    rn_camera base = {.up = v->have_up ? v->up : rad_v3(0, 1, 0),
+                      .yfov_deg = v->have_fov ? v->fov : 45.0,
+                      .width = v->width ? v->width : 512,
+                      .height = v->height ? v->height : 512};
+    char *text = NULL;
+    size_t size = 0;
+    int rc = cli_read_text(m->path, &text, &size, err);
+    if (!rc)
+        rc = rad_camera_path_parse(text, size, m->path, &base, &l->cams, &l->count, err);
+    free(text);
+    if (rc)
+        return rc;
+    l->stem = malloc(((size_t)l->count + 1) * sizeof *l->stem);
+    if (!l->stem)
+        return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory for %u views", l->count);
+    for (uint32_t k = 0; k < l->count; k++)
+        snprintf(l->stem[k], sizeof l->stem[0], "frame-%04u", k + 1);
+    return RAD_OK;
+}
+
+typedef struct sink {
+    const char *dir;
+    const view_list *views;
+    const cli_view *v;
+    int png;
+} sink;
+
+/* rad_view_fn: writes view k's files (its own names: threads never meet). */
+static int write_view(void *user, uint32_t k, const rn_image *img, rad_error *err)
+{
+    const sink *w = user;
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s.exr", w->dir, w->views->stem[k]);
+    int rc = rn_write_exr(img, path, err);
+    if (!rc && w->png) {
+        snprintf(path, sizeof path, "%s/%s.png", w->dir, w->views->stem[k]);
+        rc = rn_write_png(img, path, w->v->exposure, err);
+    }
+    return rc;
+}
+
+int cli_render_many(const rad_solution *s, const cli_view *v, const cli_many *m, const char *dir)
+{
+    if (cli_need_dir("render", dir))
+        return 2;
+    if (v->have_eye || v->have_target)
+        return cli_usage_error("render: --eye/--target draw one view; a path of them is --path FILE");
+    if (v->have_fov && v->have_ortho)
+        return cli_usage_error("--fov and --ortho exclude each other");
+    if (v->png)
+        return cli_usage_error("render: with several views each PNG goes beside its EXR in '%s' "
+                               "(--no-png: none)", dir);
+    if ((m->all_cameras || m->path) && v->camera_args)
+        return cli_usage_error("render: --camera goes without --all-cameras and --path");
+    if (m->all_cameras && m->path)
+        return cli_usage_error("render: --all-cameras or --path, not both");
+    rad_error err = {0};
+    view_list l = {0};
+    int rc = m->path ? path_views(&l, v, m, &err) : camera_views(&l, s, v, m, &err);
+    rad_drawing *d = NULL;
+    double t0 = rad_seconds();
+    if (!rc)
+        rc = rad_drawing_create(s, &d, &err);
+    sink w = {dir, &l, v, !m->no_png};
+    if (!rc)
+        rc = rad_drawing_views(d, l.cams, l.count, m->threads, write_view, &w, &err);
+    if (!rc)
+        printf("%s: %u view%s %ux%u (%s%s%s)%s, %u thread%s, %.3f s\n", dir, l.count,
+               l.count == 1 ? "" : "s", l.cams[0].width, l.cams[0].height, l.stem[0],
+               l.count > 1 ? " .. " : "", l.count > 1 ? l.stem[l.count - 1] : "",
+               m->no_png ? "" : " with PNGs", rad_view_threads(m->threads, l.count),
+               rad_view_threads(m->threads, l.count) == 1 ? "" : "s", rad_seconds() - t0);
+    rad_drawing_destroy(d);
+    views_free(&l);
+    return rc ? cli_error(&err) : 0;
+}
