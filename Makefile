@@ -75,6 +75,9 @@ $(B)/bench/%: $(B)/obj/bench/%.o $(LIB)
 	@mkdir -p $(dir $@)
 	@$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
+# bench_scale writes its scene with bench/hall.c (not a benchmark of its own)
+$(B)/bench/bench_scale: $(B)/obj/bench/hall.o
+
 # ------------------------------------------------------------------ commands
 
 deps:

@@ -32,7 +32,8 @@ _Static_assert(_Generic((GLint)0, int: 1, default: 0) && _Generic((GLsizei)0, in
 struct hc_gl {
     OSMesaContext ctx;
     unsigned char dummy[16];
-    GLuint fbo, rb[2], prog, vao, vbo;
+    GLuint fbo, rb[2], prog, vao, vbo, ibo;
+    const void **offsets; /* a draw list's byte offsets into the index buffer */
     GLint loc_m, loc_eye, loc_mode;
     /* Light target, R×R, made on the first light request of that size. */
     GLuint lfbo, lrb[2];
@@ -190,47 +191,91 @@ static int program(hc_gl *g, char *msg)
     return 0;
 }
 
-/* The one VBO holding every patch; fills w's vertex layout.  Vertex: float
- * x, y, z relative to the origin, then uint32 patch id. */
+/* A vertex of the VBO: float x, y, z relative to the origin, then the
+ * uint32 patch id. */
+typedef struct hc_vtx {
+    float p[3];
+    uint32_t id;
+} hc_vtx;
+
+static uint64_t vtx_hash(const hc_vtx *v)
+{
+    uint32_t w[4];
+    memcpy(w, v, sizeof w);
+    uint64_t h = 0x9E3779B97F4A7C15ull;
+    for (int k = 0; k < 4; k++) {
+        h = (h ^ w[k]) * 0xff51afd7ed558ccdull;
+        h ^= h >> 32;
+    }
+    return h;
+}
+
+/* The one VBO holding every patch's vertices once (the cells of a cluster
+ * share theirs: equal positions of one patch are one vertex, as equal
+ * floats), each with the patch's id, and the index buffer of its
+ * triangles, patch j's indices contiguous (w's layout: vfirst[j] is the
+ * first index, vcount[j] their number).  Indexed drawing lets the
+ * rasteriser shade a shared vertex once: a cluster of small triangles
+ * has about half as many vertices as it has triangles. */
 static int upload(const hc_engine *e, hc_gl *g, hc_work *w, char *msg)
 {
     uint32_t n = e->n;
-    size_t nv = 0;
+    size_t ni = 0;
     for (uint32_t j = 0; j < n; j++) {
-        w->vfirst[j] = (GLint)nv;
-        w->vcount[j] = e->ncorner[j] == 4 ? 6 : 3;
-        nv += (size_t)w->vcount[j];
+        w->vfirst[j] = (GLint)ni;
+        w->vcount[j] = 0;
+        for (uint32_t c = e->cfirst[j]; c < e->cfirst[j + 1]; c++)
+            w->vcount[j] += e->ncorner[c] == 4 ? 6 : 3;
+        ni += (size_t)w->vcount[j];
     }
-    w->nvert = (uint32_t)nv;
+    w->nvert = (uint32_t)ni;
     glGenVertexArrays(1, &g->vao);
     glBindVertexArray(g->vao);
     glGenBuffers(1, &g->vbo);
     glBindBuffer(GL_ARRAY_BUFFER, g->vbo);
-    if (nv) {
-        struct vtx { float p[3]; uint32_t id; } *buf = malloc(nv * sizeof *buf);
-        if (!buf) {
-            snprintf(msg, HC_MAX_MSG, "hemi-cube: out of memory for %zu vertices", nv);
+    glGenBuffers(1, &g->ibo);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, g->ibo);
+    if (ni) {
+        size_t cap = 16;
+        while (cap < 2 * ni)
+            cap *= 2;
+        hc_vtx *buf = malloc(ni * sizeof *buf);
+        uint32_t *idx = malloc(ni * sizeof *idx), *slot = calloc(cap, sizeof *slot);
+        if (!buf || !idx || !slot) {
+            free(buf), free(idx), free(slot);
+            snprintf(msg, HC_MAX_MSG, "hemi-cube: out of memory for %zu vertices", ni);
             return -1;
         }
         static const int tri[2][3] = {{0, 1, 2}, {0, 2, 3}};
-        size_t k = 0;
-        for (uint32_t j = 0; j < n; j++) {
-            const double *c = e->corner + (size_t)j * 12;
-            for (int t = 0; t < (e->ncorner[j] == 4 ? 2 : 1); t++)
-                for (int s = 0; s < 3; s++) {
-                    const double *p = c + 3 * tri[t][s];
-                    buf[k].p[0] = (float)p[0];
-                    buf[k].p[1] = (float)p[1];
-                    buf[k].p[2] = (float)p[2];
-                    buf[k].id = j;
-                    k++;
-                }
-        }
+        size_t k = 0, nv = 0;
+        for (uint32_t j = 0; j < n; j++)
+            for (uint32_t cell = e->cfirst[j]; cell < e->cfirst[j + 1]; cell++) {
+                const double *c = e->corner + (size_t)cell * 12;
+                for (int t = 0; t < (e->ncorner[cell] == 4 ? 2 : 1); t++)
+                    for (int s = 0; s < 3; s++) {
+                        const double *p = c + 3 * tri[t][s];
+                        hc_vtx v = {{(float)p[0], (float)p[1], (float)p[2]}, j};
+                        size_t h = vtx_hash(&v) & (cap - 1);
+                        while (slot[h] && memcmp(&buf[slot[h] - 1], &v, sizeof v) != 0)
+                            h = (h + 1) & (cap - 1);
+                        if (!slot[h]) {
+                            buf[nv++] = v;
+                            slot[h] = (uint32_t)nv;
+                        }
+                        idx[k++] = slot[h] - 1;
+                    }
+            }
         glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(nv * sizeof *buf), buf, GL_STATIC_DRAW);
-        free(buf);
+        glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(ni * sizeof *idx), idx, GL_STATIC_DRAW);
+        free(buf), free(idx), free(slot);
     }
-    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 16, (const void *)0);
-    glVertexAttribIPointer(1, 1, GL_UNSIGNED_INT, 16, (const void *)12);
+    g->offsets = malloc(((size_t)n + 1) * sizeof *g->offsets);
+    if (!g->offsets) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: out of memory for %u draw ranges", n);
+        return -1;
+    }
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(hc_vtx), (const void *)0);
+    glVertexAttribIPointer(1, 1, GL_UNSIGNED_INT, sizeof(hc_vtx), (const void *)12);
     glEnableVertexAttribArray(0);
     glEnableVertexAttribArray(1);
     return hc_gl_check("geometry upload", msg);
@@ -373,8 +418,9 @@ void hc_gl_or_mode(hc_gl *g, int on)
 
 void hc_gl_draw(hc_gl *g, const int *first, const int *count, int nr)
 {
-    (void)g;
-    glMultiDrawArrays(GL_TRIANGLES, first, count, nr);
+    for (int k = 0; k < nr; k++)
+        g->offsets[k] = (const void *)((size_t)first[k] * sizeof(uint32_t));
+    glMultiDrawElements(GL_TRIANGLES, count, GL_UNSIGNED_INT, g->offsets, nr);
 }
 
 void hc_gl_read_items(hc_gl *g, uint32_t w, uint32_t h, uint32_t *dst)

@@ -72,11 +72,15 @@ struct hc_engine {
      * the fork so every worker shares it copy-on-write. */
     rad_vec3 origin;
     double tol;        /* "strictly in front" margin, scene-relative */
-    double *corner;    /* n × 4 × 3: patch corners - origin */
+    /* Cells: a patch is one cell, or a cluster of several (rad.h's cell
+     * layer); patch j's cells are [cfirst[j], cfirst[j + 1]), ncell in all. */
+    uint32_t ncell;
+    uint32_t *cfirst;  /* n + 1 */
+    double *corner;    /* ncell × 4 × 3: cell corners - origin (a triangle repeats corner 0) */
+    uint8_t *ncorner;  /* ncell: 3 or 4 */
     rad_vec3 *center;  /* n: patch centre - origin */
-    uint8_t *ncorner;  /* n: 3 or 4 */
     double *bsphere;   /* per HC_BLOCK consecutive patches: centre - origin, radius */
-    double *radius;    /* n: largest distance from patch centre to a corner */
+    double *radius;    /* n: largest distance from patch centre to a corner of its cells */
     double bradius;    /* every corner lies within this distance of the origin */
     uint8_t *exact;    /* n: copy of opt->exact, or NULL */
     int any_exact;     /* rows have candidates: exact marks or exact_near */

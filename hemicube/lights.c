@@ -143,9 +143,10 @@ static int light_render(const hc_engine *e, hc_work *wk, const hc_light_req *q, 
          * its corners lie outside one of the four planes. */
         uint32_t last = 0;
         for (uint32_t j = 0; j < n; j++) {
-            const double *p = e->corner + (size_t)j * 12;
-            unsigned reach = 0; /* bit: some corner inside that plane */
-            for (int k = 0; k < 4; k++, p += 3) {
+            const double *p = e->corner + (size_t)e->cfirst[j] * 12;
+            const double *end = e->corner + (size_t)e->cfirst[j + 1] * 12;
+            unsigned reach = 0; /* bit: some corner of its cells inside that plane */
+            for (; p < end; p += 3) {
                 rad_vec3 r = rad_v3(p[0] - pos.x, p[1] - pos.y, p[2] - pos.z);
                 double a = rad_dot(r, right), b = rad_dot(r, up), h = rad_dot(r, fwd);
                 double t = -e->tol;

@@ -76,6 +76,7 @@ void hc_destroy(hc_engine *e)
     free(e->corner);
     free(e->center);
     free(e->ncorner);
+    free(e->cfirst);
     free(e->bsphere);
     free(e->radius);
     free(e->exact);
@@ -176,29 +177,39 @@ static int check_options(const hc_options *opt, hc_options *o, long *cpus, rad_e
     return RAD_OK;
 }
 
-/* Checks every index before any of it is used; finds the bounding box. */
+/* Checks every index before any of it is used (the cells' too); finds the
+ * bounding box. */
 static int check_mesh(const rad_mesh *mesh, rad_vec3 *lo_out, rad_vec3 *hi_out, rad_error *err)
 {
     uint32_t n = mesh->patch_count;
-    if (n > HC_MAX_PATCHES)
+    if (n > HC_MAX_PATCHES || (mesh->cell_first && mesh->cell_count > HC_MAX_PATCHES))
         return rad_fail(err, RAD_ERR_LIMIT, "hc_create: %u patches: the hemi-cube handles at most %u",
                         n, HC_MAX_PATCHES);
     if (n && (!mesh->patches || !mesh->vertices))
         return rad_fail(err, RAD_ERR_USAGE, "hc_create: mesh has %u patches but no arrays", n);
+    if (mesh->cell_first && (!mesh->cells || mesh->cell_first[0] != 0 ||
+                             mesh->cell_first[n] != mesh->cell_count))
+        return rad_fail(err, RAD_ERR_USAGE, "hc_create: the cells do not cover the patches");
     rad_vec3 lo = rad_v3(INFINITY, INFINITY, INFINITY), hi = rad_scale(lo, -1);
     for (uint32_t j = 0; j < n; j++) {
-        const rad_patch *p = &mesh->patches[j];
-        int nc = rad_patch_corners(p);
-        for (int k = 0; k < nc; k++) {
-            if (p->v[k] >= mesh->vertex_count)
-                return rad_fail(err, RAD_ERR_USAGE, "hc_create: patch %u: vertex index %u out of range",
-                                j, p->v[k]);
-            rad_vec3 q = mesh->vertices[p->v[k]];
-            if (!rad_finite3(q))
-                return rad_fail(err, RAD_ERR_USAGE, "hc_create: patch %u: vertex %u is not finite",
-                                j, p->v[k]);
-            lo = rad_v3(fmin(lo.x, q.x), fmin(lo.y, q.y), fmin(lo.z, q.z));
-            hi = rad_v3(fmax(hi.x, q.x), fmax(hi.y, q.y), fmax(hi.z, q.z));
+        const rad_patch *p = &mesh->patches[j], *cell;
+        if (mesh->cell_first && mesh->cell_first[j + 1] <= mesh->cell_first[j])
+            return rad_fail(err, RAD_ERR_USAGE, "hc_create: patch %u has no cell", j);
+        uint32_t ncells = rad_patch_cells(mesh, j, &cell);
+        for (uint32_t c = 0; c < ncells; c++) {
+            int nc = rad_patch_corners(&cell[c]);
+            for (int k = 0; k < nc; k++) {
+                uint32_t v = cell[c].v[k];
+                if (v >= mesh->vertex_count)
+                    return rad_fail(err, RAD_ERR_USAGE,
+                                    "hc_create: patch %u: vertex index %u out of range", j, v);
+                rad_vec3 q = mesh->vertices[v];
+                if (!rad_finite3(q))
+                    return rad_fail(err, RAD_ERR_USAGE,
+                                    "hc_create: patch %u: vertex %u is not finite", j, v);
+                lo = rad_v3(fmin(lo.x, q.x), fmin(lo.y, q.y), fmin(lo.z, q.z));
+                hi = rad_v3(fmax(hi.x, q.x), fmax(hi.y, q.y), fmax(hi.z, q.z));
+            }
         }
         double nl = rad_length(p->normal);
         if (!rad_finite3(p->center) || !(fabs(nl - 1.0) < 1e-6) || !(p->area > 0.0) ||
@@ -228,9 +239,12 @@ static int engine_alloc(const rad_mesh *mesh, const hc_options *o, long cpus, hc
     e->opt = *o;
     size_t npix = (size_t)3 * e->R * e->R;
     e->dff = malloc(npix * sizeof *e->dff);
-    e->corner = malloc((n ? n : 1) * 12 * sizeof *e->corner);
+    e->ncell = mesh->cell_first ? mesh->cell_count : n;
+    size_t nc = e->ncell ? e->ncell : 1;
+    e->cfirst = malloc(((size_t)n + 1) * sizeof *e->cfirst);
+    e->corner = malloc(nc * 12 * sizeof *e->corner);
     e->center = malloc((n ? n : 1) * sizeof *e->center);
-    e->ncorner = malloc(n ? n : 1);
+    e->ncorner = malloc(nc);
     e->bsphere = malloc(((size_t)n / HC_BLOCK + 1) * 4 * sizeof *e->bsphere);
     e->radius = malloc((n ? n : 1) * sizeof *e->radius);
     e->rx_col = malloc((n ? n : 1) * sizeof *e->rx_col);
@@ -248,7 +262,7 @@ static int engine_alloc(const rad_mesh *mesh, const hc_options *o, long cpus, hc
     }
     e->any_exact |= o->exact_near != 0 && n > 1;
     e->opt.exact = e->exact;
-    if (!e->dff || !e->corner || !e->center || !e->ncorner || !e->bsphere || !e->radius ||
+    if (!e->dff || !e->cfirst || !e->corner || !e->center || !e->ncorner || !e->bsphere || !e->radius ||
         !e->rx_col || !e->rx_val || !e->w || (o->exact && n && !e->exact)) {
         hc_destroy(e);
         return rad_fail(err, RAD_ERR_NOMEM, "hc_create: out of memory for %u patches at resolution %u",
@@ -277,27 +291,31 @@ static void prepare_geometry(hc_engine *e, rad_vec3 lo, rad_vec3 hi)
          * any real gap between surfaces. */
         e->tol = 1e-9 * diag + 1e-12 * far;
     }
+    uint32_t c0 = 0;
     for (uint32_t j = 0; j < n; j++) {
-        const rad_patch *p = &mesh->patches[j];
-        int nc = rad_patch_corners(p);
-        e->ncorner[j] = (uint8_t)nc;
-        for (int k = 0; k < 4; k++) {
-            rad_vec3 q = rad_sub(mesh->vertices[p->v[k < nc ? k : 0]], e->origin);
-            e->corner[(size_t)j * 12 + 3 * k + 0] = q.x;
-            e->corner[(size_t)j * 12 + 3 * k + 1] = q.y;
-            e->corner[(size_t)j * 12 + 3 * k + 2] = q.z;
-        }
+        const rad_patch *p = &mesh->patches[j], *cell;
+        const uint32_t ncells = rad_patch_cells(mesh, j, &cell);
+        e->cfirst[j] = c0;
         e->center[j] = rad_sub(p->center, e->origin);
         double r2 = 0.0, b2 = 0.0;
-        for (int k = 0; k < nc; k++) {
-            const double *q = e->corner + (size_t)j * 12 + 3 * k;
-            rad_vec3 d = rad_sub(rad_v3(q[0], q[1], q[2]), e->center[j]);
-            r2 = fmax(r2, rad_dot(d, d));
-            b2 = fmax(b2, q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+        for (uint32_t c = 0; c < ncells; c++, c0++) {
+            int nc = rad_patch_corners(&cell[c]);
+            double *corner = e->corner + (size_t)c0 * 12;
+            e->ncorner[c0] = (uint8_t)nc;
+            for (int k = 0; k < 4; k++) {
+                rad_vec3 q = rad_sub(mesh->vertices[cell[c].v[k < nc ? k : 0]], e->origin);
+                corner[3 * k + 0] = q.x;
+                corner[3 * k + 1] = q.y;
+                corner[3 * k + 2] = q.z;
+                rad_vec3 d = rad_sub(q, e->center[j]);
+                r2 = fmax(r2, rad_dot(d, d));
+                b2 = fmax(b2, rad_dot(q, q));
+            }
         }
         e->radius[j] = sqrt(r2);
         e->bradius = fmax(e->bradius, sqrt(b2));
     }
+    e->cfirst[n] = c0;
 }
 
 /* The bounding sphere of every HC_BLOCK consecutive patches (rows.c culls
@@ -307,23 +325,22 @@ static void block_spheres(hc_engine *e)
     uint32_t n = e->n;
     for (uint32_t b0 = 0; b0 < n; b0 += HC_BLOCK) {
         uint32_t b1 = n - b0 < HC_BLOCK ? n : b0 + HC_BLOCK;
+        const double *q0 = e->corner + (size_t)e->cfirst[b0] * 12;
+        const double *q1 = e->corner + (size_t)e->cfirst[b1] * 12;
         double lo3[3] = {INFINITY, INFINITY, INFINITY}, hi3[3] = {-INFINITY, -INFINITY, -INFINITY};
-        for (uint32_t j = b0; j < b1; j++)
-            for (int k = 0; k < 12; k++) {
-                double q = e->corner[(size_t)j * 12 + k];
-                lo3[k % 3] = fmin(lo3[k % 3], q);
-                hi3[k % 3] = fmax(hi3[k % 3], q);
+        for (const double *q = q0; q < q1; q += 3)
+            for (int a = 0; a < 3; a++) {
+                lo3[a] = fmin(lo3[a], q[a]);
+                hi3[a] = fmax(hi3[a], q[a]);
             }
         double *sp = e->bsphere + 4 * (size_t)(b0 / HC_BLOCK), r2 = 0.0;
         for (int a = 0; a < 3; a++)
             sp[a] = 0.5 * (lo3[a] + hi3[a]);
-        for (uint32_t j = b0; j < b1; j++)
-            for (int k = 0; k < 4; k++) {
-                const double *q = e->corner + (size_t)j * 12 + 3 * k;
-                double d2 = (q[0] - sp[0]) * (q[0] - sp[0]) + (q[1] - sp[1]) * (q[1] - sp[1]) +
-                            (q[2] - sp[2]) * (q[2] - sp[2]);
-                r2 = fmax(r2, d2);
-            }
+        for (const double *q = q0; q < q1; q += 3) {
+            double d2 = (q[0] - sp[0]) * (q[0] - sp[0]) + (q[1] - sp[1]) * (q[1] - sp[1]) +
+                        (q[2] - sp[2]) * (q[2] - sp[2]);
+            r2 = fmax(r2, d2);
+        }
         /* A hair larger than exact so rounding can never cull a corner. */
         sp[3] = sqrt(r2) * (1.0 + 1e-12) + e->tol;
     }

@@ -177,11 +177,51 @@ static void draw_face(const hc_faces *fs, hc_work *wk, int f, uint32_t R, const 
     hc_gl_draw(wk->gl, first, count, nr);
 }
 
-static void load_corners(const hc_engine *e, uint32_t j, rad_vec3 p[4])
+/* The corners of cell `cell` (a patch's cells: e->cfirst). */
+static void load_corners(const hc_engine *e, uint32_t cell, rad_vec3 p[4])
 {
-    const double *q = e->corner + (size_t)j * 12;
+    const double *q = e->corner + (size_t)cell * 12;
     for (int k = 0; k < 4; k++)
         p[k] = rad_v3(q[3 * k], q[3 * k + 1], q[3 * k + 2]);
+}
+
+/* The area of cell `cell`: a cluster's cell's own, else its patch's. */
+static double cell_area(const hc_engine *e, uint32_t cell)
+{
+    return e->mesh->cell_first ? e->mesh->cells[cell].area : e->mesh->patches[cell].area;
+}
+
+/* F from point c (normal n) to patch j: the contour integral over each of
+ * its cells (hc_ff_point_polygon clips what lies behind c's plane). */
+static double point_to_patch(const hc_engine *e, rad_vec3 c, rad_vec3 n, uint32_t j)
+{
+    double f = 0.0;
+    for (uint32_t cj = e->cfirst[j]; cj < e->cfirst[j + 1]; cj++) {
+        rad_vec3 pj[4];
+        load_corners(e, cj, pj);
+        f += hc_ff_point_polygon(c, n, pj, e->ncorner[cj]);
+    }
+    return f;
+}
+
+/* F from patch i to patch j, unoccluded, by area averages over i's cells
+ * (F_ij = Σ_c (A_c / A_i) Σ_d F_cd) with `sub`² sub-triangles. */
+static double patch_to_patch(const hc_engine *e, uint32_t i, uint32_t j, uint32_t sub)
+{
+    double f = 0.0;
+    for (uint32_t ci = e->cfirst[i]; ci < e->cfirst[i + 1]; ci++) {
+        rad_vec3 pi[4];
+        load_corners(e, ci, pi);
+        double fc = 0.0;
+        for (uint32_t cj = e->cfirst[j]; cj < e->cfirst[j + 1]; cj++) {
+            rad_vec3 pj[4];
+            load_corners(e, cj, pj);
+            fc += hc_ff_polygon_polygon(pi, e->ncorner[ci], pj, e->ncorner[cj], sub);
+        }
+        f += e->cfirst[i + 1] - e->cfirst[i] == 1 ? fc
+                                                    : fc * cell_area(e, ci) / e->mesh->patches[i].area;
+    }
+    return f;
 }
 
 /* ---------------------------------------------------------- probes, views */
@@ -243,19 +283,19 @@ static int focus_aim(const hc_engine *e, const uint32_t *js, uint32_t nj, rad_ve
     hc_basis(d, &bu, &up);
     const rad_vec3 rt = rad_cross(d, up); /* right = forward × up: unmirrored, as the faces */
     double span = 0.0;
-    for (uint32_t k = 0; k < nj; k++) {
-        rad_vec3 pj[4];
-        load_corners(e, js[k], pj);
-        if (k == 0)
-            memcpy(v->p0, pj, sizeof v->p0);
-        for (int q = 0; q < e->ncorner[js[k]]; q++) {
-            rad_vec3 r = rad_sub(pj[q], c);
-            double w = rad_dot(r, d);
-            if (!(w > 0.25 * rad_length(r)))
-                return -1;
-            span = fmax(span, fmax(fabs(rad_dot(r, rt)), fabs(rad_dot(r, up))) / w);
+    load_corners(e, e->cfirst[js[0]], v->p0);
+    for (uint32_t k = 0; k < nj; k++)
+        for (uint32_t cj = e->cfirst[js[k]]; cj < e->cfirst[js[k] + 1]; cj++) {
+            rad_vec3 pj[4];
+            load_corners(e, cj, pj);
+            for (int q = 0; q < e->ncorner[cj]; q++) {
+                rad_vec3 r = rad_sub(pj[q], c);
+                double w = rad_dot(r, d);
+                if (!(w > 0.25 * rad_length(r)))
+                    return -1;
+                span = fmax(span, fmax(fabs(rad_dot(r, rt)), fabs(rad_dot(r, up))) / w);
+            }
         }
-    }
     span *= 1.02; /* a margin: the edge pixels stay inside the view */
     if (!(span > 0.0))
         return -1;
@@ -289,15 +329,13 @@ static int focus_list(const hc_engine *e, hc_work *wk, const uint32_t *js, uint3
     *nr = 0;
     for (uint32_t k = 0; k < nfront; k++) {
         uint32_t m = wk->front[k];
-        const double *p = e->corner + (size_t)m * 12;
-        rad_vec3 poly[2][16];
-        int np = e->ncorner[m];
+        const double *p0 = e->corner + (size_t)e->cfirst[m] * 12;
+        const double *p1 = e->corner + (size_t)e->cfirst[m + 1] * 12;
         unsigned in = 0;
-        for (int q = 0; q < np; q++) {
-            rad_vec3 r = rad_v3(p[3 * q] - c.x, p[3 * q + 1] - c.y, p[3 * q + 2] - c.z);
+        for (const double *p = p0; p < p1 && in != 15u; p += 3) {
+            rad_vec3 r = rad_v3(p[0] - c.x, p[1] - c.y, p[2] - c.z);
             for (int pl = 0; pl < 4; pl++)
                 in |= (unsigned)(rad_dot(pa[pl], r) >= 0) << pl;
-            poly[0][q] = r;
         }
         if (in != 15u)
             continue;
@@ -306,21 +344,27 @@ static int focus_list(const hc_engine *e, hc_work *wk, const uint32_t *js, uint3
             next++;
         if (hider || (next < nj && js[next] == m))
             continue;
-        int cur = 0;
-        for (int pl = 0; pl < 5 && np > 0; pl++) {
-            int nn = 0;
-            for (int q = 0; q < np; q++) {
-                rad_vec3 a = poly[cur][q], b = poly[cur][(q + 1) % np];
-                double da = rad_dot(pa[pl], a) + po[pl], db = rad_dot(pa[pl], b) + po[pl];
-                if (da >= 0)
-                    poly[!cur][nn++] = a;
-                if ((da >= 0) != (db >= 0))
-                    poly[!cur][nn++] = rad_add(a, rad_scale(rad_sub(b, a), da / (da - db)));
+        for (uint32_t cell = e->cfirst[m]; cell < e->cfirst[m + 1] && !hider; cell++) {
+            const double *p = e->corner + (size_t)cell * 12;
+            rad_vec3 poly[2][16];
+            int np = e->ncorner[cell], cur = 0;
+            for (int q = 0; q < np; q++)
+                poly[0][q] = rad_v3(p[3 * q] - c.x, p[3 * q + 1] - c.y, p[3 * q + 2] - c.z);
+            for (int pl = 0; pl < 5 && np > 0; pl++) {
+                int nn = 0;
+                for (int q = 0; q < np; q++) {
+                    rad_vec3 a = poly[cur][q], b = poly[cur][(q + 1) % np];
+                    double da = rad_dot(pa[pl], a) + po[pl], db = rad_dot(pa[pl], b) + po[pl];
+                    if (da >= 0)
+                        poly[!cur][nn++] = a;
+                    if ((da >= 0) != (db >= 0))
+                        poly[!cur][nn++] = rad_add(a, rad_scale(rad_sub(b, a), da / (da - db)));
+                }
+                np = nn;
+                cur = !cur;
             }
-            np = nn;
-            cur = !cur;
+            hider = np > 0;
         }
-        hider = np > 0;
     }
     return hider;
 }
@@ -420,8 +464,6 @@ static uint32_t exact_factors(const hc_engine *e, hc_work *wk, uint32_t i, rad_v
                               uint32_t ncand)
 {
     const rad_vec3 nn = e->mesh->patches[i].normal;
-    rad_vec3 pi[4], pj[4];
-    load_corners(e, i, pi);
     uint32_t per_residue[32] = {0}, passes = 0;
     for (uint32_t k = 0; k < ncand; k++) {
         hc_cand *cd = &wk->cand[k];
@@ -429,7 +471,6 @@ static uint32_t exact_factors(const hc_engine *e, hc_work *wk, uint32_t i, rad_v
         cd->occ = wk->acc[j];
         cd->free = 0.0;
         cd->px = 0;
-        load_corners(e, j, pj);
         double ex;
         if (cd->near) {
             /* Sub-triangles about half the distance across: the 7-point
@@ -437,9 +478,9 @@ static uint32_t exact_factors(const hc_engine *e, hc_work *wk, uint32_t i, rad_v
             double dist = rad_length(rad_sub(e->center[j], c));
             double sub = ceil(4.0 * e->radius[i] / fmax(dist, 1e-300));
             sub = sub < 2.0 ? 2.0 : sub > HC_NEAR_MAX_SUBDIV ? HC_NEAR_MAX_SUBDIV : sub;
-            ex = hc_ff_polygon_polygon(pi, e->ncorner[i], pj, e->ncorner[j], (uint32_t)sub);
+            ex = patch_to_patch(e, i, j, (uint32_t)sub);
         } else {
-            ex = hc_ff_point_polygon(c, nn, pj, e->ncorner[j]);
+            ex = point_to_patch(e, c, nn, j);
         }
         cd->exact = ex > 0.0 && isfinite(ex) ? ex : 0.0;
         cd->pass = UINT32_MAX;
@@ -591,14 +632,15 @@ static uint32_t cull(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 c, ra
         }
         if (j == i)
             continue;
-        /* Ranges of a = p·u, b = p·v, h = p·n over the corners (triangles
-         * repeat corner 0).  max(h - a) <= max h - min a etc. bound each
-         * plane from above: cheap, and conservative (a patch is only ever
-         * drawn needlessly, never skipped wrongly). */
-        const double *p = e->corner + (size_t)j * 12;
+        /* Ranges of a = p·u, b = p·v, h = p·n over the corners of j's
+         * cells (triangles repeat corner 0).  max(h - a) <= max h - min a
+         * etc. bound each plane from above: cheap, and conservative (a
+         * patch is only ever drawn needlessly, never skipped wrongly). */
+        const double *p = e->corner + (size_t)e->cfirst[j] * 12;
+        const double *end = e->corner + (size_t)e->cfirst[j + 1] * 12;
         double amin = INFINITY, amax = -INFINITY, bmin = INFINITY, bmax = -INFINITY;
         double hmax = -INFINITY, hmin = INFINITY;
-        for (int k = 0; k < 4; k++, p += 3) {
+        for (; p < end; p += 3) {
             double x = p[0] - c.x, y = p[1] - c.y, z = p[2] - c.z;
             double a = x * u.x + y * u.y + z * u.z;
             double b = x * v.x + y * v.y + z * v.z;
@@ -611,7 +653,9 @@ static uint32_t cull(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 c, ra
             hmax = h > hmax ? h : hmax;
         }
         /* Only patches with a corner strictly in front of i's plane can be
-         * seen; this also drops every patch coplanar with i. */
+         * seen; this also drops every patch coplanar with i.  (A cluster's
+         * own cells are never drawn in its row: they are patch i, and
+         * nearly coplanar with it.) */
         if (!(hmax > tol))
             continue;
         const double t = -tol;

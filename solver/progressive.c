@@ -583,8 +583,8 @@ static int make_room(prog *p, uint32_t count, const uint32_t *keep, uint32_t nke
         return rad_fail(err, RAD_ERR_LIMIT,
                         "solver: the form-factor rows of one shot need up to %s, more than the "
                         "%s allowed; raise --max-memory",
-                        rad_format_bytes((double)(live + incoming), need, sizeof need),
-                        rad_format_bytes((double)budget, have, sizeof have));
+                        rad_human_bytes((double)(live + incoming), need, sizeof need),
+                        rad_human_bytes((double)budget, have, sizeof have));
     }
     return rad_matrix_compact(F, budget, err);
 }

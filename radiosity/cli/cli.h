@@ -52,6 +52,9 @@ int cli_other_arg(const char *cmd, const char *what, const char *arg, const char
 int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt);
 /* Turns on the progress bar when stderr is a terminal. */
 void cli_enable_progress(rad_solve_options *opt);
+/* Prints the form factors' estimate (rad_estimate) on stdout before they
+ * are computed. */
+void cli_enable_estimate(rad_solve_options *opt);
 
 /* Most --camera options one command line may give (each may list cameras
  * separated by commas). */

@@ -206,6 +206,7 @@ int cli_solve(int argc, char **argv)
     }
     cli_enable_progress(&opt);
     opt.warn = cli_warn;
+    cli_enable_estimate(&opt);
     opt.load.warn = cli_warn;
 
     rad_error err = {0};

@@ -146,6 +146,27 @@ void cli_enable_progress(rad_solve_options *opt)
     }
 }
 
+/* The estimate of a solve, on stdout before the form factors start. */
+static void print_estimate(void *user, const rad_estimate *e)
+{
+    (void)user;
+    char f[32], p[32], s[32], l[32];
+    printf("estimate: %u patches (%u cells), %u rows of about %.0f entries (measured on %u): "
+           "form factors %s, peak memory %s, solution file %s (form factors may take %s)\n",
+           e->patches, e->cells, e->rows, e->entries_per_row, e->sample_rows,
+           rad_human_bytes((double)e->matrix_bytes, f, sizeof f),
+           rad_human_bytes((double)e->peak_bytes, p, sizeof p),
+           rad_human_bytes((double)e->file_bytes, s, sizeof s),
+           rad_human_bytes((double)e->limit_bytes, l, sizeof l));
+    fflush(stdout);
+}
+
+void cli_enable_estimate(rad_solve_options *opt)
+{
+    opt->on_estimate = print_estimate;
+    opt->estimate_user = NULL;
+}
+
 /* Shared by solve, relight and ff: meshing, hemi-cube and solver options.
  * Returns 1 if argv[*i] was one of them (consuming its value), 0 if not, -1
  * on a bad value (message printed). */

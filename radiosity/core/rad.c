@@ -63,26 +63,45 @@ void rad_assert_fail(const char *expr, const char *file, int line)
 
 /* ------------------------------------------------------------------ system */
 
+static uint64_t proc_kb(const char *path, const char *name);
+
 uint64_t rad_available_memory(void)
 {
     /* MemAvailable counts reclaimable cache; sysconf's free pages would not. */
-    FILE *f = fopen("/proc/meminfo", "r");
-    if (f) {
-        char line[256];
-        unsigned long long kb;
-        while (fgets(line, sizeof line, f)) {
-            if (sscanf(line, "MemAvailable: %llu kB", &kb) == 1) {
-                fclose(f);
-                return (uint64_t)kb * 1024u;
-            }
-        }
-        fclose(f);
-    }
+    uint64_t avail = proc_kb("/proc/meminfo", "MemAvailable");
+    if (avail)
+        return avail;
     long pages = sysconf(_SC_AVPHYS_PAGES), size = sysconf(_SC_PAGESIZE);
     return (pages > 0 && size > 0) ? (uint64_t)pages * (uint64_t)size : 0;
 }
 
-const char *rad_format_bytes(double bytes, char *buf, size_t size)
+/* The value of a "NAME: N kB" line of a /proc file, in bytes (0 if absent). */
+static uint64_t proc_kb(const char *path, const char *name)
+{
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return 0;
+    char line[256];
+    size_t len = strlen(name);
+    uint64_t bytes = 0;
+    while (fgets(line, sizeof line, f)) {
+        unsigned long long kb;
+        if (strncmp(line, name, len) == 0 && line[len] == ':' &&
+            sscanf(line + len + 1, "%llu kB", &kb) == 1) {
+            bytes = (uint64_t)kb * 1024u;
+            break;
+        }
+    }
+    fclose(f);
+    return bytes;
+}
+
+uint64_t rad_process_memory(int peak)
+{
+    return proc_kb("/proc/self/status", peak ? "VmHWM" : "VmRSS");
+}
+
+const char *rad_human_bytes(double bytes, char *buf, size_t size)
 {
     if (bytes >= 1073741824.0)
         snprintf(buf, size, "%.1f GiB", bytes / 1073741824.0);

@@ -151,10 +151,38 @@ typedef struct rad_mesh {
     rad_patch *patches;
     uint32_t patch_count;
     uint32_t *twin;          /* patch_count entries or NULL (owned) */
+    /* Clusters: a patch may span several cells, the small polygons of one
+     * object and material that the mesher grouped (mesh.h).  cell_first is
+     * NULL when every patch is a single cell, itself.  Otherwise patch i
+     * covers cells[cell_first[i] .. cell_first[i + 1]) (cells of one patch
+     * consecutive, in patch order): planar convex cells with their own
+     * corners, polygon, normal, centre and area, as a patch has.  A patch
+     * of one cell is that cell; a patch of several has their object and
+     * material, A_i = Σ cell areas, the unit area-weighted mean of their
+     * normals, its centre on one of them (its `home` cell, whose corners
+     * and polygon it carries in v[] and polygon).  The cells of one surface
+     * (neighbouring small polygons whose normals agree) share vertices
+     * across polygons, so their radiosities average together as a
+     * polygon's do. */
+    rad_patch *cells;        /* cell_count entries or NULL (owned) */
+    uint32_t cell_count;
+    uint32_t *cell_first;    /* patch_count + 1 entries or NULL (owned) */
 } rad_mesh;
 
 /* Number of corners of a patch: 3 or 4. */
 static inline int rad_patch_corners(const rad_patch *p) { return p->v[3] == RAD_NONE ? 3 : 4; }
+
+/* The cells of patch i: a pointer to the first and their number (the patch
+ * itself, one cell, when the mesh has no clusters). */
+static inline uint32_t rad_patch_cells(const rad_mesh *m, uint32_t i, const rad_patch **first)
+{
+    if (!m->cell_first) {
+        *first = &m->patches[i];
+        return 1;
+    }
+    *first = m->cells + m->cell_first[i];
+    return m->cell_first[i + 1] - m->cell_first[i];
+}
 
 /* ------------------------------------------------------- form-factor matrix */
 
@@ -238,9 +266,13 @@ double rad_point_polygon_factor(rad_vec3 p, rad_vec3 n, const rad_vec3 *poly, ui
 /* Physical memory the system reports as available, in bytes (0 if unknown). */
 uint64_t rad_available_memory(void);
 
-/* A size for messages, in a unit that shows digits: "12.3 MiB", "4.5 GiB"
- * (KiB below a MiB).  Writes buf (size bytes) and returns it. */
-const char *rad_format_bytes(double bytes, char *buf, size_t size);
+/* This process's resident memory in bytes: now (peak 0) or the most it has
+ * had (peak 1, the high-water mark); 0 if unknown. */
+uint64_t rad_process_memory(int peak);
+
+/* "12.3 MiB", "4.5 GiB": a size for messages, in a unit that shows digits;
+ * returns buf. */
+const char *rad_human_bytes(double bytes, char *buf, size_t size);
 
 /* Wall-clock seconds from a monotonic clock, for stage timings. */
 double rad_seconds(void);

@@ -80,9 +80,7 @@ int el_fan_mesh(const rad_mesh *m, rad_mesh **out, uint32_t **cells_of, rad_erro
     int rc = RAD_ERR_NOMEM;
     if (!Vsurf)
         goto done;
-    for (uint32_t e = 0; e < ne; e++)
-        for (int k = 0; k < rad_patch_corners(&m->patches[e]); k++)
-            Vsurf[m->patches[e].v[k]] = el_surface_of(&m->patches[e]);
+    el_vertex_surfaces(m, Vsurf);
     t.V = m->vertices;
     t.Vsurf = Vsurf;
     for (uint32_t v = 0; v < nv; v++)
@@ -92,7 +90,7 @@ int el_fan_mesh(const rad_mesh *m, rad_mesh **out, uint32_t **cells_of, rad_erro
      * a fan of (corners + k) triangles about one new centre vertex. */
     uint64_t cells = 0;
     for (uint32_t e = 0; e < ne; e++) {
-        cell_outline(&t, m->patches[e].v, el_surface_of(&m->patches[e]), &ol);
+        cell_outline(&t, m->patches[e].v, Vsurf[m->patches[e].v[0]], &ol);
         if (ol.failed)
             goto done;
         cells += ol.n;
@@ -111,7 +109,7 @@ int el_fan_mesh(const rad_mesh *m, rad_mesh **out, uint32_t **cells_of, rad_erro
     uint32_t nc = 0, vc = nv;
     for (uint32_t e = 0; e < ne; e++) {
         const rad_patch *c = &m->patches[e];
-        cell_outline(&t, c->v, el_surface_of(c), &ol);
+        cell_outline(&t, c->v, Vsurf[c->v[0]], &ol);
         if (ol.failed)
             goto done;
         uint32_t centre = vc++;
@@ -180,6 +178,190 @@ int el_sees_nothing(const rad_solution *s, uint32_t p, uint32_t level, uint32_t 
     return 1;
 }
 
+/* ------------------------------------------------ clusters drawn smoothly */
+
+int rad_elements_of_cells(const rad_solution *s, rad_elements **out, rad_error *err)
+{
+    const rad_mesh *pm = s->mesh;
+    const uint32_t bands = s->band_count;
+    const uint32_t count = pm->cell_first ? pm->cell_count : pm->patch_count;
+    *out = NULL;
+    rad_elements *el = rad_elements_alloc(pm->vertex_count, count, bands, 0);
+    if (!el)
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for %u cells", count);
+    memcpy(el->mesh->vertices, pm->vertices, (size_t)pm->vertex_count * sizeof *pm->vertices);
+    memcpy(el->mesh->vertex_boundary, pm->vertex_boundary, pm->vertex_count);
+    for (uint32_t i = 0, e = 0; i < pm->patch_count; i++) {
+        const rad_patch *cells;
+        const uint32_t k = rad_patch_cells(pm, i, &cells);
+        for (uint32_t q = 0; q < k; q++, e++) {
+            el->mesh->patches[e] = cells[q];
+            el->patch[e] = i;
+            memcpy(el->B + (size_t)e * bands, s->B + (size_t)i * bands, bands * sizeof *el->B);
+        }
+    }
+    *out = el;
+    return RAD_OK;
+}
+
+/* The patches that share a vertex with each patch of pm (through their
+ * cells), as compressed rows: patch p's are adj[start[p] .. start[p+1]). */
+static int patch_neighbours(const rad_mesh *pm, uint64_t **start_out, uint32_t **adj_out)
+{
+    const uint32_t np = pm->patch_count, nv = pm->vertex_count;
+    uint64_t *vstart = calloc((size_t)nv + 1, sizeof *vstart), *start = NULL;
+    uint32_t *vadj = NULL, *stamp = calloc((size_t)np + 1, sizeof *stamp), *adj = NULL;
+    int rc = -1;
+    if (!vstart || !stamp)
+        goto done;
+    /* vertex -> patches using it (a patch once per cell corner) */
+    for (uint32_t i = 0; i < np; i++) {
+        const rad_patch *c;
+        for (uint32_t q = 0, k = rad_patch_cells(pm, i, &c); q < k; q++)
+            for (int j = 0; j < rad_patch_corners(&c[q]); j++)
+                vstart[c[q].v[j] + 1]++;
+    }
+    for (uint32_t v = 0; v < nv; v++)
+        vstart[v + 1] += vstart[v];
+    vadj = malloc((size_t)(vstart[nv] + 1) * sizeof *vadj);
+    start = calloc((size_t)np + 1, sizeof *start);
+    if (!vadj || !start)
+        goto done;
+    for (uint32_t i = 0; i < np; i++) {
+        const rad_patch *c;
+        for (uint32_t q = 0, k = rad_patch_cells(pm, i, &c); q < k; q++)
+            for (int j = 0; j < rad_patch_corners(&c[q]); j++)
+                vadj[vstart[c[q].v[j]]++] = i;
+    }
+    for (uint32_t v = nv; v > 0; v--)
+        vstart[v] = vstart[v - 1];
+    vstart[0] = 0;
+    /* patch -> distinct other patches on its cells' corners: count, then fill */
+    for (int pass = 0; pass < 2; pass++) {
+        uint64_t used = 0;
+        for (uint32_t i = 0; i < np; i++) {
+            const rad_patch *c;
+            if (pass)
+                start[i] = used;
+            for (uint32_t q = 0, k = rad_patch_cells(pm, i, &c); q < k; q++)
+                for (int j = 0; j < rad_patch_corners(&c[q]); j++)
+                    for (uint64_t a = vstart[c[q].v[j]]; a < vstart[c[q].v[j] + 1]; a++) {
+                        uint32_t o = vadj[a];
+                        if (o == i || stamp[o] == 2 * i + 1 + (uint32_t)pass)
+                            continue;
+                        stamp[o] = 2 * i + 1 + (uint32_t)pass;
+                        if (pass)
+                            adj[used] = o;
+                        used++;
+                    }
+        }
+        if (!pass) {
+            memset(stamp, 0, ((size_t)np + 1) * sizeof *stamp);
+            adj = malloc((size_t)(used + 1) * sizeof *adj);
+            if (!adj)
+                goto done;
+        } else {
+            start[np] = used;
+        }
+    }
+    *start_out = start;
+    *adj_out = adj;
+    start = NULL;
+    adj = NULL;
+    rc = 0;
+done:
+    free(vstart);
+    free(vadj);
+    free(stamp);
+    free(start);
+    free(adj);
+    return rc;
+}
+
+/* What a level-0 element of a cluster is drawn with: a cluster is one
+ * patch of many cells, and drawing each cell with the patch's B would show
+ * the clusters as flat tiles.  The patch's B belongs to its centre, as a
+ * patch's does; at point x of cluster p the drawing takes the affine
+ * least-squares fit, in p's plane, of the B of p and of the patches sharing
+ * a vertex with it (those that see something: a buried patch's B = E says
+ * nothing of its neighbourhood) at their centres, limited to the range of
+ * those B and to >= 0.  The vertex fits then run smoothly across the
+ * cells as across the patches of a polygon. */
+static void cluster_value(const rad_solution *s, const uint64_t *start, const uint32_t *adj,
+                          const uint8_t *dark, uint32_t p, rad_vec3 x, double *sx, double *sy,
+                          double *w, uint32_t *id, double *out)
+{
+    const uint32_t bands = s->band_count;
+    const rad_patch *pp = &s->mesh->patches[p];
+    size_t n = 0;
+    if (!dark[p])
+        id[n++] = p;
+    for (uint64_t a = start[p]; a < start[p + 1]; a++)
+        if (!dark[adj[a]])
+            id[n++] = adj[a];
+    memcpy(out, s->B + (size_t)p * bands, bands * sizeof *out);
+    if (n < 2)
+        return;
+    rad_vec3 a0 = fabs(pp->normal.x) < 0.6 ? rad_v3(1, 0, 0) : rad_v3(0, 1, 0);
+    rad_vec3 e1 = rad_normalize(rad_cross(pp->normal, a0)), e2 = rad_cross(pp->normal, e1);
+    for (size_t k = 0; k < n; k++) {
+        rad_vec3 d = rad_sub(s->mesh->patches[id[k]].center, x);
+        sx[k] = rad_dot(d, e1);
+        sy[k] = rad_dot(d, e2);
+    }
+    rn_affine_weights(sx, sy, n, w);
+    for (uint32_t c = 0; c < bands; c++) {
+        double v = 0.0, lo = INFINITY, hi = -INFINITY;
+        for (size_t k = 0; k < n; k++) {
+            double b = s->B[(size_t)id[k] * bands + c];
+            v += w[k] * b;
+            lo = fmin(lo, b);
+            hi = fmax(hi, b);
+        }
+        v = v >= lo ? fmin(v, hi) : lo; /* NaN -> lo too */
+        out[c] = v > 0.0 ? v : 0.0;
+    }
+}
+
+/* out[e] of the level-0 elements of clusters (see cluster_value). */
+static int draw_clusters(const rad_solution *s, const rad_elements *el, double *out, rad_error *err)
+{
+    const rad_mesh *pm = s->mesh;
+    const uint32_t np = pm->patch_count, bands = s->band_count;
+    uint64_t *start = NULL;
+    uint32_t *adj = NULL, *id = NULL;
+    uint8_t *dark = calloc((size_t)np + 1, 1);
+    double *buf = NULL;
+    int rc = RAD_ERR_NOMEM;
+    if (!dark || patch_neighbours(pm, &start, &adj) != 0)
+        goto done;
+    uint64_t most = 0;
+    for (uint32_t i = 0; i < np; i++) {
+        most = start[i + 1] - start[i] > most ? start[i + 1] - start[i] : most;
+        dark[i] = (uint8_t)el_sees_nothing(s, i, 0, 0, s->B + (size_t)i * bands);
+    }
+    buf = malloc(3 * (size_t)(most + 1) * sizeof *buf);
+    id = malloc((size_t)(most + 1) * sizeof *id);
+    if (!buf || !id)
+        goto done;
+    for (uint32_t e = 0; e < el->mesh->patch_count; e++) {
+        const uint32_t p = el->patch[e];
+        if (el->level[e] == 0 && pm->cell_first[p + 1] - pm->cell_first[p] > 1 && !dark[p])
+            cluster_value(s, start, adj, dark, p, el->mesh->patches[e].center, buf,
+                          buf + most + 1, buf + 2 * (most + 1), id, out + (size_t)e * bands);
+    }
+    rc = RAD_OK;
+done:
+    if (rc != RAD_OK)
+        rad_fail(err, rc, "elements: out of memory for the clusters' drawing");
+    free(dark);
+    free(start);
+    free(adj);
+    free(buf);
+    free(id);
+    return rc;
+}
+
 int rad_elements_drawn_radiosity(const rad_solution *s, const rad_elements *el, const rad_mesh *rm,
                                  const uint32_t *cells_of, double *out, rad_error *err)
 {
@@ -188,6 +370,11 @@ int rad_elements_drawn_radiosity(const rad_solution *s, const rad_elements *el, 
     const double *B = el ? el->B : s->B;
     const uint32_t n = cells->patch_count, nv = rm->vertex_count, nc = rm->patch_count;
     memcpy(out, B, (size_t)n * bands * sizeof *out);
+    if (el && s->mesh->cell_first) {
+        int rc = draw_clusters(s, el, out, err);
+        if (rc != RAD_OK)
+            return rc;
+    }
     uint8_t *buried = calloc(n ? n : 1, 1);
     uint32_t nb = 0;
     if (!buried)

@@ -8,9 +8,10 @@
 
 /* ------------------------------------------------- vertices (vertices.c) */
 
-/* A surface is one side of one polygon: 2·polygon, + 1 when the cell's
- * normal has its largest component negative (see vertices.c). */
-uint32_t el_surface_of(const rad_patch *c);
+/* The surface of each vertex of m (m->vertex_count labels into label):
+ * vertices joined through the cells of m (its cell layer when it has one)
+ * share the label, the lowest vertex index among them (see vertices.c). */
+void el_vertex_surfaces(const rad_mesh *m, uint32_t *label);
 
 /* Open-addressing table of vertex indices keyed by (surface, exact
  * position).  The vertex arrays live with the caller; the table keeps a

@@ -41,7 +41,10 @@ int rad_elements_transmitted(const rad_solution *s, double **out, rad_error *err
  * element that sees nothing (an empty row and B = E: buried under a block)
  * and touches one that sees something is drawn with the affine
  * extrapolation of those it touches, so that its darkness does not bleed
- * into the visible elements through the vertex averages.  rm is the mesh
+ * into the visible elements through the vertex averages; and that a level-0
+ * element in a cluster (a cell of a patch of several) is drawn with the
+ * affine fit, at its centre, of its patch's B and its neighbouring
+ * patches' (so clusters do not show as flat tiles).  rm is the mesh
  * drawn (rad_elements_render_mesh; for patches, s->mesh) and cells_of its
  * cell -> element map (NULL: the identity). */
 int rad_elements_drawn_radiosity(const rad_solution *s, const rad_elements *el,
@@ -57,6 +60,12 @@ int rad_elements_drawn_radiosity(const rad_solution *s, const rad_elements *el,
 int rad_elements_vertex_radiosity(const rad_solution *s, const rad_elements *el,
                                   const rad_mesh *rm, const uint32_t *cells_of, double *drawn,
                                   double *vertex_B, rad_error *err);
+
+/* The cells of s->mesh as level-0 elements (a patch of one cell, or each
+ * cell of a cluster: rad.h), B_e = B_p, no rows: what a clustered mesh
+ * without elements is drawn as (rad_render_solution), its clusters'
+ * cells drawn smoothly (rad_elements_drawn_radiosity).  Caller owns *out. */
+int rad_elements_of_cells(const rad_solution *s, rad_elements **out, rad_error *err);
 
 /* The mesh to draw: every leaf element is split into a fan of triangles
  * about its centre, through its corners and the vertices of finer

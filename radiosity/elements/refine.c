@@ -32,6 +32,7 @@ enum { NODE_LEAF = 0, NODE_SPLIT, NODE_PROBE };
 typedef struct enode {
     uint32_t v[4];     /* corners; v[3] == RAD_NONE for a triangle */
     uint32_t patch;
+    uint32_t cell;     /* the patch's cell it lies in (index in the mesh's cells, or the patch) */
     uint32_t kids;     /* first of its four children (probes or split), RAD_NONE: none */
     uint8_t level;
     uint8_t state;     /* NODE_* */
@@ -54,6 +55,7 @@ typedef struct builder {
     rad_vec3 *V;
     uint8_t *Vb;
     uint32_t *Vsurf;
+    uint8_t *outline;  /* per polygon: its edges on its surface's outline, one bit each */
     uint32_t nv, cap_v;
     el_vtable t;
     /* elements */
@@ -69,13 +71,25 @@ typedef struct builder {
     uint64_t rows_computed;
 } builder;
 
-/* Is p on an edge of polygon poly's outline?  Decides the boundary flag of
- * a new vertex (the renderer extrapolates outline vertices). */
-static int on_outline(const rad_scene *sc, uint32_t poly, rad_vec3 p)
+/* The cell of the patch mesh an element lies in. */
+static const rad_patch *cell_of(const builder *b, const enode *n)
 {
+    const rad_mesh *m = b->s->mesh;
+    return m->cell_first ? &m->cells[n->cell] : &m->patches[n->cell];
+}
+
+/* Is p on an edge of polygon poly's outline (the edges of its surface's
+ * outline: a small polygon of a clustered surface shares the others with
+ * its neighbours)?  Decides the boundary flag of a new vertex (the
+ * renderer extrapolates outline vertices). */
+static int on_outline(const builder *b, uint32_t poly, rad_vec3 p)
+{
+    const rad_scene *sc = b->s->scene;
     const rad_polygon *pg = &sc->polygons[poly];
     const rad_vec3 *P = sc->points + pg->first_point;
     for (uint32_t k = 0; k < pg->point_count; k++) {
+        if (k < 8 && !((b->outline[poly] >> k) & 1u))
+            continue;
         rad_vec3 a = P[k], b = P[(k + 1) % pg->point_count], ab = rad_sub(b, a);
         double len2 = rad_dot(ab, ab);
         if (!(len2 > 0.0))
@@ -90,8 +104,9 @@ static int on_outline(const rad_scene *sc, uint32_t poly, rad_vec3 p)
     return 0;
 }
 
-/* The vertex at p on surface surf, made when missing; RAD_NONE on OOM. */
-static uint32_t vertex_at(builder *b, uint32_t surf, rad_vec3 p, int maybe_outline)
+/* The vertex at p on surface surf, made when missing; RAD_NONE on OOM.
+ * poly: the polygon on whose outline it may lie, RAD_NONE when it cannot. */
+static uint32_t vertex_at(builder *b, uint32_t surf, rad_vec3 p, uint32_t poly)
 {
     uint32_t v = b->nv ? el_vt_find(&b->t, surf, p) : RAD_NONE;
     if (v != RAD_NONE)
@@ -116,13 +131,14 @@ static uint32_t vertex_at(builder *b, uint32_t surf, rad_vec3 p, int maybe_outli
     v = b->nv++;
     b->V[v] = p;
     b->Vsurf[v] = surf;
-    b->Vb[v] = maybe_outline && on_outline(b->s->scene, surf / 2, p);
+    b->Vb[v] = poly != RAD_NONE && on_outline(b, poly, p);
     if (el_vt_insert(&b->t, v) != 0)
         return RAD_NONE;
     return v;
 }
 
-static int add_element(builder *b, const uint32_t v[4], uint32_t patch, uint32_t level, int state)
+static int add_element(builder *b, const uint32_t v[4], uint32_t patch, uint32_t cell,
+                       uint32_t level, int state)
 {
     if (b->ne == b->cap_e) {
         uint32_t cap = b->cap_e ? 2 * b->cap_e : 1024;
@@ -142,6 +158,7 @@ static int add_element(builder *b, const uint32_t v[4], uint32_t patch, uint32_t
     enode *n = &b->E[b->ne];
     memcpy(n->v, v, sizeof n->v);
     n->patch = patch;
+    n->cell = cell;
     n->kids = RAD_NONE;
     n->level = (uint8_t)level;
     n->state = (uint8_t)state;
@@ -161,7 +178,7 @@ static int add_element(builder *b, const uint32_t v[4], uint32_t patch, uint32_t
 static int split(builder *b, uint32_t e, int kid_state)
 {
     enode n = b->E[e];
-    uint32_t surf = el_surface_of(&b->s->mesh->patches[n.patch]);
+    const uint32_t surf = b->Vsurf[n.v[0]], poly = cell_of(b, &n)->polygon;
     uint32_t c[4];
     memcpy(c, n.v, sizeof c);
     int corners = c[3] == RAD_NONE ? 3 : 4;
@@ -169,14 +186,15 @@ static int split(builder *b, uint32_t e, int kid_state)
     for (int k = 0; k < corners; k++) {
         uint32_t a = c[k], z = c[(k + 1) % corners];
         /* Only a el_midpoint between two outline vertices can be on the outline. */
-        m[k] = vertex_at(b, surf, el_midpoint(b->V[a], b->V[z]), b->Vb[a] && b->Vb[z]);
+        m[k] = vertex_at(b, surf, el_midpoint(b->V[a], b->V[z]),
+                         b->Vb[a] && b->Vb[z] ? poly : RAD_NONE);
         if (m[k] == RAD_NONE)
             return -1;
     }
     uint32_t kids[4][4];
     if (corners == 4) {
         rad_vec3 mid = rad_scale(rad_add(rad_add(b->V[c[0]], b->V[c[1]]), rad_add(b->V[c[2]], b->V[c[3]])), 0.25);
-        uint32_t ctr = vertex_at(b, surf, mid, 0);
+        uint32_t ctr = vertex_at(b, surf, mid, RAD_NONE);
         if (ctr == RAD_NONE)
             return -1;
         uint32_t q[4][4] = {{c[0], m[0], ctr, m[3]}, {m[0], c[1], m[1], ctr},
@@ -189,7 +207,7 @@ static int split(builder *b, uint32_t e, int kid_state)
     }
     uint32_t first = b->ne;
     for (int k = 0; k < 4; k++)
-        if (add_element(b, kids[k], n.patch, n.level + 1u, kid_state) != 0)
+        if (add_element(b, kids[k], n.patch, n.cell, n.level + 1u, kid_state) != 0)
             return -1;
     b->E[e].kids = first;
     if (kid_state == NODE_LEAF)
@@ -315,8 +333,7 @@ static int compute_rows_of(builder *b, hc_engine *hc, const uint32_t *which, uin
     for (uint32_t k = 0; k < count; k++) {
         const enode *n = &b->E[which[k]];
         double area;
-        if (rad_cell_geometry(b->V, n->v, b->s->mesh->patches[n->patch].normal, &r[k].center,
-                              &area) != 0) {
+        if (rad_cell_geometry(b->V, n->v, cell_of(b, n)->normal, &r[k].center, &area) != 0) {
             free(r);
             return rad_fail(err, RAD_ERR_INVALID, "elements: element %u has no area", which[k]);
         }
@@ -711,6 +728,58 @@ done:
     return rc;
 }
 
+/* b->outline: per polygon, bit k set when its edge k lies on its surface's
+ * outline.  Every edge does, except where a cell of another polygon runs
+ * the same two mesh vertices the other way: a small polygon of a clustered
+ * surface is one cell whose corners are its points in order, and shares
+ * such edges with its neighbours.  -1 on OOM. */
+static int outline_masks(builder *b)
+{
+    const rad_mesh *m = b->s->mesh;
+    const uint32_t npoly = b->s->scene->polygon_count;
+    b->outline = malloc((size_t)npoly + 1);
+    if (!b->outline)
+        return -1;
+    memset(b->outline, 0xff, (size_t)npoly + 1);
+    if (!m->cell_first)
+        return 0; /* no clusters: no vertex is shared across polygons */
+    const uint32_t nc = m->cell_count;
+    size_t cap = 16;
+    while (cap < 8 * (size_t)nc + 2)
+        cap *= 2;
+    uint64_t *key = malloc(cap * sizeof *key);
+    uint32_t *poly = malloc(cap * sizeof *poly);
+    if (!key || !poly) {
+        free(key);
+        free(poly);
+        return -1;
+    }
+    for (size_t h = 0; h < cap; h++)
+        key[h] = UINT64_MAX;
+    /* pass 0 enters every directed edge, pass 1 looks for each one's reverse */
+    for (int pass = 0; pass < 2; pass++)
+        for (uint32_t c = 0; c < nc; c++) {
+            const rad_patch *cell = &m->cells[c];
+            const int n = rad_patch_corners(cell);
+            for (int k = 0; k < n; k++) {
+                uint64_t a = cell->v[k], z = cell->v[(k + 1) % n];
+                uint64_t want = pass ? z << 32 | a : a << 32 | z;
+                size_t h = (size_t)((want * 0x9E3779B97F4A7C15ull) >> 20) & (cap - 1);
+                while (key[h] != UINT64_MAX && key[h] != want)
+                    h = (h + 1) & (cap - 1);
+                if (!pass) {
+                    key[h] = want;
+                    poly[h] = cell->polygon;
+                } else if (key[h] == want && poly[h] != cell->polygon && k < 8) {
+                    b->outline[cell->polygon] &= (uint8_t)~(1u << k);
+                }
+            }
+        }
+    free(key);
+    free(poly);
+    return 0;
+}
+
 int rad_elements_refine(rad_solution *s, hc_engine *hc, const rad_refine_options *options,
                         rad_error *err)
 {
@@ -749,26 +818,42 @@ int rad_elements_refine(rad_solution *s, hc_engine *hc, const rad_refine_options
         rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
         goto done;
     }
-    /* Level 0: one element per patch, on the patch's own corners. */
-    for (uint32_t i = 0; i < np; i++) {
-        const rad_patch *p = &pm->patches[i];
-        uint32_t v[4] = {RAD_NONE, RAD_NONE, RAD_NONE, RAD_NONE};
-        for (int k = 0; k < rad_patch_corners(p); k++) {
-            v[k] = vertex_at(&b, el_surface_of(p), pm->vertices[p->v[k]], 0);
-            if (v[k] == RAD_NONE) {
-                rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
-                goto done;
+    /* Level 0: one element per cell of each patch (the patch itself unless
+     * it is a cluster), on the mesh's own corners: the cells of a surface
+     * share vertices as its patches do. */
+    uint32_t *label = malloc(((size_t)pm->vertex_count + 1) * sizeof *label);
+    if (!label || outline_masks(&b) != 0) {
+        free(label);
+        rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+        goto done;
+    }
+    el_vertex_surfaces(pm, label);
+    for (uint32_t i = 0; i < np && rc == RAD_OK; i++) {
+        const rad_patch *cells;
+        const uint32_t count = rad_patch_cells(pm, i, &cells);
+        double own = 0.0;
+        for (uint32_t q = 0; q < count && rc == RAD_OK; q++) {
+            const rad_patch *p = &cells[q];
+            uint32_t v[4] = {RAD_NONE, RAD_NONE, RAD_NONE, RAD_NONE};
+            for (int k = 0; k < rad_patch_corners(p) && rc == RAD_OK; k++) {
+                v[k] = vertex_at(&b, label[p->v[k]], pm->vertices[p->v[k]], RAD_NONE);
+                if (v[k] == RAD_NONE)
+                    rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+                else
+                    b.Vb[v[k]] = pm->vertex_boundary[p->v[k]];
             }
-            b.Vb[v[k]] = pm->vertex_boundary[p->v[k]];
+            if (rc == RAD_OK && add_element(&b, v, i, (uint32_t)(p - (pm->cell_first ? pm->cells : pm->patches)), 0, NODE_LEAF) != 0)
+                rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+            if (rc == RAD_OK)
+                own = count == 1 ? longest_edge(&b, &b.E[b.ne - 1]) : sqrt(pm->patches[i].area);
         }
-        if (add_element(&b, v, i, 0, NODE_LEAF) != 0) {
-            rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
-            goto done;
-        }
-        /* Default floor: three splits below the patch (1/8 of its size). */
-        double own = longest_edge(&b, &b.E[i]);
+        /* Default floor: three splits below the patch (1/8 of its size; a
+         * cluster's size is the side of a square of its area). */
         min_edge[i] = opt.min_element_size > 0.0 ? opt.min_element_size : own / 8.0;
     }
+    free(label);
+    if (rc != RAD_OK)
+        goto done;
     /* Errors are relative to the brightest reflecting (non-emitting) patch
      * per band: emitters would make any threshold meaningless. */
     double scale[RAD_MAX_BANDS] = {0};
@@ -796,6 +881,7 @@ done:
     free(b.V);
     free(b.Vb);
     free(b.Vsurf);
+    free(b.outline);
     free(b.t.slot);
     free(b.E);
     free(b.B);

@@ -1,5 +1,6 @@
 /* vertices.c - element vertices found again by their exact position within
- * their surface (one side of one polygon).  A midpoint is computed as
+ * their surface (one side of one polygon, or a clustered surface of small
+ * polygons that share vertices: mesh.h).  A midpoint is computed as
  * (a + b)/2 from the two ends, which is the same double whichever side
  * computes it, so neighbours share vertices and a vertex of a finer
  * neighbour lying on an element's edge (a T-vertex) is found by looking up
@@ -16,20 +17,36 @@
 
 /* -------------------------------------------------- vertices by position */
 
-/* A surface is one side of one polygon: 2·polygon, + 1 when the cell's
- * normal has its largest component negative.  The two sides of a
- * transmitting sheet have opposite normals, hence different surfaces, and
- * never share a vertex (their radiosities differ); every cell of one side
- * carries its polygon's normal, hence the same surface. */
-uint32_t el_surface_of(const rad_patch *c)
+static uint32_t root(uint32_t *up, uint32_t x)
 {
-    rad_vec3 n = c->normal;
-    double big = n.x;
-    if (fabs(n.y) > fabs(big))
-        big = n.y;
-    if (fabs(n.z) > fabs(big))
-        big = n.z;
-    return 2u * c->polygon + (big < 0.0);
+    while (up[x] != x) {
+        up[x] = up[up[x]];
+        x = up[x];
+    }
+    return x;
+}
+
+/* A surface is a set of cells joined by shared vertices: one side of one
+ * polygon (the mesher shares vertices within a side and never across
+ * polygons, and the two sides of a transmitting sheet have vertices of
+ * their own), or a clustered surface of small polygons.  The label of a
+ * vertex is the lowest vertex index of its surface. */
+void el_vertex_surfaces(const rad_mesh *m, uint32_t *label)
+{
+    const rad_patch *cells = m->cell_first ? m->cells : m->patches;
+    const uint32_t count = m->cell_first ? m->cell_count : m->patch_count;
+    for (uint32_t v = 0; v < m->vertex_count; v++)
+        label[v] = v;
+    for (uint32_t c = 0; c < count; c++)
+        for (int k = 1; k < rad_patch_corners(&cells[c]); k++) {
+            uint32_t a = root(label, cells[c].v[0]), b = root(label, cells[c].v[k]);
+            if (a < b)
+                label[b] = a;
+            else if (b < a)
+                label[a] = b;
+        }
+    for (uint32_t v = 0; v < m->vertex_count; v++)
+        label[v] = root(label, v);
 }
 
 static uint64_t vhash(uint32_t surf, rad_vec3 p)

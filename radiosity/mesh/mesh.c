@@ -13,8 +13,14 @@
  * them (rad_mesh_link_twins, which the solution reader calls too).
  * The patch count is computed and checked against the limit before anything
  * is allocated.
+ *
+ * Polygons that would be one cell each, and that have neighbours of their
+ * kind, are grouped into clusters instead (cluster.c): each cluster is one
+ * patch of several cells, in the place of its first polygon; its cells'
+ * vertices are shared across its surface.  The mesh then has a cell layer
+ * (rad.h), in which every other patch is its own single cell.
  */
-#include "mesh.h"
+#include "mesh_internal.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -41,6 +47,23 @@ rad_mesh *rad_mesh_alloc(uint32_t vertex_count, uint32_t patch_count)
     return m;
 }
 
+int rad_mesh_alloc_cells(rad_mesh *m, uint32_t cell_count)
+{
+    free(m->cells);
+    free(m->cell_first);
+    m->cells = calloc(cell_count ? cell_count : 1, sizeof *m->cells);
+    m->cell_first = calloc((size_t)m->patch_count + 1, sizeof *m->cell_first);
+    if (!m->cells || !m->cell_first) {
+        free(m->cells);
+        free(m->cell_first);
+        m->cells = NULL;
+        m->cell_first = NULL;
+        return -1;
+    }
+    m->cell_count = cell_count;
+    return 0;
+}
+
 void rad_mesh_destroy(rad_mesh *m)
 {
     if (!m)
@@ -49,7 +72,100 @@ void rad_mesh_destroy(rad_mesh *m)
     free(m->vertex_boundary);
     free(m->patches);
     free(m->twin);
+    free(m->cells);
+    free(m->cell_first);
     free(m);
+}
+
+int rad_patch_same(const rad_patch *a, const rad_patch *b)
+{
+    return memcmp(a->v, b->v, sizeof a->v) == 0 && a->polygon == b->polygon &&
+           a->object == b->object && a->material == b->material && a->area == b->area &&
+           a->center.x == b->center.x && a->center.y == b->center.y &&
+           a->center.z == b->center.z && a->normal.x == b->normal.x &&
+           a->normal.y == b->normal.y && a->normal.z == b->normal.z;
+}
+
+/* One cell (or patch) against the mesh: corners in range and distinct,
+ * indices in range, positive area, finite centre, unit normal. */
+static int check_cell(const rad_mesh *m, const rad_patch *p, const char *what, uint32_t i,
+                      uint32_t polygon_count, uint32_t object_count, uint32_t material_count,
+                      rad_error *err)
+{
+    int corners = rad_patch_corners(p);
+    for (int c = 0; c < corners; c++) {
+        if (p->v[c] >= m->vertex_count)
+            return rad_fail(err, RAD_ERR_CORRUPT,
+                            "mesh: %s %u: vertex index %u out of range (%u vertices)", what, i,
+                            p->v[c], m->vertex_count);
+        for (int d = 0; d < c; d++)
+            if (p->v[d] == p->v[c])
+                return rad_fail(err, RAD_ERR_CORRUPT, "mesh: %s %u: vertex %u used twice", what,
+                                i, p->v[c]);
+    }
+    if (p->polygon >= polygon_count)
+        return rad_fail(err, RAD_ERR_CORRUPT,
+                        "mesh: %s %u: polygon %u out of range (%u polygons)", what, i, p->polygon,
+                        polygon_count);
+    if (p->object >= object_count)
+        return rad_fail(err, RAD_ERR_CORRUPT, "mesh: %s %u: object %u out of range (%u objects)",
+                        what, i, p->object, object_count);
+    if (p->material >= material_count)
+        return rad_fail(err, RAD_ERR_CORRUPT,
+                        "mesh: %s %u: material %u out of range (%u materials)", what, i,
+                        p->material, material_count);
+    if (!isfinite(p->area) || !(p->area > 0.0))
+        return rad_fail(err, RAD_ERR_CORRUPT, "mesh: %s %u: area %g is not positive", what, i,
+                        p->area);
+    if (!rad_finite3(p->center))
+        return rad_fail(err, RAD_ERR_CORRUPT, "mesh: %s %u: centre is not finite", what, i);
+    double nl = rad_length(p->normal);
+    /* 1e-6: a unit vector stored in doubles is off by ~1e-16; anything
+     * more than rounding means the normal was not normalised. */
+    if (!rad_finite3(p->normal) || !(fabs(nl - 1.0) <= 1e-6))
+        return rad_fail(err, RAD_ERR_CORRUPT, "mesh: %s %u: normal length %g is not 1", what, i,
+                        nl);
+    return RAD_OK;
+}
+
+/* The cell layer: cell_first counts every cell once, in order; a patch's
+ * cells share its object and material and sum to its area; a patch of one
+ * cell is that cell. */
+static int check_cells(const rad_mesh *m, uint32_t polygon_count, uint32_t object_count,
+                       uint32_t material_count, rad_error *err)
+{
+    if (!m->cells || !m->cell_first)
+        return rad_fail(err, RAD_ERR_CORRUPT, "mesh: cell layer without its arrays");
+    if (m->cell_first[0] != 0 || m->cell_first[m->patch_count] != m->cell_count)
+        return rad_fail(err, RAD_ERR_CORRUPT, "mesh: the patches' cells do not cover the %u cells",
+                        m->cell_count);
+    for (uint32_t i = 0; i < m->patch_count; i++) {
+        uint32_t c0 = m->cell_first[i], c1 = m->cell_first[i + 1];
+        if (c1 <= c0 || c1 > m->cell_count)
+            return rad_fail(err, RAD_ERR_CORRUPT, "mesh: patch %u: cells %u..%u out of order", i,
+                            c0, c1);
+        const rad_patch *p = &m->patches[i];
+        double area = 0.0;
+        for (uint32_t c = c0; c < c1; c++) {
+            const rad_patch *q = &m->cells[c];
+            int rc = check_cell(m, q, "cell", c, polygon_count, object_count, material_count, err);
+            if (rc != RAD_OK)
+                return rc;
+            if (q->object != p->object || q->material != p->material)
+                return rad_fail(err, RAD_ERR_CORRUPT,
+                                "mesh: cell %u: object or material differs from its patch %u", c,
+                                i);
+            area += q->area;
+        }
+        /* 1e-9: the sum of a few hundred areas in another order */
+        if (!(fabs(area - p->area) <= 1e-9 * p->area))
+            return rad_fail(err, RAD_ERR_CORRUPT,
+                            "mesh: patch %u: area %.17g but its cells sum to %.17g", i, p->area,
+                            area);
+        if (c1 - c0 == 1 && !rad_patch_same(&m->cells[c0], p))
+            return rad_fail(err, RAD_ERR_CORRUPT, "mesh: patch %u: differs from its one cell", i);
+    }
+    return RAD_OK;
 }
 
 int rad_mesh_check(const rad_mesh *m, uint32_t polygon_count, uint32_t object_count,
@@ -68,42 +184,13 @@ int rad_mesh_check(const rad_mesh *m, uint32_t polygon_count, uint32_t object_co
                             k, m->vertex_boundary[k]);
     }
     for (uint32_t i = 0; i < m->patch_count; i++) {
-        const rad_patch *p = &m->patches[i];
-        int corners = rad_patch_corners(p);
-        for (int c = 0; c < corners; c++) {
-            if (p->v[c] >= m->vertex_count)
-                return rad_fail(err, RAD_ERR_CORRUPT,
-                                "mesh: patch %u: vertex index %u out of range (%u vertices)", i,
-                                p->v[c], m->vertex_count);
-            for (int d = 0; d < c; d++)
-                if (p->v[d] == p->v[c])
-                    return rad_fail(err, RAD_ERR_CORRUPT,
-                                    "mesh: patch %u: vertex %u used twice", i, p->v[c]);
-        }
-        if (p->polygon >= polygon_count)
-            return rad_fail(err, RAD_ERR_CORRUPT,
-                            "mesh: patch %u: polygon %u out of range (%u polygons)", i,
-                            p->polygon, polygon_count);
-        if (p->object >= object_count)
-            return rad_fail(err, RAD_ERR_CORRUPT,
-                            "mesh: patch %u: object %u out of range (%u objects)", i, p->object,
-                            object_count);
-        if (p->material >= material_count)
-            return rad_fail(err, RAD_ERR_CORRUPT,
-                            "mesh: patch %u: material %u out of range (%u materials)", i,
-                            p->material, material_count);
-        if (!isfinite(p->area) || !(p->area > 0.0))
-            return rad_fail(err, RAD_ERR_CORRUPT, "mesh: patch %u: area %g is not positive", i,
-                            p->area);
-        if (!rad_finite3(p->center))
-            return rad_fail(err, RAD_ERR_CORRUPT, "mesh: patch %u: centre is not finite", i);
-        double nl = rad_length(p->normal);
-        /* 1e-6: a unit vector stored in doubles is off by ~1e-16; anything
-         * more than rounding means the normal was not normalised. */
-        if (!rad_finite3(p->normal) || !(fabs(nl - 1.0) <= 1e-6))
-            return rad_fail(err, RAD_ERR_CORRUPT, "mesh: patch %u: normal length %g is not 1", i,
-                            nl);
+        int rc = check_cell(m, &m->patches[i], "patch", i, polygon_count, object_count,
+                            material_count, err);
+        if (rc != RAD_OK)
+            return rc;
     }
+    if (m->cell_first || m->cells)
+        return check_cells(m, polygon_count, object_count, material_count, err);
     return RAD_OK;
 }
 
@@ -239,44 +326,101 @@ static double effective_default(const rad_scene *scene, const rad_mesh_options *
     return opt_size > 0.0 ? opt_size : rad_mesh_default_patch_size(scene);
 }
 
-static void mesh_totals(const rad_scene *scene, const rad_mesh_options *opt, uint64_t *patches,
-                        uint64_t *vertices)
+static int transmits(const rad_scene *scene, const rad_polygon *pg)
 {
-    double opt_size = opt && opt->patch_size > 0.0 ? opt->patch_size : 0.0;
-    double def_size = rad_mesh_default_patch_size(scene);
-    uint64_t tp = 0, tv = 0;
-    for (uint32_t i = 0; i < scene->polygon_count; i++) {
+    return pg->material < scene->material_count &&
+           rad_material_transmits(&scene->materials[pg->material], scene->band_count);
+}
+
+/* What rad_mesh_build and rad_mesh_count share: which polygons are grouped
+ * (eligible: one cell at this size, no subdivision of its own, opaque;
+ * grouped: eligible with a neighbour of its kind, see cluster.c) and the
+ * totals.  `cells` counts the cell layer's cells when there is one (some
+ * polygon grouped), else 0. */
+typedef struct plan {
+    double opt_size, def_size;
+    mesh_clusters cl;
+    uint64_t patches, vertices, cells;
+} plan;
+
+static int make_plan(const rad_scene *scene, const rad_mesh_options *opt, plan *pl,
+                     rad_error *err)
+{
+    memset(pl, 0, sizeof *pl);
+    pl->opt_size = opt && opt->patch_size > 0.0 ? opt->patch_size : 0.0;
+    pl->def_size = rad_mesh_default_patch_size(scene);
+    const uint32_t np = scene->polygon_count;
+    uint8_t *eligible = calloc((size_t)np + 1, 1);
+    if (!eligible)
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: mesh: out of memory",
+                        scene->source ? scene->source : "<memory>");
+    for (uint32_t i = 0; i < np && !(opt && opt->no_clusters); i++) {
         const rad_polygon *pg = &scene->polygons[i];
-        if (!polygon_ok(scene, pg))
+        if (!polygon_ok(scene, pg) || pg->object >= scene->object_count ||
+            pg->material >= scene->material_count || transmits(scene, pg) ||
+            (!(pl->opt_size > 0.0) && pg->subdiv_u > 0))
             continue;
-        split sp = polygon_split(scene, pg, opt_size, def_size);
+        eligible[i] = polygon_split(scene, pg, pl->opt_size, pl->def_size).patches == 1;
+    }
+    int rc = mesh_cluster(scene, eligible, pl->opt_size > 0.0 ? pl->opt_size : pl->def_size,
+                          &pl->cl, err);
+    free(eligible);
+    if (rc != RAD_OK)
+        return rc;
+    uint64_t tp = 0, tv = 0;
+    for (uint32_t i = 0; i < np; i++) {
+        const rad_polygon *pg = &scene->polygons[i];
+        if (!polygon_ok(scene, pg) || pl->cl.of[i] != RAD_NONE)
+            continue;
+        split sp = polygon_split(scene, pg, pl->opt_size, pl->def_size);
         /* a transmitting sheet has a back side of as many cells again */
-        uint64_t sides = pg->material < scene->material_count &&
-                                 rad_material_transmits(&scene->materials[pg->material],
-                                                        scene->band_count)
-                             ? 2
-                             : 1;
+        uint64_t sides = transmits(scene, pg) ? 2 : 1;
         tp = add_sat(tp, mul_sat(sides, sp.patches));
         tv = add_sat(tv, mul_sat(sides, sp.vertices));
     }
-    *patches = tp;
-    *vertices = tv;
+    pl->cells = pl->cl.count ? add_sat(tp, pl->cl.first[pl->cl.count]) : 0;
+    pl->patches = add_sat(tp, pl->cl.count);
+    pl->vertices = add_sat(tv, pl->cl.vkeys);
+    return RAD_OK;
+}
+
+double rad_mesh_size_for(const rad_scene *scene, const rad_mesh_options *opt, uint64_t limit)
+{
+    rad_mesh_options o = opt ? *opt : (rad_mesh_options){0};
+    double size = effective_default(scene, &o);
+    uint64_t n = rad_mesh_count(scene, &o);
+    if (!(size > 0.0) || limit == 0)
+        return size;
+    /* N falls about as 1/size²: start there, then grow by 10 % until the
+     * mesher agrees (clusters and whole polygons round differently). */
+    if (n > limit)
+        size *= n == UINT64_MAX ? 1e6 : sqrt((double)n / (double)limit);
+    for (int k = 0; k < 64; k++) {
+        o.patch_size = size;
+        n = rad_mesh_count(scene, &o);
+        if (n <= limit)
+            break;
+        size *= n == UINT64_MAX ? 10.0 : 1.1;
+    }
+    return size;
 }
 
 uint64_t rad_mesh_count(const rad_scene *scene, const rad_mesh_options *opt)
 {
     if (!scene)
         return 0;
-    uint64_t p, v;
-    mesh_totals(scene, opt, &p, &v);
-    return p;
+    plan pl;
+    if (make_plan(scene, opt, &pl, NULL) != RAD_OK)
+        return UINT64_MAX;
+    mesh_clusters_free(&pl.cl);
+    return pl.patches;
 }
 
 /* ---------------------------------------------------------------- building */
 
 typedef struct builder {
     rad_mesh *m;
-    uint32_t nv, np; /* filled so far */
+    uint32_t nv, np, nc; /* filled so far: vertices, patches, cells */
     const rad_scene *s;
     uint32_t polygon;
 } builder;
@@ -501,6 +645,69 @@ int rad_mesh_link_twins(rad_mesh *m, const rad_scene *scene, rad_error *err)
     return RAD_OK;
 }
 
+/* Cluster k of the plan as one patch (appended) and its cells: each member
+ * polygon one cell on the surface's shared vertices (vmap: vertex key ->
+ * mesh vertex, made on first use); the patch's area is the cells', its
+ * normal their area-weighted mean, its centre their area centroid moved
+ * onto the nearest cell (its home: the patch carries that cell's corners
+ * and polygon).  A cluster of one polygon is exactly that cell. */
+static void build_cluster(builder *b, const mesh_clusters *cl, uint32_t k, uint32_t *vmap,
+                          int *bad)
+{
+    const rad_scene *s = b->s;
+    rad_mesh *m = b->m;
+    const uint32_t c0 = b->nc;
+    double area = 0.0;
+    rad_vec3 sum_n = rad_v3(0, 0, 0), sum_c = rad_v3(0, 0, 0);
+    m->cell_first[b->np] = c0;
+    for (uint32_t q = cl->first[k]; q < cl->first[k + 1]; q++) {
+        const uint32_t i = cl->member[q];
+        const rad_polygon *pg = &s->polygons[i];
+        rad_patch *c = &m->cells[b->nc++];
+        c->v[3] = RAD_NONE;
+        for (uint32_t j = 0; j < pg->point_count; j++) {
+            uint32_t key = cl->vkey[pg->first_point + j];
+            if (vmap[key] == RAD_NONE)
+                vmap[key] = add_vertex(b, s->points[pg->first_point + j], cl->vboundary[key]);
+            c->v[j] = vmap[key];
+        }
+        c->polygon = i;
+        c->object = pg->object;
+        c->material = pg->material;
+        c->normal = pg->normal;
+        if (rad_cell_geometry(m->vertices, c->v, c->normal, &c->center, &c->area) != 0) {
+            *bad = 1;
+            return;
+        }
+        area += c->area;
+        sum_n = rad_add(sum_n, rad_scale(c->normal, c->area));
+        sum_c = rad_add(sum_c, rad_scale(c->center, c->area));
+    }
+    rad_patch *p = &m->patches[b->np++];
+    if (b->nc - c0 == 1) {
+        *p = m->cells[c0];
+        return;
+    }
+    rad_vec3 centroid = rad_scale(sum_c, 1.0 / area), at = centroid;
+    uint32_t home = c0;
+    double best = INFINITY;
+    for (uint32_t c = c0; c < b->nc; c++) {
+        rad_vec3 q;
+        double d2 = rad_cell_nearest(m->vertices, m->cells[c].v, centroid, &q);
+        if (d2 < best) {
+            best = d2;
+            home = c;
+            at = q;
+        }
+    }
+    *p = m->cells[home];
+    p->center = at;
+    p->normal = rad_normalize(sum_n);
+    p->area = area;
+    if (!(rad_length(sum_n) > 0.0))
+        *bad = 1;
+}
+
 int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh **out,
                    rad_error *err)
 {
@@ -518,84 +725,103 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
                             pg->name ? pg->name : "");
     }
     uint32_t limit = opt && opt->max_patches ? opt->max_patches : RAD_MESH_DEFAULT_MAX_PATCHES;
-    uint64_t np, nv;
-    mesh_totals(scene, opt, &np, &nv);
+    plan pl;
+    int rc = make_plan(scene, opt, &pl, err);
+    if (rc != RAD_OK)
+        return rc;
+    const uint64_t np = pl.patches, nv = pl.vertices;
     double size = effective_default(scene, opt);
-    if (np > limit) {
-        uint64_t bytes = rad_matrix_estimate_bytes(np > UINT32_MAX ? UINT32_MAX : (uint32_t)np,
-                                                   0.5);
+    if (np > limit || nv >= UINT32_MAX || pl.cells > UINT32_MAX || np == 0) {
+        mesh_clusters_free(&pl.cl);
+        if (np == 0)
+            return rad_fail(err, RAD_ERR_INVALID, "%s: mesh: the scene has no polygons", src);
+        if (np <= limit)
+            return rad_fail(err, RAD_ERR_LIMIT,
+                            "%s: mesh: %llu vertices exceed %u; use a larger --patch-size (now %g)",
+                            src, (unsigned long long)nv, UINT32_MAX - 1, size);
         char count[32];
         if (np == UINT64_MAX)
             snprintf(count, sizeof count, "more than 2^64");
         else
             snprintf(count, sizeof count, "%llu", (unsigned long long)np);
         return rad_fail(err, RAD_ERR_LIMIT,
-                        "%s: mesh: %s patches exceed the limit of %u (the form-factor matrix "
-                        "would need %s%.3g GB); use a larger --patch-size (now %g)",
-                        src, count, limit, np > UINT32_MAX ? "more than " : "about ",
-                        (double)bytes / 1e9, size);
+                        "%s: mesh: %s patches exceed the limit of %u; use --patch-size %.3g or "
+                        "larger (now %g)",
+                        src, count, limit, rad_mesh_size_for(scene, opt, limit), size);
     }
-    if (nv >= UINT32_MAX)
-        return rad_fail(err, RAD_ERR_LIMIT,
-                        "%s: mesh: %llu vertices exceed %u; use a larger --patch-size (now %g)",
-                        src, (unsigned long long)nv, UINT32_MAX - 1, size);
-    if (np == 0)
-        return rad_fail(err, RAD_ERR_INVALID, "%s: mesh: the scene has no polygons", src);
 
-    /* Scratch for one triangle's grid-point indices, sized for the largest k. */
-    double opt_size = opt && opt->patch_size > 0.0 ? opt->patch_size : 0.0;
-    double def_size = rad_mesh_default_patch_size(scene);
+    /* Scratch for one triangle's grid-point indices, sized for the largest
+     * k; and the cluster path's vertex map. */
     uint64_t kmax = 0;
     for (uint32_t i = 0; i < scene->polygon_count; i++) {
         const rad_polygon *pg = &scene->polygons[i];
-        if (pg->point_count != 4) {
-            split sp = polygon_split(scene, pg, opt_size, def_size);
+        if (pg->point_count != 4 && pl.cl.of[i] == RAD_NONE) {
+            split sp = polygon_split(scene, pg, pl.opt_size, pl.def_size);
             if (sp.nu > kmax)
                 kmax = sp.nu;
         }
     }
-    uint32_t *g = NULL;
-    if (kmax > 0) {
-        uint64_t gl = (kmax + 1) * (kmax + 2) / 2; /* kmax² <= np: no overflow */
-        g = malloc((size_t)gl * sizeof *g);
-        if (!g)
-            return rad_fail(err, RAD_ERR_NOMEM, "%s: mesh: out of memory", src);
-    }
-    rad_mesh *m = rad_mesh_alloc((uint32_t)nv, (uint32_t)np);
-    if (!m) {
+    uint32_t *g = NULL, *vmap = NULL;
+    rad_mesh *m = NULL;
+    /* kmax² <= np: no overflow */
+    if ((kmax > 0 && !(g = malloc((size_t)((kmax + 1) * (kmax + 2) / 2) * sizeof *g))) ||
+        !(vmap = malloc(((size_t)pl.cl.vkeys + 1) * sizeof *vmap)) ||
+        !(m = rad_mesh_alloc((uint32_t)nv, (uint32_t)np)) ||
+        (pl.cells && rad_mesh_alloc_cells(m, (uint32_t)pl.cells) != 0)) {
         free(g);
+        free(vmap);
+        rad_mesh_destroy(m);
+        mesh_clusters_free(&pl.cl);
         return rad_fail(err, RAD_ERR_NOMEM,
                         "%s: mesh: out of memory for %llu patches and %llu vertices", src,
                         (unsigned long long)np, (unsigned long long)nv);
     }
-    builder b = {m, 0, 0, scene, 0};
+    for (uint32_t k = 0; k < pl.cl.vkeys; k++)
+        vmap[k] = RAD_NONE;
+    builder b = {m, 0, 0, 0, scene, 0};
     int bad = 0;
     for (uint32_t i = 0; i < scene->polygon_count && !bad; i++) {
         const rad_polygon *pg = &scene->polygons[i];
-        const rad_vec3 *p = scene->points + pg->first_point;
-        split sp = polygon_split(scene, pg, opt_size, def_size);
-        uint32_t first_patch = b.np, first_vertex = b.nv;
-        b.polygon = i;
-        if (pg->point_count == 4)
-            build_quad(&b, p, (uint32_t)sp.nu, (uint32_t)sp.nv, &bad);
-        else if (pg->point_count == 3)
-            build_triangle(&b, p, (uint32_t)sp.nu, g, &bad);
-        else
-            build_fan(&b, p, pg->point_count, (uint32_t)sp.nu, g, pg->normal, &bad);
-        if (!bad && rad_material_transmits(&scene->materials[pg->material], scene->band_count))
-            build_back_side(&b, first_patch, first_vertex, &bad);
+        const uint32_t k = pl.cl.of[i];
+        if (k != RAD_NONE) { /* grouped: the cluster in its first polygon's place */
+            if (pl.cl.member[pl.cl.first[k]] == i)
+                build_cluster(&b, &pl.cl, k, vmap, &bad);
+        } else {
+            const rad_vec3 *p = scene->points + pg->first_point;
+            split sp = polygon_split(scene, pg, pl.opt_size, pl.def_size);
+            uint32_t first_patch = b.np, first_vertex = b.nv;
+            b.polygon = i;
+            if (pg->point_count == 4)
+                build_quad(&b, p, (uint32_t)sp.nu, (uint32_t)sp.nv, &bad);
+            else if (pg->point_count == 3)
+                build_triangle(&b, p, (uint32_t)sp.nu, g, &bad);
+            else
+                build_fan(&b, p, pg->point_count, (uint32_t)sp.nu, g, pg->normal, &bad);
+            if (!bad && transmits(scene, pg))
+                build_back_side(&b, first_patch, first_vertex, &bad);
+            for (uint32_t q = first_patch; m->cells && !bad && q < b.np; q++) {
+                m->cell_first[q] = b.nc;
+                m->cells[b.nc++] = m->patches[q];
+            }
+        }
         if (bad) {
             free(g);
+            free(vmap);
             rad_mesh_destroy(m);
+            mesh_clusters_free(&pl.cl);
             return rad_fail(err, RAD_ERR_INVALID,
                             "%s: polygon '%s': a patch has no area at this subdivision "
                             "(the polygon is too thin); use a larger patch size",
                             src, pg->name ? pg->name : "");
         }
     }
+    if (m->cell_first)
+        m->cell_first[np] = b.nc;
     free(g);
-    RAD_ASSERT(b.nv == nv && b.np == np);
-    int rc = rad_mesh_link_twins(m, scene, err);
+    free(vmap);
+    mesh_clusters_free(&pl.cl);
+    RAD_ASSERT(b.nv == nv && b.np == np && b.nc == pl.cells);
+    rc = rad_mesh_link_twins(m, scene, err);
     if (rc != RAD_OK) {
         rad_mesh_destroy(m);
         return rc;

@@ -7,6 +7,15 @@
  * A transmitting polygon gets a back side: the same cells facing -n.
  * Density comes from the polygon's own subdivision parameter, else from the
  * target patch size.
+ *
+ * Polygons smaller than the patch size (a modeller's export: many small
+ * triangles) are grouped instead (cluster.c): neighbouring small polygons
+ * of one object and material whose normals agree within 30° form a
+ * surface whose cells share vertices, and the surface is cut into clusters
+ * about one patch size across, each one patch of several cells (rad_mesh's
+ * cell layer).  So the patch size sets the patch count whatever the
+ * triangles' size.  A small polygon without such a neighbour is meshed on
+ * its own, as any polygon.
  */
 #ifndef RAD_MESH_H
 #define RAD_MESH_H
@@ -27,6 +36,9 @@ typedef struct rad_mesh_options {
     double patch_size;
     /* Refuse to build more patches than this; 0 = RAD_MESH_DEFAULT_MAX_PATCHES. */
     uint32_t max_patches;
+    /* 1 = never group small polygons into clusters: every polygon gets its
+     * own patches (one patch per triangle of a modeller's export). */
+    int no_clusters;
 } rad_mesh_options;
 
 /* Builds the patch mesh.  Counts the patches first and refuses with
@@ -43,8 +55,14 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
 int rad_mesh_link_twins(rad_mesh *m, const rad_scene *scene, rad_error *err);
 
 /* Number of patches rad_mesh_build would make, without allocating them;
- * UINT64_MAX if it overflows. */
+ * UINT64_MAX if it overflows (or memory for the grouping runs out). */
 uint64_t rad_mesh_count(const rad_scene *scene, const rad_mesh_options *opt);
+
+/* A patch size (scene units) at which rad_mesh_build makes at most `limit`
+ * patches with the other options of opt (found by growing the size until
+ * rad_mesh_count agrees): the advice of messages that ask for a larger
+ * --patch-size.  A polygon's own subdivision is overridden by it. */
+double rad_mesh_size_for(const rad_scene *scene, const rad_mesh_options *opt, uint64_t limit);
 
 /* The patch edge length used when neither the option nor a polygon sets one. */
 double rad_mesh_default_patch_size(const rad_scene *scene);
@@ -55,12 +73,24 @@ double rad_mesh_default_patch_size(const rad_scene *scene);
 int rad_cell_geometry(const rad_vec3 *V, const uint32_t v[4], rad_vec3 n, rad_vec3 *center,
                       double *area);
 
+/* 1 when a and b are the same cell: corners, polygon, object, material,
+ * centre, normal and area all equal. */
+int rad_patch_same(const rad_patch *a, const rad_patch *b);
+
+/* The point of cell v (a triangle, or a quad as two triangles) nearest to
+ * p into *out, and its squared distance from p. */
+double rad_cell_nearest(const rad_vec3 *V, const uint32_t v[4], rad_vec3 p, rad_vec3 *out);
+
 /* An empty mesh for the solution reader to fill; NULL on OOM. Caller owns. */
 rad_mesh *rad_mesh_alloc(uint32_t vertex_count, uint32_t patch_count);
+/* Gives m a cell layer of cell_count cells (zeroed, cell_first zeroed);
+ * -1 on OOM. */
+int rad_mesh_alloc_cells(rad_mesh *m, uint32_t cell_count);
 void rad_mesh_destroy(rad_mesh *m); /* NULL does nothing */
 
 /* Checks the mesh invariants (indices in range, area > 0, unit normals, no
- * NaN). RAD_OK or RAD_ERR_CORRUPT. */
+ * NaN; cells of one patch share its object and material and sum to its
+ * area, a patch of one cell is that cell). RAD_OK or RAD_ERR_CORRUPT. */
 int rad_mesh_check(const rad_mesh *m, uint32_t polygon_count, uint32_t object_count,
                    uint32_t material_count, rad_error *err);
 

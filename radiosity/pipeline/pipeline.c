@@ -219,22 +219,116 @@ static int patch_tau(const rad_solution *s, double **out, rad_error *err)
     return RAD_OK;
 }
 
-/* Refuses, before allocating, a matrix that would not fit: the estimate
- * assumes every entry of the needed rows is non-zero (a closed room comes
- * close), so it is an upper bound. */
-static int check_memory(const rad_solution *s, uint32_t rows, uint64_t limit, rad_error *err)
+/* F's per-row index (row_start, row_count, row_done): the part of the
+ * estimate's matrix_bytes that stays when rows are dropped. */
+static uint64_t index_bytes(uint32_t n)
 {
-    uint32_t n = s->mesh->patch_count;
-    double bytes = (double)rows * (double)n * (sizeof(uint32_t) + sizeof(float));
-    if (bytes <= (double)limit)
+    return (uint64_t)n * (sizeof(uint64_t) + sizeof(uint32_t) + 1);
+}
+
+/* Bytes the file takes for the entries of row i: a varint per column gap
+ * and a float each (write.c's put_row). */
+static uint64_t row_file_bytes(const rad_matrix *F, uint32_t i)
+{
+    uint64_t bytes = 8; /* index and count */
+    const uint32_t *col = F->col + F->row_start[i];
+    for (uint32_t k = 0; k < F->row_count[i]; k++) {
+        uint32_t gap = k ? col[k] - col[k - 1] : col[0];
+        bytes += 4 + (gap < 1u << 7 ? 1 : gap < 1u << 14 ? 2 : gap < 1u << 21 ? 3 : gap < 1u << 28 ? 4 : 5);
+    }
+    return bytes;
+}
+
+/* The estimate once the sample rows are in F: `left` rows still to
+ * compute, each taken to hold the samples' mean count of entries. */
+static void estimate(const run *c, const uint32_t *sample, uint32_t k, uint32_t left,
+                     rad_estimate *e)
+{
+    const rad_solution *s = c->s;
+    const rad_matrix *F = s->F;
+    const uint32_t n = s->mesh->patch_count, nb = s->band_count;
+    uint64_t entries = 0, file = 0;
+    for (uint32_t q = 0; q < k; q++) {
+        entries += F->row_count[sample[q]];
+        file += row_file_bytes(F, sample[q]);
+    }
+    const double mean = k ? (double)entries / k : 0.0, per_file = k ? (double)file / k : 8.0;
+    const double more = (double)left * mean * (sizeof(uint32_t) + sizeof(float));
+    *e = (rad_estimate){.patches = n,
+                        .cells = s->mesh->cell_first ? s->mesh->cell_count : n,
+                        .rows = F->rows_done + left,
+                        .sample_rows = k,
+                        .entries_per_row = mean,
+                        .limit_bytes = c->max_memory};
+    e->matrix_bytes = (uint64_t)((double)F->nnz * (sizeof(uint32_t) + sizeof(float)) + more) +
+                      index_bytes(n);
+    /* The process now (scene, mesh, solution arrays, F so far), the rest of
+     * F, and the solve's own arrays (a few per patch and band). */
+    e->peak_bytes = rad_process_memory(0) + (uint64_t)more + (uint64_t)n * (32u * nb + 16u);
+    e->file_bytes = rad_solution_file_bytes(s) + (uint64_t)((double)left * per_file);
+}
+
+/* What the progressive solver's row store may hold: max_memory less F's
+ * index, so that F in all (what rad_estimate.matrix_bytes counts) stays
+ * within --max-memory; at least 1 byte (0 would mean no limit). */
+static uint64_t row_store_bytes(const run *c)
+{
+    const uint64_t index = index_bytes(c->s->mesh->patch_count);
+    return c->max_memory > index + 1 ? c->max_memory - index : 1;
+}
+
+/* The least memory the progressive solver needs under a bounded store:
+ * F's index and STORE_MIN_ROWS rows of the longest sampled length (a
+ * shot's one or two rows, each reserved at twice the longest seen, and
+ * the rows it keeps meanwhile, with a margin). */
+#define STORE_MIN_ROWS 8u
+static uint64_t progressive_floor(const run *c, uint32_t longest)
+{
+    return index_bytes(c->s->mesh->patch_count) + STORE_MIN_ROWS * rad_matrix_row_bytes(longest);
+}
+
+/* A matrix that would not fit in c->max_memory, before computing the rows
+ * that would fill it: the gathering solvers refuse it, with a patch size
+ * that would fit: F grows about as N² (N rows, each seeing a share of the
+ * N patches), so N' = N sqrt(0.7 L / F) patches fit with a margin, and
+ * rad_mesh_size_for finds the size that meshes into at most N'.  The
+ * message also names the memory that would do, when the machine has it,
+ * and the progressive solver when its row store fits.  The progressive
+ * solver keeps its rows within the limit instead (dropping and computing
+ * them again) and is refused only below progressive_floor.  `longest`:
+ * the longest sampled row's entries. */
+static int check_memory(const run *c, const rad_estimate *e, uint32_t longest, rad_error *err)
+{
+    if (e->matrix_bytes <= c->max_memory)
         return RAD_OK;
-    char need[32], have[32];
+    const int progressive = c->opt->solver.method == SV_PROGRESSIVE;
+    const uint64_t floor = progressive_floor(c, longest);
+    if (progressive && floor <= c->max_memory)
+        return RAD_OK;
+    const rad_solution *s = c->s;
+    char need[32], have[32], mem[32], raise[96] = "", prog[160] = "";
+    double fit = (double)e->patches * sqrt(0.7 * (double)c->max_memory / (double)e->matrix_bytes);
+    uint64_t target = fit < 1.0 ? 1 : (uint64_t)fit;
+    double size = rad_mesh_size_for(s->scene, &c->opt->mesh, target);
+    uint64_t avail = rad_available_memory();
+    if (e->peak_bytes < avail)
+        snprintf(raise, sizeof raise, ", or --max-memory %s",
+                 rad_human_bytes((double)e->matrix_bytes * 1.1, mem, sizeof mem));
+    if (progressive)
+        snprintf(prog, sizeof prog, " (the progressive solver's row store needs at least %s)",
+                 rad_human_bytes((double)floor, mem, sizeof mem));
+    else if (floor <= c->max_memory)
+        snprintf(prog, sizeof prog, ", or --solver progressive (keeps its rows within the "
+                                    "limit, computing again those it drops)");
     return rad_fail(err, RAD_ERR_LIMIT,
-                    "%s: form factors for %u patches need up to %s, more than the %s "
-                    "allowed; use --solver progressive (keeps the rows within --max-memory), "
-                    "a larger --patch-size, or --max-memory",
-                    s->scene->source, n, rad_format_bytes(bytes, need, sizeof need),
-                    rad_format_bytes((double)limit, have, sizeof have));
+                    "%s: form factors for %u patches need about %s (%.0f entries a row, "
+                    "measured on %u rows), more than the %s allowed%s; use --patch-size %.3g "
+                    "(at most %llu patches)%s%s",
+                    s->scene->source, e->patches,
+                    rad_human_bytes((double)e->matrix_bytes, need, sizeof need), e->entries_per_row,
+                    e->sample_rows, rad_human_bytes((double)c->max_memory, have, sizeof have),
+                    progressive ? prog : "", size, (unsigned long long)target, raise,
+                    progressive ? "" : prog);
 }
 
 int rad_solution_is_grey(const rad_solution *s)
@@ -275,17 +369,47 @@ static hc_light light_for_hemicube(const rad_light *L)
     return hl;
 }
 
+/* The estimate's sample rows, up to RAD_ESTIMATE_SAMPLES spread over
+ * missing[0..count) (they stay: the solve needs them) into sample (room
+ * for SAMPLE_ROOM), their number into *k.  Under the progressive row store
+ * (store > 0) 8 first, and the rest only if the sample would take at most
+ * a quarter of the store: sampling must not overrun a small --max-memory. */
+#define SAMPLE_ROOM (RAD_ESTIMATE_SAMPLES + 8u)
+static int sample_rows(run *c, const uint32_t *missing, uint32_t count, uint64_t store,
+                       uint32_t *sample, uint32_t *k, rad_error *err)
+{
+    const rad_matrix *F = c->s->F;
+    const uint32_t want = count < RAD_ESTIMATE_SAMPLES ? count : RAD_ESTIMATE_SAMPLES;
+    *k = 0;
+    if (store && want) {
+        const uint32_t first = want < 8 ? want : 8;
+        for (uint32_t q = 0; q < first; q++)
+            sample[(*k)++] = missing[(uint64_t)q * count / first];
+        int rc = compute_rows(c, sample, *k, err);
+        if (rc || (double)rad_matrix_live_bytes(F) * want / *k > 0.25 * (double)store)
+            return rc;
+    }
+    const uint32_t start = *k;
+    for (uint32_t q = 0; q < want; q++) {
+        const uint32_t i = missing[(uint64_t)q * count / want];
+        if (!F->row_done[i])
+            sample[(*k)++] = i;
+    }
+    return compute_rows(c, sample + start, *k - start, err);
+}
+
 /* The stage "form factors": the rows the gathering solvers need and do not
  * have (no row for a patch that neither reflects nor lets its twin's light
- * through; a back hemi-cube only behind a transmitting patch).  The
- * progressive solver asks for its rows as it shoots instead. */
+ * through; a back hemi-cube only behind a transmitting patch), after the
+ * estimate from sample rows.  The progressive solver needs the same rows
+ * but asks for them as it shoots: here it gets only the sample and the
+ * estimate (and a refusal below its row store's least). */
 static int compute_missing_rows(run *c, const sv_system *all, rad_error *err)
 {
     const rad_solution *s = c->s;
     const rad_solve_options *opt = c->opt;
     const uint32_t n = s->mesh->patch_count;
-    if (opt->solver.method == SV_PROGRESSIVE && !opt->all_rows)
-        return RAD_OK;
+    const int progressive = opt->solver.method == SV_PROGRESSIVE && !opt->all_rows;
     uint32_t *missing = malloc(((size_t)n + 1) * sizeof *missing);
     if (!missing)
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
@@ -293,9 +417,25 @@ static int compute_missing_rows(run *c, const sv_system *all, rad_error *err)
     for (uint32_t i = 0; i < n; i++)
         if (!s->F->row_done[i] && (opt->all_rows || sv_row_needed(all, i)))
             missing[count++] = i;
-    int rc = check_memory(s, s->F->rows_done + count, c->max_memory, err);
-    if (!rc)
-        rc = compute_rows(c, missing, count, err);
+    /* A few rows spread over the patches first, to measure what the rest
+     * will take. */
+    uint32_t sample[SAMPLE_ROOM], k = 0, longest = 0;
+    int rc = sample_rows(c, missing, count, progressive ? row_store_bytes(c) : 0, sample, &k, err);
+    uint32_t left = 0;
+    for (uint32_t q = 0; q < count; q++)
+        if (!s->F->row_done[missing[q]])
+            missing[left++] = missing[q];
+    for (uint32_t q = 0; q < k; q++)
+        longest = s->F->row_count[sample[q]] > longest ? s->F->row_count[sample[q]] : longest;
+    rad_estimate e;
+    if (!rc && count) {
+        estimate(c, sample, k, left, &e);
+        if (opt->on_estimate)
+            opt->on_estimate(opt->estimate_user, &e);
+        rc = check_memory(c, &e, longest, err);
+    }
+    if (!rc && !progressive)
+        rc = compute_rows(c, missing, left, err);
     free(missing);
     return rc;
 }
@@ -415,7 +555,7 @@ static sv_options solver_options(run *c)
     so.need_column = need_column;
     so.on_preview = c->opt->on_preview ? on_preview : NULL;
     so.user = c;
-    so.max_matrix_bytes = c->max_memory;
+    so.max_matrix_bytes = row_store_bytes(c);
     return so;
 }
 

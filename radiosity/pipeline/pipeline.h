@@ -13,16 +13,39 @@
 #include "../scene/scene.h"
 #include "../store/solution.h"
 
+/* What the form factors of a solve will take, estimated before they are
+ * computed: a few rows, spread over the patches, are rendered first (they
+ * are kept: they are rows the solve needs) and the rest are taken to hold
+ * as many entries each as those do on average.  A row holds at most one
+ * entry per hemi-cube pixel (3R²) and per other patch; in practice far
+ * fewer, as a patch sees only part of the scene. */
+typedef struct rad_estimate {
+    uint32_t patches;        /* N */
+    uint32_t cells;          /* cells drawn in each hemi-cube (N without clusters) */
+    uint32_t rows;           /* rows the solve computes in all */
+    uint32_t sample_rows;    /* rows rendered to measure */
+    double entries_per_row;  /* their mean count of F_ij > 0 */
+    uint64_t matrix_bytes;   /* F with every row in */
+    uint64_t peak_bytes;     /* the solving process's resident memory at its largest */
+    uint64_t file_bytes;     /* the solution file, without elements */
+    uint64_t limit_bytes;    /* what F may take (max_memory) */
+} rad_estimate;
+
+/* Rows rendered to estimate the form factors' size. */
+#define RAD_ESTIMATE_SAMPLES 64u
+
 /* {0} means defaults. */
 typedef struct rad_solve_options {
     rad_load_options load;
     rad_mesh_options mesh;
     hc_options hemicube;
     sv_options solver;
-    uint64_t max_memory; /* bytes the form-factor matrix may use; 0 = 80 % of available memory.
-                          * Gauss-Seidel and Jacobi refuse a matrix that may not fit; the
-                          * progressive solver keeps its rows within it (dropping and
-                          * computing again the rows of patches that shoot again) */
+    uint64_t max_memory; /* bytes the form-factor matrix may use (its rows and per-patch
+                          * index, as rad_estimate.matrix_bytes counts them); 0 = 80 % of
+                          * available memory.  Gauss-Seidel and Jacobi refuse a matrix
+                          * that may not fit; the progressive solver keeps its rows
+                          * within it (dropping and computing again the rows of patches
+                          * that shoot again) */
     int all_rows;        /* compute every row, not only those the solve needs (ff, validation) */
     int pixel_emitters;  /* 1 = form factors to emitters by counting pixels like any patch;
                           * 0 (default) = exactly, by the point-to-polygon integral times
@@ -44,6 +67,14 @@ typedef struct rad_solve_options {
      * before its tolerance was met. */
     rad_warn_fn warn;
     void *warn_user;
+    /* May be NULL: called with the estimate once it is made, before the
+     * rows are computed: a matrix that would not fit is refused right
+     * after, with a patch size that would (gathering solvers), or kept
+     * within max_memory by dropping and computing again rows (the
+     * progressive solver, refused only when not even its few rows of a
+     * shot would fit). */
+    void (*on_estimate)(void *user, const rad_estimate *e);
+    void *estimate_user;
     /* Punctual lights: R of the item-buffer cube rendered at each light
      * (hc_light_power); 0 = the larger of 512 and the hemi-cube resolution. */
     uint32_t light_resolution;

@@ -2,7 +2,8 @@
  *
  * What every view of a solution shares is computed once, by
  * rad_drawing_create: the mesh drawn (the elements' crack-free fans, or the
- * patches) and its vertex radiosities (the paper's vertex averages; the
+ * patches; a mesh with clusters is drawn as its cells, level-0 elements)
+ * and its vertex radiosities (the paper's vertex averages; the
  * quadratic fit on elements).  A view is then only the item buffer and the
  * interpolation (rn_canvas_draw), and views are independent, so
  * rad_drawing_views hands them out to threads, each drawing into a canvas
@@ -40,10 +41,19 @@ int rad_drawing_create(const rad_solution *s, rad_drawing **out, rad_error *err)
     d->mesh = s->mesh;
     d->bands = s->band_count;
     uint32_t *cell_element = NULL;
+    const rad_elements *el = s->elements;
+    rad_elements *of_cells = NULL;
     int rc = RAD_OK;
-    if (s->elements) {
+    /* Clusters without elements: drawn as their cells, level-0 elements. */
+    if (!el && s->mesh->cell_first) {
+        rc = rad_elements_of_cells(s, &of_cells, err);
+        if (rc != RAD_OK)
+            goto fail;
+        el = of_cells;
+    }
+    if (el) {
         /* Elements: the crack-free mesh of their cells. */
-        rc = rad_elements_render_mesh(s->elements, &d->cells, &cell_element, err);
+        rc = rad_elements_render_mesh(el, &d->cells, &cell_element, err);
         if (rc != RAD_OK)
             goto fail;
         d->mesh = d->cells;
@@ -53,7 +63,7 @@ int rad_drawing_create(const rad_solution *s, rad_drawing **out, rad_error *err)
             goto fail;
         }
         for (uint32_t c = 0; c < d->cells->patch_count; c++)
-            d->patch_of[c] = s->elements->patch[cell_element[c]];
+            d->patch_of[c] = el->patch[cell_element[c]];
     }
     /* What each element (or patch) is drawn with - its B, buried ones
      * extrapolated from their seen neighbours - fitted to the vertices. */
@@ -62,15 +72,16 @@ int rad_drawing_create(const rad_solution *s, rad_drawing **out, rad_error *err)
         rc = rad_fail(err, RAD_ERR_NOMEM, "render: out of memory");
         goto fail;
     }
-    rc = rad_elements_vertex_radiosity(s, s->elements, d->mesh, cell_element, NULL, d->vertex_B,
-                                       err);
+    rc = rad_elements_vertex_radiosity(s, el, d->mesh, cell_element, NULL, d->vertex_B, err);
     if (rc != RAD_OK)
         goto fail;
     free(cell_element);
+    rad_elements_destroy(of_cells);
     *out = d;
     return RAD_OK;
 fail:
     free(cell_element);
+    rad_elements_destroy(of_cells);
     rad_drawing_destroy(d);
     return rc;
 }

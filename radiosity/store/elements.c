@@ -57,6 +57,35 @@ void rad_elements_destroy(rad_elements *el)
     free(el);
 }
 
+/* The cell of patch p an element with corners c->v (in m) lies in: the
+ * patch itself when it is one cell, else the patch's cell nearest to the
+ * mean of the element's corners (an element lies inside one cell: it is
+ * that cell split `level` times). */
+static const rad_patch *element_cell(const rad_mesh *pm, uint32_t p, const rad_mesh *m,
+                                     const rad_patch *c)
+{
+    const rad_patch *cells;
+    uint32_t count = rad_patch_cells(pm, p, &cells);
+    if (count == 1)
+        return &pm->patches[p];
+    int corners = rad_patch_corners(c);
+    rad_vec3 mid = rad_v3(0, 0, 0);
+    for (int k = 0; k < corners; k++)
+        mid = rad_add(mid, m->vertices[c->v[k]]);
+    mid = rad_scale(mid, 1.0 / corners);
+    const rad_patch *best = cells;
+    double dbest = INFINITY;
+    for (uint32_t q = 0; q < count; q++) {
+        rad_vec3 at;
+        double d2 = rad_cell_nearest(pm->vertices, cells[q].v, mid, &at);
+        if (d2 < dbest) {
+            dbest = d2;
+            best = &cells[q];
+        }
+    }
+    return best;
+}
+
 int rad_elements_complete(rad_elements *el, const rad_solution *s, const char *name,
                           rad_error *err)
 {
@@ -68,15 +97,17 @@ int rad_elements_complete(rad_elements *el, const rad_solution *s, const char *n
         if (p >= pm->patch_count)
             return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: patch %u out of range (%u patches)",
                             name, e, p, pm->patch_count);
-        const rad_patch *pp = &pm->patches[p];
-        c->polygon = pp->polygon;
-        c->object = pp->object;
-        c->material = pp->material;
-        c->normal = pp->normal;
         for (int k = 0; k < rad_patch_corners(c); k++)
             if (c->v[k] >= m->vertex_count)
                 return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: vertex %u out of range", name,
                                 e, c->v[k]);
+        /* The polygon and normal of the cell it lies in (its patch's
+         * unless the patch is a cluster). */
+        const rad_patch *pp = &pm->patches[p], *home = element_cell(pm, p, m, c);
+        c->polygon = home->polygon;
+        c->object = pp->object;
+        c->material = pp->material;
+        c->normal = home->normal;
         if (rad_cell_geometry(m->vertices, c->v, c->normal, &c->center, &c->area) != 0)
             return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: area is not positive", name, e);
     }
@@ -101,8 +132,8 @@ int rad_elements_check(const rad_elements *el, const rad_solution *s, const char
         if (p >= pm->patch_count)
             return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: patch %u out of range (%u patches)",
                             name, e, p, pm->patch_count);
-        const rad_patch *pp = &pm->patches[p];
-        if (c->polygon != pp->polygon || c->object != pp->object || c->material != pp->material)
+        const rad_patch *pp = &pm->patches[p], *home = element_cell(pm, p, m, c);
+        if (c->polygon != home->polygon || c->object != pp->object || c->material != pp->material)
             return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: not in its patch's polygon", name, e);
         if (el->level[e] > RAD_MAX_ELEMENT_LEVEL)
             return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: level %u above %u", name, e,

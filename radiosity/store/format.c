@@ -19,11 +19,16 @@
 const char sol_sec_tag[SEC_COUNT][4] = {
     {'I', 'N', 'F', 'O'}, {'S', 'C', 'E', 'N'}, {'M', 'E', 'S', 'H'}, {'M', 'T', 'R', 'X'},
     {'P', 'D', 'A', 'T'}, {'L', 'G', 'H', 'T'}, {'E', 'L', 'E', 'M'}, {'E', 'L', 'G', 'T'},
-    {'C', 'A', 'M', 'S'}, {'S', 'U', 'R', 'F'}, {'P', 'R', 'O', 'G'}};
+    {'C', 'A', 'M', 'S'}, {'S', 'U', 'R', 'F'}, {'C', 'L', 'U', 'S'}, {'P', 'R', 'O', 'G'}};
 
 const char *const sol_sec_name[SEC_COUNT] = {"INFO",      "SCENE",  "MESH",     "MATRIX",
                                                 "PATCHDATA", "LIGHTS", "ELEMENTS", "ELEMENTLIGHTS",
-                                                "CAMERAS",   "SURFACE", "PROGRESS"};
+                                                "CAMERAS",   "SURFACE", "CLUSTERS", "PROGRESS"};
+
+/* INFO's bits (version 5), fixed by the format rather than by the enum's
+ * order: 64 is ELEMENT_INDIRECT's (issue 18), which this reader does not
+ * know and refuses. */
+const uint8_t sol_sec_bit[SEC_COUNT] = {0, 0, 0, 0, 0, 1, 2, 4, 8, 16, 32, 128};
 
 const int sol_version_sections[SOL_VERSION + 1] = {0, SEC_LIGHTS, SEC_ELEMENTS,
                                                       SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_COUNT};

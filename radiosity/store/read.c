@@ -118,7 +118,13 @@ typedef struct reader {
 /* Version 5: does INFO announce optional section k (LIGHTS and after)? */
 static int announced(const reader *r, int k)
 {
-    return (r->announced >> (k - SEC_LIGHTS)) & 1u;
+    return (r->announced & sol_sec_bit[k]) != 0;
+}
+
+/* Is the element check left to CLUSTERS (announced: it follows)? */
+static int deferred(const reader *r)
+{
+    return r->version >= SOL_VERSION_SHEETS && announced(r, SEC_CLUSTERS);
 }
 
 /* "NAME: section SECTION: WHAT" */
@@ -196,9 +202,12 @@ static int parse_info(reader *r, rad_solution *s)
     if (r->version >= SOL_VERSION_SHEETS) {
         if (!get_u8(c, &r->announced))
             return TRUNC("truncated");
-        if (r->announced >> (SEC_COUNT - SEC_LIGHTS))
-            return TRUNC("announced sections 0x%x: only bits 0-%d exist", r->announced,
-                         SEC_COUNT - SEC_LIGHTS - 1);
+        unsigned known = 0;
+        for (int k = SEC_LIGHTS; k < SEC_COUNT; k++)
+            known |= sol_sec_bit[k];
+        if (r->announced & ~known)
+            return TRUNC("announced sections 0x%x: only the bits 0x%x exist", r->announced,
+                         known);
     }
     return sol_check_info(s, r->name, "section INFO", RAD_ERR_CORRUPT, r->err);
 }
@@ -765,8 +774,10 @@ static int parse_elements(reader *r, rad_solution *s)
             return rc;
         el->nnz += cnt;
     }
+    /* Elements in clusters take their polygon and normal from the cell
+     * they lie in: with CLUSTERS to come, they are completed there. */
     rad_error sub;
-    if (rad_elements_complete(el, s, "elements", &sub))
+    if (!deferred(r) && rad_elements_complete(el, s, "elements", &sub))
         return rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
     return RAD_OK;
 }
@@ -796,7 +807,80 @@ static int parse_element_lights(reader *r, rad_solution *s)
         if (!get_f32(c, &el->light_h[q]))
             return TRUNC("truncated");
     rad_error sub;
-    if (rad_elements_check(el, s, "elements", &sub))
+    if (!deferred(r) && rad_elements_check(el, s, "elements", &sub))
+        return rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
+    return RAD_OK;
+}
+
+/* CLUSTERS: each patch's cell count, then the corners and polygon of the
+ * cells of every patch that has several; the rest of a cell (object and
+ * material its patch's, normal its polygon's, centre and area from its
+ * corners) is derived, a patch of one cell is that cell, and the whole
+ * layer must pass rad_mesh_check.  Elements read before are completed here
+ * (they need the cells). */
+static int parse_clusters(reader *r, rad_solution *s)
+{
+    cursor *c = &r->c;
+    rad_mesh *m = s->mesh;
+    const rad_scene *sc = s->scene;
+    uint32_t n, nc;
+    if (!get_u32(c, &n) || !get_u32(c, &nc))
+        return TRUNC("truncated");
+    if (n != m->patch_count)
+        return TRUNC("%u patches but the mesh has %u", n, m->patch_count);
+    /* every patch has a cell and takes at least one byte to count */
+    if (nc < n || n > c->left || (uint64_t)(nc - n) * CLUSTER_CELL_BYTES > c->left)
+        return TRUNC("%u cells for %u patches cannot fit in the %zu bytes left", nc, n, c->left);
+    if (rad_mesh_alloc_cells(m, nc) != 0)
+        return rfail(r, RAD_ERR_NOMEM, "out of memory for %u cells", nc);
+    uint64_t total = 0;
+    for (uint32_t i = 0; i < n; i++) {
+        uint32_t k;
+        if (!get_varint(c, &k))
+            return TRUNC("patch %u: cell count truncated or malformed", i);
+        if (k == 0 || k > nc - total)
+            return TRUNC("patch %u: %u cells (1..%llu left)", i, k,
+                         (unsigned long long)(nc - total));
+        m->cell_first[i] = (uint32_t)total;
+        total += k;
+    }
+    if (total != nc)
+        return TRUNC("the patches hold %llu cells, not %u", (unsigned long long)total, nc);
+    m->cell_first[n] = nc;
+    for (uint32_t i = 0; i < n; i++) {
+        const rad_patch *p = &m->patches[i];
+        uint32_t c0 = m->cell_first[i], c1 = m->cell_first[i + 1];
+        if (c1 - c0 == 1) {
+            m->cells[c0] = *p;
+            continue;
+        }
+        for (uint32_t q = c0; q < c1; q++) {
+            rad_patch *cell = &m->cells[q];
+            int ok = 1;
+            for (int k = 0; k < 4; k++)
+                ok = ok && get_u32(c, &cell->v[k]);
+            if (!ok || !get_u32(c, &cell->polygon))
+                return TRUNC("cell %u: truncated", q);
+            for (int k = 0; k < 4; k++)
+                if (cell->v[k] >= m->vertex_count && !(k == 3 && cell->v[k] == RAD_NONE))
+                    return TRUNC("cell %u: vertex %u out of range (%u vertices)", q, cell->v[k],
+                                 m->vertex_count);
+            if (cell->polygon >= sc->polygon_count)
+                return TRUNC("cell %u: polygon %u out of range (%u polygons)", q, cell->polygon,
+                             sc->polygon_count);
+            cell->object = p->object;
+            cell->material = p->material;
+            cell->normal = sc->polygons[cell->polygon].normal;
+            if (rad_cell_geometry(m->vertices, cell->v, cell->normal, &cell->center,
+                                  &cell->area) != 0)
+                return TRUNC("cell %u: area is not positive", q);
+        }
+    }
+    rad_error sub;
+    if (rad_mesh_check(m, sc->polygon_count, sc->object_count, sc->material_count, &sub))
+        return rfail(r, RAD_ERR_CORRUPT, "%s",
+                     strncmp(sub.message, "mesh: ", 6) == 0 ? sub.message + 6 : sub.message);
+    if (s->elements && rad_elements_complete(s->elements, s, "elements", &sub))
         return rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
     return RAD_OK;
 }
@@ -897,7 +981,8 @@ typedef int (*parse_fn)(reader *, rad_solution *);
 static const parse_fn sec_parse[SEC_COUNT] = {parse_info,      parse_scene,  parse_mesh,
                                               parse_matrix,    parse_patchdata, parse_lights,
                                               parse_elements,  parse_element_lights,
-                                              parse_cameras, parse_surface, parse_progress};
+                                              parse_cameras, parse_surface, parse_clusters,
+                                              parse_progress};
 
 static int known_section(const uint8_t tag[4])
 {

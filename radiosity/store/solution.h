@@ -178,6 +178,10 @@ void rad_progress_destroy(rad_progress *p); /* NULL does nothing */
 /* Writes the solution to path through a temporary file and rename. */
 int rad_solution_write(const rad_solution *s, const char *path, rad_error *err);
 
+/* The size in bytes rad_solution_write would give s as it is now (a
+ * counting pass, nothing written): what a solve's estimate builds on. */
+uint64_t rad_solution_file_bytes(const rad_solution *s);
+
 /* Reads and checks a solution file (magic, version, size, checksum, then
  * every index and count against the file's size before allocating).
  * Caller owns *out. */

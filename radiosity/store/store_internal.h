@@ -40,17 +40,21 @@
  * CAMERAS (version 5 only) only when the scene has orthographic cameras,
  * SURFACE (version 5 only) only when a material has a glossy lobe
  * (rad_material's specular and roughness, which only the gather renderer
- * reads), PROGRESS (version 5 only) only when the last solve was
- * progressive (its shots, previews and row store). */
+ * reads), CLUSTERS (version 5 only) only when the mesh has a cell layer
+ * (patches of several cells, rad.h), PROGRESS (version 5 only) only when
+ * the last solve was progressive (its shots, previews and row store). */
 enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_ELEMENTS,
-       SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_SURFACE, SEC_PROGRESS, SEC_COUNT };
+       SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_SURFACE, SEC_CLUSTERS, SEC_PROGRESS, SEC_COUNT };
 extern const char sol_sec_tag[SEC_COUNT][4];
 extern const char *const sol_sec_name[SEC_COUNT];
+/* Version 5's INFO bit of each optional section (0 for the first five):
+ * LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4, CAMERAS 8, SURFACE 16, CLUSTERS
+ * 32, PROGRESS 128 (64 is issue 18's ELEMENT_INDIRECT). */
+extern const uint8_t sol_sec_bit[SEC_COUNT];
 /* Sections each version may hold: 1 the first five, 2 + LIGHTS, 3 +
  * ELEMENTS (where LIGHTS is there exactly when the scene has lights), 4 +
- * ELEMENTLIGHTS (LIGHTS always), 5 any of them (CAMERAS, SURFACE and
- * PROGRESS included) as the
- * content needs. */
+ * ELEMENTLIGHTS (LIGHTS always), 5 any of them (SURFACE, CLUSTERS and
+ * PROGRESS included) as the content needs. */
 extern const int sol_version_sections[SOL_VERSION + 1];
 
 /* Minimum encoded sizes of one element, used to bound counts before
@@ -71,6 +75,8 @@ extern const int sol_version_sections[SOL_VERSION + 1];
 #define MIN_ELEMENT (4u + 1u + 16u + 4u)
 /* camera index, projection, xmag, ymag */
 #define ORTHO_CAMERA_BYTES (4u + 1u + 16u)
+/* four corners and a polygon */
+#define CLUSTER_CELL_BYTES (5u * 4u)
 
 
 /* ------------------------------------------------- checksum (format.c) */

@@ -2,7 +2,9 @@
  * docs/solution-format.md (header, CRC-64/XZ of the payload, tagged sections
  * INFO, SCENE, MESH, MATRIX, PATCHDATA, LIGHTS when the scene has punctual
  * lights, ELEMENTS when the solution has elements, ELEMENTLIGHTS when it has
- * both, CAMERAS when the scene has orthographic cameras), each section measured first and then streamed through a buffer
+ * both, CAMERAS when the scene has orthographic cameras, CLUSTERS when
+ * patches span several cells), each section measured first and then
+ * streamed through a buffer
  * into a rad_output.
  *
  * Invariant: the writer applies the reader's rules before it creates a
@@ -129,8 +131,8 @@ static uint32_t version_of(const rad_solution *s);
 static int section_written(const rad_solution *s, int i);
 
 /* Version 5's INFO ends with the optional sections the file holds, one bit
- * each (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4, CAMERAS 8, SURFACE 16, PROGRESS 32): the
- * reader then knows what
+ * each (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4, CAMERAS 8, SURFACE 16, CLUSTERS 32, PROGRESS
+ * 128: sol_sec_bit): the reader then knows what
  * must follow, and a file cut or stripped before one of them cannot pass
  * for a file without it. */
 static uint8_t announced_sections(const rad_solution *s)
@@ -138,7 +140,7 @@ static uint8_t announced_sections(const rad_solution *s)
     uint8_t bits = 0;
     for (int i = SEC_LIGHTS; i < SEC_COUNT; i++)
         if (section_written(s, i))
-            bits |= (uint8_t)(1u << (i - SEC_LIGHTS));
+            bits |= sol_sec_bit[i];
     return bits;
 }
 
@@ -291,6 +293,27 @@ static void emit_elements(sink *k, const rad_solution *s)
     }
 }
 
+/* The cell layer: per patch its number of cells, then the corners and
+ * polygon of each cell of the patches that have several (a patch of one
+ * cell is that cell; the rest of a cell follows from its polygon). */
+static void emit_clusters(sink *k, const rad_solution *s)
+{
+    const rad_mesh *m = s->mesh;
+    put_u32(k, m->patch_count);
+    put_u32(k, m->cell_count);
+    for (uint32_t i = 0; i < m->patch_count; i++)
+        put_varint(k, m->cell_first[i + 1] - m->cell_first[i]);
+    for (uint32_t i = 0; i < m->patch_count; i++) {
+        if (m->cell_first[i + 1] - m->cell_first[i] < 2)
+            continue;
+        for (uint32_t c = m->cell_first[i]; c < m->cell_first[i + 1]; c++) {
+            for (int q = 0; q < 4; q++)
+                put_u32(k, m->cells[c].v[q]);
+            put_u32(k, m->cells[c].polygon);
+        }
+    }
+}
+
 /* Each element's h_le, element by element, dense: M × L floats. */
 static void emit_element_lights(sink *k, const rad_solution *s)
 {
@@ -426,7 +449,7 @@ typedef void (*emit_fn)(sink *, const rad_solution *);
 static const emit_fn sec_emit[SEC_COUNT] = {emit_info,      emit_scene,  emit_mesh,    emit_matrix,
                                             emit_patchdata, emit_lights, emit_elements,
                                             emit_element_lights, emit_cameras, emit_surface,
-                                            emit_progress};
+                                            emit_clusters, emit_progress};
 
 /* LIGHTS is written only when there are lights, ELEMENTS when there are
  * elements, ELEMENTLIGHTS when the elements carry their own direct light,
@@ -443,6 +466,8 @@ static int section_written(const rad_solution *s, int i)
         return s->elements && s->elements->light_h;
     if (i == SEC_SURFACE)
         return has_surface(s);
+    if (i == SEC_CLUSTERS)
+        return s->mesh->cell_first != NULL;
     if (i == SEC_PROGRESS)
         return s->progress != NULL;
     return 1;
@@ -450,10 +475,13 @@ static int section_written(const rad_solution *s, int i)
 
 static uint32_t version_of(const rad_solution *s)
 {
-    /* CAMERAS, SURFACE and PROGRESS need version 5's announcement: a reader
-     * of an older version would show an orthographic camera in perspective,
-     * or drop the glossy lobes, without a word (PROGRESS follows them). */
-    if (s->mesh->twin || has_ortho_camera(s->scene) || has_surface(s) || s->progress)
+    /* CAMERAS, SURFACE, CLUSTERS and PROGRESS need version 5's
+     * announcement: a reader of an older version would show an
+     * orthographic camera in perspective, drop the glossy lobes, or draw
+     * each cluster as its one home cell, without a word (PROGRESS follows
+     * them). */
+    if (s->mesh->twin || has_ortho_camera(s->scene) || has_surface(s) || s->mesh->cell_first ||
+        s->progress)
         return SOL_VERSION_SHEETS;
     if (s->elements)
         return s->elements->light_h ? 4u : 3u;
@@ -536,6 +564,19 @@ static void store_le(uint8_t *p, uint64_t v, int bytes)
 {
     for (int i = 0; i < bytes; i++)
         p[i] = (uint8_t)(v >> (8 * i));
+}
+
+uint64_t rad_solution_file_bytes(const rad_solution *s)
+{
+    uint64_t total = SOL_HEADER_BYTES;
+    for (int i = 0; i < SEC_COUNT; i++) {
+        if (!section_written(s, i))
+            continue;
+        sink count = {0};
+        sec_emit[i](&count, s);
+        total += SOL_SECTION_HEADER + count.total;
+    }
+    return total;
 }
 
 int rad_solution_write(const rad_solution *s, const char *path, rad_error *err)

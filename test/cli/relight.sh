@@ -99,7 +99,7 @@ for at in 0 9 20 40 200 $((size / 2)) $((size - 1)); do
 done
 
 # Memory honesty: a limit below the matrix's estimate is refused with the estimate.
-refuse "matrix over --max-memory" "need up to [0-9.]+ MiB.*1.0 MiB allowed.*progressive" solve models/cornell.rad -o "$dir/out.sol" --patch-size 0.05 --max-memory 1M
+refuse "matrix over --max-memory" "need about [0-9.]+ (KiB|MiB).*1.0 MiB allowed.*--patch-size [0-9.]+" solve models/cornell.rad -o "$dir/out.sol" --patch-size 0.05 --max-memory 1M
 
 # Progressive previews appear every K shots.
 mkdir -p "$dir/prev"
