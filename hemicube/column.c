@@ -9,7 +9,8 @@
  * from its centre times the fraction of i it sees.  This computes that same
  * quantity from the emitter's side, as Wallace, Elmquist & Haines (1989)
  * shoot from a source to the receivers' points: the point-to-polygon factor
- * from c_j to i (hc_ff_point_polygon, the very integral of the row), times
+ * from c_j to i (hc_point_to_patch, the very integral of the row, summed
+ * over i's cells when i is a cluster of small polygons), times
  * the visibility of c_j from the sample points of i, looked up in item
  * buffers rendered at those points (hc_light_visibility: a cube of views
  * at a point, bilinear in the pixels that show c_j's own surface).
@@ -31,15 +32,22 @@
  * ceiling) are behind them, never in between. */
 #define HC_SAMPLE_LIFT 1e-3
 
-/* Point (u, v) in [0,1]² of patch i (absolute coordinates): bilinear in a
- * quad's corners; in a triangle, the corners' weights (1 - u, u(1 - v), uv). */
+/* Point (u, v) in [0,1]² of patch i (absolute coordinates), in one of its
+ * cells (a cluster's: the cell floor(u × cells), u rescaled within it):
+ * bilinear in a quad's corners; in a triangle, the corners' weights
+ * (1 - u, u(1 - v), uv). */
 static rad_vec3 patch_point(const hc_engine *e, uint32_t i, double u, double v)
 {
-    const double *q = e->corner + (size_t)i * 12;
+    const uint32_t cells = e->cfirst[i + 1] - e->cfirst[i];
+    uint32_t k = (uint32_t)(u * cells);
+    k = k < cells ? k : cells - 1;
+    u = u * cells - k;
+    const uint32_t cell = e->cfirst[i] + k;
+    const double *q = e->corner + (size_t)cell * 12;
     rad_vec3 c[4];
-    for (int k = 0; k < 4; k++)
-        c[k] = rad_add(rad_v3(q[3 * k], q[3 * k + 1], q[3 * k + 2]), e->origin);
-    if (e->ncorner[i] == 3)
+    for (int m = 0; m < 4; m++)
+        c[m] = rad_add(rad_v3(q[3 * m], q[3 * m + 1], q[3 * m + 2]), e->origin);
+    if (e->ncorner[cell] == 3)
         return rad_add(rad_add(rad_scale(c[0], 1.0 - u), rad_scale(c[1], u * (1.0 - v))),
                        rad_scale(c[2], u * v));
     return rad_lerp(rad_lerp(c[0], c[1], u), rad_lerp(c[3], c[2], u), v);
@@ -54,10 +62,6 @@ int hc_exact_column(hc_engine *e, uint32_t i, uint32_t resolution, uint32_t samp
     const uint32_t n = e->n, s = samples ? samples : 1;
     const rad_patch *P = e->mesh->patches;
     const rad_vec3 ni = P[i].normal;
-    rad_vec3 corners[4];
-    const double *q = e->corner + (size_t)i * 12;
-    for (int k = 0; k < 4; k++)
-        corners[k] = rad_v3(q[3 * k], q[3 * k + 1], q[3 * k + 2]);
 
     /* The receivers: in front of i, facing it (F_exact > 0). */
     hc_receiver *recv = malloc((size_t)n * sizeof *recv);
@@ -72,7 +76,7 @@ int hc_exact_column(hc_engine *e, uint32_t i, uint32_t resolution, uint32_t samp
     for (uint32_t j = 0; j < n; j++) {
         if (j == i || !(rad_dot(rad_sub(e->center[j], e->center[i]), ni) > e->tol))
             continue;
-        const double f = hc_ff_point_polygon(e->center[j], P[j].normal, corners, e->ncorner[i]);
+        const double f = hc_point_to_patch(e, e->center[j], P[j].normal, i);
         if (!(f > 0.0) || !isfinite(f))
             continue;
         recv[m] = (hc_receiver){.center = P[j].center, .patch = j};
