@@ -430,6 +430,12 @@ static int compute_missing_rows(run *c, const sv_system *all, rad_error *err)
     rad_estimate e;
     if (!rc && count) {
         estimate(c, sample, k, left, &e);
+        /* The progressive solver's row store holds F within the limit: the
+         * part of F over it never adds to the peak. */
+        if (progressive && e.matrix_bytes > c->max_memory) {
+            const uint64_t over = e.matrix_bytes - c->max_memory;
+            e.peak_bytes = e.peak_bytes > over ? e.peak_bytes - over : 0;
+        }
         if (opt->on_estimate)
             opt->on_estimate(opt->estimate_user, &e);
         rc = check_memory(c, &e, longest, err);
