@@ -193,7 +193,7 @@ static double cell_area(const hc_engine *e, uint32_t cell)
 
 /* F from point c (normal n) to patch j: the contour integral over each of
  * its cells (hc_ff_point_polygon clips what lies behind c's plane). */
-static double point_to_patch(const hc_engine *e, rad_vec3 c, rad_vec3 n, uint32_t j)
+double hc_point_to_patch(const hc_engine *e, rad_vec3 c, rad_vec3 n, uint32_t j)
 {
     double f = 0.0;
     for (uint32_t cj = e->cfirst[j]; cj < e->cfirst[j + 1]; cj++) {
@@ -480,7 +480,7 @@ static uint32_t exact_factors(const hc_engine *e, hc_work *wk, uint32_t i, rad_v
             sub = sub < 2.0 ? 2.0 : sub > HC_NEAR_MAX_SUBDIV ? HC_NEAR_MAX_SUBDIV : sub;
             ex = patch_to_patch(e, i, j, (uint32_t)sub);
         } else {
-            ex = point_to_patch(e, c, nn, j);
+            ex = hc_point_to_patch(e, c, nn, j);
         }
         cd->exact = ex > 0.0 && isfinite(ex) ? ex : 0.0;
         cd->pass = UINT32_MAX;

@@ -112,13 +112,19 @@ typedef struct full_rows {
     rad_matrix *F;
 } full_rows;
 
-static int copy_row(void *user, uint32_t i, rad_error *err)
+static int copy_rows(void *user, const uint32_t *rows, uint32_t count, rad_error *err)
 {
     full_rows *fr = user;
-    const uint32_t *col;
-    const float *val;
-    uint32_t cnt = test_row(fr->all, i, 0, &col, &val);
-    return rad_matrix_set_row(fr->F, i, cnt, col, val, err);
+    for (uint32_t k = 0; k < count; k++) {
+        const uint32_t i = rows[k];
+        const uint32_t *col;
+        const float *val;
+        uint32_t cnt = test_row(fr->all, i, 0, &col, &val);
+        int rc = rad_matrix_set_row(fr->F, i, cnt, col, val, err);
+        if (rc)
+            return rc;
+    }
+    return RAD_OK;
 }
 
 /* 12 patches: pairs (0,1), (2,3), (4,5) are sheets, the rest opaque, 2
@@ -200,7 +206,7 @@ TEST(solver_matches_direct_solution)
         full_rows fr = {all, F};
         sv_system sys = {.n = N, .bands = NB, .F = F, .area = A, .rho = rho, .emission = E,
                          .tau = tau, .twin = twin};
-        sv_options so = {.method = methods[m], .tolerance = 1e-12, .need_row = copy_row,
+        sv_options so = {.method = methods[m], .tolerance = 1e-12, .need_rows = copy_rows,
                          .user = &fr, .max_iterations = 1000000};
         double B[N * NB];
         sv_stats st;

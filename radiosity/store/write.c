@@ -466,6 +466,8 @@ int sol_validate_for_write(const rad_solution *s, const char *path, int check_ma
         return rad_fail(err, RAD_ERR_USAGE, "%s: cannot write: solver name is not terminated",
                         path);
     int rc = sol_check_info(s, path, "cannot write", RAD_ERR_INVALID, err);
+    if (!rc)
+        rc = sol_check_progress(s, path, "cannot write", RAD_ERR_INVALID, err);
     if (rc)
         return rc;
     if ((rc = check_string(sc->source, path, "scene source", 0, err)))
@@ -591,6 +593,27 @@ void sol_put_matrix_head(sol_sink *k, uint32_t n, uint64_t key)
     put_u64(k, key);
 }
 
+/* PROGRESS: the last progressive solve's shots, unshot fraction, converged
+ * flag, rows recomputed and dropped, preview time, then each preview's
+ * shots, rows computed, seconds and unshot fraction. */
+static void emit_progress(sol_sink *k, const sol_write_ctx *w)
+{
+    const rad_progress *p = w->s->progress;
+    put_u32(k, p->shots);
+    put_f64(k, p->unshot);
+    put_u8(k, (uint8_t)p->converged);
+    put_u64(k, p->rows_recomputed);
+    put_u64(k, p->rows_dropped);
+    put_f64(k, p->preview_seconds);
+    put_u32(k, p->preview_count);
+    for (uint32_t i = 0; i < p->preview_count; i++) {
+        put_u32(k, p->previews[i].shots);
+        put_u32(k, p->previews[i].rows);
+        put_f64(k, p->previews[i].seconds);
+        put_f64(k, p->previews[i].unshot);
+    }
+}
+
 typedef void (*emit_fn)(sol_sink *, const sol_write_ctx *);
 static const emit_fn sec_emit[SEC_COUNT] = {
     [SEC_INFO] = emit_info,
@@ -604,6 +627,7 @@ static const emit_fn sec_emit[SEC_COUNT] = {
     [SEC_CAMERAS] = emit_cameras,
     [SEC_SURFACE] = emit_surface,
     [SEC_CLUSTERS] = emit_clusters,
+    [SEC_PROGRESS] = emit_progress,
     [SEC_ROWS] = emit_rows,
     [SEC_IRRADIANCE] = emit_irradiance,
     [SEC_MATRIXREF] = emit_matrixref,
@@ -630,6 +654,8 @@ static int section_written(const rad_solution *s, int i)
         return has_surface(s);
     case SEC_CLUSTERS:
         return s->mesh->cell_first != NULL;
+    case SEC_PROGRESS:
+        return s->progress != NULL;
     default:
         return 1;
     }
