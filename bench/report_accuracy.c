@@ -968,9 +968,14 @@ static double lamp_factors(const lamp_scene *ls, uint32_t R, int exact, double *
     for (uint32_t k = 0; k < ls->nrow; k++) {
         uint32_t i = ls->rows[k];
         f[k] = 0;
-        for (uint32_t q = 0; q < F->row_count[i]; q++)
-            if (m->patches[F->col[F->row_start[i] + q]].object == ls->lamp_obj)
-                f[k] += F->val[F->row_start[i] + q];
+        const rad_row r = rad_matrix_row(F, i); /* packed (rad.h) */
+        const uint8_t *p = r.col;
+        uint32_t j = 0;
+        for (uint32_t q = 0; q < r.count; q++) {
+            j = rad_row_next(&p, j);
+            if (m->patches[j].object == ls->lamp_obj)
+                f[k] += rad_row_value(&r, q);
+        }
     }
     rad_matrix_destroy(F);
     return t;

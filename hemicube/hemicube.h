@@ -159,6 +159,20 @@ double hc_light_direct(const hc_light *light, rad_vec3 p, rad_vec3 n);
 int hc_light_visibility(hc_engine *e, const hc_light *light, uint32_t resolution,
                         const hc_receiver *points, uint32_t count, double *vis, rad_error *err);
 
+/* The factors every receiver gathers from patch i, for shooting from i: for
+ * each patch j whose centre lies in front of i and which faces it,
+ *   F_ji = hc_ff_point_polygon(c_j, n_j, patch i) · v_j,
+ * v_j the visibility of c_j from i: the mean over samples² points of i
+ * (0 = 1: its centre) of hc_light_visibility from a point light there, at
+ * `resolution` (0 = HC_DEFAULT_LIGHT_RESOLUTION).  The same quantity as a
+ * row's exact entry for i (hc_options.exact), F_exact · v_ji, measured from
+ * the emitter's side (Wallace, Elmquist & Haines 1989): equal where nothing
+ * is in between.  Writes the entries with F_ji > 0 into col[] (strictly
+ * increasing) and val[] (caller's buffers of mesh->patch_count entries),
+ * their number into *count. */
+int hc_exact_column(hc_engine *e, uint32_t i, uint32_t resolution, uint32_t samples, uint32_t *col,
+                    float *val, uint32_t *count, rad_error *err);
+
 /* The delta form factor of every pixel of a resolution-R hemi-cube, in the
  * layout the item buffer uses (top face R×R, then the four side faces R×R/2
  * each).  Normalised to sum to 1.  Writes 3·R² values to out (caller's

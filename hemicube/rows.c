@@ -209,7 +209,7 @@ static double cell_area(const hc_engine *e, uint32_t cell)
 
 /* F from point c (normal n) to patch j: the contour integral over each of
  * its cells (hc_ff_point_polygon clips what lies behind c's plane). */
-static double point_to_patch(const hc_engine *e, rad_vec3 c, rad_vec3 n, uint32_t j)
+double hc_point_to_patch(const hc_engine *e, rad_vec3 c, rad_vec3 n, uint32_t j)
 {
     double f = 0.0;
     for (uint32_t cj = e->cfirst[j]; cj < e->cfirst[j + 1]; cj++) {
@@ -487,6 +487,11 @@ static uint32_t average_subdiv(const hc_engine *e, uint32_t i, uint32_t j, rad_v
     return (uint32_t)sub;
 }
 
+double hc_area_factor(const hc_engine *e, uint32_t i, uint32_t j, int near)
+{
+    return patch_to_patch(e, i, j, average_subdiv(e, i, j, e->center[i], near ? 2.0 : 1.0));
+}
+
 /* F_exact of the ncand candidates, their occluded sums S_ij (from wk->acc)
  * and their OR passes; returns the number of OR passes. */
 static uint32_t exact_factors(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 c,
@@ -501,17 +506,10 @@ static uint32_t exact_factors(const hc_engine *e, hc_work *wk, uint32_t i, rad_v
         cd->free = 0.0;
         cd->px = 0;
         double ex;
-        if (cd->near) {
-            ex = patch_to_patch(e, i, j, average_subdiv(e, i, j, c, 2.0));
-        } else if (cd->area) {
-            /* An emitter seen from a patch: its factor averaged over the
-             * patch, not taken at the centre, so that Σ_i A_i F_ij = A_j
-             * holds for the emitter's column, the one every watt leaves by
-             * (at the centre, a closed room absorbed 0.3-0.8 % more than its
-             * lamp emitted).  The same subdivision rule as near entries. */
-            ex = patch_to_patch(e, i, j, average_subdiv(e, i, j, c, 1.0));
+        if (cd->near || cd->area) {
+            ex = hc_area_factor(e, i, j, cd->near);
         } else {
-            ex = point_to_patch(e, c, nn, j);
+            ex = hc_point_to_patch(e, c, nn, j);
         }
         cd->exact = ex > 0.0 && isfinite(ex) ? ex : 0.0;
         cd->pass = UINT32_MAX;

@@ -1,23 +1,23 @@
 /* solver.c - solves B_i = E_i + ρ_i Σ_j F_ij B_j (+ τ_i Σ_j F_twin(i),j B_j
  * where a sheet transmits), every band at once (solver.h).
  *
- * Owns the three methods (Gauss-Seidel gathering, the Jacobi/Neumann series,
- * progressive shooting), their common stopping rule and the Aitken
- * acceleration of the two sweeping methods.  It reads F only through the
- * rad_matrix rows and never sees GL or files.
+ * Owns the validation of a system, the gather of one patch (shared with the
+ * progressive method in progressive.c), the residual, the two sweeping
+ * methods (Gauss-Seidel gathering, the Jacobi/Neumann series) with their
+ * stopping rule and Aitken acceleration, and sv_solve.  It reads F only
+ * through the rad_matrix rows and never sees GL or files.
  *
  * Invariant: the B handed back always comes out of a full sweep or a shot,
  * never straight out of an extrapolation, so B_i >= E_i >= 0 holds exactly in
  * floating point (every update adds a non-negative ρ_i H_i + τ_i H_twin(i) to E_i) and
  * the stopping rule has looked at the result it returns.
  */
-#include "solver.h"
+#include "sv_internal.h"
 
 #include <stdlib.h>
 #include <string.h>
 
 #define SV_DEFAULT_SWEEPS 10000u
-#define SV_DEFAULT_SHOTS_PER_PATCH 100u
 /* rad.h allows rows to sum to 1 + 1e-3 (hemi-cube rounding); more is not a form-factor row. */
 #define SV_ROW_SUM_MAX (1.0 + 1e-3)
 
@@ -123,7 +123,7 @@ static int check_system(const sv_system *s, rad_error *err)
  * matrix from crashing us; F_ij > 0 and the row sum are what keep B >= 0 and
  * the iteration a contraction.  The row is walked with bounds on the pool,
  * so that the gathers may then walk it without.  *sum receives Σ_j F_ij. */
-static int check_row(const rad_matrix *F, uint32_t i, double *sum, rad_error *err)
+int sv_check_row(const rad_matrix *F, uint32_t i, double *sum, rad_error *err)
 {
     uint64_t start = F->row_start[i];
     uint32_t count = F->row_count[i];
@@ -164,8 +164,6 @@ static int check_row(const rad_matrix *F, uint32_t i, double *sum, rad_error *er
         *sum = s;
     return RAD_OK;
 }
-
-static int row_present(const rad_matrix *F, uint32_t i) { return F->row_done[i] != 0; }
 
 /* ----------------------------------------------------------------- gather */
 
@@ -258,45 +256,29 @@ static void gather(const rad_matrix *F, uint32_t i, const double *B, uint32_t nb
         gathern(&r, B, nb, s);
 }
 
-static int reflects(const double *rho_i, uint32_t nb)
-{
-    for (uint32_t b = 0; b < nb; b++)
-        if (rho_i[b] > 0.0)
-            return 1;
-    return 0;
-}
-
-/* The other side of patch i when light passes through it to i, else RAD_NONE. */
-static uint32_t transmits_from(const sv_system *s, uint32_t i)
-{
-    if (!s->tau || s->twin[i] == RAD_NONE)
-        return RAD_NONE;
-    return reflects(s->tau + (size_t)i * s->bands, s->bands) ? s->twin[i] : RAD_NONE;
-}
-
 /* solver.h: for i's own reflection, or for its twin's transmission. */
 int sv_row_needed(const sv_system *s, uint32_t i)
 {
-    if (reflects(s->rho + (size_t)i * s->bands, s->bands))
+    if (sv_any_positive(s->rho + (size_t)i * s->bands, s->bands))
         return 1;
-    return s->tau && s->twin[i] != RAD_NONE && transmits_from(s, s->twin[i]) != RAD_NONE;
+    return s->tau && s->twin[i] != RAD_NONE && sv_transmits_from(s, s->twin[i]) != RAD_NONE;
 }
 
-/* B_i's new value per band into nv: E_i + ρ_i H_i + τ_i H_twin(i). */
-static void update(const sv_system *s, uint32_t i, const double *B, double *nv)
+/* sv_internal.h: E_i + ρ_i H_i + τ_i H_twin(i). */
+void sv_update(const sv_system *s, uint32_t i, const double *B, double *nv)
 {
     const uint32_t nb = s->bands;
     const size_t o = (size_t)i * nb;
     const double *E = s->emission + o, *rho = s->rho + o;
     double g[RAD_MAX_BANDS];
-    if (reflects(rho, nb)) {
+    if (sv_any_positive(rho, nb)) {
         gather(s->F, i, B, nb, g);
         for (uint32_t b = 0; b < nb; b++)
             nv[b] = E[b] + rho[b] * g[b];
     } else {
         memcpy(nv, E, nb * sizeof *nv);
     }
-    uint32_t t = transmits_from(s, i);
+    uint32_t t = sv_transmits_from(s, i);
     if (t != RAD_NONE) {
         gather(s->F, t, B, nb, g);
         for (uint32_t b = 0; b < nb; b++)
@@ -306,37 +288,48 @@ static void update(const sv_system *s, uint32_t i, const double *B, double *nv)
 
 /* --------------------------------------------------------------- residual */
 
-/* max |E_i + ρ_i Σ F_ij B_j - B_i| / max B.  skip_missing leaves out patches
- * whose row is missing (the progressive solver never needed them, so their
- * row is unknown rather than empty).  check_rows guards indices for callers
- * that have not validated the matrix; a bad row gives NaN. */
-static double residual(const sv_system *s, const double *B, int skip_missing, int check_rows)
+/* sv_internal.h: max |E_i + ρ_i Σ F_ij B_j - B_i| / max B over the
+ * patches that gather (over all when none does).  A patch that needs no
+ * row (neither reflects nor transmits) has update = E exactly and is
+ * checked too. */
+double sv_residual_of(const sv_system *s, const double *B, int skip_missing, int check_rows,
+                      uint32_t *unchecked)
 {
     const uint32_t nb = s->bands;
-    double num = 0.0, bmax = 0.0, g[RAD_MAX_BANDS];
+    double num = 0.0, ball = 0.0, bgather = 0.0, g[RAD_MAX_BANDS];
+    uint32_t skipped = 0;
     for (uint32_t i = 0; i < s->n; i++) {
         const double *Bi = B + (size_t)i * nb;
-        for (uint32_t b = 0; b < nb; b++)
-            if (Bi[b] > bmax)
-                bmax = Bi[b];
-        uint32_t t = transmits_from(s, i);
-        if ((!row_present(s->F, i) || (t != RAD_NONE && !row_present(s->F, t))) && skip_missing)
+        const int gathers = sv_gathers(s, i);
+        for (uint32_t b = 0; b < nb; b++) {
+            ball = Bi[b] > ball ? Bi[b] : ball;
+            bgather = gathers && Bi[b] > bgather ? Bi[b] : bgather;
+        }
+        uint32_t t = sv_transmits_from(s, i);
+        const int reflects = sv_any_positive(s->rho + (size_t)i * nb, nb);
+        if (skip_missing && ((reflects && !sv_row_present(s->F, i)) ||
+                             (t != RAD_NONE && !sv_row_present(s->F, t)))) {
+            skipped++;
             continue;
-        if (check_rows && ((row_present(s->F, i) && check_row(s->F, i, NULL, NULL) != RAD_OK) ||
-                           (t != RAD_NONE && row_present(s->F, t) &&
-                            check_row(s->F, t, NULL, NULL) != RAD_OK)))
+        }
+        if (check_rows && ((sv_row_present(s->F, i) && sv_check_row(s->F, i, NULL, NULL) != RAD_OK) ||
+                           (t != RAD_NONE && sv_row_present(s->F, t) &&
+                            sv_check_row(s->F, t, NULL, NULL) != RAD_OK)))
             return NAN;
-        update(s, i, B, g);
+        sv_update(s, i, B, g);
         for (uint32_t b = 0; b < nb; b++) {
             double r = fabs(g[b] - Bi[b]);
             if (!(r <= num)) /* also lets a NaN through */
                 num = r;
         }
     }
+    if (unchecked)
+        *unchecked = skipped;
     if (isnan(num))
         return NAN;
-    if (bmax > 0.0)
-        return num / bmax;
+    const double scale = bgather > 0.0 ? bgather : ball;
+    if (scale > 0.0)
+        return num / scale;
     return num == 0.0 ? 0.0 : INFINITY;
 }
 
@@ -344,7 +337,7 @@ double sv_residual(const sv_system *sys, const double *B)
 {
     if (!B || check_system(sys, NULL) != RAD_OK)
         return NAN;
-    return residual(sys, B, 0, 1);
+    return sv_residual_of(sys, B, 0, 1, NULL);
 }
 
 /* ------------------------------------------------------- stopping monitor */
@@ -396,20 +389,21 @@ static double monitor_q(const band_monitor *m)
  * E + ρ F src, one more term of the Neumann series.  D holds the previous
  * change of every value and receives the new one; per band, dmax[b] gets
  * max |ΔB_k| and cosine[b] the cosine between ΔB_k and ΔB_k-1 (0 when
- * either is zero), and *rmax max (B − E), the largest reflected radiosity.
- * Returns max B. */
+ * either is zero).  Returns the scale of the stopping rule: max B over
+ * the patches that gather (sv_gathers), or over all when none does; not
+ * finite when some B is not. */
 static double sweep(const sv_system *s, const double *src, double *dst, double *D, double *dmax,
-                    double *cosine, double *rmax)
+                    double *cosine)
 {
     const uint32_t nb = s->bands;
-    double bmax = 0.0, g[RAD_MAX_BANDS];
-    *rmax = 0.0;
+    double ball = 0.0, bgather = 0.0, g[RAD_MAX_BANDS];
     double dot[RAD_MAX_BANDS], now[RAD_MAX_BANDS], before[RAD_MAX_BANDS];
     for (uint32_t b = 0; b < nb; b++)
         dmax[b] = dot[b] = now[b] = before[b] = 0.0;
     for (uint32_t i = 0; i < s->n; i++) {
         const size_t o = (size_t)i * nb;
-        update(s, i, src, g);
+        const int gathers = sv_gathers(s, i);
+        sv_update(s, i, src, g);
         for (uint32_t b = 0; b < nb; b++) {
             double old = src[o + b];
             double nv = g[b];
@@ -421,15 +415,54 @@ static double sweep(const sv_system *s, const double *src, double *dst, double *
             before[b] += prev * prev;
             if (fabs(d) > dmax[b])
                 dmax[b] = fabs(d);
-            if (!(nv <= bmax)) /* NaN or overflow propagates to the caller's check */
-                bmax = nv;
-            if (nv - s->emission[o + b] > *rmax)
-                *rmax = nv - s->emission[o + b];
+            if (!(nv <= ball)) /* NaN or overflow propagates to the caller's check */
+                ball = nv;
+            if (gathers && nv > bgather)
+                bgather = nv;
         }
     }
     for (uint32_t b = 0; b < nb; b++)
         cosine[b] = now[b] > 0.0 && before[b] > 0.0 ? dot[b] / sqrt(now[b] * before[b]) : 0.0;
-    return bmax;
+    return isfinite(ball) && bgather > 0.0 ? bgather : ball;
+}
+
+/* Aitken on the dominant mode of each band whose last SV_RATIO_WINDOW
+ * ratios agree: once ΔB_k = q ΔB_k-1, the rest of the geometric series is
+ * ΔB_k·q/(1-q).  Clamping at E only moves a value toward the solution
+ * (B* >= E), and restores B >= 0 for the next Gauss-Seidel sweep to
+ * gather from. */
+static void extrapolate(const sv_system *s, band_monitor *mon, double *cur, const double *D,
+                        sv_stats *st)
+{
+    const uint32_t nb = s->bands;
+    const size_t len = (size_t)s->n * nb;
+    for (uint32_t b = 0; b < nb; b++) {
+        band_monitor *m = &mon[b];
+        if (m->ratios < SV_RATIO_WINDOW || m->aligned < SV_RATIO_WINDOW)
+            continue;
+        double lo = m->ratio[0], hi = m->ratio[0];
+        for (uint32_t r = 1; r < SV_RATIO_WINDOW; r++) {
+            if (m->ratio[r] < lo)
+                lo = m->ratio[r];
+            if (m->ratio[r] > hi)
+                hi = m->ratio[r];
+        }
+        if (!(lo >= SV_AITKEN_MIN_Q && hi < 1.0 && hi - lo <= SV_STABLE * (1.0 - hi)))
+            continue;
+        double q = m->ratio[0], f = q / (1.0 - q);
+        for (size_t x = b; x < len; x += nb) {
+            double v = cur[x] + D[x] * f;
+            cur[x] = v > s->emission[x] ? v : s->emission[x];
+        }
+        /* The next change is measured from the extrapolated B: no ratio
+         * across the jump. */
+        m->ratios = 0;
+        m->aligned = 0;
+        m->d_prev = -1.0;
+        if (hi > m->q_floor)
+            m->q_floor = hi;
+        st->extrapolations++;
+    }
 }
 
 static int solve_sweeps(const sv_system *s, const sv_options *o, double tol, double *B,
@@ -450,16 +483,16 @@ static int solve_sweeps(const sv_system *s, const sv_options *o, double tol, dou
         return rad_fail(err, RAD_ERR_NOMEM, "solver: out of memory for %u patches", n);
     for (uint32_t i = 0; i < n; i++) {
         sum[i] = 0.0;
-        if (!row_present(s->F, i))
+        if (!sv_row_present(s->F, i))
             continue;
-        int rc = check_row(s->F, i, &sum[i], err);
+        int rc = sv_check_row(s->F, i, &sum[i], err);
         if (rc) {
             free(sum);
             return rc;
         }
     }
     for (uint32_t i = 0; i < n; i++) {
-        uint32_t t = transmits_from(s, i);
+        uint32_t t = sv_transmits_from(s, i);
         for (uint32_t b = 0; b < nb; b++) {
             double gb = s->rho[(size_t)i * nb + b] * sum[i] +
                         (t != RAD_NONE ? s->tau[(size_t)i * nb + b] * sum[t] : 0.0);
@@ -483,7 +516,7 @@ static int solve_sweeps(const sv_system *s, const sv_options *o, double tol, dou
     uint32_t k = 0;
     int rc = RAD_OK;
     for (k = 1; k <= max_sweeps; k++) {
-        double rmax, bmax = sweep(s, cur, nxt, D, dmax, cosine, &rmax);
+        double bmax = sweep(s, cur, nxt, D, dmax, cosine);
         if (jacobi) {
             double *t = cur;
             cur = nxt;
@@ -495,12 +528,8 @@ static int solve_sweeps(const sv_system *s, const sv_options *o, double tol, dou
             break;
         }
 
-        /* The stopping rule: δ = max|ΔB| / max (B − E), remaining error ≈
-         * δ·q/(1-q).  Relative to the light the solve computes, not to the
-         * emitters' own E: a lamp a hundred times brighter than the walls
-         * would otherwise let the walls stop a per cent short (a closed
-         * room then absorbed 0.9 % less than it emitted). */
-        const double scale = rmax > 0.0 ? rmax : bmax;
+        /* The stopping rule: δ = max|ΔB|/max B (the brightest patch that
+         * gathers), remaining error ≈ δ·q/(1-q). */
         double e = 0.0, qmax = 0.0;
         int known = 1;
         for (uint32_t b = 0; b < nb; b++) {
@@ -515,7 +544,7 @@ static int solve_sweeps(const sv_system *s, const sv_options *o, double tol, dou
                 e = INFINITY;
                 continue;
             }
-            double eb = q < 1.0 ? dmax[b] / scale * q / (1.0 - q) : INFINITY;
+            double eb = q < 1.0 ? dmax[b] / bmax * q / (1.0 - q) : INFINITY;
             if (!(eb <= e))
                 e = eb;
         }
@@ -529,342 +558,12 @@ static int solve_sweeps(const sv_system *s, const sv_options *o, double tol, dou
         if (o->no_acceleration || k == max_sweeps)
             continue;
 
-        /* Aitken on the dominant mode: once ΔB_k = q ΔB_k-1, the rest of the
-         * geometric series is ΔB_k·q/(1-q).  Clamping at E only moves a value
-         * toward the solution (B* >= E), and restores B >= 0 for the next
-         * Gauss-Seidel sweep to gather from. */
-        for (uint32_t b = 0; b < nb; b++) {
-            band_monitor *m = &mon[b];
-            if (m->ratios < SV_RATIO_WINDOW || m->aligned < SV_RATIO_WINDOW)
-                continue;
-            double lo = m->ratio[0], hi = m->ratio[0];
-            for (uint32_t r = 1; r < SV_RATIO_WINDOW; r++) {
-                if (m->ratio[r] < lo)
-                    lo = m->ratio[r];
-                if (m->ratio[r] > hi)
-                    hi = m->ratio[r];
-            }
-            if (!(lo >= SV_AITKEN_MIN_Q && hi < 1.0 && hi - lo <= SV_STABLE * (1.0 - hi)))
-                continue;
-            double q = m->ratio[0], f = q / (1.0 - q);
-            for (size_t x = b; x < len; x += nb) {
-                double v = cur[x] + D[x] * f;
-                cur[x] = v > s->emission[x] ? v : s->emission[x];
-            }
-            /* The next change is measured from the extrapolated B: no ratio
-             * across the jump. */
-            m->ratios = 0;
-            m->aligned = 0;
-            m->d_prev = -1.0;
-            if (hi > m->q_floor)
-                m->q_floor = hi;
-            st->extrapolations++;
-        }
+        extrapolate(s, mon, cur, D, st);
     }
     if (rc == RAD_OK && cur != B)
         memcpy(B, cur, len * sizeof *B);
     free(D);
     free(other);
-    return rc;
-}
-
-/* ------------------------------------------------------------ progressive */
-
-/* Column access to F: for each i, the pairs (j, F_ji) of the rows present,
- * j increasing.  Built once per progressive solve that has every row it
- * needs. */
-typedef struct transpose {
-    uint64_t *start; /* n + 1 */
-    uint32_t *col;   /* j */
-    float *val;      /* F_ji */
-} transpose;
-
-static void transpose_free(transpose *T)
-{
-    free(T->start);
-    free(T->col);
-    free(T->val);
-}
-
-static int transpose_build(const rad_matrix *F, transpose *T, rad_error *err)
-{
-    const uint32_t n = F->n;
-    uint64_t total = 0;
-    T->start = calloc((size_t)n + 1, sizeof *T->start);
-    if (!T->start)
-        return rad_fail(err, RAD_ERR_NOMEM, "solver: out of memory for the transposed matrix");
-    for (uint32_t j = 0; j < n; j++) {
-        const rad_row r = rad_matrix_row(F, j);
-        const uint8_t *p = r.col;
-        uint32_t c = 0;
-        for (uint32_t k = 0; k < r.count; k++) {
-            c = rad_row_next(&p, c);
-            T->start[c + 1]++;
-        }
-        total += r.count;
-    }
-    for (uint32_t i = 0; i < n; i++)
-        T->start[i + 1] += T->start[i];
-    T->col = malloc((size_t)(total ? total : 1) * sizeof *T->col);
-    T->val = malloc((size_t)(total ? total : 1) * sizeof *T->val);
-    uint64_t *fill = malloc(((size_t)n + 1) * sizeof *fill);
-    if (!T->col || !T->val || !fill) {
-        free(fill);
-        return rad_fail(err, RAD_ERR_NOMEM, "solver: out of memory for the transposed matrix");
-    }
-    memcpy(fill, T->start, ((size_t)n + 1) * sizeof *fill);
-    for (uint32_t j = 0; j < n; j++) { /* j increasing, so each column comes out sorted */
-        const rad_row r = rad_matrix_row(F, j);
-        const uint8_t *p = r.col;
-        uint32_t c = 0;
-        for (uint32_t k = 0; k < r.count; k++) {
-            c = rad_row_next(&p, c);
-            uint64_t at = fill[c]++;
-            T->col[at] = j;
-            T->val[at] = rad_row_value(&r, k);
-        }
-    }
-    free(fill);
-    return RAD_OK;
-}
-
-/* Σ_i A_i ΔB_i,b per band, summed afresh. */
-static void unshot_power(const double *U, const double *A, uint32_t n, uint32_t nb, double *out)
-{
-    for (uint32_t b = 0; b < nb; b++)
-        out[b] = 0.0;
-    for (uint32_t i = 0; i < n; i++)
-        for (uint32_t b = 0; b < nb; b++)
-            out[b] += A[i] * U[(size_t)i * nb + b];
-}
-
-/* Unshot power relative to emitted power, the worst band.  A band that emits
- * nothing never holds unshot power and is left out. */
-static double unshot_fraction(const double *unshot, const double *emitted, uint32_t nb)
-{
-    double e = 0.0;
-    for (uint32_t b = 0; b < nb; b++)
-        if (emitted[b] > 0.0 && unshot[b] / emitted[b] > e)
-            e = unshot[b] / emitted[b];
-    return e;
-}
-
-/* Shooting (Cohen, Chen, Wallace & Greenberg 1988).  U holds the unshot
- * radiosity ΔB; each shot sends A_i ΔB_i from the patch with the most unshot
- * power to every patch j, which receives ρ_j F_ji ΔB_i.
- *
- * Where F_ji comes from: when every reflecting patch already has its row
- * (a relight, or a comparison with the gathering solvers), F_ji is read
- * from j's own row through a transposed copy, so shooting solves exactly
- * the system Gauss-Seidel and Jacobi solve.  Otherwise rows come on demand
- * and reciprocity turns the shooter's row into what j gathers,
- * F_ji = F_ij A_i / A_j, asking for row i only when i first shoots; the
- * hemi-cube's rows are reciprocal only to a few per cent, so the two
- * routes differ by that much.
- *
- * power[i] = A_i Σ_b ΔB_i,b and the per-band unshot totals are kept up to
- * date shot by shot, so choosing the shooter reads n values rather than
- * n × bands.  The totals drift by rounding only (~1e-16 per shot against a
- * tolerance of ~1e-4); they are summed afresh before any decision to stop
- * and for every preview. */
-static int solve_progressive(const sv_system *s, const sv_options *o, double tol, double *B,
-                             sv_stats *st, rad_error *err)
-{
-    const uint32_t n = s->n, nb = s->bands;
-    const size_t len = (size_t)n * nb;
-    const double *A = s->area, *rho = s->rho, *E = s->emission;
-    rad_matrix *F = s->F;
-
-    uint64_t shots_default = (uint64_t)SV_DEFAULT_SHOTS_PER_PATCH * n;
-    const uint32_t max_shots = o->max_iterations ? o->max_iterations
-                               : shots_default > UINT32_MAX ? UINT32_MAX
-                                                            : (uint32_t)shots_default;
-    /* preview_every = 0 with a callback: every shot (the caller asked for previews) */
-    const uint32_t every = o->preview_every ? o->preview_every : 1;
-
-    double *U = malloc(len * sizeof *U);
-    double *power = malloc((size_t)n * sizeof *power);
-    double *inv_area = malloc((size_t)n * sizeof *inv_area);
-    uint8_t *checked = calloc(n, 1);
-    double *display = o->on_preview ? malloc(len * sizeof *display) : NULL;
-    uint32_t *row_col = malloc((size_t)n * sizeof *row_col);
-    float *row_val = malloc((size_t)n * sizeof *row_val);
-    transpose T = {0};
-    int rc = RAD_OK;
-    if (!U || !power || !inv_area || !checked || (o->on_preview && !display) || !row_col ||
-        !row_val) {
-        rc = rad_fail(err, RAD_ERR_NOMEM, "solver: out of memory for %u patches", n);
-        goto done;
-    }
-    memcpy(B, E, len * sizeof *B);
-    memcpy(U, E, len * sizeof *U);
-    /* Rows present now are checked now; rows need_row brings are checked
-     * before their first shot. */
-    for (uint32_t i = 0; i < n; i++) {
-        if (!row_present(F, i))
-            continue;
-        rc = check_row(F, i, NULL, err);
-        if (rc)
-            goto done;
-        checked[i] = 1;
-    }
-    int gather_rows = 1;
-    for (uint32_t i = 0; i < n && gather_rows; i++)
-        if (!row_present(F, i) && sv_row_needed(s, i))
-            gather_rows = 0;
-    if (gather_rows && (rc = transpose_build(F, &T, err)) != RAD_OK)
-        goto done;
-
-    /* Emitted power per band, and the ambient's interreflection factor
-     * R_b = 1/(1 - ρ_avg,b) with ρ_avg area-weighted (finite: every ρ < 1). */
-    double area_sum = 0.0, emitted[RAD_MAX_BANDS] = {0}, rho_avg[RAD_MAX_BANDS] = {0};
-    for (uint32_t i = 0; i < n; i++) {
-        inv_area[i] = 1.0 / A[i];
-        area_sum += A[i];
-        power[i] = 0.0;
-        for (uint32_t b = 0; b < nb; b++) {
-            /* what a sheet passes on is re-emitted too, on its other side */
-            double albedo = rho[(size_t)i * nb + b] + (s->tau ? s->tau[(size_t)i * nb + b] : 0.0);
-            emitted[b] += A[i] * E[(size_t)i * nb + b];
-            rho_avg[b] += A[i] * albedo;
-            power[i] += E[(size_t)i * nb + b];
-        }
-        power[i] *= A[i];
-    }
-    double R[RAD_MAX_BANDS], unshot[RAD_MAX_BANDS];
-    for (uint32_t b = 0; b < nb; b++) {
-        rho_avg[b] /= area_sum;
-        R[b] = 1.0 / (1.0 - rho_avg[b]);
-        unshot[b] = emitted[b];
-    }
-
-    uint32_t shots = 0;
-    for (;;) {
-        double e = unshot_fraction(unshot, emitted, nb);
-        if (display && shots > 0 && shots % every == 0) {
-            /* Cohen et al. 1988: the unshot power, spread evenly and
-             * interreflected with the average ρ, as an ambient term. */
-            unshot_power(U, A, n, nb, unshot);
-            e = unshot_fraction(unshot, emitted, nb);
-            double ambient[RAD_MAX_BANDS];
-            for (uint32_t b = 0; b < nb; b++)
-                ambient[b] = R[b] * unshot[b] / area_sum;
-            for (size_t x = 0; x < len; x++)
-                display[x] = B[x] + rho[x] * ambient[x % nb];
-            st->iterations = shots;
-            if (o->on_preview(o->user, shots, display))
-                break;
-        }
-        if (e < tol) {
-            unshot_power(U, A, n, nb, unshot);
-            e = unshot_fraction(unshot, emitted, nb);
-            if (e < tol) {
-                st->converged = 1;
-                break;
-            }
-        }
-        if (shots >= max_shots)
-            break;
-
-        uint32_t best = RAD_NONE;
-        double best_power = 0.0;
-        for (uint32_t i = 0; i < n; i++)
-            if (power[i] > best_power) { /* strict: the lowest index wins a tie */
-                best_power = power[i];
-                best = i;
-            }
-        if (best == RAD_NONE) { /* nothing left to shoot: exact */
-            st->converged = 1;
-            break;
-        }
-
-        if (!gather_rows && !row_present(F, best)) {
-            if (!o->need_row) {
-                rc = rad_fail(err, RAD_ERR_USAGE,
-                              "solver: form-factor row %u is missing and no need_row was given",
-                              best);
-                break;
-            }
-            rad_error cb = {0};
-            st->rows_requested++;
-            rc = o->need_row(o->user, best, &cb);
-            if (rc != RAD_OK) {
-                if (!cb.message[0])
-                    rad_fail(&cb, rc, "solver: computing form-factor row %u failed", best);
-                if (err)
-                    *err = cb;
-                break;
-            }
-            if (!row_present(F, best)) {
-                rc = rad_fail(err, RAD_ERR_USAGE, "solver: need_row did not fill row %u", best);
-                break;
-            }
-        }
-        if (!gather_rows && !checked[best]) {
-            rc = check_row(F, best, NULL, err);
-            if (rc)
-                break;
-            checked[best] = 1;
-        }
-
-        /* need_row may have grown F's pool: read the row only now.
-         * The weight of receiver j is F_ji A_j / A_i: from j's own row via
-         * the transpose, or F_ij from i's row by reciprocity (decoded into
-         * row_col/row_val). */
-        const uint32_t count = gather_rows ? (uint32_t)(T.start[best + 1] - T.start[best])
-                                           : rad_matrix_get_row(F, best, row_col, row_val);
-        const uint32_t *c = !count ? NULL : gather_rows ? T.col + T.start[best] : row_col;
-        const float *v = !count ? NULL : gather_rows ? T.val + T.start[best] : row_val;
-        double *Ui = U + (size_t)best * nb;
-        double shot[RAD_MAX_BANDS], landed[RAD_MAX_BANDS] = {0};
-        for (uint32_t b = 0; b < nb; b++) {
-            shot[b] = A[best] * Ui[b];
-            unshot[b] -= shot[b];
-            Ui[b] = 0.0;
-        }
-        power[best] = 0.0;
-        for (uint32_t k = 0; k < count; k++) {
-            const uint32_t j = c[k];
-            const double f = gather_rows ? v[k] * A[j] * inv_area[best] : v[k];
-            /* The irradiance ΔH_j = shot·f / A_j landing on j comes out of j
-             * (ρ_j ΔH_j) and, through a sheet, out of its other side t
-             * (τ_t ΔH_j). */
-            const uint32_t t = s->tau && s->twin[j] != RAD_NONE ? s->twin[j] : RAD_NONE;
-            for (int side = 0; side < (t == RAD_NONE ? 1 : 2); side++) {
-                const uint32_t r = side ? t : j;
-                const double *gain = side ? s->tau : rho;
-                const size_t o = (size_t)r * nb;
-                const double inv = inv_area[j];
-                double pr = 0.0;
-                for (uint32_t b = 0; b < nb; b++) {
-                    const double d = gain[o + b] * shot[b] * f * inv; /* ΔB_r */
-                    const double w = d * A[r];                       /* A_r ΔB_r: power r re-emits */
-                    B[o + b] += d;
-                    U[o + b] += d;
-                    landed[b] += w;
-                    pr += w;
-                }
-                power[r] += pr;
-            }
-        }
-        for (uint32_t b = 0; b < nb; b++)
-            unshot[b] += landed[b];
-        shots++;
-    }
-    st->iterations = shots;
-    if (rc == RAD_OK) {
-        unshot_power(U, A, n, nb, unshot);
-        st->estimated_error = unshot_fraction(unshot, emitted, nb);
-    }
-done:
-    free(U);
-    free(power);
-    free(inv_area);
-    free(checked);
-    free(display);
-    free(row_col);
-    free(row_val);
-    transpose_free(&T);
     return rc;
 }
 
@@ -896,7 +595,7 @@ int sv_solve(const sv_system *sys, const sv_options *opt, double *B, sv_stats *s
         rc = solve_sweeps(sys, o, tol, B, st, err);
         break;
     case SV_PROGRESSIVE:
-        rc = solve_progressive(sys, o, tol, B, st, err);
+        rc = sv_solve_progressive(sys, o, tol, B, st, err);
         break;
     default:
         return rad_fail(err, RAD_ERR_USAGE, "solver: unknown method %d", (int)o->method);
@@ -915,9 +614,12 @@ int sv_solve(const sv_system *sys, const sv_options *opt, double *B, sv_stats *s
     for (size_t x = 0; x < len; x++)
         RAD_ASSERT(B[x] >= sys->emission[x] && B[x] >= 0.0);
 #endif
-    /* need_row may have left rows that no shot checked: the progressive
-     * residual guards its indices itself. */
-    st->residual = residual(sys, B, o->method == SV_PROGRESSIVE, o->method == SV_PROGRESSIVE);
+    /* need_rows may have left rows that no shot checked: the progressive
+     * residual guards its indices itself, and leaves out the patches whose
+     * rows are missing (dropped, or never computed by a solve stopped
+     * early), counted in unchecked. */
+    const int prog = o->method == SV_PROGRESSIVE;
+    st->residual = sv_residual_of(sys, B, prog, prog, &st->unchecked);
     return RAD_OK;
 }
 

@@ -591,6 +591,19 @@ static uint8_t *slurp(const char *path, size_t *size)
     return buf;
 }
 
+/* s written to `name` in the test directory (its path into path[600]) and
+ * read back as bytes, a version 6 image (NULL on failure). */
+static uint8_t *written_image(const rad_solution *s, const char *name, char path[600],
+                              size_t *size)
+{
+    rad_error e = {0};
+    path_in(path, 600, name);
+    CHECK_MSG(rad_solution_write(s, path, &e) == RAD_OK, "%s", e.message);
+    uint8_t *buf = slurp(path, size);
+    CHECK(buf && rd32(buf + 8) == 6);
+    return buf;
+}
+
 static int spit(const char *path, const void *data, size_t size)
 {
     FILE *f = fopen(path, "wb");
@@ -2113,12 +2126,9 @@ TEST(elements_round_trip_and_damage)
         return;
     }
     char path[600];
-    path_in(path, sizeof path, "elements.sol");
     rad_error e = {0};
-    CHECK(rad_solution_write(a, path, &e) == RAD_OK);
     size_t size = 0;
-    uint8_t *buf = slurp(path, &size);
-    CHECK(buf && rd32(buf + 8) == 6);
+    uint8_t *buf = written_image(a, "elements.sol", path, &size);
     CHECK(a->elements->light_h && a->elements->light_count == 2);
     rad_solution *b = NULL;
     CHECK(rad_solution_read(path, &b, &e) == RAD_OK);
@@ -2295,14 +2305,11 @@ TEST(interpolated_elements_round_trip)
     for (uint32_t k = 0; k < ne; k++)
         interp += x->interp[k];
     char path[600];
-    path_in(path, sizeof path, "interp.sol");
     rad_error e = {0};
-    CHECK(rad_solution_write(a, path, &e) == RAD_OK);
     size_t size = 0;
-    uint8_t *buf = slurp(path, &size);
+    uint8_t *buf = written_image(a, "interp.sol", path, &size);
     uint64_t len = 0;
     size_t at = buf ? v6_find(buf, size, "ELIN", &len) : 0;
-    CHECK(buf && rd32(buf + 8) == 6);
     CHECK(at > 0 && len == 8 + (uint64_t)ne + a->mesh->patch_count);
     printf("  %u elements, %u interpolated; ELEMENTINDIRECT %llu bytes\n", ne, interp,
            (unsigned long long)len);

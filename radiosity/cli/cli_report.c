@@ -35,7 +35,7 @@ static void json_bands(FILE *f, const double *v, uint32_t nb)
  * of a transmitting sheet has its twin's row as its back hemi-cube; an
  * opaque patch has none. */
 typedef struct economy {
-    uint32_t rows_present, black_patches, black_without_row;
+    uint32_t rows_present, black_patches, black_without_row, reflecting_without_row;
     uint32_t sheet_patches, back_hemicubes;
 } economy;
 
@@ -51,6 +51,7 @@ static economy count_economy(const rad_solution *s)
         e.rows_present += s->F->row_done[i] != 0;
         e.black_patches += black;
         e.black_without_row += black && !s->F->row_done[i];
+        e.reflecting_without_row += !black && !s->F->row_done[i];
         e.sheet_patches += sheet;
         e.back_hemicubes += sheet && s->F->row_done[twin[i]] &&
                             rad_material_transmits(&s->scene->materials[s->mesh->patches[i].material],
@@ -154,8 +155,24 @@ static void report_json(FILE *f, const report *r)
     json_bands(f, r->tot_a, r->nb);
     fprintf(f, "},\n \"solver\": {\"name\": ");
     cli_json_string(f, s->solver);
-    fprintf(f, ", \"iterations\": %u, \"residual\": %.6g, \"tolerance\": %.6g},\n", s->iterations,
-            s->residual, s->tolerance);
+    fprintf(f, ", \"iterations\": %u, \"residual\": %.6g, \"residual_unchecked\": %u, "
+               "\"tolerance\": %.6g", s->iterations, s->residual, r->eco.reflecting_without_row,
+            s->tolerance);
+    if (s->progress) {
+        const rad_progress *p = s->progress;
+        fprintf(f, ", \"progress\": {\"shots\": %u, \"unshot\": %.6g, \"converged\": %s, "
+                   "\"rows_recomputed\": %llu, \"rows_dropped\": %llu, \"preview_seconds\": %.6f, "
+                   "\"previews\": [",
+                p->shots, p->unshot, p->converged ? "true" : "false",
+                (unsigned long long)p->rows_recomputed, (unsigned long long)p->rows_dropped,
+                p->preview_seconds);
+        for (uint32_t k = 0; k < p->preview_count; k++)
+            fprintf(f, "%s{\"shots\": %u, \"rows\": %u, \"seconds\": %.6f, \"unshot\": %.6g}",
+                    k ? ", " : "", p->previews[k].shots, p->previews[k].rows,
+                    p->previews[k].seconds, p->previews[k].unshot);
+        fputs("]}", f);
+    }
+    fputs("},\n", f);
     fprintf(f, " \"resolution\": %u, \"patch_size\": %.9g, \"rows_computed\": %llu, \"rows_present\": %u,\n",
             s->resolution, s->patch_size, (unsigned long long)s->rows_computed, r->eco.rows_present);
     fprintf(f, " \"bands_solved\": %u, \"skipped\": {\"black_patch_rows\": %u, \"reason\": \"a patch with reflectance 0 in every band has B = E and needs no hemi-cube\", "
@@ -178,6 +195,40 @@ static void report_json(FILE *f, const report *r)
     fprintf(f, "},\n \"gather_cache\": ");
     cli_report_cache(f, in, s, 1);
     fprintf(f, "}\n");
+}
+
+/* The solver's lines: what its tolerance bounds (Gauss-Seidel and Jacobi:
+ * the estimated error; progressive: the unshot power), and the residual,
+ * which means the same for every solver. */
+static void report_solver(FILE *f, const report *r)
+{
+    const rad_solution *s = r->s;
+    const rad_progress *p = s->progress;
+    if (p)
+        fprintf(f, "solver: %s, %u shots, unshot power %.3g of the emitted (tolerance %.3g)%s\n",
+                s->solver, p->shots, p->unshot, s->tolerance,
+                p->converged ? "" : ": stopped by the shot limit");
+    else
+        fprintf(f, "solver: %s, %u iterations, estimated error below the tolerance %.3g\n",
+                s->solver, s->iterations, s->tolerance);
+    fprintf(f, "residual: %.3g = max_i |E_i + ρ_i Σ_j F_ij B_j - B_i| / max B of the reflecting "
+               "patches", s->residual);
+    if (r->eco.reflecting_without_row)
+        fprintf(f, ", over the patches whose rows are stored (%u reflecting ones have none)",
+                r->eco.reflecting_without_row);
+    fputc('\n', f);
+    if (!p)
+        return;
+    if (p->rows_dropped)
+        fprintf(f, "row store: %llu rows dropped to stay within --max-memory, %llu computed again\n",
+                (unsigned long long)p->rows_dropped, (unsigned long long)p->rows_recomputed);
+    if (p->preview_count)
+        fprintf(f, "previews: %u (their rendering took %.3f s, left out of every time below)\n",
+                p->preview_count, p->preview_seconds);
+    for (uint32_t k = 0; k < p->preview_count; k++)
+        fprintf(f, "  preview at %8.3f s: %8u shots, %7u rows, unshot %.3g\n",
+                p->previews[k].seconds, p->previews[k].shots, p->previews[k].rows,
+                p->previews[k].unshot);
 }
 
 static void report_text(FILE *f, const report *r)
@@ -222,8 +273,8 @@ static void report_text(FILE *f, const report *r)
     fprintf(f, "   total absorbed:");
     for (uint32_t b = 0; b < r->nb; b++)
         fprintf(f, " %.6g", r->tot_a[b]);
-    fprintf(f, "\nsolver: %s, %u iterations, residual %.3g (tolerance %.3g)\n", s->solver,
-            s->iterations, s->residual, s->tolerance);
+    fputc('\n', f);
+    report_solver(f, r);
     fprintf(f, "form factors: %u of %u rows present, %llu computed in the last run, R = %u\n",
             r->eco.rows_present, s->mesh->patch_count, (unsigned long long)s->rows_computed,
             s->resolution);

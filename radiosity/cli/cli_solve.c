@@ -163,6 +163,12 @@ static void solve_summary(const char *out, const rad_solution *s, const rad_jour
                "dropped)\n", st->resumed, (unsigned long long)st->torn_bytes);
     if (st->discarded)
         printf("discarded: %u rows kept by a run of other inputs or options\n", st->discarded);
+    if (s->progress)
+        printf("progressive: %.3g of the emitted power unshot, %u previews, %llu rows computed "
+               "again (%llu dropped to stay within --max-memory)\n",
+               s->progress->unshot, s->progress->preview_count,
+               (unsigned long long)s->progress->rows_recomputed,
+               (unsigned long long)s->progress->rows_dropped);
     if (s->elements)
         printf("elements: %u (from %u patches), %llu element hemi-cubes\n",
                s->elements->mesh->patch_count, s->mesh->patch_count,
@@ -172,12 +178,16 @@ static void solve_summary(const char *out, const rad_solution *s, const rad_jour
            s->stages[RAD_STAGE_FORM_FACTORS].seconds, s->stages[RAD_STAGE_SOLVE].seconds, store);
 }
 
-/* Where --preview-every writes: --preview-dir, else the solution's directory. */
-static int setup_preview(const char *out, const char *preview_dir, uint32_t every,
+/* Where --preview-every writes: --preview-dir, else the solution's
+ * directory; every K shots or T seconds. */
+static int setup_preview(const char *out, const char *preview_dir, uint32_t every, double seconds,
                          preview_state *ps, char *dirbuf, size_t size, rad_solve_options *opt)
 {
-    if (!every)
+    if (!every && !(seconds > 0.0)) {
+        if (ps->view.camera || ps->view.have_eye || ps->view.have_target || ps->view.width)
+            return cli_usage_error("solve: camera options are for previews (--preview-every)");
         return 0;
+    }
     if (opt->solver.method != SV_PROGRESSIVE)
         return cli_usage_error("--preview-every needs --solver progressive");
     if (!preview_dir) {
@@ -191,9 +201,33 @@ static int setup_preview(const char *out, const char *preview_dir, uint32_t ever
     }
     ps->dir = preview_dir;
     opt->solver.preview_every = every;
+    opt->solver.preview_seconds = seconds;
     opt->on_preview = write_preview;
     opt->preview_user = ps;
     return 0;
+}
+
+/* --preview-every: K shots, or "Ts" seconds of solving (T > 0, decimals
+ * allowed).  0, or the exit status (message printed). */
+static int parse_preview_every(const char *opt, const char *v, uint32_t *shots, double *seconds)
+{
+    size_t len = v ? strlen(v) : 0;
+    char *end = NULL;
+    if (len > 1 && v[len - 1] == 's') {
+        double t = strtod(v, &end);
+        if (end == v + len - 1 && isfinite(t) && t >= 1e-3 && t <= 1e6) {
+            *seconds = t;
+            return 0;
+        }
+    } else if (len > 0 && v[0] >= '0' && v[0] <= '9') {
+        unsigned long long k = strtoull(v, &end, 10);
+        if (*end == '\0' && k >= 1 && k <= 100000000) {
+            *shots = (uint32_t)k;
+            return 0;
+        }
+    }
+    return cli_usage_error("%s: '%s' is not K shots (1..1e8) or Ts seconds (0.001s..1e6s)", opt,
+                           v ? v : "");
 }
 
 /* The rows go to OUT.partial as they are computed (rad_journal), so that
@@ -204,10 +238,14 @@ int cli_solve(int argc, char **argv)
 {
     const char *scene = NULL, *out = NULL, *preview_dir = NULL;
     uint32_t preview_every = 0;
+    double preview_seconds = 0.0;
     int rc, fresh = 0;
     rad_solve_options opt = {0};
+    preview_state ps = {0};
     for (int i = 0; i < argc; i++) {
         int r = cli_solve_option(argc, argv, &i, &opt);
+        if (r == 0)
+            r = cli_view_option(argc, argv, &i, &ps.view);
         if (r < 0)
             return 2;
         if (r > 0)
@@ -215,7 +253,7 @@ int cli_solve(int argc, char **argv)
         if (!strcmp(argv[i], "-o") && i + 1 < argc)
             out = argv[++i];
         else if (!strcmp(argv[i], "--preview-every") && i + 1 < argc) {
-            if (cli_parse_u32(argv[i], argv[i + 1], 1, 100000000, &preview_every))
+            if (parse_preview_every(argv[i], argv[i + 1], &preview_every, &preview_seconds))
                 return 2;
             i++;
         } else if (!strcmp(argv[i], "--preview-dir") && i + 1 < argc)
@@ -229,11 +267,14 @@ int cli_solve(int argc, char **argv)
         return cli_usage_error("usage: radiosity solve SCENE -o SOLUTION [options]");
     if (cli_check_output_dir(out))
         return 2;
-    preview_state ps = {0};
+    if (ps.view.png)
+        return cli_usage_error("solve: --png is for render (previews are written as PNG and EXR)");
     char dirbuf[4096];
-    if ((rc = setup_preview(out, preview_dir, preview_every, &ps, dirbuf, sizeof dirbuf, &opt)))
+    if ((rc = setup_preview(out, preview_dir, preview_every, preview_seconds, &ps, dirbuf,
+                            sizeof dirbuf, &opt)))
         return rc;
     cli_enable_progress(&opt);
+    opt.warn = cli_warn;
     cli_enable_estimate(&opt);
     opt.load.warn = cli_warn;
 

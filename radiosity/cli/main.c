@@ -152,11 +152,29 @@ static void progress_bar(void *user, uint32_t done, uint32_t total)
     fflush(stderr);
 }
 
+/* The progressive solver's progress on stderr: shots, and the unshot
+ * power on a logarithmic bar from all of it (1) down to the tolerance. */
+static void shots_bar(void *user, const sv_progress *p)
+{
+    (void)user;
+    double f = p->unshot > 0.0 && p->tolerance < 1.0 ? log(p->unshot) / log(p->tolerance) : 1.0;
+    f = f < 0.0 ? 0.0 : f > 1.0 ? 1.0 : f;
+    int filled = (int)(f * 30.0);
+    fprintf(stderr, "\rprogressive  [%.*s%*s] %u shots, unshot %.2e (to %.0e), %u rows   ", filled,
+            "##############################", 30 - filled, "", p->shots, p->unshot, p->tolerance,
+            p->rows_requested);
+    if (p->done)
+        fputc('\n', stderr);
+    fflush(stderr);
+}
+
 void cli_enable_progress(rad_solve_options *opt)
 {
     if (isatty(STDERR_FILENO)) {
         opt->hemicube.progress = progress_bar;
         opt->hemicube.progress_user = NULL;
+        opt->solver.progress = shots_bar;
+        opt->solver.progress_user = NULL;
     }
 }
 
@@ -337,7 +355,8 @@ static const char usage[] =
     "      --solver NAME            gauss-seidel (default), jacobi, progressive\n"
     "      --tolerance T            solver tolerance (default " CLI_STR(SV_DEFAULT_TOLERANCE) ")\n"
     "      --max-iterations N       solver iteration limit\n"
-    "      --max-memory SIZE        limit for the form-factor matrix (e.g. 4G)\n"
+    "      --max-memory SIZE        limit for the form-factor matrix (e.g. 4G); progressive\n"
+    "                               keeps its rows within it, computing some again\n"
     "      --pixel-emitters         form factors to emitters by pixel counts, not exactly\n"
     "      --exact-near             near patches (closer than their size) exactly (default)\n"
     "      --pixel-near             near patches by pixel counts, like the others\n"
@@ -351,7 +370,9 @@ static const char usage[] =
     "      --element-hemicubes      every element's row from a hemi-cube of its own (slow)\n"
     "      --min-element-size S     smallest element edge (default: 1/8 of its patch)\n"
     "      --element-levels L       uniform elements: split every patch L times\n"
-    "      --preview-every K        progressive: write a preview image every K shots\n"
+    "      --preview-every K|Ts     progressive: write a preview image every K shots or\n"
+    "                               every T seconds of solving (e.g. 2s); --camera NAME,\n"
+    "                               --size WxH, --exposure EV as for render\n"
     "      --preview-dir DIR        where previews go (default: the solution's directory)\n"
     "      --fresh                  compute every row again: do not resume from the rows an\n"
     "                               interrupted run kept in SOLUTION.partial\n"

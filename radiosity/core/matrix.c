@@ -5,8 +5,9 @@
  * u32 c, c × f32, c varint column gaps), so a reader can read a file's rows
  * straight into it and a solve can hand each new record to a sink that
  * appends it to a file.  A row that is set again is appended and the old
- * copy abandoned, which only a relight of a progressive solution can cause
- * and which costs at most one extra row.
+ * copy abandoned (a relight of a progressive solution can cause it, and
+ * so can a bounded row store computing a dropped row again), until
+ * rad_matrix_compact moves the records present together again.
  *
  * Invariant: rows present obey rad.h's row rules.  Records that come from
  * outside (rad_matrix_add_records) are checked one by one before any is
@@ -294,6 +295,85 @@ static double entry_bytes(double fill)
 {
     double gap = fill > 0.0 ? 1.0 / fill : 1.0;
     return 4.0 + (gap < 128.0 ? 1.0 : gap < 16384.0 ? 2.0 : 3.0);
+}
+
+/* ---- a bounded row store: dropping rows, compacting the pool ---- */
+
+uint64_t rad_matrix_pool_bytes(const rad_matrix *m) { return m->capacity; }
+
+uint64_t rad_matrix_used_bytes(const rad_matrix *m) { return m->bytes; }
+
+/* A record at most: its head, 4 bytes a value, 5 a varint gap. */
+uint64_t rad_matrix_row_bytes(uint32_t count) { return RECORD_HEAD + (uint64_t)count * 9u; }
+
+uint64_t rad_matrix_live_bytes(const rad_matrix *m)
+{
+    uint64_t bytes = 0;
+    for (uint32_t i = 0; i < m->n; i++)
+        bytes += rad_matrix_record_bytes(m, i);
+    return bytes;
+}
+
+void rad_matrix_drop_row(rad_matrix *m, uint32_t i)
+{
+    if (!m || i >= m->n || !m->row_done[i])
+        return;
+    m->nnz -= m->row_count[i];
+    m->row_done[i] = 0;
+    m->row_count[i] = 0;
+    m->row_start[i] = 0;
+    m->rows_done--;
+}
+
+/* A present row's record: where it starts in the pool and its size. */
+typedef struct placed {
+    uint64_t start, size;
+    uint32_t row;
+} placed;
+
+static int by_start(const void *a, const void *b)
+{
+    uint64_t x = ((const placed *)a)->start, y = ((const placed *)b)->start;
+    return x < y ? -1 : x > y;
+}
+
+int rad_matrix_compact(rad_matrix *m, uint64_t bytes, rad_error *err)
+{
+    /* The records present, in order of their place in the pool: each then
+     * moves towards the front, never over a record not yet moved, so the
+     * compaction needs no second pool (a bounded store has no room for
+     * one). */
+    placed *order = malloc(((size_t)m->rows_done + 1) * sizeof *order);
+    uint32_t count = 0;
+    if (!order)
+        return rad_fail(err, RAD_ERR_NOMEM, "form-factor matrix: out of memory compacting");
+    for (uint32_t i = 0; i < m->n; i++)
+        if (m->row_done[i])
+            order[count++] =
+                (placed){m->row_start[i] - RECORD_HEAD, rad_matrix_record_bytes(m, i), i};
+    qsort(order, count, sizeof *order, by_start);
+    uint64_t next = 0;
+    for (uint32_t k = 0; k < count; k++) {
+        if (next != order[k].start)
+            memmove(m->data + next, m->data + order[k].start, (size_t)order[k].size);
+        m->row_start[order[k].row] = next + RECORD_HEAD;
+        next += order[k].size;
+    }
+    free(order);
+    m->bytes = next;
+    uint64_t cap = bytes > next ? bytes : next;
+    if (cap == m->capacity || cap == 0)
+        return RAD_OK;
+    if (cap > SIZE_MAX)
+        return rad_fail(err, RAD_ERR_NOMEM, "form-factor matrix: %llu bytes do not fit in memory",
+                        (unsigned long long)cap);
+    uint8_t *d = realloc(m->data, (size_t)cap);
+    if (!d)
+        return rad_fail(err, RAD_ERR_NOMEM, "form-factor matrix: out of memory at %llu bytes",
+                        (unsigned long long)cap);
+    m->data = d;
+    m->capacity = cap;
+    return RAD_OK;
 }
 
 uint64_t rad_matrix_estimate_bytes(uint32_t n, double fill)

@@ -330,6 +330,29 @@ uint8_t *rad_matrix_reserve(rad_matrix *m, uint64_t more, rad_error *err);
 int rad_matrix_add_records(rad_matrix *m, uint64_t len, uint64_t rows, uint64_t *at,
                            rad_error *err);
 
+/* A bounded row store (the progressive solver under --max-memory): rows
+ * are dropped and the pool compacted, so that the matrix never holds more
+ * than its budget.  Bytes are the pool's, the one part of the matrix that
+ * grows with the rows (the per-row index is n-sized and fixed). */
+
+/* Bytes the pool has allocated. */
+uint64_t rad_matrix_pool_bytes(const rad_matrix *m);
+/* Bytes of the pool in use: the rows present and abandoned copies. */
+uint64_t rad_matrix_used_bytes(const rad_matrix *m);
+/* Bytes the rows present take in the pool (what compaction keeps). */
+uint64_t rad_matrix_live_bytes(const rad_matrix *m);
+/* Bytes a row of `count` entries may take in the pool, at most. */
+uint64_t rad_matrix_row_bytes(uint32_t count);
+/* Removes row i: it reads as missing again (row_done 0).  Its record stays
+ * in the pool, abandoned, until rad_matrix_compact. */
+void rad_matrix_drop_row(rad_matrix *m, uint32_t i);
+/* Moves the records present to the front of the pool, in pool order, dropping
+ * abandoned copies, and sizes the pool to hold exactly max(bytes, what the
+ * rows present take): a row store under a budget reserves the budget once
+ * and never grows past it.  RAD_OK, or RAD_ERR_NOMEM with the matrix
+ * compacted but its pool's size unchanged. */
+int rad_matrix_compact(rad_matrix *m, uint64_t bytes, rad_error *err);
+
 /* Bytes a matrix of n patches needs when a fraction `fill` of entries is
  * non-zero: what the memory checks use before allocating. */
 uint64_t rad_matrix_estimate_bytes(uint32_t n, double fill);

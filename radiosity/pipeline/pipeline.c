@@ -13,7 +13,11 @@
  * transmits diffusely (τ > 0) is two patches back to back (mesh twins), and
  * B_i = E_i + ρ_i H_i + τ_i H_twin(i): the twin's row is i's back hemi-cube,
  * computed only there (sv_row_needed).  The progressive solver asks for the
- * rows of the patches it shoots from.
+ * rows of the patches it shoots from, in batches computed on every worker,
+ * within --max-memory (it drops rows and asks for them again), and for the
+ * exact columns of emitters (hc_exact_column): the same factors their
+ * receivers' rows hold, so that it solves the very system Gauss-Seidel
+ * solves.
  *
  * Punctual lights have no patches: each is rendered once as an item-buffer
  * cube at the light (hc_light_power), which gives the power Φ_lj patch j
@@ -41,6 +45,14 @@ typedef struct run {
     uint64_t lights_computed;
     uint64_t max_memory;
     double ff_seconds;    /* time inside the hemi-cube, counted apart from the solve */
+    double t0;            /* when the run began */
+    int quiet_rows;       /* 1 while the progressive solver asks for rows: its own
+                           * progress, not the rows', is what the user follows */
+    /* The progressive solve's previews: when, and how much was unshot. */
+    rad_preview_info *previews;
+    uint32_t preview_count, preview_slots;
+    double solve_t0;      /* when the solve stage began */
+    double *preview_B;    /* a grey solve's preview, widened to every band */
 } run;
 
 static void run_begin(run *c, rad_solution *s, const rad_solve_options *opt)
@@ -48,7 +60,7 @@ static void run_begin(run *c, rad_solution *s, const rad_solve_options *opt)
     uint64_t limit = opt->max_memory;
     if (!limit)
         limit = (uint64_t)(0.8 * (double)rad_available_memory());
-    *c = (run){.s = s, .opt = opt, .max_memory = limit};
+    *c = (run){.s = s, .opt = opt, .max_memory = limit, .t0 = rad_seconds()};
 }
 
 static void run_end(run *c)
@@ -58,8 +70,30 @@ static void run_end(run *c)
                                                        : HC_DEFAULT_RESOLUTION;
     hc_destroy(c->hc);
     free(c->exact);
+    free(c->previews);
+    free(c->preview_B);
     c->hc = NULL;
     c->exact = NULL;
+    c->previews = NULL;
+    c->preview_B = NULL;
+}
+
+/* The hemi-cube's row progress, passed on unless the progressive solver is
+ * the one asking (its batches would each show as a bar of their own). */
+static void row_progress(void *user, uint32_t done, uint32_t total)
+{
+    run *c = user;
+    if (!c->quiet_rows)
+        c->opt->hemicube.progress(c->opt->hemicube.progress_user, done, total);
+}
+
+/* Does patch i emit (E > 0 in some band; punctual lights do not count)? */
+static int emits(const rad_solution *s, uint32_t i)
+{
+    for (uint32_t b = 0; b < s->band_count; b++)
+        if (s->emission[(size_t)i * s->band_count + b] > 0.0)
+            return 1;
+    return 0;
 }
 
 /* The patches whose incoming factors are exact, into c->exact (NULL when
@@ -86,6 +120,10 @@ static int start_hemicube(run *c, rad_error *err)
     hc_options ho = c->opt->hemicube;
     ho.exact_near = c->opt->exact_near >= 0; /* on unless asked off */
     ho.stop = c->opt->stop;
+    if (ho.progress) {
+        ho.progress = row_progress;
+        ho.progress_user = c;
+    }
     int rc = mark_exact(c, err);
     if (rc)
         return rc;
@@ -125,25 +163,60 @@ static int compute_rows(run *c, const uint32_t *rows, uint32_t count, rad_error 
     return rc;
 }
 
-static int need_row(void *user, uint32_t i, rad_error *err)
+/* sv_options.need_rows: a batch of the progressive solver's rows, on every
+ * worker (the solver keeps the matrix within --max-memory). */
+static int need_rows(void *user, const uint32_t *rows, uint32_t count, rad_error *err)
 {
-    run *c = user;
-    uint64_t used = c->s->F->capacity;
-    if (used > c->max_memory) {
-        char a[32], b[32];
-        return rad_fail(err, RAD_ERR_LIMIT,
-                        "%s: form factors: the matrix has grown to %s, over the limit of %s; "
-                        "use a larger --patch-size or raise --max-memory",
-                        c->s->scene->source, rad_human_bytes((double)used, a, sizeof a),
-                        rad_human_bytes((double)c->max_memory, b, sizeof b));
-    }
-    return compute_rows(c, &i, 1, err);
+    return compute_rows(user, rows, count, err);
 }
 
-static int on_preview(void *user, uint32_t shots, const double *B_display)
+/* sv_options.need_column: an emitter's exact column (hc_exact_column), the
+ * factors its receivers' rows hold for it (hc_options.exact); none for a
+ * patch whose receivers count pixels for it. */
+static int need_column(void *user, uint32_t i, uint32_t *col, float *val, uint32_t *count,
+                       rad_error *err)
 {
     run *c = user;
-    return c->opt->on_preview(c->opt->preview_user, c->s, shots, B_display);
+    *count = RAD_NONE;
+    if (c->opt->pixel_emitters || c->opt->hemicube.exact || !emits(c->s, i))
+        return RAD_OK;
+    const double t0 = rad_seconds();
+    int rc = start_hemicube(c, err);
+    if (!rc)
+        rc = hc_exact_column(c->hc, i, rad_light_resolution(c->opt), 1, col, val, count, err);
+    c->ff_seconds += rad_seconds() - t0;
+    return rc;
+}
+
+/* sv_options.on_preview: logs the preview (time since the run began, the
+ * previews' own time left out: the solver's time excludes it) and hands it
+ * on, widened to every band when the solve was grey. */
+static int on_preview(void *user, const sv_progress *p)
+{
+    run *c = user;
+    rad_solution *s = c->s;
+    if (c->preview_count == c->preview_slots) {
+        uint32_t slots = c->preview_slots ? 2 * c->preview_slots : 16;
+        rad_preview_info *more = realloc(c->previews, slots * sizeof *more);
+        if (!more)
+            return 1; /* no memory for the log: stop rather than lose track */
+        c->previews = more;
+        c->preview_slots = slots;
+    }
+    c->previews[c->preview_count++] =
+        (rad_preview_info){.shots = p->shots,
+                           .rows = (uint32_t)c->rows_computed,
+                           .seconds = c->solve_t0 - c->t0 + p->seconds,
+                           .unshot = p->unshot};
+    const double *B = p->B;
+    if (c->preview_B) {
+        const uint32_t n = s->mesh->patch_count, nb = s->band_count;
+        for (uint32_t i = 0; i < n; i++)
+            for (uint32_t b = 0; b < nb; b++)
+                c->preview_B[(size_t)i * nb + b] = p->B[i];
+        B = c->preview_B;
+    }
+    return c->opt->on_preview(c->opt->preview_user, s, p->shots, B);
 }
 
 /* τ_i of every patch from its material, n × bands, when the mesh has
@@ -176,6 +249,13 @@ static int patch_tau(const rad_solution *s, double **out, rad_error *err)
     return RAD_OK;
 }
 
+/* F's per-row index (row_start, row_count, row_done): the part of the
+ * estimate's matrix_bytes that stays when rows are dropped. */
+static uint64_t index_bytes(uint32_t n)
+{
+    return (uint64_t)n * (sizeof(uint64_t) + sizeof(uint32_t) + 1);
+}
+
 /* The estimate once the sample rows are in F: `left` rows still to
  * compute, each taken to hold the samples' mean count of entries and to
  * take their mean bytes, in memory (F keeps its rows packed, as the file
@@ -200,26 +280,52 @@ static void estimate(const run *c, const uint32_t *sample, uint32_t k, uint32_t 
                         .sample_rows = k,
                         .entries_per_row = mean,
                         .limit_bytes = c->max_memory};
-    e->matrix_bytes = (uint64_t)((double)F->bytes + more) +
-                      (uint64_t)n * (sizeof(uint64_t) + sizeof(uint32_t) + 1);
+    e->matrix_bytes = (uint64_t)((double)F->bytes + more) + index_bytes(n);
     /* The process now (scene, mesh, solution arrays, F so far), the rest of
      * F, and the solve's own arrays (a few per patch and band). */
     e->peak_bytes = rad_process_memory(0) + (uint64_t)more + (uint64_t)n * (32u * nb + 16u);
     e->file_bytes = rad_solution_file_bytes(s) + (uint64_t)((double)left * per_file);
 }
 
-/* Refuses a matrix that would not fit in c->max_memory, before computing
- * the rows that would fill it, with a patch size that would: F grows about
- * as N² (N rows, each seeing a share of the N patches), so N' = N
- * sqrt(0.7 L / F) patches fit with a margin, and rad_mesh_size_for finds
- * the size that meshes into at most N'.  Also names the memory that would
- * do, when the machine has it. */
-static int check_memory(const run *c, const rad_estimate *e, rad_error *err)
+/* What the progressive solver's row store may hold: max_memory less F's
+ * index, so that F in all (what rad_estimate.matrix_bytes counts) stays
+ * within --max-memory; at least 1 byte (0 would mean no limit). */
+static uint64_t row_store_bytes(const run *c)
+{
+    const uint64_t index = index_bytes(c->s->mesh->patch_count);
+    return c->max_memory > index + 1 ? c->max_memory - index : 1;
+}
+
+/* The least memory the progressive solver needs under a bounded store:
+ * F's index and STORE_MIN_ROWS rows of the longest sampled length (a
+ * shot's one or two rows, each reserved at twice the longest seen, and
+ * the rows it keeps meanwhile, with a margin). */
+#define STORE_MIN_ROWS 8u
+static uint64_t progressive_floor(const run *c, uint32_t longest)
+{
+    return index_bytes(c->s->mesh->patch_count) + STORE_MIN_ROWS * rad_matrix_row_bytes(longest);
+}
+
+/* A matrix that would not fit in c->max_memory, before computing the rows
+ * that would fill it: the gathering solvers refuse it, with a patch size
+ * that would fit: F grows about as N² (N rows, each seeing a share of the
+ * N patches), so N' = N sqrt(0.7 L / F) patches fit with a margin, and
+ * rad_mesh_size_for finds the size that meshes into at most N'.  The
+ * message also names the memory that would do, when the machine has it,
+ * and the progressive solver when its row store fits.  The progressive
+ * solver keeps its rows within the limit instead (dropping and computing
+ * them again) and is refused only below progressive_floor.  `longest`:
+ * the longest sampled row's entries. */
+static int check_memory(const run *c, const rad_estimate *e, uint32_t longest, rad_error *err)
 {
     if (e->matrix_bytes <= c->max_memory)
         return RAD_OK;
+    const int progressive = c->opt->solver.method == SV_PROGRESSIVE;
+    const uint64_t floor = progressive_floor(c, longest);
+    if (progressive && floor <= c->max_memory)
+        return RAD_OK;
     const rad_solution *s = c->s;
-    char need[32], have[32], mem[32], raise[96] = "";
+    char need[32], have[32], mem[32], raise[96] = "", prog[160] = "";
     double fit = (double)e->patches * sqrt(0.7 * (double)c->max_memory / (double)e->matrix_bytes);
     uint64_t target = fit < 1.0 ? 1 : (uint64_t)fit;
     double size = rad_mesh_size_for(s->scene, &c->opt->mesh, target);
@@ -227,14 +333,21 @@ static int check_memory(const run *c, const rad_estimate *e, rad_error *err)
     if (e->peak_bytes < avail)
         snprintf(raise, sizeof raise, ", or --max-memory %s",
                  rad_human_bytes((double)e->matrix_bytes * 1.1, mem, sizeof mem));
+    if (progressive)
+        snprintf(prog, sizeof prog, " (the progressive solver's row store needs at least %s)",
+                 rad_human_bytes((double)floor, mem, sizeof mem));
+    else if (floor <= c->max_memory)
+        snprintf(prog, sizeof prog, ", or --solver progressive (keeps its rows within the "
+                                    "limit, computing again those it drops)");
     return rad_fail(err, RAD_ERR_LIMIT,
                     "%s: form factors for %u patches need about %s (%.0f entries a row, "
-                    "measured on %u rows), more than the %s allowed; use --patch-size %.3g "
-                    "(at most %llu patches)%s",
+                    "measured on %u rows), more than the %s allowed%s; use --patch-size %.3g "
+                    "(at most %llu patches)%s%s",
                     s->scene->source, e->patches,
                     rad_human_bytes((double)e->matrix_bytes, need, sizeof need), e->entries_per_row,
-                    e->sample_rows, rad_human_bytes((double)c->max_memory, have, sizeof have), size,
-                    (unsigned long long)target, raise);
+                    e->sample_rows, rad_human_bytes((double)c->max_memory, have, sizeof have),
+                    progressive ? prog : "", size, (unsigned long long)target, raise,
+                    progressive ? "" : prog);
 }
 
 int rad_solution_is_grey(const rad_solution *s)
@@ -275,17 +388,47 @@ static hc_light light_for_hemicube(const rad_light *L)
     return hl;
 }
 
+/* The estimate's sample rows, up to RAD_ESTIMATE_SAMPLES spread over
+ * missing[0..count) (they stay: the solve needs them) into sample (room
+ * for SAMPLE_ROOM), their number into *k.  Under the progressive row store
+ * (store > 0) 8 first, and the rest only if the sample would take at most
+ * a quarter of the store: sampling must not overrun a small --max-memory. */
+#define SAMPLE_ROOM (RAD_ESTIMATE_SAMPLES + 8u)
+static int sample_rows(run *c, const uint32_t *missing, uint32_t count, uint64_t store,
+                       uint32_t *sample, uint32_t *k, rad_error *err)
+{
+    const rad_matrix *F = c->s->F;
+    const uint32_t want = count < RAD_ESTIMATE_SAMPLES ? count : RAD_ESTIMATE_SAMPLES;
+    *k = 0;
+    if (store && want) {
+        const uint32_t first = want < 8 ? want : 8;
+        for (uint32_t q = 0; q < first; q++)
+            sample[(*k)++] = missing[(uint64_t)q * count / first];
+        int rc = compute_rows(c, sample, *k, err);
+        if (rc || (double)rad_matrix_live_bytes(F) * want / *k > 0.25 * (double)store)
+            return rc;
+    }
+    const uint32_t start = *k;
+    for (uint32_t q = 0; q < want; q++) {
+        const uint32_t i = missing[(uint64_t)q * count / want];
+        if (!F->row_done[i])
+            sample[(*k)++] = i;
+    }
+    return compute_rows(c, sample + start, *k - start, err);
+}
+
 /* The stage "form factors": the rows the gathering solvers need and do not
  * have (no row for a patch that neither reflects nor lets its twin's light
- * through; a back hemi-cube only behind a transmitting patch).  The
- * progressive solver asks for its rows as it shoots instead. */
+ * through; a back hemi-cube only behind a transmitting patch), after the
+ * estimate from sample rows.  The progressive solver needs the same rows
+ * but asks for them as it shoots: here it gets only the sample and the
+ * estimate (and a refusal below its row store's least). */
 static int compute_missing_rows(run *c, const sv_system *all, rad_error *err)
 {
     const rad_solution *s = c->s;
     const rad_solve_options *opt = c->opt;
     const uint32_t n = s->mesh->patch_count;
-    if (opt->solver.method == SV_PROGRESSIVE && !opt->all_rows)
-        return RAD_OK;
+    const int progressive = opt->solver.method == SV_PROGRESSIVE && !opt->all_rows;
     uint32_t *missing = malloc(((size_t)n + 1) * sizeof *missing);
     if (!missing)
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
@@ -297,22 +440,28 @@ static int compute_missing_rows(run *c, const sv_system *all, rad_error *err)
      * will take (they stay: the solve needs them; a journal keeps them like
      * any row, and a resumed run samples among the rows still missing, so
      * none is computed twice). */
-    uint32_t sample[RAD_ESTIMATE_SAMPLES], k = count < RAD_ESTIMATE_SAMPLES ? count : RAD_ESTIMATE_SAMPLES;
-    for (uint32_t q = 0; q < k; q++)
-        sample[q] = missing[(uint64_t)q * count / k];
-    int rc = compute_rows(c, sample, k, err);
+    uint32_t sample[SAMPLE_ROOM], k = 0, longest = 0;
+    int rc = sample_rows(c, missing, count, progressive ? row_store_bytes(c) : 0, sample, &k, err);
     uint32_t left = 0;
     for (uint32_t q = 0; q < count; q++)
         if (!s->F->row_done[missing[q]])
             missing[left++] = missing[q];
+    for (uint32_t q = 0; q < k; q++)
+        longest = s->F->row_count[sample[q]] > longest ? s->F->row_count[sample[q]] : longest;
     rad_estimate e;
     if (!rc && count) {
         estimate(c, sample, k, left, &e);
+        /* The progressive solver's row store holds F within the limit: the
+         * part of F over it never adds to the peak. */
+        if (progressive && e.matrix_bytes > c->max_memory) {
+            const uint64_t over = e.matrix_bytes - c->max_memory;
+            e.peak_bytes = e.peak_bytes > over ? e.peak_bytes - over : 0;
+        }
         if (opt->on_estimate)
             opt->on_estimate(opt->estimate_user, &e);
-        rc = check_memory(c, &e, err);
+        rc = check_memory(c, &e, longest, err);
     }
-    if (!rc)
+    if (!rc && !progressive)
         rc = compute_rows(c, missing, left, err);
     free(missing);
     return rc;
@@ -378,10 +527,69 @@ static int source_term(const rad_solution *s, const double *tau, double **out, r
     return rc;
 }
 
+/* The progressive solve's record into s->progress (NULL for the other
+ * solvers); RAD_ERR_NOMEM only. */
+static int keep_progress(run *c, const sv_stats *st, rad_error *err)
+{
+    rad_solution *s = c->s;
+    rad_progress_destroy(s->progress);
+    s->progress = NULL;
+    if (c->opt->solver.method != SV_PROGRESSIVE)
+        return RAD_OK;
+    rad_progress *p = rad_progress_create(c->preview_count);
+    if (!p)
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
+    if (c->preview_count)
+        memcpy(p->previews, c->previews, c->preview_count * sizeof *p->previews);
+    p->shots = st->iterations;
+    p->unshot = st->estimated_error;
+    p->converged = st->converged;
+    p->rows_recomputed = st->rows_recomputed;
+    p->rows_dropped = st->rows_dropped;
+    p->preview_seconds = st->preview_seconds;
+    s->progress = p;
+    return RAD_OK;
+}
+
+/* One warning line when the iteration limit stopped the solve first (not
+ * when the caller's on_preview did). */
+static void warn_unconverged(const run *c, const sv_options *so, const sv_stats *st)
+{
+    const rad_solution *s = c->s;
+    if (st->converged || st->stopped)
+        return;
+    const double tol = so->tolerance > 0 ? so->tolerance : SV_DEFAULT_TOLERANCE;
+    if (so->method == SV_PROGRESSIVE)
+        rad_warn(c->opt->warn, c->opt->warn_user,
+                 "%s: solve: progressive: the shot limit (%u) stopped it with %.3g of the emitted "
+                 "power unshot, above the tolerance %g; raise --max-iterations",
+                 s->scene->source, st->iterations, st->estimated_error, tol);
+    else
+        rad_warn(c->opt->warn, c->opt->warn_user,
+                 "%s: solve: %s: the sweep limit (%u) stopped it at an estimated error of %.3g, "
+                 "above the tolerance %g; raise --max-iterations",
+                 s->scene->source, sv_method_name(so->method), st->iterations,
+                 st->estimated_error, tol);
+}
+
+/* The solver's options for this run: the caller's, with the pipeline's
+ * callbacks (rows in batches, emitters' exact columns, logged previews) and
+ * its memory budget. */
+static sv_options solver_options(run *c)
+{
+    sv_options so = c->opt->solver;
+    so.need_rows = need_rows;
+    so.need_column = need_column;
+    so.on_preview = c->opt->on_preview ? on_preview : NULL;
+    so.user = c;
+    so.max_matrix_bytes = row_store_bytes(c);
+    return so;
+}
+
 /* The stage "solve": B for every band with the source E (one band, copied,
  * when the scene is grey); the progressive solver pulls rows as it shoots,
  * and the time it spends in the hemi-cube meanwhile counts as form factors,
- * not as solving. */
+ * its previews as neither. */
 static int solve_patches(run *c, const sv_system *all, const double *E, rad_error *err)
 {
     rad_solution *s = c->s;
@@ -391,9 +599,14 @@ static int solve_patches(run *c, const sv_system *all, const double *E, rad_erro
     sys.bands = nb;
     sys.emission = E;
     double *area = malloc(((size_t)n + 1) * sizeof *area);
+    uint32_t *group = malloc(((size_t)n + 1) * sizeof *group);
     double *grey = nb < nbands ? malloc(((size_t)n * 4 + 1) * sizeof *grey) : NULL;
-    if (!area || (nb < nbands && !grey)) {
+    if (nb < nbands && c->opt->on_preview)
+        c->preview_B = malloc(((size_t)n * nbands + 1) * sizeof *c->preview_B);
+    if (!area || !group || (nb < nbands && !grey) ||
+        (nb < nbands && c->opt->on_preview && !c->preview_B)) {
         free(area);
+        free(group);
         free(grey);
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
     }
@@ -407,31 +620,45 @@ static int solve_patches(run *c, const sv_system *all, const double *E, rad_erro
         sys.emission = grey + n;
         sys.tau = all->tau ? grey + 2 * (size_t)n : NULL;
     }
-    for (uint32_t i = 0; i < n; i++)
+    for (uint32_t i = 0; i < n; i++) {
         area[i] = s->mesh->patches[i].area;
+        group[i] = s->mesh->patches[i].polygon;
+    }
     sys.area = area;
-    sv_options so = c->opt->solver;
-    so.need_row = need_row;
-    so.on_preview = c->opt->on_preview ? on_preview : NULL;
-    so.user = c;
+    sys.group = group;
+    const sv_options so = solver_options(c);
     sv_stats st = {0};
     const double t0 = rad_seconds(), ff0 = c->ff_seconds;
+    c->solve_t0 = t0;
     double *B = grey ? grey + 3 * (size_t)n : s->B;
+    c->quiet_rows = so.method == SV_PROGRESSIVE;
     int rc = sv_solve(&sys, &so, B, &st, err);
+    c->quiet_rows = 0;
+    if (rc && err && strncmp(err->message, "solver: ", 8) == 0) {
+        /* FILE: WHERE: WHAT */
+        rad_error e = *err;
+        rad_fail(err, rc, "%s: %s", s->scene->source, e.message);
+    }
     for (uint32_t i = 0; grey && !rc && i < n; i++)
         for (uint32_t b = 0; b < nbands; b++)
             s->B[(size_t)i * nbands + b] = B[i];
-    /* Rows computed on demand during the solve are form-factor time. */
-    const double solve_seconds = fmax(0.0, rad_seconds() - t0 - (c->ff_seconds - ff0));
+    /* Rows and columns computed during the solve are form-factor time, the
+     * previews' rendering nobody's; never below 0 (a finished solve must
+     * stay saveable whatever the clock did). */
+    const double solve_seconds = rad_seconds() - t0 - (c->ff_seconds - ff0) - st.preview_seconds;
     free(area);
+    free(group);
     free(grey);
+    if (!rc)
+        rc = keep_progress(c, &st, err);
     if (rc)
         return rc;
+    warn_unconverged(c, &so, &st);
     snprintf(s->solver, sizeof s->solver, "%s", sv_method_name(so.method));
     s->tolerance = so.tolerance > 0 ? so.tolerance : SV_DEFAULT_TOLERANCE;
     s->iterations = st.iterations;
     s->residual = st.residual;
-    s->stages[RAD_STAGE_SOLVE].seconds = solve_seconds;
+    s->stages[RAD_STAGE_SOLVE].seconds = solve_seconds > 0.0 ? solve_seconds : 0.0;
     s->stages[RAD_STAGE_SOLVE].reused = 0;
     return RAD_OK;
 }

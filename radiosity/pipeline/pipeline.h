@@ -44,7 +44,12 @@ typedef struct rad_solve_options {
     rad_mesh_options mesh;
     hc_options hemicube;
     sv_options solver;
-    uint64_t max_memory; /* bytes the form-factor matrix may use; 0 = 80 % of available memory */
+    uint64_t max_memory; /* bytes the form-factor matrix may use (its rows and per-patch
+                          * index, as rad_estimate.matrix_bytes counts them); 0 = 80 % of
+                          * available memory.  Gauss-Seidel and Jacobi refuse a matrix
+                          * that may not fit; the progressive solver keeps its rows
+                          * within it (dropping and computing again the rows of patches
+                          * that shoot again) */
     int all_rows;        /* compute every row, not only those the solve needs (ff, validation) */
     int pixel_emitters;  /* 1 = form factors to emitters by counting pixels like any patch;
                           * 0 (default) = exactly, by the point-to-polygon integral times
@@ -56,14 +61,24 @@ typedef struct rad_solve_options {
                           * with a lamp at the default patch size); < 0 = counted in
                           * pixels like the others (before issue 18) */
     /* Progressive solver only, may be NULL: called every solver.preview_every
-     * shots with the current estimate including the ambient term (patch_count ×
-     * bands).  Non-zero stops the solve. (solver.need_row/on_preview/user are
-     * the pipeline's own and are ignored.) */
+     * shots and/or every solver.preview_seconds of solving, with the current
+     * estimate including the ambient term (patch_count × bands).  Non-zero
+     * stops the solve.  Each call is logged in the solution's progress
+     * record (its time leaves out the previews' own).  (solver.need_rows,
+     * need_column, on_preview, user and max_matrix_bytes are the pipeline's
+     * own and are ignored; solver.progress is passed on.) */
     int (*on_preview)(void *user, const rad_solution *s, uint32_t shots, const double *B_display);
     void *preview_user;
+    /* Warnings (rad.h), may be NULL: a solve stopped by its iteration limit
+     * before its tolerance was met. */
+    rad_warn_fn warn;
+    void *warn_user;
     /* May be NULL: called with the estimate once it is made, before the
-     * rows are computed (gathering solvers; a matrix that would not fit is
-     * refused right after, with a patch size that would). */
+     * rows are computed: a matrix that would not fit is refused right
+     * after, with a patch size that would (gathering solvers), or kept
+     * within max_memory by dropping and computing again rows (the
+     * progressive solver, refused only when not even its few rows of a
+     * shot would fit). */
     void (*on_estimate)(void *user, const rad_estimate *e);
     void *estimate_user;
     /* Punctual lights: R of the item-buffer cube rendered at each light

@@ -30,6 +30,7 @@ const char sol_sec_tag[SEC_COUNT][4] = {
     [SEC_SURFACE] = {'S', 'U', 'R', 'F'},
     [SEC_CLUSTERS] = {'C', 'L', 'U', 'S'},
     [SEC_ELEMENT_INDIRECT] = {'E', 'L', 'I', 'N'},
+    [SEC_PROGRESS] = {'P', 'R', 'O', 'G'},
     [SEC_ROWS] = {'R', 'O', 'W', 'S'},
     [SEC_IRRADIANCE] = {'I', 'R', 'R', 'D'},
     [SEC_MATRIXREF] = {'M', 'R', 'E', 'F'},
@@ -48,6 +49,7 @@ const char *const sol_sec_name[SEC_COUNT] = {
     [SEC_SURFACE] = "SURFACE",
     [SEC_CLUSTERS] = "CLUSTERS",
     [SEC_ELEMENT_INDIRECT] = "ELEMENTINDIRECT",
+    [SEC_PROGRESS] = "PROGRESS",
     [SEC_ROWS] = "ROWS",
     [SEC_IRRADIANCE] = "IRRADIANCE",
     [SEC_MATRIXREF] = "MATRIXREF",
@@ -172,6 +174,29 @@ int sol_check_patch_values(const rad_solution *s, const char *file, const char *
 
 /* The provenance rules: durations and sizes are finite and non-negative;
  * the residual may be +inf (no sweep done yet) but not NaN or negative. */
+int sol_check_progress(const rad_solution *s, const char *file, const char *where, int code,
+                       rad_error *err)
+{
+    const rad_progress *p = s->progress;
+    if (!p)
+        return RAD_OK;
+    if (sol_bad_nonneg(p->unshot) || sol_bad_nonneg(p->preview_seconds) || p->converged > 1 ||
+        p->converged < 0 || (p->preview_count && !p->previews))
+        return rad_fail(err, code, "%s: %s: progress: unshot %g, preview time %g or converged "
+                        "flag %d out of range", file, where, p->unshot, p->preview_seconds,
+                        p->converged);
+    for (uint32_t k = 0; k < p->preview_count; k++) {
+        const rad_preview_info *v = &p->previews[k];
+        if (sol_bad_nonneg(v->seconds) || sol_bad_nonneg(v->unshot) || v->shots > p->shots ||
+            (k && (v->shots <= p->previews[k - 1].shots || v->seconds < p->previews[k - 1].seconds ||
+                   v->rows < p->previews[k - 1].rows)))
+            return rad_fail(err, code, "%s: %s: preview %u: %u shots at %g s (unshot %g) out of "
+                            "range or out of order", file, where, k, v->shots, v->seconds,
+                            v->unshot);
+    }
+    return RAD_OK;
+}
+
 int sol_check_info(const rad_solution *s, const char *file, const char *where, int code,
                       rad_error *err)
 {

@@ -30,6 +30,7 @@ struct rad_journal {
     sol_crc64_tables *tab;
     uint64_t crc;             /* CRC register of the MATRIX section so far */
     rad_matrix *F;            /* attached, or NULL */
+    uint8_t *written;         /* F->n flags: row i has a block in the file */
     rad_journal_stats stats;
     double last_sync;
     int fresh;                /* resume nothing */
@@ -40,6 +41,7 @@ static void journal_free(rad_journal *j)
     free(j->path);
     free(j->partial);
     free(j->tab);
+    free(j->written);
     free(j);
 }
 
@@ -106,11 +108,16 @@ static void maybe_sync(rad_journal *j)
     }
 }
 
-/* F's sink: the new row as a block of its own. */
+/* F's sink: the new row as a block of its own.  A row already in the file
+ * is not written again: rows are determined by the key, so a row the
+ * progressive solver's bounded store dropped and computed again is the
+ * same row, and the file holds each row once (the readers refuse twins). */
 static int journal_row(void *user, uint32_t i, const uint8_t *record, size_t bytes, rad_error *err)
 {
-    (void)i;
     rad_journal *j = user;
+    if (j->written[i])
+        return RAD_OK;
+    j->written[i] = 1;
     uint8_t head[SOL_BLOCK_HEAD];
     memcpy(head, SOL_BLOCK_TAG, 4);
     sol_store_le(head + 4, 1, 4);
@@ -169,6 +176,9 @@ int rad_journal_attach(rad_journal *j, rad_matrix *F, uint64_t key, rad_error *e
 {
     if (!j || !F || F->rows_done || !F->entries_loaded || j->out)
         return rad_fail(err, RAD_ERR_USAGE, "rad_journal_attach: an empty matrix is required");
+    j->written = calloc((size_t)F->n + 1, 1);
+    if (!j->written)
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", j->partial);
     int rc0 = rad_output_open_partial(j->path, &j->out, &j->existing, err);
     if (rc0)
         return rc0;
@@ -203,6 +213,8 @@ int rad_journal_attach(rad_journal *j, rad_matrix *F, uint64_t key, rad_error *e
     int rc = rad_output_error(j->out, err);
     if (rc)
         return rc;
+    for (uint32_t i = 0; i < F->n; i++)
+        j->written[i] = F->row_done[i];
     F->key = key;
     F->sink = journal_row;
     F->sink_user = j;
@@ -220,9 +232,32 @@ void rad_journal_detach(rad_journal *j)
     j->F = NULL;
 }
 
+/* Rows the file holds that F no longer does (the progressive solver's
+ * bounded row store dropped them): the file's MATRIX would then disagree
+ * with the ROWS and IRRADIANCE the writer makes from F. */
+static int rows_dropped(const rad_journal *j)
+{
+    for (uint32_t i = 0; j->F && i < j->F->n; i++)
+        if (j->written[i] && !j->F->row_done[i])
+            return 1;
+    return 0;
+}
+
 int rad_journal_commit(rad_journal *j, const rad_solution *s, rad_error *err)
 {
     const char *path = j->path;
+    if (s && j->out && s->F == j->F && rows_dropped(j)) {
+        /* Written whole from F instead (the rows present), the journal
+         * dropped once that file is in place, kept if it is not. */
+        rad_journal_detach(j);
+        int rc = rad_solution_write(s, path, err);
+        if (rc)
+            rad_output_keep(j->out);
+        else
+            rad_output_drop(j->out);
+        journal_free(j);
+        return rc;
+    }
     int rc = (!s || !j->out || s->F != j->F) ? rad_fail(err, RAD_ERR_USAGE,
                                              "%s: rad_journal_commit: not the attached matrix", path)
                                   : sol_validate_for_write(s, path, 1, err);

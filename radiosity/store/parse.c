@@ -1116,6 +1116,35 @@ static int parse_element_indirect(sol_reader *r, rad_solution *s)
 
 /* ---------------------------------------------------------------- dispatch */
 
+/* PROGRESS (write.c's emit_progress). */
+static int parse_progress(sol_reader *r, rad_solution *s)
+{
+    sol_cursor *c = &r->c;
+    uint32_t shots, count;
+    double unshot, preview_seconds;
+    uint8_t converged;
+    uint64_t recomputed, dropped;
+    if (!sol_get_u32(c, &shots) || !sol_get_f64(c, &unshot) || !sol_get_u8(c, &converged) ||
+        !sol_get_u64(c, &recomputed) || !sol_get_u64(c, &dropped) ||
+        !sol_get_f64(c, &preview_seconds) || !sol_get_u32(c, &count))
+        return TRUNC("truncated");
+    int rc = check_count(r, count, PREVIEW_BYTES, "previews");
+    if (rc)
+        return rc;
+    rad_progress *p = s->progress = rad_progress_create(count);
+    if (!p)
+        return sol_rfail(r, RAD_ERR_NOMEM, "out of memory for %u previews", count);
+    *p = (rad_progress){.shots = shots, .unshot = unshot, .converged = converged,
+                        .rows_recomputed = recomputed, .rows_dropped = dropped,
+                        .preview_seconds = preview_seconds, .preview_count = count,
+                        .previews = p->previews};
+    for (uint32_t i = 0; i < count; i++)
+        if (!sol_get_u32(c, &p->previews[i].shots) || !sol_get_u32(c, &p->previews[i].rows) ||
+            !sol_get_f64(c, &p->previews[i].seconds) || !sol_get_f64(c, &p->previews[i].unshot))
+            return TRUNC("preview %u: truncated", i);
+    return sol_check_progress(s, r->name, "section PROGRESS", RAD_ERR_CORRUPT, r->err);
+}
+
 typedef int (*parse_fn)(sol_reader *, rad_solution *);
 static const parse_fn sec_parse[SEC_COUNT] = {
     [SEC_INFO] = parse_info,
@@ -1130,6 +1159,7 @@ static const parse_fn sec_parse[SEC_COUNT] = {
     [SEC_SURFACE] = parse_surface,
     [SEC_CLUSTERS] = parse_clusters,
     [SEC_ELEMENT_INDIRECT] = parse_element_indirect,
+    [SEC_PROGRESS] = parse_progress,
     [SEC_ROWS] = parse_rows,
     [SEC_IRRADIANCE] = parse_irradiance,
     [SEC_MATRIXREF] = parse_matrixref,

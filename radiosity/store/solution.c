@@ -54,7 +54,30 @@ void rad_solution_destroy(rad_solution *s)
     free(s->irradiance);
     free(s->file);
     free(s->matrix_file.path);
+    rad_progress_destroy(s->progress);
     free(s);
+}
+
+rad_progress *rad_progress_create(uint32_t previews)
+{
+    rad_progress *p = calloc(1, sizeof *p);
+    if (!p)
+        return NULL;
+    p->previews = calloc((size_t)previews + 1, sizeof *p->previews);
+    if (!p->previews) {
+        free(p);
+        return NULL;
+    }
+    p->preview_count = previews;
+    return p;
+}
+
+void rad_progress_destroy(rad_progress *p)
+{
+    if (!p)
+        return;
+    free(p->previews);
+    free(p);
 }
 
 /* The light arrays for `count` lights (intensity from the scene's nominal

@@ -139,6 +139,29 @@ typedef struct rad_matrix_file {
     uint64_t bytes;       /* F->bytes when read: a matrix that grew since is another one */
 } rad_matrix_file;
 
+/* What a progressive solve did (NULL for the other solvers): how far it
+ * got, the rows it computed again under --max-memory, and each preview's
+ * time and unshot power.  Times are seconds since the run began (meshing),
+ * with the previews' own rendering left out; unshot is the unshot power as
+ * a fraction of the emitted power (the worst band). */
+typedef struct rad_preview_info {
+    uint32_t shots;
+    uint32_t rows;   /* rows computed so far in the run (the time's main part) */
+    double seconds;
+    double unshot;
+} rad_preview_info;
+
+typedef struct rad_progress {
+    uint32_t shots;
+    double unshot;             /* at the end */
+    int converged;             /* 1: unshot below the tolerance; 0: the shot limit stopped it */
+    uint64_t rows_recomputed;  /* rows computed again after the row store dropped them */
+    uint64_t rows_dropped;     /* rows dropped to stay within --max-memory */
+    double preview_seconds;    /* time spent rendering previews (outside every stage) */
+    uint32_t preview_count;
+    rad_preview_info *previews; /* preview_count entries (owned) */
+} rad_progress;
+
 typedef struct rad_solution {
     rad_scene *scene;        /* owned */
     rad_mesh *mesh;          /* owned */
@@ -179,6 +202,7 @@ typedef struct rad_solution {
     char *file;                    /* the file it was read from (owned), NULL from memory */
     uint64_t file_id;              /* CRC-64 of that file's index (version 6): its content */
     rad_matrix_file matrix_file;   /* where F's rows are (version 6) */
+    rad_progress *progress;        /* NULL unless the last solve was progressive (owned) */
 } rad_solution;
 
 /* A new solution taking ownership of scene and mesh (on failure they are
@@ -187,6 +211,11 @@ typedef struct rad_solution {
  * per-patch power not yet computed.  Caller owns *out. */
 int rad_solution_create(rad_scene *scene, rad_mesh *mesh, rad_solution **out, rad_error *err);
 void rad_solution_destroy(rad_solution *s); /* NULL does nothing */
+
+/* A progress record with room for `previews` previews (all fields 0,
+ * preview_count = previews).  NULL when memory runs out.  Caller owns. */
+rad_progress *rad_progress_create(uint32_t previews);
+void rad_progress_destroy(rad_progress *p); /* NULL does nothing */
 
 /* Writes the solution to path (format version 6, docs/solution-format.md)
  * through a temporary file and rename, F's rows included. */
@@ -304,8 +333,10 @@ rad_journal_stats rad_journal_stats_of(const rad_journal *j);
 const char *rad_journal_path(const rad_journal *j);
 
 /* Writes s's other sections and the index after the rows, syncs, and
- * renames the file onto PATH.  s->F must be the attached matrix.  Frees j
- * whatever happens; on failure the partial file stays. */
+ * renames the file onto PATH.  s->F must be the attached matrix.  When F
+ * has dropped rows the file holds (the progressive solver's bounded row
+ * store), PATH is written whole from F instead and the partial file
+ * removed.  Frees j whatever happens; on failure the partial file stays. */
 int rad_journal_commit(rad_journal *j, const rad_solution *s, rad_error *err);
 
 /* Stops taking F's rows (before F is freed: a solve that failed). */

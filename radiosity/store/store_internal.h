@@ -56,7 +56,9 @@
  * SURFACE when a material has a glossy lobe (rad_material's specular and
  * roughness, which only the gather renderer reads), CLUSTERS when the mesh
  * has a cell layer (patches of several cells, rad.h), ELEMENTINDIRECT when
- * some elements interpolate the light reflected onto them (issue 18).  ROWS, IRRADIANCE
+ * some elements interpolate the light reflected onto them (issue 18),
+ * PROGRESS when the last solve was progressive (its shots, previews and
+ * row store).  ROWS, IRRADIANCE
  * and MATRIXREF exist from version 6 on (which holds MATRIXREF or MATRIX,
  * never both).
  *
@@ -67,13 +69,14 @@
  * The readers of both versions and the writer take it from there. */
 enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_ELEMENTS,
        SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_SURFACE, SEC_CLUSTERS, SEC_ELEMENT_INDIRECT,
+       SEC_PROGRESS,
        SEC_ROWS, SEC_IRRADIANCE, SEC_MATRIXREF, SEC_COUNT };
 /* Sections of versions 1-5 (the others are refused there). */
 #define SEC_COUNT_V5 SEC_ROWS
 /* The optional sections INFO announces (versions 5 and 6), one bit each
  * from LIGHTS on, in enum order: LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4,
- * CAMERAS 8, SURFACE 16, CLUSTERS 32, ELEMENT_INDIRECT 64 (PROGRESS 128 is
- * taken by a section to come).  INFO's announcement is one byte. */
+ * CAMERAS 8, SURFACE 16, CLUSTERS 32, ELEMENT_INDIRECT 64, PROGRESS 128.
+ * INFO's announcement is one byte. */
 #define SEC_LAST_ANNOUNCED (SEC_ROWS - 1)
 #define SOL_ANNOUNCED_BITS (SEC_LAST_ANNOUNCED - SEC_LIGHTS + 1)
 _Static_assert(SOL_ANNOUNCED_BITS <= 8, "INFO announces the optional sections in one byte");
@@ -106,6 +109,7 @@ int sol_section_order(size_t q);
 /* patch, level, four corners, row count; + 8 per band */
 #define MIN_ELEMENT (4u + 1u + 16u + 4u)
 /* camera index, projection, xmag, ymag */
+#define PREVIEW_BYTES (4u + 4u + 8u + 8u) /* one preview of PROGRESS */
 #define ORTHO_CAMERA_BYTES (4u + 1u + 16u)
 /* four corners and a polygon */
 #define CLUSTER_CELL_BYTES (5u * 4u)
@@ -140,6 +144,10 @@ int sol_check_patch_values(const rad_solution *s, const char *file, const char *
                            rad_error *err);
 
 /* The provenance rules (stage times, solver name, tolerance, ...). */
+/* The progress record's rules (PROGRESS): times and fractions finite and
+ * >= 0, previews in order of shots, time and rows. */
+int sol_check_progress(const rad_solution *s, const char *file, const char *where, int code,
+                       rad_error *err);
 int sol_check_info(const rad_solution *s, const char *file, const char *where, int code,
                    rad_error *err);
 

@@ -155,7 +155,7 @@ static int section_written(const rad_solution *s, int i);
 
 /* INFO (versions 5 and 6) ends with the optional sections the file holds,
  * one bit each in enum order (LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4,
- * CAMERAS 8, SURFACE 16, CLUSTERS 32, ELEMENTINDIRECT 64): the reader then knows what must be
+ * CAMERAS 8, SURFACE 16, CLUSTERS 32, ELEMENTINDIRECT 64, PROGRESS 128): the reader then knows what must be
  * there, and a file stripped of one of them cannot pass for a file
  * without it. */
 static uint8_t announced_sections(const rad_solution *s)
@@ -478,6 +478,8 @@ int sol_validate_for_write(const rad_solution *s, const char *path, int check_ma
         return rad_fail(err, RAD_ERR_USAGE, "%s: cannot write: solver name is not terminated",
                         path);
     int rc = sol_check_info(s, path, "cannot write", RAD_ERR_INVALID, err);
+    if (!rc)
+        rc = sol_check_progress(s, path, "cannot write", RAD_ERR_INVALID, err);
     if (rc)
         return rc;
     if ((rc = check_string(sc->source, path, "scene source", 0, err)))
@@ -603,6 +605,27 @@ void sol_put_matrix_head(sol_sink *k, uint32_t n, uint64_t key)
     put_u64(k, key);
 }
 
+/* PROGRESS: the last progressive solve's shots, unshot fraction, converged
+ * flag, rows recomputed and dropped, preview time, then each preview's
+ * shots, rows computed, seconds and unshot fraction. */
+static void emit_progress(sol_sink *k, const sol_write_ctx *w)
+{
+    const rad_progress *p = w->s->progress;
+    put_u32(k, p->shots);
+    put_f64(k, p->unshot);
+    put_u8(k, (uint8_t)p->converged);
+    put_u64(k, p->rows_recomputed);
+    put_u64(k, p->rows_dropped);
+    put_f64(k, p->preview_seconds);
+    put_u32(k, p->preview_count);
+    for (uint32_t i = 0; i < p->preview_count; i++) {
+        put_u32(k, p->previews[i].shots);
+        put_u32(k, p->previews[i].rows);
+        put_f64(k, p->previews[i].seconds);
+        put_f64(k, p->previews[i].unshot);
+    }
+}
+
 typedef void (*emit_fn)(sol_sink *, const sol_write_ctx *);
 static const emit_fn sec_emit[SEC_COUNT] = {
     [SEC_INFO] = emit_info,
@@ -617,6 +640,7 @@ static const emit_fn sec_emit[SEC_COUNT] = {
     [SEC_SURFACE] = emit_surface,
     [SEC_CLUSTERS] = emit_clusters,
     [SEC_ELEMENT_INDIRECT] = emit_element_indirect,
+    [SEC_PROGRESS] = emit_progress,
     [SEC_ROWS] = emit_rows,
     [SEC_IRRADIANCE] = emit_irradiance,
     [SEC_MATRIXREF] = emit_matrixref,
@@ -646,6 +670,8 @@ static int section_written(const rad_solution *s, int i)
         return s->mesh->cell_first != NULL;
     case SEC_ELEMENT_INDIRECT:
         return s->elements && s->elements->interp;
+    case SEC_PROGRESS:
+        return s->progress != NULL;
     default:
         return 1;
     }

@@ -7,8 +7,9 @@
 # Expected value: Howell C-11, F = 0.19982490 for directly opposed unit
 # squares at unit distance.  Tolerance 0.2 % (TOL): the command runs at its
 # defaults (R = 128) on 16×16 patches, where it measures +5.9e-4 (F_AB
-# 0.1999434, F_BA 0.1999427), so a factor shifted by 0.4 % either way fails
-# (a changed default must come with a new measurement here).
+# 0.1999434, F_BA 0.1998249: B's entries for the emitter A are exact), so a
+# factor shifted by 0.4 % either way fails (a changed default must come with
+# a new measurement here).
 set -u
 BIN=${RADIOSITY_BIN:-build/release/radiosity}
 dir=$(mktemp -d)
@@ -68,10 +69,11 @@ if [ "$rc" -eq 0 ] && [ -z "$missing" ] && [ "$jfrom" = A ] && [ "$jto" = B ] &&
 else
     fail "ff --json: exit $rc, missing keys:$missing, from '$jfrom', to '$jto', F_AB '$jab': $(cat "$dir/json" "$dir/err")"
 fi
-# A_A F_AB - A_B F_BA: both areas are 1, so the gap is F_AB - F_BA, far below F
-# (measured 7.5e-7: A's rows see no emitter and B's rows have A's entries
-# exact, which the mirror-image pixel counts of A's rows match to that)
-if [ -n "$gap" ] && awk -v g="$gap" 'BEGIN { if (g < 0) g = -g; exit !(g <= 4e-6) }'; then
+# A_A F_AB - A_B F_BA: both areas are 1, so the gap is F_AB - F_BA, far below F.
+# B's rows hold A's entries exactly, averaged over B's patches (issue 18), so
+# F_BA is Howell's value and the gap is the pixel error of A's rows (measured
+# 1.19e-4, the +5.9e-4 of F_AB above; 4e-4 is TOL's share of F)
+if [ -n "$gap" ] && awk -v g="$gap" 'BEGIN { if (g < 0) g = -g; exit !(g <= 4e-4) }'; then
     ok "ff --json: reciprocity gap $gap"
 else
     fail "ff --json: reciprocity gap '$gap'"
