@@ -41,7 +41,7 @@ names=(); cmds=()
 add() { names+=("$1"); cmds+=("$2"); }
 
 if [ -f test/fuzz/run_fuzz.sh ]; then
-    add fuzz "bash test/fuzz/run_fuzz.sh ${FUZZ_SECONDS:-30}"
+    add fuzz "FUZZ_SEED=${FUZZ_SEED:-1} bash test/fuzz/run_fuzz.sh ${FUZZ_SECONDS:-30}"
 fi
 for flavour in asan release; do
     for t in build/$flavour/test/test_*; do

@@ -11,6 +11,7 @@
  * 3 s under ASan.
  */
 #include "../radiosity/pipeline/pipeline.h"
+#include "../radiosity/scene/gltf_image.h"
 #include "test.h"
 #include "util.h"
 
@@ -301,6 +302,32 @@ TEST(defaults_and_ignored)
               err.message);
 }
 
+/* A JPEG whose Huffman table claims more than 256 symbols (16 counts of
+ * 255) is refused with a reason before the decoder sees it: Debian's
+ * stb_image would write past its table (the fuzz target found it; its input
+ * is replayed from test/fuzz/regressions/gltf).  The same table with 16
+ * symbols passes the check and fails later, as a truncated image. */
+TEST(jpeg_huffman_overflow)
+{
+    unsigned char jpg[2 + 4 + 17 + 4];
+    size_t k = 0;
+    jpg[k++] = 0xFF, jpg[k++] = 0xD8;                         /* SOI */
+    jpg[k++] = 0xFF, jpg[k++] = 0xC4, jpg[k++] = 0, jpg[k++] = 19; /* DHT, 17 bytes */
+    jpg[k++] = 0x00;                                          /* DC table 0 */
+    for (int i = 0; i < 16; i++)
+        jpg[k++] = 255;
+    jpg[k++] = 0xFF, jpg[k++] = 0xD9, jpg[k++] = 0, jpg[k++] = 0; /* EOI */
+    double mean[3];
+    char why[256] = "";
+    CHECK(rad_gltf_image_mean(jpg, k, 1u << 20, mean, why, sizeof why) == -1);
+    CHECK_MSG(strstr(why, "Huffman table of more than 256 symbols") != NULL, "%s", why);
+    for (int i = 0; i < 16; i++)
+        jpg[7 + i] = i == 0 ? 16 : 0;
+    why[0] = '\0';
+    CHECK(rad_gltf_image_mean(jpg, k, 1u << 20, mean, why, sizeof why) == -1);
+    CHECK_MSG(strstr(why, "Huffman") == NULL && why[0] != '\0', "%s", why);
+}
+
 /* An orthographic camera from above: it survives the solution file, and
  * the image shows the floor where the projection puts it, at the radiance
  * of a floor under a sun of 1 W/m² per band. */
@@ -388,5 +415,6 @@ int main(void)
     RUN(solution_keeps_polygon_rho);
     RUN(defaults_and_ignored);
     RUN(orthographic_render);
+    RUN(jpeg_huffman_overflow);
     return test_finish("test_real");
 }

@@ -63,6 +63,37 @@ static void *capped_realloc(void *p, size_t n) { return n <= IMAGE_MAX_ALLOC ? r
 #pragma GCC diagnostic pop
 
 /* The sRGB transfer function, decoded (IEC 61966-2-1). */
+/* Debian's stb_image (git 2022-09) builds a JPEG Huffman table from its
+ * 16 code-length counts without checking that they add up to at most 256
+ * symbols, and writes past the table when they do not (found by the fuzz
+ * target).  Every place a DHT marker (FF C4) could be taken from is checked
+ * the way stb reads it (tables of 17 bytes plus their symbols while the
+ * segment's length lasts; bytes past the end read as 0) before stb sees the
+ * file.  Entropy-coded data never holds FF C4 (an FF there is stuffed as
+ * FF 00), so a valid JPEG passes; a JPEG inside an EXIF block is checked
+ * too, which can only refuse a damaged file.  0 when sane. */
+static int jpeg_bad_huffman(const unsigned char *d, size_t size)
+{
+    if (size < 2 || d[0] != 0xFF || d[1] != 0xD8)
+        return 0; /* not a JPEG */
+    for (size_t m = 2; m + 4 <= size; m++) {
+        if (d[m] != 0xFF || d[m + 1] != 0xC4)
+            continue;
+        long left = (long)((unsigned)d[m + 2] << 8 | d[m + 3]) - 2;
+        size_t p = m + 4;
+        while (left > 0) {
+            unsigned n = 0;
+            for (size_t i = 1; i <= 16; i++)
+                n += p + i < size ? d[p + i] : 0;
+            if (n > 256)
+                return 1;
+            p += 17 + n;
+            left -= 17 + (long)n;
+        }
+    }
+    return 0;
+}
+
 static double srgb_to_linear(double c)
 {
     return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4);
@@ -78,6 +109,10 @@ int rad_gltf_image_mean(const unsigned char *data, size_t size, uint64_t max_tex
     }
     if (size > INT_MAX) {
         snprintf(why, why_size, "%zu bytes, more than the decoder's 2 GiB", size);
+        return -1;
+    }
+    if (jpeg_bad_huffman(data, size)) {
+        snprintf(why, why_size, "a JPEG Huffman table of more than 256 symbols");
         return -1;
     }
     /* The header alone first: a huge image is refused before any pixel is
