@@ -355,6 +355,7 @@ static const char usage[] =
     "      --solver NAME            gauss-seidel (default), jacobi, progressive\n"
     "      --tolerance T            solver tolerance (default " CLI_STR(SV_DEFAULT_TOLERANCE) ")\n"
     "      --max-iterations N       solver iteration limit\n"
+    "      --max-patches N          refuse a mesh of more than N patches (default 2 million)\n"
     "      --max-memory SIZE        limit for the form-factor matrix (e.g. 4G); progressive\n"
     "                               keeps its rows within it, computing some again\n"
     "      --pixel-emitters         form factors to emitters by pixel counts, not exactly\n"
