@@ -554,10 +554,7 @@ static int copy_rows(void *user, const uint32_t *rows, uint32_t count, rad_error
         r->calls[i]++;
         if (r->forget)
             continue;
-        const uint32_t *col;
-        const float *val;
-        uint32_t cnt = test_row(r->full, i, 0, &col, &val);
-        int rc = rad_matrix_set_row(r->target, i, cnt, col, val, err);
+        int rc = test_copy_row(r->full, r->target, i, err);
         if (rc)
             return rc;
     }
@@ -843,10 +840,7 @@ static int log_order(void *user, const uint32_t *rows, uint32_t count, rad_error
         const uint32_t i = rows[k];
         if (l->count < 8)
             l->order[l->count++] = i;
-        const uint32_t *col;
-        const float *val;
-        uint32_t cnt = test_row(l->full, i, 0, &col, &val);
-        int rc = rad_matrix_set_row(l->target, i, cnt, col, val, err);
+        int rc = test_copy_row(l->full, l->target, i, err);
         if (rc)
             return rc;
     }

@@ -116,11 +116,7 @@ static int copy_rows(void *user, const uint32_t *rows, uint32_t count, rad_error
 {
     full_rows *fr = user;
     for (uint32_t k = 0; k < count; k++) {
-        const uint32_t i = rows[k];
-        const uint32_t *col;
-        const float *val;
-        uint32_t cnt = test_row(fr->all, i, 0, &col, &val);
-        int rc = rad_matrix_set_row(fr->F, i, cnt, col, val, err);
+        int rc = test_copy_row(fr->all, fr->F, rows[k], err);
         if (rc)
             return rc;
     }

@@ -39,6 +39,17 @@ static inline uint32_t test_row(const rad_matrix *F, uint32_t i, int slot, const
     return n;
 }
 
+/* Row i of `from` copied into `to` (a need_rows source built on a full
+ * reference matrix). */
+static inline int test_copy_row(const rad_matrix *from, rad_matrix *to, uint32_t i,
+                                rad_error *err)
+{
+    const uint32_t *col;
+    const float *val;
+    uint32_t cnt = test_row(from, i, 0, &col, &val);
+    return rad_matrix_set_row(to, i, cnt, col, val, err);
+}
+
 /* Parses polygon-file text (`name` in messages) and solves it as opt says
  * (NULL: defaults, but no elements: patches only); NULL, with the message
  * on stderr, on failure.  Caller owns the result. */
