@@ -65,7 +65,10 @@ uint8_t *rad_matrix_reserve(rad_matrix *m, uint64_t more, rad_error *err)
         return rad_fail(err, RAD_ERR_LIMIT, "form-factor matrix: %llu bytes do not fit in memory",
                         (unsigned long long)more), NULL;
     uint64_t need = m->bytes + more;
-    if (need > m->capacity) {
+    /* An empty pool is allocated too (a request for 0 bytes included):
+     * the caller gets a pointer into memory, never NULL + 0 (found by
+     * fuzz_solution: a MATRIX section of no rows). */
+    if (need > m->capacity || !m->data) {
         /* 1.5× steps while rows trickle in (the pool can be most of memory;
          * glibc grows large blocks by remapping, not copying), exact when a
          * reader asks for a whole file's rows at once. */

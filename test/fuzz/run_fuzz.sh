@@ -111,12 +111,21 @@ for t in $TARGETS; do
     esac
     dict=()
     [ -f "test/fuzz/$t.dict" ] && dict=("-dict=test/fuzz/$t.dict")
-    # FUZZ_SEED fixes libFuzzer's random seed: make test sets it, so that a
-    # test run explores the same inputs each time (a gate should not fail at
-    # random); make fuzz leaves it unset and explores anew every run.
-    seed=()
-    [ -n "${FUZZ_SEED:-}" ] && seed=("-seed=$FUZZ_SEED")
-    "$bin" "$work" "${dict[@]}" "${seed[@]}" -max_total_time="$SECONDS_EACH" -rss_limit_mb=2048 \
+    # FUZZ_SEED fixes libFuzzer's random seed and the number of inputs
+    # (about what SECONDS seconds run here), so that make test, which sets
+    # it, tries the same inputs on every machine (a gate should not fail at
+    # random; a slow machine stops at twice SECONDS, on a prefix of them);
+    # make fuzz leaves it unset and explores anew for SECONDS every run.
+    limit=("-max_total_time=$SECONDS_EACH")
+    if [ -n "${FUZZ_SEED:-}" ]; then
+        case "$t" in
+            polyfile) runs=$((13000 * SECONDS_EACH)) ;;
+            gltf)     runs=$((1500 * SECONDS_EACH)) ;;
+            *)        runs=$((1000 * SECONDS_EACH)) ;;
+        esac
+        limit=("-seed=$FUZZ_SEED" "-runs=$runs" "-max_total_time=$((2 * SECONDS_EACH))")
+    fi
+    "$bin" "$work" "${dict[@]}" "${limit[@]}" -rss_limit_mb=2048 \
         -max_len="$max_len" -timeout=25 -print_final_stats=1 \
         -artifact_prefix="$OUT/artifacts/${t}-" > "$log" 2>&1
     status=$?
