@@ -124,9 +124,8 @@ int rad_matrix_set_row(rad_matrix *m, uint32_t i, uint32_t count, const uint32_t
 {
     if (!m || i >= m->n || (count && (!col || !val)) || !m->entries_loaded)
         return rad_fail(err, RAD_ERR_USAGE, "form-factor matrix: bad row %u", i);
-    /* at most 5 bytes a varint */
     rad_error local, *e = err ? err : &local;
-    uint8_t *p = rad_matrix_reserve(m, RECORD_HEAD + 9ull * count, e);
+    uint8_t *p = rad_matrix_reserve(m, rad_matrix_row_bytes(count), e);
     if (!p)
         return e->code;
     put_u32(p, i);
@@ -309,6 +308,11 @@ uint64_t rad_matrix_used_bytes(const rad_matrix *m) { return m->bytes; }
 /* A record at most: its head, 4 bytes a value, 5 a varint gap. */
 uint64_t rad_matrix_row_bytes(uint32_t count) { return RECORD_HEAD + (uint64_t)count * 9u; }
 
+uint64_t rad_matrix_index_bytes(uint32_t n)
+{
+    return (uint64_t)n * (sizeof(uint64_t) + sizeof(uint32_t) + 1);
+}
+
 uint64_t rad_matrix_live_bytes(const rad_matrix *m)
 {
     uint64_t bytes = 0;
@@ -387,7 +391,7 @@ uint64_t rad_matrix_estimate_bytes(uint32_t n, double fill)
         fill = 1.0;
     double entries = (double)n * (double)n * fill;
     double bytes = entries * entry_bytes(fill) +
-                   (double)n * (RECORD_HEAD + sizeof(uint64_t) + sizeof(uint32_t) + 1);
+                   (double)n * RECORD_HEAD + (double)rad_matrix_index_bytes(n);
     return bytes >= 1.8e19 ? UINT64_MAX : (uint64_t)bytes;
 }
 

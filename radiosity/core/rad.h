@@ -343,6 +343,9 @@ uint64_t rad_matrix_used_bytes(const rad_matrix *m);
 uint64_t rad_matrix_live_bytes(const rad_matrix *m);
 /* Bytes a row of `count` entries may take in the pool, at most. */
 uint64_t rad_matrix_row_bytes(uint32_t count);
+/* Bytes of the per-row index of n rows (row_start, row_count, row_done):
+ * the part of a matrix that does not grow with its entries. */
+uint64_t rad_matrix_index_bytes(uint32_t n);
 /* Removes row i: it reads as missing again (row_done 0).  Its record stays
  * in the pool, abandoned, until rad_matrix_compact. */
 void rad_matrix_drop_row(rad_matrix *m, uint32_t i);

@@ -103,13 +103,12 @@ static int mark_exact(run *c, rad_error *err)
 {
     if (c->exact || c->opt->pixel_emitters || c->opt->hemicube.exact)
         return RAD_OK;
-    uint32_t n = c->s->mesh->patch_count, nb = c->s->band_count;
+    uint32_t n = c->s->mesh->patch_count;
     c->exact = calloc((size_t)n + 1, 1);
     if (!c->exact)
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", c->s->scene->source);
     for (uint32_t i = 0; i < n; i++)
-        for (uint32_t b = 0; b < nb; b++)
-            c->exact[i] |= c->s->emission[(size_t)i * nb + b] > 0.0;
+        c->exact[i] = (uint8_t)emits(c->s, i);
     return RAD_OK;
 }
 
@@ -249,13 +248,6 @@ static int patch_tau(const rad_solution *s, double **out, rad_error *err)
     return RAD_OK;
 }
 
-/* F's per-row index (row_start, row_count, row_done): the part of the
- * estimate's matrix_bytes that stays when rows are dropped. */
-static uint64_t index_bytes(uint32_t n)
-{
-    return (uint64_t)n * (sizeof(uint64_t) + sizeof(uint32_t) + 1);
-}
-
 /* The estimate once the sample rows are in F: `left` rows still to
  * compute, each taken to hold the samples' mean count of entries and to
  * take their mean bytes, in memory (F keeps its rows packed, as the file
@@ -280,7 +272,7 @@ static void estimate(const run *c, const uint32_t *sample, uint32_t k, uint32_t 
                         .sample_rows = k,
                         .entries_per_row = mean,
                         .limit_bytes = c->max_memory};
-    e->matrix_bytes = (uint64_t)((double)F->bytes + more) + index_bytes(n);
+    e->matrix_bytes = (uint64_t)((double)F->bytes + more) + rad_matrix_index_bytes(n);
     /* The process now (scene, mesh, solution arrays, F so far), the rest of
      * F, and the solve's own arrays (a few per patch and band). */
     e->peak_bytes = rad_process_memory(0) + (uint64_t)more + (uint64_t)n * (32u * nb + 16u);
@@ -292,7 +284,7 @@ static void estimate(const run *c, const uint32_t *sample, uint32_t k, uint32_t 
  * within --max-memory; at least 1 byte (0 would mean no limit). */
 static uint64_t row_store_bytes(const run *c)
 {
-    const uint64_t index = index_bytes(c->s->mesh->patch_count);
+    const uint64_t index = rad_matrix_index_bytes(c->s->mesh->patch_count);
     return c->max_memory > index + 1 ? c->max_memory - index : 1;
 }
 
@@ -303,7 +295,8 @@ static uint64_t row_store_bytes(const run *c)
 #define STORE_MIN_ROWS 8u
 static uint64_t progressive_floor(const run *c, uint32_t longest)
 {
-    return index_bytes(c->s->mesh->patch_count) + STORE_MIN_ROWS * rad_matrix_row_bytes(longest);
+    return rad_matrix_index_bytes(c->s->mesh->patch_count) +
+           STORE_MIN_ROWS * rad_matrix_row_bytes(longest);
 }
 
 /* A matrix that would not fit in c->max_memory, before computing the rows
