@@ -201,7 +201,7 @@ static int per_view_costs(const char *dir, const char *name)
     double t1 = cpu_seconds();
     if (rad_drawing_create(s, &d, &err))
         return fail("drawing", &err);
-    double t2 = cpu_seconds(), draw = 0, write_exr = 0, write_png = 0;
+    double t2 = cpu_seconds(), draw = 0, write_exr = 0, write_raw = 0, write_png = 0;
     rn_camera cam;
     if (rad_camera_from_scene(s->scene, NULL, 1024, 1024, &cam, &err))
         return fail("camera", &err);
@@ -214,16 +214,22 @@ static int per_view_costs(const char *dir, const char *name)
         if (rn_write_exr(img, exr, &err))
             return fail(exr, &err);
         double e = cpu_seconds();
+        if (rn_write_exr_with(img, exr, RN_EXR_NONE, &err))
+            return fail(exr, &err);
+        double f = cpu_seconds();
         if (rn_write_png(img, png, 0.0, &err))
             return fail(png, &err);
         draw += b - a;
         write_exr += e - b;
-        write_png += cpu_seconds() - e;
+        write_raw += f - e;
+        write_png += cpu_seconds() - f;
+        rn_image_destroy(img);
     }
     printf("\nwhere the time goes (%u patches, 1024x1024, CPU s in one process): read %.3f, "
-           "prepare the drawing %.3f;\nper view (mean of 10, one canvas): draw %.3f, EXR %.3f, "
-           "PNG %.3f\n",
-           s->mesh->patch_count, t1 - t0, t2 - t1, draw / 10, write_exr / 10, write_png / 10);
+           "prepare the drawing %.3f;\nper view (mean of 10, one canvas): draw %.3f, EXR %.3f (ZIP) "
+           "or %.3f (none), PNG %.3f\n",
+           s->mesh->patch_count, t1 - t0, t2 - t1, draw / 10, write_exr / 10, write_raw / 10,
+           write_png / 10);
     rn_canvas_destroy(c);
     rad_drawing_destroy(d);
     rad_solution_destroy(s);
@@ -247,7 +253,9 @@ int main(int argc, char **argv)
     struct {
         char *size;
         int png;
-    } runs[] = {{"512x512", 1}, {"1024x1024", 1}, {"1024x1024", 0}};
+        char *exr; /* --exr-compression */
+    } runs[] = {{"512x512", 1, "zip"},   {"1024x1024", 1, "zip"}, {"1024x1024", 0, "zip"},
+                {"1024x1024", 1, "none"}, {"1024x1024", 0, "none"}};
     long cpus = sysconf(_SC_NPROCESSORS_ONLN);
     double load[3] = {0};
     getloadavg(load, 3);
@@ -255,7 +263,7 @@ int main(int argc, char **argv)
            "fastest wall of 3 runs, its CPU (user + sys), peak RSS; %ld CPUs, load average %.1f\n"
            "at the start (other work on the machine stretches the wall times, not the CPU)\n\n",
            cpus, load[0]);
-    printf("| solution | patches | file MB | size | files | one view s (CPU) | ten views, 1 thread "
+    printf("| solution | patches | file MB | size | files (EXR codec) | one view s (CPU) | ten views, 1 thread "
            "s (CPU) | ten views, %ld threads s (CPU) | ten / one | peak MiB one / ten |\n", cpus);
     printf("|---|--:|--:|---|---|--:|--:|--:|--:|--:|\n");
     int rc = 0;
@@ -274,27 +282,30 @@ int main(int argc, char **argv)
         snprintf(eye, sizeof eye, "%.9g,%.9g,%.9g", e.x, e.y, e.z);
         snprintf(target, sizeof target, "%.9g,%.9g,%.9g", t.x, t.y, t.z);
         for (size_t z = 0; z < sizeof runs / sizeof runs[0] && !rc; z++) {
-            char *size = runs[z].size;
+            char *size = runs[z].size, *codec = runs[z].exr;
             /* Without PNGs the argument lists end early. */
-            char *one_argv[] = {(char *)bin, "render", sol, "-o", one, "--size", size, "--eye", eye,
-                                "--target", target, "--fov", "50", "--png", png, NULL};
+            char *one_argv[] = {(char *)bin, "render", sol, "-o", one, "--size", size,
+                                "--exr-compression", codec, "--eye", eye, "--target", target,
+                                "--fov", "50", "--png", png, NULL};
             char *ten1_argv[] = {(char *)bin, "render", sol, "-o", dir, "--path", path, "--size",
-                                 size, "--threads", "1", "--no-png", NULL};
+                                 size, "--exr-compression", codec, "--threads", "1", "--no-png",
+                                 NULL};
             char *ten_argv[] = {(char *)bin, "render", sol, "-o", dir, "--path", path, "--size",
-                                size, "--no-png", NULL};
+                                size, "--exr-compression", codec, "--no-png", NULL};
             if (runs[z].png) {
-                ten1_argv[11] = NULL;
-                ten_argv[9] = NULL;
+                ten1_argv[13] = NULL;
+                ten_argv[11] = NULL;
             } else {
-                one_argv[13] = NULL;
+                one_argv[15] = NULL;
             }
             run_stats r1, r10a, r10;
             rc = measure(one_argv, &r1) || measure(ten1_argv, &r10a) || measure(ten_argv, &r10);
             if (rc)
                 break;
-            printf("| Cornell, %s | %u | %.1f | %s | %s | %.3f (%.3f) | %.3f (%.3f) | %.3f (%.3f) "
+            printf("| Cornell, %s | %u | %.1f | %s | %s (%s) | %.3f (%.3f) | %.3f (%.3f) | %.3f (%.3f) "
                    "| %.2f | %.0f / %.0f |\n",
-                   cases[c].what, patches, file_mb, size, runs[z].png ? "EXR + PNG" : "EXR", r1.wall,
+                   cases[c].what, patches, file_mb, size, runs[z].png ? "EXR + PNG" : "EXR", codec,
+                   r1.wall,
                    r1.cpu,
                    r10a.wall, r10a.cpu, r10.wall, r10.cpu, r10.wall / r1.wall, r1.peak_mib,
                    r10.peak_mib);

@@ -47,6 +47,47 @@ static png_byte srgb_byte(double x)
     return (png_byte)(s * 255.0 + 0.5);
 }
 
+/* srgb_byte is non-decreasing, so it is fixed by the 255 linear values where
+ * it steps: t[k - 1] is the least double x with srgb_byte(x) >= k.  Found by
+ * bisection on srgb_byte itself, so coding through the table gives the same
+ * byte for every x (a pow per channel made PNG writing a tenth of a view's
+ * cost). */
+typedef struct srgb_table {
+    double t[255];
+} srgb_table;
+
+static void srgb_table_make(srgb_table *tab)
+{
+    for (int k = 1; k <= 255; k++) {
+        double lo = 0.0, hi = 1.0; /* srgb_byte(lo) < k <= srgb_byte(hi) */
+        for (;;) {
+            double mid = lo + (hi - lo) / 2;
+            if (mid <= lo || mid >= hi)
+                break;
+            if (srgb_byte(mid) >= k)
+                hi = mid;
+            else
+                lo = mid;
+        }
+        tab->t[k - 1] = hi;
+    }
+}
+
+static png_byte srgb_coded(const srgb_table *tab, double x)
+{
+    if (!(x >= tab->t[0]))
+        return 0; /* also NaN */
+    unsigned lo = 0, hi = 255; /* t[lo] <= x; x < t[hi] (t[255] = +inf) */
+    while (hi - lo > 1) {
+        unsigned mid = (lo + hi) / 2;
+        if (x >= tab->t[mid])
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return (png_byte)(lo + 1);
+}
+
 /* Encodes img into the open file f; RAD_OK or RAD_ERR_IO/NOMEM. */
 /* libpng's write callback: bytes go to the rad_output (its first failure
  * sticks and is reported at commit). */
@@ -85,11 +126,13 @@ static int encode(rad_output *out, const rn_image *img, double scale, const char
     png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
     png_write_info(png, info);
     uint32_t used = grey ? 1 : 3;
+    srgb_table tab;
+    srgb_table_make(&tab);
     for (uint32_t y = 0; y < img->height; y++) {
         const float *src = img->pixels + (size_t)y * img->width * img->channels;
         for (uint32_t x = 0; x < img->width; x++)
             for (uint32_t c = 0; c < used; c++)
-                row[(size_t)x * used + c] = srgb_byte((double)src[(size_t)x * img->channels + c] * scale);
+                row[(size_t)x * used + c] = srgb_coded(&tab, (double)src[(size_t)x * img->channels + c] * scale);
         png_write_row(png, row);
     }
     png_write_end(png, info);

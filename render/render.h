@@ -108,9 +108,28 @@ int rn_canvas_draw(rn_canvas *c, const rad_mesh *mesh, uint32_t bands, const dou
  * before any is drawn. */
 int rn_camera_check(const rn_camera *cam, rad_error *err);
 
+/* How an EXR's float pixels are compressed (lossless all).  Rendered
+ * radiance has noisy low mantissa bits: ZIP saves about 17 % of a 1024²
+ * RGB image for about 0.3 s of CPU, three times the cost of drawing it;
+ * RLE saves only flat regions (about 6 %) at no cost, NONE nothing. */
+typedef enum rn_exr_compression {
+    RN_EXR_ZIP = 0, /* the default: ZIP, 16 scanlines per block */
+    RN_EXR_NONE,
+    RN_EXR_RLE,
+    RN_EXR_PIZ
+} rn_exr_compression;
+
+/* "zip", "none", "rle" or "piz" into *out; 0, or -1 for another word. */
+int rn_exr_compression_parse(const char *word, rn_exr_compression *out);
+
 /* Writes linear radiance as OpenEXR (float channels R,G,B for 3 bands, Y for
- * 1, B0..Bk otherwise), through a temporary file renamed into place. */
+ * 1, B0..Bk otherwise), ZIP-compressed, through a temporary file renamed
+ * into place. */
 int rn_write_exr(const rn_image *img, const char *path, rad_error *err);
+
+/* rn_write_exr with the compression given. */
+int rn_write_exr_with(const rn_image *img, const char *path, rn_exr_compression compression,
+                      rad_error *err);
 
 /* Reads an EXR written by rn_write_exr (tests, comparisons). Caller owns *out. */
 int rn_read_exr(const char *path, rn_image **out, rad_error *err);

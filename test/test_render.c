@@ -8,6 +8,7 @@
  * documents: pixel centres, row 0 at the top, right-handed frame.
  */
 #include "../radiosity/core/rad.h"
+#include "../radiosity/scene/gltf_image.h"
 #include "../render/render.h"
 #include "test.h"
 
@@ -795,11 +796,14 @@ static long file_size(const char *p)
 TEST(exr_round_trip)
 {
     static const uint32_t bands[4] = {1, 3, 2, 12};
-    for (int t = 0; t < 4; t++) {
-        rn_image *img = test_image(7 + t, 37, bands[t]), *back = NULL; /* several chunks */
+    static const char *const codecs[4] = {"zip", "none", "rle", "piz"};
+    for (int t = 0; t < 16; t++) {
+        rn_image *img = test_image(7 + t % 4, 37, bands[t % 4]), *back = NULL; /* several chunks */
         rad_error err = {0};
         const char *p = tpath("round.exr");
-        CHECK_MSG(rn_write_exr(img, p, &err) == RAD_OK, "%s", err.message);
+        rn_exr_compression codec = RN_EXR_ZIP;
+        CHECK(rn_exr_compression_parse(codecs[t / 4], &codec) == 0);
+        CHECK_MSG(rn_write_exr_with(img, p, codec, &err) == RAD_OK, "%s", err.message);
         CHECK_MSG(rn_read_exr(p, &back, &err) == RAD_OK, "%s", err.message);
         if (back) {
             CHECK(back->width == img->width && back->height == img->height);
@@ -808,13 +812,21 @@ TEST(exr_round_trip)
                 size_t n = (size_t)img->width * img->height * img->channels, diff = 0;
                 for (size_t k = 0; k < n; k++) /* float channels: bit-exact */
                     diff += memcmp(&back->pixels[k], &img->pixels[k], sizeof(float)) != 0;
-                CHECK_MSG(diff == 0, "%zu of %zu values differ (%u bands)", diff, n, bands[t]);
+                CHECK_MSG(diff == 0, "%zu of %zu values differ (%u bands, %s)", diff, n,
+                          bands[t % 4], codecs[t / 4]);
             }
             CHECK(back->patch && back->patch[0] == RAD_NONE);
         }
         rn_image_destroy(back);
         rn_image_destroy(img);
     }
+    rn_exr_compression codec = RN_EXR_NONE;
+    CHECK(rn_exr_compression_parse("ZIP", &codec) == -1 && codec == RN_EXR_NONE);
+    CHECK(rn_exr_compression_parse(NULL, &codec) == -1);
+    rad_error e2;
+    rn_image *tiny = test_image(2, 2, 1);
+    CHECK(rn_write_exr_with(tiny, tpath("bad.exr"), (rn_exr_compression)9, &e2) == RAD_ERR_USAGE);
+    rn_image_destroy(tiny);
     CHECK(no_temp_left());
     /* Not an EXR: a parse error, not a crash. */
     const char *junk = tpath("junk.exr");
@@ -860,6 +872,70 @@ TEST(png_written)
     CHECK(rn_write_png(img, tpath("x.png"), NAN, &err) == RAD_ERR_USAGE);
     rn_image_destroy(img);
     CHECK(no_temp_left());
+}
+
+/* The PNG's bytes are the sRGB code of each value: checked on one-pixel
+ * images at values just below and above every step of the code (the
+ * encoder finds its steps by a table), decoded by the glTF loader's
+ * decoder (stb_image, sRGB to linear) and compared with this test's own
+ * code and decode of the same value. */
+static double test_srgb_code(double x)
+{
+    if (!(x > 0.0))
+        return 0;
+    if (x >= 1.0)
+        return 255;
+    double s = x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1.0 / 2.4) - 0.055;
+    return floor(s * 255.0 + 0.5);
+}
+
+static double test_srgb_linear(double code)
+{
+    double c = code / 255.0;
+    return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4);
+}
+
+TEST(png_srgb_codes)
+{
+    rn_image *img = test_image(1, 1, 3);
+    int bad = 0, tried = 0;
+    for (int k = 1; k <= 255 && bad < 5; k++) {
+        /* The linear value where the code steps from k - 1 to k. */
+        double c = (k - 0.5) / 255.0;
+        double step = c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4);
+        const double at[3] = {step * (1 - 1e-6), step * (1 + 1e-6), step * (1 + 0.3 / k)};
+        for (int q = 0; q < 3; q++) {
+            for (int b = 0; b < 3; b++)
+                img->pixels[b] = (float)at[(q + b) % 3];
+            rad_error err = {0};
+            const char *p = tpath("code.png");
+            if (rn_write_png(img, p, 0.0, &err) != RAD_OK) {
+                bad++;
+                continue;
+            }
+            unsigned char data[512];
+            FILE *f = fopen(p, "rb");
+            size_t size = f ? fread(data, 1, sizeof data, f) : 0;
+            if (f)
+                fclose(f);
+            double mean[3] = {-1, -1, -1};
+            char why[128];
+            int rc = rad_gltf_image_mean(data, size, 16, mean, why, sizeof why);
+            for (int b = 0; b < 3; b++) {
+                double want = test_srgb_linear(test_srgb_code((double)img->pixels[b]));
+                tried++;
+                if (rc != 0 || fabs(mean[b] - want) > 1e-12) {
+                    bad++;
+                    fprintf(stderr, "  value %.9g: decoded %.9g, want %.9g (code %g)\n",
+                            (double)img->pixels[b], mean[b], want,
+                            test_srgb_code((double)img->pixels[b]));
+                }
+            }
+        }
+    }
+    CHECK_MSG(bad == 0, "%d of %d channel values coded wrong", bad, tried);
+    CHECK(tried == 255 * 9);
+    rn_image_destroy(img);
 }
 
 TEST(failed_writes_leave_files_alone)
@@ -953,6 +1029,7 @@ int main(void)
     RUN(bad_arguments);
     RUN(exr_round_trip);
     RUN(png_written);
+    RUN(png_srgb_codes);
     RUN(failed_writes_leave_files_alone);
     cleanup_dir();
     return test_finish("test_render");

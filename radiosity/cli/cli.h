@@ -81,6 +81,7 @@ typedef struct cli_view {
     uint32_t width, height;
     const char *png;
     double exposure;
+    rn_exr_compression exr_compression; /* --exr-compression */
 } cli_view;
 /* 1 consumed, 0 not a view option, -1 bad value (printed). */
 int cli_view_option(int argc, char **argv, int *i, cli_view *v);

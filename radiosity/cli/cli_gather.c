@@ -107,7 +107,7 @@ int cli_gather_to_files(const rad_solution *s, const char *sol_path, const cli_v
     rn_gather_stats st;
     rc = rad_render_gather(s, &cam, &opt, &img, &st, &err);
     if (!rc)
-        rc = rn_write_exr(img, exr_path, &err);
+        rc = rn_write_exr_with(img, exr_path, v->exr_compression, &err);
     if (!rc && v->png)
         rc = rn_write_png(img, v->png, v->exposure, &err);
     rn_image_destroy(img);

@@ -45,6 +45,10 @@ int cli_view_option(int argc, char **argv, int *i, cli_view *v)
         v->png = val;
     } else if (!strcmp(a, "--exposure")) {
         rc = cli_parse_double(a, val, -64, 64, &v->exposure);
+    } else if (!strcmp(a, "--exr-compression")) {
+        if (rn_exr_compression_parse(val, &v->exr_compression))
+            return cli_usage_error("--exr-compression: '%s' is not zip, none, rle or piz",
+                                   val ? val : ""), -1;
     } else {
         return 0;
     }
@@ -96,7 +100,7 @@ int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *ex
     rn_image *img = NULL;
     rc = rad_render_solution(s, &cam, &img, &err);
     if (!rc)
-        rc = rn_write_exr(img, exr_path, &err);
+        rc = rn_write_exr_with(img, exr_path, v->exr_compression, &err);
     if (!rc && png_path)
         rc = rn_write_png(img, png_path, v->exposure, &err);
     rn_image_destroy(img);

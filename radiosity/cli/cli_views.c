@@ -235,7 +235,7 @@ static int write_view(void *user, uint32_t k, const rn_image *img, rad_error *er
     const sink *w = user;
     char path[4096];
     snprintf(path, sizeof path, "%s/%s.exr", w->dir, w->views->stem[k]);
-    int rc = rn_write_exr(img, path, err);
+    int rc = rn_write_exr_with(img, path, w->v->exr_compression, err);
     if (!rc && w->png) {
         snprintf(path, sizeof path, "%s/%s.png", w->dir, w->views->stem[k]);
         rc = rn_write_png(img, path, w->v->exposure, err);

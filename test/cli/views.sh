@@ -78,6 +78,20 @@ else
     bad "--path: $(cat "$dir/stdout"); $(ls "$dir/fly")"
 fi
 
+# --exr-compression none: every view's EXR in the call uncompressed (a 64x64
+# RGB float image: 49,152 bytes of pixels, more than ZIP's file), the PNGs
+# unchanged.  (test_render checks each codec's pixels read back bit-exact.)
+mkdir "$dir/raw"
+if "$BIN" render "$dir/room.sol" -o "$dir/raw" --all-cameras --size 64x64 --exr-compression none > /dev/null 2>&1 &&
+   [ "$(stat -c %s "$dir/raw/front.exr")" -gt 49152 ] &&
+   [ "$(stat -c %s "$dir/raw/side.exr")" -gt "$(stat -c %s "$dir/all/side.exr")" ] &&
+   cmp -s "$dir/raw/front.png" "$dir/all/front.png"; then
+    ok "--exr-compression none: $(stat -c %s "$dir/raw/front.exr") bytes against ZIP's $(stat -c %s "$dir/all/front.exr")"
+else
+    bad "--exr-compression none: $(ls -l "$dir/raw" "$dir/all")"
+fi
+refuse "--exr-compression word" "--exr-compression: 'lzw'" render "$dir/room.sol" -o "$dir/out" --all-cameras --exr-compression lzw
+
 printf 'eye 0,0,0 target 1,1,1\neye 1,1,1 target 1,1,1\n' > "$dir/bad.txt"
 refuse "path: eye = target" "bad.txt: line 2: eye and target coincide" render "$dir/room.sol" -o "$dir/out" --path "$dir/bad.txt"
 refuse "path: missing file" "nofile.txt: cannot open" render "$dir/room.sol" -o "$dir/out" --path "$dir/nofile.txt"
