@@ -82,15 +82,6 @@ rad_basis *rad_basis_create(const rad_solution *s, uint32_t groups)
     return b;
 }
 
-/* Is any of the `nb` values at v > 0? */
-static int any_positive(const double *v, uint32_t nb)
-{
-    for (uint32_t b = 0; b < nb; b++)
-        if (v[b] > 0.0)
-            return 1;
-    return 0;
-}
-
 int rad_basis_groups(const rad_solution *s, uint32_t *patch_group, uint32_t *light_group,
                      uint32_t *groups, rad_error *err)
 {
@@ -100,7 +91,7 @@ int rad_basis_groups(const rad_solution *s, uint32_t *patch_group, uint32_t *lig
     uint32_t pair[RAD_BASIS_MAX_GROUPS + 1][2], k = 0;
     for (uint32_t i = 0; i < n; i++) {
         patch_group[i] = RAD_NONE;
-        if (!any_positive(s->emission + (size_t)i * nb, nb))
+        if (!sol_any_positive(s->emission + (size_t)i * nb, nb))
             continue;
         const rad_patch *p = &s->mesh->patches[i];
         uint32_t g = 0;
@@ -115,7 +106,7 @@ int rad_basis_groups(const rad_solution *s, uint32_t *patch_group, uint32_t *lig
     }
     for (uint32_t l = 0; l < nl; l++) {
         light_group[l] = RAD_NONE;
-        if (any_positive(s->light_intensity + (size_t)l * nb, nb))
+        if (sol_any_positive(s->light_intensity + (size_t)l * nb, nb))
             light_group[l] = k++;
     }
     *groups = k;
@@ -193,7 +184,7 @@ static int outside_dark(const rad_solution *s, const rad_basis *bs, char *why, s
 {
     const uint32_t nb = bs->band_count;
     for (uint32_t i = 0; i < bs->patch_count; i++)
-        if (bs->patch_group[i] == RAD_NONE && any_positive(s->emission + (size_t)i * nb, nb)) {
+        if (bs->patch_group[i] == RAD_NONE && sol_any_positive(s->emission + (size_t)i * nb, nb)) {
             const rad_patch *p = &s->mesh->patches[i];
             snprintf(why, why_size, "'%s' (material '%s') emits, but emitted nothing when solved",
                      s->scene->objects[p->object].name, s->scene->materials[p->material].name);
@@ -201,7 +192,7 @@ static int outside_dark(const rad_solution *s, const rad_basis *bs, char *why, s
         }
     for (uint32_t l = 0; l < bs->light_count; l++)
         if (bs->light_group[l] == RAD_NONE &&
-            any_positive(s->light_intensity + (size_t)l * nb, nb)) {
+            sol_any_positive(s->light_intensity + (size_t)l * nb, nb)) {
             snprintf(why, why_size, "light '%s' shines, but was dark when solved",
                      s->scene->lights[l].name);
             return 0;

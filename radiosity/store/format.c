@@ -263,6 +263,14 @@ int sol_check_lights(const rad_solution *s, const char *file, const char *where,
     return RAD_OK;
 }
 
+int sol_any_positive(const double *v, uint32_t nb)
+{
+    for (uint32_t b = 0; b < nb; b++)
+        if (v[b] > 0.0)
+            return 1;
+    return 0;
+}
+
 /* Values of n doubles, each finite and >= 0: the first bad index, or n. */
 static uint64_t first_bad(const double *v, uint64_t n)
 {
@@ -279,9 +287,7 @@ static uint32_t bad_groups(const uint32_t *group, const double *ref, uint32_t co
                            uint32_t groups, uint32_t *members)
 {
     for (uint32_t i = 0; i < count; i++) {
-        int emits = 0;
-        for (uint32_t b = 0; b < nb; b++)
-            emits |= ref[(size_t)i * nb + b] > 0.0;
+        const int emits = sol_any_positive(ref + (size_t)i * nb, nb);
         if (group[i] == RAD_NONE ? emits : (!emits || group[i] >= groups))
             return i;
         if (group[i] != RAD_NONE)

@@ -144,6 +144,7 @@ uint64_t sol_load_le64(const uint8_t *p);
 
 int sol_bad_reflectance(double r); /* not in [0, 1) (NaN included) */
 int sol_bad_nonneg(double v);      /* not finite and >= 0 */
+int sol_any_positive(const double *v, uint32_t nb); /* some of the nb values > 0: a source */
 
 /* The per-patch ρ, E and B rules; `where` is "section PATCHDATA" (reader)
  * or "cannot write" (writer), `code` the result code to fail with. */

@@ -19,22 +19,6 @@ set -u
 ok()  { passed=$((passed + 1)); echo "ok   $1"; }
 bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 
-# The body of section TAG of a version 6 file on stdout (status 1 if none).
-section() { # FILE TAG
-    python3 - "$1" "$2" <<'P'
-import struct, sys
-b = open(sys.argv[1], 'rb').read()
-at = struct.unpack_from('<Q', b, 16)[0]
-count = struct.unpack_from('<I', b, at)[0]
-for q in range(count):
-    tag, _, off, length, crc = struct.unpack_from('<4sIQQQ', b, at + 8 + 32 * q)
-    if tag == sys.argv[2].encode():
-        sys.stdout.buffer.write(b[off:off + length])
-        sys.exit(0)
-sys.exit(1)
-P
-}
-
 { cat models/cornell.rad; cat <<'R'
 material glow reflectance 0 emission 3 2 1
 polygon other glow
@@ -51,7 +35,7 @@ R
 
 # The groups the file holds: BASIS's head is u32 groups, patches, bands,
 # lights, elements.
-head=$(section "$dir/base.sol" BASI | od -An -tu4 -N20 | xargs)
+head=$(section_body "$dir/base.sol" BASI | od -An -tu4 -N20 | xargs)
 set -- $head
 if [ "${1:-0}" -eq 3 ] && [ "${4:-0}" -eq 1 ] && [ "${5:-0}" -gt "${2:-0}" ]; then
     ok "BASIS holds 3 light groups ($2 patches, $3 bands, $4 light, $5 elements)"
@@ -146,7 +130,7 @@ fi
 mkdir -p "$dir/eb" "$dir/ea"
 "$BIN" export "$dir/base.sol" -o "$dir/eb" > /dev/null 2>&1
 "$BIN" export "$dir/again.sol" -o "$dir/ea" > /dev/null 2>&1
-if cmp -s <(section "$dir/base.sol" BASI) <(section "$dir/sup.sol" BASI) &&
+if cmp -s <(section_body "$dir/base.sol" BASI) <(section_body "$dir/sup.sol" BASI) &&
    grep -q "relit by superposition of 3" "$dir/again.out" &&
    worst=$(python3 - "$dir" <<'P'
 import csv, sys
