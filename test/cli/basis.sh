@@ -12,7 +12,9 @@
 #     nothing, and a point light turned on that was dark when solved each
 #     take the full path and say why;
 #   - the relit file carries the base's BASIS section unchanged, and a
-#     relight of it superposes again.
+#     relight of it superposes again;
+#   - --variations chooses per variant, and a variant that re-solves
+#     leaves the base's responses to the next.
 # Cost: ~3 s (a 0.15 m Cornell box, one split of elements).
 set -u
 . "$(dirname "$0")/lib.bash"
@@ -147,6 +149,22 @@ P
     ok "BASIS carried over unchanged; back at nominal by superposition: the base's B within $worst of max B"
 else
     bad "BASIS carried over: $(cat "$dir/again.out") ${worst:-}"
+fi
+
+# --variations: the choice per variant; the base's responses survive a
+# variant that re-solves (which stores its own, for its new ρ).
+printf 'variant a\n  light light=0.5\nend\nvariant b\n  reflectance floor=0.2\nend\nvariant c\n  light bulb=3\nend\n' > "$dir/v.txt"
+mkdir -p "$dir/vo"
+"$BIN" relight "$dir/base.sol" -o "$dir/vo" --variations "$dir/v.txt" > "$dir/v.out" 2>&1
+if grep -q "variant 'a', relit by superposition of 3" "$dir/v.out" &&
+   grep -q "variant 'b', re-solved with the stored form factors: reflectance changed" "$dir/v.out" &&
+   grep -q "variant 'c', relit by superposition of 3" "$dir/v.out" &&
+   cmp -s <(section_body "$dir/base.sol" BASI) <(section_body "$dir/vo/c.sol" BASI) &&
+   section_body "$dir/vo/b.sol" BASI > "$dir/b.basi" &&
+   ! cmp -s <(section_body "$dir/base.sol" BASI) "$dir/b.basi"; then
+    ok "variations: superposed, re-solved (its own responses), superposed again"
+else
+    bad "variations: $(cat "$dir/v.out")"
 fi
 
 echo "basis.sh: $passed passed, $failed failed"
