@@ -4,9 +4,11 @@
  * 0.0156, ~8k, and 0.0078, ~32k) it runs the program (build/release/
  * radiosity) as a user would and prints, per command, the wall time and the
  * peak resident memory of its largest process (wait4's ru_maxrss): solve
- * (from nothing: --fresh), report, render 1024², relight --light light=2;
- * the solution's size and its MATRIX section's; and how many times faster
- * the relight is than the solve.
+ * (from nothing: --fresh), report, render 1024², relight --light light=2
+ * (by superposition of the stored light responses: F is not read) and
+ * relight --reflectance floor=0.5 (F read, solved again); the solution's
+ * size and its MATRIX section's; and how many times faster each relight is
+ * than the solve.
  *
  * The 32k row takes a solve of minutes and a file of ~1.8 GB: it runs only
  * with RADIOSITY_BENCH_LARGE=1 (the table says so otherwise).  Timings are
@@ -119,17 +121,21 @@ static void row(const char *label, const char *dir, const char *scene, const cha
     const char *report[] = {"radiosity", "report", sol, NULL};
     const char *render[] = {"radiosity", "render", sol, "-o", exr, "--size", "1024x1024", NULL};
     const char *relight[] = {"radiosity", "relight", sol, "-o", lit, "--light", "light=2", NULL};
+    const char *refl[] = {"radiosity", "relight", sol, "-o", lit, "--reflectance", "floor=0.5",
+                          NULL};
     run s = run_cmd(solve);
-    run rp = run_cmd(report), rn = run_cmd(render), rl = run_cmd(relight);
+    run rp = run_cmd(report), rn = run_cmd(render), rl = run_cmd(relight), rr = run_cmd(refl);
     uint64_t F = matrix_bytes(sol);
     printf("%-6s %8.1fM %8.1fM", label, file_mib(sol), (double)F / 1048576.0);
     cell(&s);
     cell(&rp);
     cell(&rn);
     cell(&rl);
-    if (!s.status && !rl.status)
-        printf(" %7.1f× %5.2f %5.2f", s.seconds / rl.seconds, s.mib * 1048576.0 / (double)F,
-               rl.mib * 1048576.0 / (double)F);
+    cell(&rr);
+    if (!s.status && !rl.status && !rr.status)
+        printf(" %7.0f× %6.1f× %5.2f %5.2f %5.2f", s.seconds / rl.seconds, s.seconds / rr.seconds,
+               s.mib * 1048576.0 / (double)F, rl.mib * 1048576.0 / (double)F,
+               rr.mib * 1048576.0 / (double)F);
     printf("\n");
     fflush(stdout);
     remove(sol);
@@ -149,10 +155,11 @@ int main(void)
     }
     printf("the stored solution: Cornell box, one run each, wall time and peak resident memory "
            "(largest process)\n");
-    printf("%-6s %9s %9s %15s %15s %15s %15s %8s %5s %5s\n", "", "file", "MATRIX", "solve",
-           "report", "render 1024²", "relight", "solve/", "solve", "relit");
-    printf("%-6s %9s %9s %15s %15s %15s %15s %8s %5s %5s\n", "", "", "", "", "", "", "",
-           "relight", "mem/F", "mem/F");
+    printf("%-6s %9s %9s %15s %15s %15s %15s %15s %8s %7s %5s %5s %5s\n", "", "file", "MATRIX",
+           "solve", "report", "render 1024²", "relight --light", "relight ρ", "solve/", "solve/",
+           "solve", "light", "ρ");
+    printf("%-6s %9s %9s %15s %15s %15s %15s %15s %8s %7s %5s %5s %5s\n", "", "", "", "", "", "",
+           "(superposed)", "(F, re-solve)", "light", "ρ", "mem/F", "mem/F", "mem/F");
     row("3k", dir, "models/cornell.gltf", NULL);
     row("8k", dir, "models/cornell.rad", "0.0156");
     const char *large = getenv("RADIOSITY_BENCH_LARGE");

@@ -2373,13 +2373,155 @@ TEST(interpolated_elements_round_trip)
 
 /* The fuzzer's version 6 seeds (the corpus keeps the files older versions
  * wrote under the names without -v6). */
+/* ------------------------------------------------------------- BASIS */
+
+/* The rgb room with stored light responses made by hand (its F lacks rows,
+ * so the pipeline would make none for its three groups): odd bit patterns,
+ * every value finite and >= 0.  The format is what is tested here; that
+ * the responses superpose to the solution is test/cli/basis.sh's. */
+static rad_solution *make_basis(void)
+{
+    rad_solution *s = make_rgb();
+    if (!s)
+        return NULL;
+    const uint32_t n = s->mesh->patch_count, nb = s->band_count, nl = s->scene->light_count;
+    uint32_t *pg = malloc((n + 1) * sizeof *pg), *lg = malloc((nl + 1) * sizeof *lg), K = 0;
+    if (!pg || !lg || rad_basis_groups(s, pg, lg, &K, NULL) || K != 3 ||
+        !(s->basis = rad_basis_create(s, K))) {
+        free(pg);
+        free(lg);
+        rad_solution_destroy(s);
+        return NULL;
+    }
+    rad_basis *b = s->basis;
+    memcpy(b->patch_group, pg, n * sizeof *pg);
+    memcpy(b->light_group, lg, nl * sizeof *lg);
+    const size_t nv = (size_t)n * nb;
+    for (uint32_t g = 0; g < K; g++) {
+        b->residual[g] = 1e-5 * (g + 1) / 3.0;
+        for (size_t q = 0; q < nv; q++) {
+            b->B[g * nv + q] = s->B[q] * (g + 1) / 6.0;
+            b->H[g * nv + q] = s->B[q] * (g + 2) / 7.0;
+        }
+    }
+    free(pg);
+    free(lg);
+    return s;
+}
+
+/* BASIS (issue 21): a round trip is bit exact, and written again gives
+ * the same bytes; a stale basis (ρ changed since) is not written; the
+ * structure checks refuse bad counts and values, naming the section. */
+TEST(basis_round_trip_and_damage)
+{
+    rad_solution *s = make_basis();
+    CHECK(s != NULL);
+    if (!s)
+        return;
+    char p[600], p2[600];
+    size_t size = 0, size2 = 0;
+    uint8_t *img = written_image(s, "basis.sol", p, &size);
+    rad_solution *r = NULL;
+    rad_error e = {0};
+    CHECK_MSG(img && rad_solution_read(p, &r, &e) == RAD_OK, "%s", e.message);
+    if (!img || !r) {
+        free(img);
+        rad_solution_destroy(s);
+        return;
+    }
+    const rad_basis *a = s->basis, *b = r->basis;
+    const size_t nv = (size_t)a->patch_count * a->band_count;
+    CHECK(b && b->groups == a->groups && b->light_count == a->light_count &&
+          rad_basis_matches(r));
+    if (b) {
+        CHECK(same_bits(a->E_ref, b->E_ref, nv * 8) && same_bits(a->B, b->B, a->groups * nv * 8) &&
+              same_bits(a->H, b->H, a->groups * nv * 8) &&
+              same_bits(a->I_ref, b->I_ref, (size_t)a->light_count * a->band_count * 8) &&
+              same_bits(a->patch_group, b->patch_group, a->patch_count * 4) &&
+              same_bits(a->light_group, b->light_group, a->light_count * 4) &&
+              same_bits(a->residual, b->residual, a->groups * 8));
+    }
+    uint8_t *img2 = written_image(r, "basis2.sol", p2, &size2);
+    CHECK(img2 && size2 == size && memcmp(img, img2, size) == 0);
+    free(img2);
+    /* read without F (render's way) it is there too */
+    rad_solution *parts = NULL;
+    CHECK(rad_solution_read_parts(p, 0, &parts, &e) == RAD_OK && parts && parts->basis &&
+          parts->basis->groups == 3);
+    rad_solution_destroy(parts);
+
+    /* the sizes in BASIS's head, then a group, then a value */
+    uint64_t len;
+    size_t at = v6_find(img, size, "BASI", &len);
+    CHECK(at > 0 && rd32(img + at) == 3);
+    struct {
+        size_t off;
+        uint32_t value;
+        const char *want;
+    } heads[] = {
+        {0, 0, "section BASIS: 0 light groups (1..32)"},
+        {0, 33, "section BASIS: 33 light groups (1..32)"},
+        {0, 4, "section BASIS: 4 groups of"},
+        {0, 0xFFFFFFFFu, "light groups (1..32)"},
+        {4, 1, "section BASIS: 1 patches, 3 bands"},
+        {8, 2, "section BASIS: "},
+        {12, 0, "section BASIS: "},
+        {16, 7, "section BASIS: "},
+    };
+    for (size_t q = 0; at && q < sizeof heads / sizeof heads[0]; q++) {
+        uint8_t *d = malloc(size);
+        memcpy(d, img, size);
+        wr32(d + at + heads[q].off, heads[q].value);
+        refused_with(d, size, "m.sol", heads[q].want, 0);
+        free(d);
+    }
+    const uint32_t n = a->patch_count, nb = a->band_count, nl = a->light_count;
+    const size_t groups_at = at + 20 + 8 * ((size_t)n + nl) * nb;
+    uint32_t lamp = RAD_NONE, dark = RAD_NONE;
+    for (uint32_t i = 0; i < n; i++) {
+        if (a->patch_group[i] != RAD_NONE && lamp == RAD_NONE)
+            lamp = i;
+        if (a->patch_group[i] == RAD_NONE && dark == RAD_NONE)
+            dark = i;
+    }
+    CHECK(lamp != RAD_NONE && dark != RAD_NONE);
+    if (at && lamp != RAD_NONE && dark != RAD_NONE) {
+        uint8_t *d = malloc(size);
+        char want[160];
+        memcpy(d, img, size);
+        wr32(d + groups_at + 4 * lamp, 3); /* past the groups */
+        snprintf(want, sizeof want, "section BASIS: patch %u: group 3 does not agree", lamp);
+        refused_with(d, size, "m.sol", want, 0);
+        memcpy(d, img, size);
+        wr32(d + groups_at + 4 * dark, 0); /* a group for a patch that emitted nothing */
+        snprintf(want, sizeof want, "section BASIS: patch %u: group 0 does not agree", dark);
+        refused_with(d, size, "m.sol", want, 0);
+        memcpy(d, img, size);
+        const double nan = NAN;
+        memcpy(d + groups_at + 4 * ((size_t)n + nl) + 8 + 8 * 5, &nan, 8); /* B^(0) of patch 1 */
+        refused_with(d, size, "m.sol", "section BASIS: light group 0: a residual, B, H", 0);
+        memcpy(d, img, size);
+        memcpy(d + at + 20, &nan, 8); /* E_ref of patch 0 */
+        refused_with(d, size, "m.sol", "section BASIS: patch 0: reference E = nan", 0);
+        free(d);
+    }
+    /* a stale basis is left out: ρ changed after it was made */
+    r->rho[0] = r->rho[0] * 0.5;
+    uint8_t *img3 = written_image(r, "stale.sol", p2, &size2);
+    CHECK(img3 && !v6_find(img3, size2, "BASI", &len) && size2 < size);
+    free(img3);
+    rad_solution_destroy(r);
+    rad_solution_destroy(s);
+    free(img);
+}
+
 static int write_seeds(const char *dir)
 {
-    rad_solution *(*make[6])(void) = {make_rgb, make_grey, make_wide, make_elements, make_sheets,
-                                      make_interp};
-    const char *names[6] = {"rgb-room-v6", "grey-box-v6", "wide-floor-v6", "elements-room-v6",
-                            "sheets-room-v6", "interp-room-v6"};
-    for (int v = 0; v < 6; v++) {
+    rad_solution *(*make[7])(void) = {make_rgb, make_grey, make_wide, make_elements, make_sheets,
+                                      make_interp, make_basis};
+    const char *names[7] = {"rgb-room-v6", "grey-box-v6", "wide-floor-v6", "elements-room-v6",
+                            "sheets-room-v6", "interp-room-v6", "basis-room-v6"};
+    for (int v = 0; v < 7; v++) {
         rad_solution *s = make[v]();
         char p[600];
         snprintf(p, sizeof p, "%s/%s", dir, names[v]);
@@ -2433,6 +2575,7 @@ int main(int argc, char **argv)
     RUN(read_without_matrix);
     RUN(elements_round_trip_and_damage);
     RUN(interpolated_elements_round_trip);
+    RUN(basis_round_trip_and_damage);
     RUN(sheets_round_trip_and_version_5);
     RUN(newer_version_and_foreign_files);
     RUN(failed_writes_leave_no_trace);

@@ -1,6 +1,13 @@
-/* cli_relight.c - the relight and ff commands: re-solving a stored matrix
- * with new lights and colours (one change set, or every variant of a
- * variations file), and object-to-object form factors.
+/* cli_relight.c - the relight and ff commands: new lights and colours for
+ * a stored solution (one change set, or every variant of a variations
+ * file), and object-to-object form factors.
+ *
+ * A relight takes one of two paths.  When the edits only scale each light
+ * group's sources and the solution stores its light responses (solution.h,
+ * rad_basis), the answer is their weighted sum: F is never read.  Otherwise
+ * (a reflectance edit, a light that was dark when solved, no stored
+ * responses, --resolve) F is read, once however many variants, and the
+ * solution solved again.  The output says which path and why.
  *
  * Every argument and every variant is checked against the solution before
  * any solving starts, so a typo costs nothing and writes nothing.
@@ -28,6 +35,7 @@ static void default_solver(const rad_solution *s, rad_solve_options *opt, int so
 typedef struct relight_args {
     const char *in, *out, *variations;
     int render, solver_given, tol_given;
+    int resolve;     /* --resolve: always the full path (F read, solved again) */
     rad_solve_options opt;
     cli_view view;
     rad_edit *edits; /* argc + 1 slots (owned) */
@@ -77,6 +85,8 @@ static int parse_relight(int argc, char **argv, relight_args *a)
             a->variations = argv[++i];
         else if (!strcmp(arg, "--render"))
             a->render = 1;
+        else if (!strcmp(arg, "--resolve"))
+            a->resolve = 1;
         else if (arg[0] == '-')
             return cli_usage_error("relight: unknown option '%s'", arg);
         else if (!a->in)
@@ -85,7 +95,7 @@ static int parse_relight(int argc, char **argv, relight_args *a)
             return cli_usage_error("relight: more than one solution given ('%s')", arg);
     }
     if (!a->in || !a->out)
-        return cli_usage_error("usage: radiosity relight SOLUTION -o OUT [--light|--emission|--reflectance NAME=...] [--variations FILE]");
+        return cli_usage_error("usage: radiosity relight SOLUTION -o OUT [--light|--emission|--reflectance NAME=...] [--variations FILE] [--resolve]");
     if (!a->variations && a->ne == 0)
         return cli_usage_error("relight: nothing to change (give --light, --emission, --reflectance or --variations)");
     if (a->render && !a->variations)
@@ -178,21 +188,87 @@ static int write_relit(const rad_solution *s, const char *path, rad_error *err)
     return rc;
 }
 
-/* One change set: solve, write OUT. */
+/* How a change set was relit, for the output line. */
+typedef struct relit_how {
+    int superposed;   /* 1: by superposition, F not read */
+    char why[512];    /* the responses used, or what stood in the way */
+    rad_basis *base;  /* full path: the base's stored responses, put aside (owned) */
+} relit_how;
+
+/* The edits applied to s, relights it: by superposition of its stored light
+ * responses when they allow and the output can share s's form factors,
+ * else F read (once: a later call finds it loaded) and solved again.  The
+ * full path makes the output's own responses; the base's wait in how->base
+ * for relight_done to put back, for the next variant. */
+static int relight_solution(rad_solution *s, const relight_args *a, relit_how *how,
+                            rad_error *err)
+{
+    *how = (relit_how){0};
+    const double t0 = rad_seconds();
+    int rc = RAD_OK;
+    if (a->resolve)
+        snprintf(how->why, sizeof how->why, "--resolve");
+    else if (!s->F->entries_loaded && !s->matrix_file.path)
+        snprintf(how->why, sizeof how->why, "the form factors it shares could not be found");
+    else
+        rc = rad_solution_superpose(s, &how->superposed, how->why, sizeof how->why, err);
+    if (rc || how->superposed) {
+        s->stages[RAD_STAGE_SOLVE] = (rad_stage_info){rad_seconds() - t0, 0};
+        return rc;
+    }
+    how->base = s->basis;
+    s->basis = NULL;
+    rc = rad_solution_load_matrix(s, err);
+    if (!rc)
+        rc = rad_resolve(s, &a->opt, err);
+    return rc;
+}
+
+/* After the output is written: the base's stored responses back in s. */
+static void relight_done(rad_solution *s, relit_how *how)
+{
+    if (how->superposed)
+        return;
+    rad_basis_destroy(s->basis);
+    s->basis = how->base;
+    how->base = NULL;
+}
+
+/* The path taken, for the output line. */
+static void say_how(const char *out, const char *what, const rad_solution *s,
+                    const relit_how *how)
+{
+    if (how->superposed)
+        printf("%s: %s, relit by superposition of %s (form factors not read), "
+               "0 hemi-cube rows computed, residual bound %.3g, %.3f s\n",
+               out, what, how->why, s->residual, s->stages[RAD_STAGE_SOLVE].seconds);
+    else
+        printf("%s: %s, re-solved with the stored form factors: %s; %llu hemi-cube rows "
+               "computed, %s: %u iterations, residual %.3g, solve %.3f s\n",
+               out, what, how->why, (unsigned long long)s->rows_computed, s->solver,
+               s->iterations, s->residual, s->stages[RAD_STAGE_SOLVE].seconds);
+}
+
+/* One change set: relight, write OUT. */
 static int relight_one(rad_solution *s, const relight_args *a)
 {
     rad_error err = {0};
-    if (rad_resolve(s, &a->opt, &err) || write_relit(s, a->out, &err))
+    relit_how how;
+    int rc = relight_solution(s, a, &how, &err);
+    if (!rc)
+        rc = write_relit(s, a->out, &err);
+    relight_done(s, &how);
+    if (rc)
         return cli_error(&err);
-    printf("%s: relit with %u change%s, %llu hemi-cube rows computed, %s: %u iterations, "
-           "residual %.3g, solve %.3f s\n",
-           a->out, a->ne, a->ne == 1 ? "" : "s", (unsigned long long)s->rows_computed, s->solver,
-           s->iterations, s->residual, s->stages[RAD_STAGE_SOLVE].seconds);
+    char what[64];
+    snprintf(what, sizeof what, "relit with %u change%s", a->ne, a->ne == 1 ? "" : "s");
+    say_how(a->out, what, s, &how);
     return 0;
 }
 
-/* One matrix, many variants: only ρ and E change between solves; each
- * writes OUT/NAME.sol (or its images with --render). */
+/* One solution, many variants: only ρ and E change between them; each
+ * writes OUT/NAME.sol (or its images with --render).  F is read at most
+ * once, by the first variant that needs it. */
 static int relight_variants(rad_solution *s, const relight_args *a, const rad_variant *var,
                             uint32_t nvar, const relight_values *base)
 {
@@ -200,10 +276,13 @@ static int relight_variants(rad_solution *s, const relight_args *a, const rad_va
     int rc = 0;
     for (uint32_t v = 0; v < nvar && !rc; v++) {
         values_restore(s, base);
-        char path[4096], png[4096];
+        char path[4096], png[4096], what[192];
+        relit_how how = {0};
         if (rad_solution_apply_edits(s, var[v].edits, var[v].edit_count, &err) ||
-            rad_resolve(s, &a->opt, &err))
+            relight_solution(s, a, &how, &err)) {
+            relight_done(s, &how);
             return cli_error(&err);
+        }
         if (a->render) {
             snprintf(path, sizeof path, "%s/%s.exr", a->out, var[v].name);
             snprintf(png, sizeof png, "%s/%s.png", a->out, var[v].name);
@@ -213,11 +292,10 @@ static int relight_variants(rad_solution *s, const relight_args *a, const rad_va
             if (write_relit(s, path, &err))
                 rc = cli_error(&err);
         }
+        relight_done(s, &how);
+        snprintf(what, sizeof what, "variant '%.128s'", var[v].name);
         if (!rc)
-            printf("%s: variant '%s', %llu hemi-cube rows computed, %u iterations, residual %.3g, "
-                   "solve %.3f s\n",
-                   path, var[v].name, (unsigned long long)s->rows_computed, s->iterations,
-                   s->residual, s->stages[RAD_STAGE_SOLVE].seconds);
+            say_how(path, what, s, &how);
     }
     return rc;
 }
@@ -234,8 +312,9 @@ static int read_variations(const char *path, rad_variant **var, uint32_t *nvar)
     return rc ? cli_error(&err) : 0;
 }
 
-/* relight: the solution is read once, F with it (checked), whatever the
- * number of variants; every edit and variant is checked before any solve. */
+/* relight: the solution is read once without F (with it under --resolve),
+ * whatever the number of variants; every edit and variant is checked
+ * before any solve. */
 int cli_relight(int argc, char **argv)
 {
     relight_args a = {0};
@@ -248,7 +327,8 @@ int cli_relight(int argc, char **argv)
     if (!rc && a.variations)
         rc = read_variations(a.variations, &var, &nvar);
     double t0 = rad_seconds();
-    if (!rc && rad_solution_read(a.in, &s, &err))
+    if (!rc && rad_solution_read_parts(a.in, a.resolve ? RAD_PARTS_ALL : RAD_PART_MATRIX_PLACE,
+                                       &s, &err))
         rc = cli_error(&err);
     double load_seconds = rad_seconds() - t0;
     if (!rc) {

@@ -579,11 +579,11 @@ static sv_options solver_options(run *c)
     return so;
 }
 
-/* The stage "solve": B for every band with the source E (one band, copied,
- * when the scene is grey); the progressive solver pulls rows as it shoots,
- * and the time it spends in the hemi-cube meanwhile counts as form factors,
- * its previews as neither. */
-static int solve_patches(run *c, const sv_system *all, const double *E, rad_error *err)
+/* B for every band with the source E into s->B, by the options `so` (one
+ * band, copied, when the scene is grey).  The solver's messages are given
+ * the scene's name. */
+static int solve_bands(run *c, const sv_system *all, const double *E, const sv_options *so,
+                       sv_stats *st, rad_error *err)
 {
     rad_solution *s = c->s;
     const uint32_t n = s->mesh->patch_count, nbands = s->band_count;
@@ -594,10 +594,12 @@ static int solve_patches(run *c, const sv_system *all, const double *E, rad_erro
     double *area = malloc(((size_t)n + 1) * sizeof *area);
     uint32_t *group = malloc(((size_t)n + 1) * sizeof *group);
     double *grey = nb < nbands ? malloc(((size_t)n * 4 + 1) * sizeof *grey) : NULL;
-    if (nb < nbands && c->opt->on_preview)
+    free(c->preview_B);
+    c->preview_B = NULL;
+    if (nb < nbands && so->on_preview)
         c->preview_B = malloc(((size_t)n * nbands + 1) * sizeof *c->preview_B);
     if (!area || !group || (nb < nbands && !grey) ||
-        (nb < nbands && c->opt->on_preview && !c->preview_B)) {
+        (nb < nbands && so->on_preview && !c->preview_B)) {
         free(area);
         free(group);
         free(grey);
@@ -619,13 +621,9 @@ static int solve_patches(run *c, const sv_system *all, const double *E, rad_erro
     }
     sys.area = area;
     sys.group = group;
-    const sv_options so = solver_options(c);
-    sv_stats st = {0};
-    const double t0 = rad_seconds(), ff0 = c->ff_seconds;
-    c->solve_t0 = t0;
     double *B = grey ? grey + 3 * (size_t)n : s->B;
-    c->quiet_rows = so.method == SV_PROGRESSIVE;
-    int rc = sv_solve(&sys, &so, B, &st, err);
+    c->quiet_rows = so->method == SV_PROGRESSIVE;
+    int rc = sv_solve(&sys, so, B, st, err);
     c->quiet_rows = 0;
     if (rc && err && strncmp(err->message, "solver: ", 8) == 0) {
         /* FILE: WHERE: WHAT */
@@ -635,13 +633,27 @@ static int solve_patches(run *c, const sv_system *all, const double *E, rad_erro
     for (uint32_t i = 0; grey && !rc && i < n; i++)
         for (uint32_t b = 0; b < nbands; b++)
             s->B[(size_t)i * nbands + b] = B[i];
+    free(area);
+    free(group);
+    free(grey);
+    return rc;
+}
+
+/* The stage "solve": B for every band with the source E; the progressive
+ * solver pulls rows as it shoots, and the time it spends in the hemi-cube
+ * meanwhile counts as form factors, its previews as neither. */
+static int solve_patches(run *c, const sv_system *all, const double *E, rad_error *err)
+{
+    rad_solution *s = c->s;
+    const sv_options so = solver_options(c);
+    sv_stats st = {0};
+    const double t0 = rad_seconds(), ff0 = c->ff_seconds;
+    c->solve_t0 = t0;
+    int rc = solve_bands(c, all, E, &so, &st, err);
     /* Rows and columns computed during the solve are form-factor time, the
      * previews' rendering nobody's; never below 0 (a finished solve must
      * stay saveable whatever the clock did). */
     const double solve_seconds = rad_seconds() - t0 - (c->ff_seconds - ff0) - st.preview_seconds;
-    free(area);
-    free(group);
-    free(grey);
     if (!rc)
         rc = keep_progress(c, &st, err);
     if (rc)
@@ -662,6 +674,10 @@ static int resolve(run *c, rad_error *err)
     rad_solution *s = c->s;
     const uint32_t n = s->mesh->patch_count;
     double *tau = NULL, *src = NULL;
+    /* ρ or E may have changed: the stored light responses go now, before
+     * anything can fail, and are made again once the solution is final. */
+    rad_basis_destroy(s->basis);
+    s->basis = NULL;
     if (!s->F->entries_loaded)
         return rad_fail(err, RAD_ERR_USAGE,
                         "%s: the form factors were not read (rad_solution_load_matrix)",
@@ -710,12 +726,205 @@ static int resolve(run *c, rad_error *err)
     return rc;
 }
 
+/* ------------------------------------------------ stored light responses */
+
+/* Does F hold every row a Gauss-Seidel solve of s needs? */
+static int rows_for_gauss_seidel(const rad_solution *s, const sv_system *all)
+{
+    for (uint32_t i = 0; i < s->mesh->patch_count; i++)
+        if (!s->F->row_done[i] && sv_row_needed(all, i))
+            return 0;
+    return 1;
+}
+
+/* The solution's sources and answers, kept while the groups are solved
+ * one by one and put back after. */
+typedef struct kept {
+    double *E, *I, *B, *Be, residual;
+    uint32_t iterations;
+} kept;
+
+static void kept_free(kept *k)
+{
+    free(k->E);
+    free(k->I);
+    free(k->B);
+    free(k->Be);
+}
+
+static int keep(const rad_solution *s, kept *k)
+{
+    const size_t nv = (size_t)s->mesh->patch_count * s->band_count;
+    const size_t nl = s->light_intensity ? (size_t)s->scene->light_count * s->band_count : 0;
+    const size_t ne = s->elements ? (size_t)s->elements->mesh->patch_count * s->band_count : 0;
+    *k = (kept){.E = malloc((nv + 1) * sizeof *k->E), .I = malloc((nl + 1) * sizeof *k->I),
+                .B = malloc((nv + 1) * sizeof *k->B), .Be = malloc((ne + 1) * sizeof *k->Be),
+                .residual = s->residual, .iterations = s->iterations};
+    if (!k->E || !k->I || !k->B || !k->Be) {
+        kept_free(k);
+        return -1;
+    }
+    memcpy(k->E, s->emission, nv * sizeof *k->E);
+    memcpy(k->B, s->B, nv * sizeof *k->B);
+    if (nl)
+        memcpy(k->I, s->light_intensity, nl * sizeof *k->I);
+    if (ne)
+        memcpy(k->Be, s->elements->B, ne * sizeof *k->Be);
+    return 0;
+}
+
+static void put_back(rad_solution *s, const kept *k)
+{
+    const size_t nv = (size_t)s->mesh->patch_count * s->band_count;
+    const size_t nl = s->light_intensity ? (size_t)s->scene->light_count * s->band_count : 0;
+    const size_t ne = s->elements ? (size_t)s->elements->mesh->patch_count * s->band_count : 0;
+    memcpy(s->emission, k->E, nv * sizeof *k->E);
+    memcpy(s->B, k->B, nv * sizeof *k->B);
+    if (nl)
+        memcpy(s->light_intensity, k->I, nl * sizeof *k->I);
+    if (ne)
+        memcpy(s->elements->B, k->Be, ne * sizeof *k->Be);
+    s->residual = k->residual;
+    s->iterations = k->iterations;
+}
+
+/* Group g's response into b: s's sources set to g's alone (the reference
+ * ones on its members, 0 elsewhere), solved by Gauss-Seidel on the stored
+ * rows with the solve's tolerance, the elements gathered, H computed. */
+static int solve_group(run *c, const sv_system *all, const double *tau, rad_basis *b,
+                       uint32_t g, rad_error *err)
+{
+    rad_solution *s = c->s;
+    const uint32_t n = s->mesh->patch_count, nb = s->band_count;
+    const size_t nv = (size_t)n * nb;
+    for (uint32_t i = 0; i < n; i++)
+        for (uint32_t k = 0; k < nb; k++)
+            s->emission[(size_t)i * nb + k] =
+                b->patch_group[i] == g ? b->E_ref[(size_t)i * nb + k] : 0.0;
+    for (uint32_t l = 0; l < b->light_count; l++)
+        for (uint32_t k = 0; k < nb; k++)
+            s->light_intensity[(size_t)l * nb + k] =
+                b->light_group[l] == g ? b->I_ref[(size_t)l * nb + k] : 0.0;
+    double *src = NULL;
+    int rc = source_term(s, tau, &src, err);
+    sv_options so = solver_options(c);
+    so.method = SV_GAUSS_SEIDEL;
+    so.tolerance = s->tolerance;
+    so.on_preview = NULL;
+    sv_stats st = {0};
+    if (!rc)
+        rc = solve_bands(c, all, src ? src : s->emission, &so, &st, err);
+    free(src);
+    if (!rc && s->elements)
+        rc = rad_elements_gather(s, s->elements, err);
+    if (!rc)
+        rc = rad_solution_irradiance(s, b->H + g * nv, err);
+    if (rc)
+        return rc;
+    memcpy(b->B + g * nv, s->B, nv * sizeof *s->B);
+    if (b->Be)
+        memcpy(b->Be + (size_t)g * b->element_count * nb, s->elements->B,
+               (size_t)b->element_count * nb * sizeof *b->Be);
+    b->residual[g] = st.residual;
+    return RAD_OK;
+}
+
+#if RAD_DEBUG
+/* solution.h's invariant: Σ_g B^(g) = B within a few Σ_g r_g max B^(g)
+ * (a residual r bounds the error by r max B / (1 - ρ_max); 100 covers ρ
+ * up to 0.99). */
+static void check_basis(const rad_solution *s)
+{
+    const rad_basis *b = s->basis;
+    const size_t nv = (size_t)b->patch_count * b->band_count;
+    double slack = 1e-12;
+    for (uint32_t g = 0; g < b->groups; g++) {
+        double top = 0.0;
+        for (size_t q = 0; q < nv; q++)
+            top = fmax(top, b->B[g * nv + q]);
+        slack += 100.0 * b->residual[g] * top;
+    }
+    for (size_t q = 0; q < nv; q++) {
+        double sum = 0.0;
+        for (uint32_t g = 0; g < b->groups; g++)
+            sum += b->B[g * nv + q];
+        RAD_ASSERT(fabs(sum - s->B[q]) <= slack + 1e-9 * s->B[q]);
+    }
+}
+#endif
+
+/* The stored light responses of s's final B and elements (solution.h,
+ * rad_basis): for one group the solution itself, exact for every solver;
+ * for more, one Gauss-Seidel solve per group when F holds every row it
+ * needs (else none).  The time counts as solving. */
+static int make_basis(run *c, rad_error *err)
+{
+    rad_solution *s = c->s;
+    const double t0 = rad_seconds();
+    const uint32_t n = s->mesh->patch_count, nb = s->band_count;
+    const size_t nv = (size_t)n * nb;
+    rad_basis_destroy(s->basis);
+    s->basis = NULL;
+    if (!s->F->entries_loaded || !(s->residual >= 0.0) || !isfinite(s->residual))
+        return RAD_OK;
+    uint32_t *pg = malloc(((size_t)n + 1) * sizeof *pg);
+    uint32_t *lg = malloc(((size_t)s->scene->light_count + 1) * sizeof *lg);
+    uint32_t K = 0;
+    double *tau = NULL;
+    int rc = pg && lg ? rad_basis_groups(s, pg, lg, &K, err)
+                      : rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
+    if (!rc)
+        rc = patch_tau(s, &tau, err);
+    const sv_system all = {.n = n, .bands = nb, .F = s->F, .rho = s->rho, .emission = s->emission,
+                           .tau = tau, .twin = tau ? s->mesh->twin : NULL};
+    rad_basis *b = NULL;
+    if (!rc && K >= 1 && K <= RAD_BASIS_MAX_GROUPS && (K == 1 || rows_for_gauss_seidel(s, &all)) &&
+        !(b = rad_basis_create(s, K)))
+        rc = rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory for %u light responses",
+                      s->scene->source, K);
+    if (b) {
+        memcpy(b->patch_group, pg, (size_t)n * sizeof *pg);
+        memcpy(b->light_group, lg, (size_t)b->light_count * sizeof *lg);
+    }
+    if (b && K == 1) { /* scaling the one source scales the answer */
+        memcpy(b->B, s->B, nv * sizeof *s->B);
+        if (b->Be)
+            memcpy(b->Be, s->elements->B, (size_t)b->element_count * nb * sizeof *b->Be);
+        b->residual[0] = s->residual;
+        rc = rad_solution_irradiance(s, b->H, err);
+    } else if (b) {
+        kept k;
+        if (keep(s, &k) != 0)
+            rc = rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
+        for (uint32_t g = 0; !rc && g < K; g++)
+            rc = solve_group(c, &all, tau, b, g, err);
+        if (k.E)
+            put_back(s, &k);
+        kept_free(&k);
+    }
+    free(pg);
+    free(lg);
+    free(tau);
+    if (rc)
+        rad_basis_destroy(b);
+    else
+        s->basis = b;
+#if RAD_DEBUG
+    if (s->basis)
+        check_basis(s);
+#endif
+    s->stages[RAD_STAGE_SOLVE].seconds += rad_seconds() - t0;
+    return rc;
+}
+
 int rad_resolve(rad_solution *s, const rad_solve_options *opt, rad_error *err)
 {
     static const rad_solve_options defaults;
     run c;
     run_begin(&c, s, opt ? opt : &defaults);
     int rc = resolve(&c, err);
+    if (!rc)
+        rc = make_basis(&c, err);
     run_end(&c);
     return rc;
 }
@@ -734,6 +943,8 @@ static int refine(run *c, rad_error *err)
     const rad_solve_options *opt = c->opt;
     const uint32_t nl = s->scene->light_count;
     const double t0 = rad_seconds();
+    rad_basis_destroy(s->basis); /* the elements change: made again by the caller */
+    s->basis = NULL;
     hc_light *lights = malloc(((size_t)nl + 1) * sizeof *lights);
     if (!lights)
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
@@ -760,6 +971,8 @@ int rad_refine_solution(rad_solution *s, const rad_solve_options *opt, rad_error
     run c;
     run_begin(&c, s, opt ? opt : &defaults);
     int rc = refine(&c, err);
+    if (!rc)
+        rc = make_basis(&c, err);
     run_end(&c);
     return rc;
 }
@@ -808,6 +1021,9 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
      * on the same engine as the rows). */
     if (!rc && refines(opt))
         rc = refine(&c, err);
+    /* Stored light responses, for relights that only scale the lights. */
+    if (!rc)
+        rc = make_basis(&c, err);
     run_end(&c);
     if (rc) {
         if (opt->journal)

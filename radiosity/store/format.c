@@ -34,6 +34,7 @@ const char sol_sec_tag[SEC_COUNT][4] = {
     [SEC_ROWS] = {'R', 'O', 'W', 'S'},
     [SEC_IRRADIANCE] = {'I', 'R', 'R', 'D'},
     [SEC_MATRIXREF] = {'M', 'R', 'E', 'F'},
+    [SEC_BASIS] = {'B', 'A', 'S', 'I'},
 };
 
 const char *const sol_sec_name[SEC_COUNT] = {
@@ -53,6 +54,7 @@ const char *const sol_sec_name[SEC_COUNT] = {
     [SEC_ROWS] = "ROWS",
     [SEC_IRRADIANCE] = "IRRADIANCE",
     [SEC_MATRIXREF] = "MATRIXREF",
+    [SEC_BASIS] = "BASIS",
 };
 
 const int sol_version_sections[SOL_VERSION_SHEETS + 1] = {0, SEC_LIGHTS, SEC_ELEMENTS,
@@ -67,7 +69,9 @@ int sol_section_order(size_t q)
     if (q < nh)
         return head[q];
     q -= nh;
-    return q <= (size_t)(SEC_LAST_ANNOUNCED - SEC_LIGHTS) ? SEC_LIGHTS + (int)q : -1;
+    if (q <= (size_t)(SEC_LAST_ANNOUNCED - SEC_LIGHTS))
+        return SEC_LIGHTS + (int)q;
+    return q == (size_t)(SEC_LAST_ANNOUNCED - SEC_LIGHTS) + 1 ? SEC_BASIS : -1;
 }
 
 /* ------------------------------------------------------------- CRC-64/XZ */
@@ -255,6 +259,79 @@ int sol_check_lights(const rad_solution *s, const char *file, const char *where,
                                 file, where, sc->lights[l].name, lp->patch[k],
                                 (double)lp->power[k]);
         }
+    }
+    return RAD_OK;
+}
+
+int sol_any_positive(const double *v, uint32_t nb)
+{
+    for (uint32_t b = 0; b < nb; b++)
+        if (v[b] > 0.0)
+            return 1;
+    return 0;
+}
+
+/* Values of n doubles, each finite and >= 0: the first bad index, or n. */
+static uint64_t first_bad(const double *v, uint64_t n)
+{
+    for (uint64_t q = 0; q < n; q++)
+        if (sol_bad_nonneg(v[q]))
+            return q;
+    return n;
+}
+
+/* The groups of `count` sources (patches or lights) against their
+ * reference values: a group exactly when some band is > 0; counted into
+ * members[].  The first bad source, or count. */
+static uint32_t bad_groups(const uint32_t *group, const double *ref, uint32_t count, uint32_t nb,
+                           uint32_t groups, uint32_t *members)
+{
+    for (uint32_t i = 0; i < count; i++) {
+        const int emits = sol_any_positive(ref + (size_t)i * nb, nb);
+        if (group[i] == RAD_NONE ? emits : (!emits || group[i] >= groups))
+            return i;
+        if (group[i] != RAD_NONE)
+            members[group[i]]++;
+    }
+    return count;
+}
+
+int sol_check_basis(const rad_solution *s, const char *file, const char *where, int code,
+                    rad_error *err)
+{
+    const rad_basis *bs = s->basis;
+    if (!bs)
+        return RAD_OK;
+    const uint32_t K = bs->groups, n = bs->patch_count, nb = bs->band_count;
+    const uint32_t nl = bs->light_count;
+    const uint64_t nv = (uint64_t)n * nb;
+    if (K < 1 || K > RAD_BASIS_MAX_GROUPS)
+        return rad_fail(err, code, "%s: %s: %u light groups (1..%u)", file, where, K,
+                        RAD_BASIS_MAX_GROUPS);
+    uint64_t q;
+    if ((q = first_bad(bs->E_ref, nv)) < nv)
+        return rad_fail(err, code, "%s: %s: patch %llu: reference E = %g is not finite and >= 0",
+                        file, where, (unsigned long long)(q / nb), bs->E_ref[q]);
+    if (nl && (q = first_bad(bs->I_ref, (uint64_t)nl * nb)) < (uint64_t)nl * nb)
+        return rad_fail(err, code, "%s: %s: light %llu: reference I = %g is not finite and >= 0",
+                        file, where, (unsigned long long)(q / nb), bs->I_ref[q]);
+    uint32_t members[RAD_BASIS_MAX_GROUPS] = {0}, i;
+    if ((i = bad_groups(bs->patch_group, bs->E_ref, n, nb, K, members)) < n)
+        return rad_fail(err, code, "%s: %s: patch %u: group %u does not agree with its reference "
+                        "emission (a group exactly when it emits, below %u)", file, where, i,
+                        bs->patch_group[i], K);
+    if ((i = bad_groups(bs->light_group, bs->I_ref, nl, nb, K, members)) < nl)
+        return rad_fail(err, code, "%s: %s: light %u: group %u does not agree with its reference "
+                        "intensity (a group exactly when it shines, below %u)", file, where, i,
+                        bs->light_group[i], K);
+    for (uint32_t g = 0; g < K; g++) {
+        const uint64_t ne = (uint64_t)bs->element_count * nb;
+        if (!members[g])
+            return rad_fail(err, code, "%s: %s: light group %u has no source", file, where, g);
+        if (sol_bad_nonneg(bs->residual[g]) || first_bad(bs->B + g * nv, nv) < nv ||
+            first_bad(bs->H + g * nv, nv) < nv || (ne && first_bad(bs->Be + g * ne, ne) < ne))
+            return rad_fail(err, code, "%s: %s: light group %u: a residual, B, H or element B is "
+                            "not finite and >= 0", file, where, g);
     }
     return RAD_OK;
 }

@@ -1145,6 +1145,53 @@ static int parse_progress(sol_reader *r, rad_solution *s)
     return sol_check_progress(s, r->name, "section PROGRESS", RAD_ERR_CORRUPT, r->err);
 }
 
+/* BASIS (version 6): the stored light responses.  The sizes must be the
+ * solution's and fill the body exactly before anything is allocated. */
+static int parse_basis(sol_reader *r, rad_solution *s)
+{
+    sol_cursor *c = &r->c;
+    uint32_t K, n, nb, nl, ne;
+    if (!sol_get_u32(c, &K) || !sol_get_u32(c, &n) || !sol_get_u32(c, &nb) ||
+        !sol_get_u32(c, &nl) || !sol_get_u32(c, &ne))
+        return TRUNC("truncated");
+    const uint32_t lights = s->light_intensity ? s->scene->light_count : 0;
+    const uint32_t elements = s->elements ? s->elements->mesh->patch_count : 0;
+    if (n != s->mesh->patch_count || nb != s->band_count || nl != lights || ne != elements)
+        return TRUNC("%u patches, %u bands, %u lights, %u elements, but the solution has %u, %u, "
+                     "%u, %u", n, nb, nl, ne, s->mesh->patch_count, s->band_count, lights,
+                     elements);
+    if (K < 1 || K > RAD_BASIS_MAX_GROUPS)
+        return TRUNC("%u light groups (1..%u)", K, RAD_BASIS_MAX_GROUPS);
+    const uint64_t per_group = 8 + 8ull * nb * (2ull * n + ne);
+    const uint64_t need = 8ull * nb * ((uint64_t)n + nl) + 4ull * ((uint64_t)n + nl) +
+                          K * per_group;
+    if (need != c->left)
+        return TRUNC("%u groups of %u patches, %u lights and %u elements need %llu bytes, %zu "
+                     "left", K, n, nl, ne, (unsigned long long)need, c->left);
+    rad_basis *b = s->basis = rad_basis_create(s, K);
+    if (!b)
+        return sol_rfail(r, RAD_ERR_NOMEM, "out of memory for %u light groups", K);
+    const uint64_t nv = (uint64_t)n * nb, nev = (uint64_t)ne * nb;
+    for (uint64_t q = 0; q < nv; q++)
+        sol_get_f64(c, &b->E_ref[q]);
+    for (uint64_t q = 0; q < (uint64_t)nl * nb; q++)
+        sol_get_f64(c, &b->I_ref[q]);
+    for (uint32_t i = 0; i < n; i++)
+        sol_get_u32(c, &b->patch_group[i]);
+    for (uint32_t l = 0; l < nl; l++)
+        sol_get_u32(c, &b->light_group[l]);
+    for (uint32_t g = 0; g < K; g++) {
+        sol_get_f64(c, &b->residual[g]);
+        for (uint64_t q = 0; q < nv; q++)
+            sol_get_f64(c, &b->B[g * nv + q]);
+        for (uint64_t q = 0; q < nv; q++)
+            sol_get_f64(c, &b->H[g * nv + q]);
+        for (uint64_t q = 0; q < nev; q++)
+            sol_get_f64(c, &b->Be[g * nev + q]);
+    }
+    return sol_check_basis(s, r->name, "section BASIS", RAD_ERR_CORRUPT, r->err);
+}
+
 typedef int (*parse_fn)(sol_reader *, rad_solution *);
 static const parse_fn sec_parse[SEC_COUNT] = {
     [SEC_INFO] = parse_info,
@@ -1163,6 +1210,7 @@ static const parse_fn sec_parse[SEC_COUNT] = {
     [SEC_ROWS] = parse_rows,
     [SEC_IRRADIANCE] = parse_irradiance,
     [SEC_MATRIXREF] = parse_matrixref,
+    [SEC_BASIS] = parse_basis,
 };
 
 int sol_parse_section(sol_reader *r, int sec, rad_solution *s)

@@ -478,24 +478,23 @@ static int open_matrixref(sol_reader *r, const char *path, sol_file *f, char *wh
                      strerror(first ? first : ENOENT));
 }
 
-/* Follows s's MATRIXREF: the named file's MATRIX section must be the one
- * referenced (same place, length and CRC in its index, same rows key), and
- * its bytes must still have that CRC. */
-static int follow_matrixref(sol_reader *r, const char *path, rad_solution *s, char *holder,
-                            size_t size, sol_index_entry *found)
+/* Finds the MATRIX section s's MATRIXREF names: the named file (open in
+ * *f on success) must list it in its index at the same place, length and
+ * CRC.  Its bytes are not read here. */
+static int find_matrixref(sol_reader *r, const char *path, sol_file *f, char *holder,
+                          size_t size, sol_index_entry *found)
 {
     r->section = sol_sec_name[SEC_MATRIXREF];
-    sol_file f = {.fd = -1};
-    int rc = open_matrixref(r, path, &f, holder, size);
+    int rc = open_matrixref(r, path, f, holder, size);
     if (rc)
         return rc;
     uint8_t head[SOL_HEADER_BYTES];
     sol_index x;
     const sol_matrixref *m = &r->ref;
-    rc = f.size < SOL_HEADER_BYTES ? rad_fail(r->err, RAD_ERR_CORRUPT, "%s: truncated", holder)
-                                   : file_read(&f, head, sizeof head, 0, r->err);
+    rc = f->size < SOL_HEADER_BYTES ? rad_fail(r->err, RAD_ERR_CORRUPT, "%s: truncated", holder)
+                                    : file_read(f, head, sizeof head, 0, r->err);
     if (!rc)
-        rc = file_index(&f, head, 1, &x, r->err);
+        rc = file_index(f, head, 1, &x, r->err);
     const sol_index_entry *e = !rc && x.at[SEC_MATRIX] >= 0 ? &x.e[x.at[SEC_MATRIX]] : NULL;
     if (!rc && (!e || e->offset != m->offset || e->length != m->length || e->crc != m->crc))
         rc = sol_rfail(r, RAD_ERR_CORRUPT,
@@ -503,18 +502,79 @@ static int follow_matrixref(sol_reader *r, const char *path, rad_solution *s, ch
                        "the one referenced (%llu bytes, CRC %016llx); a relight needs the scene "
                        "solved again", holder, (unsigned long long)m->length,
                        (unsigned long long)m->crc);
-    if (!rc) {
-        sol_reader h = *r;
-        h.name = holder;
-        rc = file_matrix(&h, &f, e, s);
-    }
-    if (!rc && s->F->key != m->key)
+    if (rc)
+        file_close(f);
+    else
+        *found = *e;
+    return rc;
+}
+
+/* Follows s's MATRIXREF: the named file's MATRIX section must be the one
+ * referenced (same place, length and CRC in its index, same rows key), and
+ * its bytes must still have that CRC. */
+static int follow_matrixref(sol_reader *r, const char *path, rad_solution *s, char *holder,
+                            size_t size, sol_index_entry *found)
+{
+    sol_file f = {.fd = -1};
+    int rc = find_matrixref(r, path, &f, holder, size, found);
+    if (rc)
+        return rc;
+    sol_reader h = *r;
+    h.name = holder;
+    rc = file_matrix(&h, &f, found, s);
+    if (!rc && s->F->key != r->ref.key)
         rc = sol_rfail(r, RAD_ERR_CORRUPT, "%s: its rows key %016llx is not the one referenced",
                        holder, (unsigned long long)s->F->key);
-    if (!rc)
-        *found = *e;
     file_close(&f);
     return rc;
+}
+
+/* Where F's rows are, without reading them: s->matrix_file and F->key
+ * (from the MATRIX section's head, or from the MATRIXREF, whose file's
+ * index must still list that section), so that a solution written from s
+ * can refer to them.  Left empty when that file is gone or changed: render
+ * and report need none of it, and a writer then refuses to share (relight
+ * reads F instead, which says what is wrong).  The key read from MATRIX's
+ * head is not under a checked CRC here: a reference that carries a wrong
+ * one is refused when followed. */
+static void locate_matrix(const sol_reader *r, const sol_file *f, const sol_index *x,
+                          rad_solution *s)
+{
+    rad_error ignored;
+    sol_reader *q = malloc(sizeof *q);
+    char holder[PATH_MAX + SOL_MAX_STRING + 2];
+    sol_index_entry e;
+    uint64_t key = 0;
+    int rc = q ? RAD_OK : RAD_ERR_NOMEM;
+    if (!rc) {
+        *q = *r;
+        q->err = &ignored;
+    }
+    if (!rc && x->at[SEC_MATRIX] >= 0) {
+        uint8_t head[SOL_MATRIX_HEAD];
+        e = x->e[x->at[SEC_MATRIX]];
+        q->section = sol_sec_name[SEC_MATRIX];
+        rc = e.length < SOL_MATRIX_HEAD ? RAD_ERR_CORRUPT
+                                        : file_read(f, head, sizeof head, e.offset, &ignored);
+        if (!rc)
+            rc = sol_matrix_head(q, head, s->mesh->patch_count, &key);
+        snprintf(holder, sizeof holder, "%s", f->name);
+    } else if (!rc) {
+        sol_file h = {.fd = -1};
+        rc = file_section(q, f, &x->e[x->at[SEC_MATRIXREF]], SEC_MATRIXREF, s);
+        if (!rc)
+            rc = find_matrixref(q, f->name, &h, holder, sizeof holder, &e);
+        file_close(&h);
+        key = q->ref.key;
+    }
+    free(q);
+    char *abs = rc ? NULL : realpath(holder, NULL);
+    if (!abs)
+        return;
+    free(s->matrix_file.path);
+    s->matrix_file = (rad_matrix_file){.path = abs, .offset = e.offset, .length = e.length,
+                                       .crc = e.crc, .bytes = s->F->bytes};
+    s->F->key = key;
 }
 
 /* F's entries from the MATRIX of s's own file or from the file its
@@ -559,6 +619,8 @@ static int read_v6(sol_reader *r, const sol_file *f, const uint8_t head[SOL_HEAD
     }
     if (!rc && (parts & RAD_PART_MATRIX))
         rc = load_matrix(r, f, &x, s);
+    else if (!rc && (parts & RAD_PART_MATRIX_PLACE))
+        locate_matrix(r, f, &x, s);
     s->file_id = x.id;
     return rc;
 }

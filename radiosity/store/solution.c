@@ -55,6 +55,7 @@ void rad_solution_destroy(rad_solution *s)
     free(s->file);
     free(s->matrix_file.path);
     rad_progress_destroy(s->progress);
+    rad_basis_destroy(s->basis);
     free(s);
 }
 

@@ -14,7 +14,8 @@
  * The files of radiosity/store/ implement this header: solution.c (create,
  * destroy), write.c and read.c (the file), format.c (what those two share),
  * elements.c (the element store), lights.c (the punctual lights' stored
- * power), analysis.c (quantities read off a solution), relight.c (edits).
+ * power), analysis.c (quantities read off a solution), relight.c (edits),
+ * basis.c (the stored light responses and relighting by superposition).
  */
 #ifndef RAD_SOLUTION_H
 #define RAD_SOLUTION_H
@@ -162,6 +163,68 @@ typedef struct rad_progress {
     rad_preview_info *previews; /* preview_count entries (owned) */
 } rad_progress;
 
+/* Stored light responses (issue 21): B is linear in the sources.  With
+ * M = (I - diag(ρ) F)^-1, B = M (E + ρ H_d), and the element B, the
+ * irradiance H and the light through sheets are linear in (E, I_l) too.
+ * The sources are split into K light groups: the emitting patches by
+ * (object, material) pair, the finest partition an edit can address, and
+ * one group per punctual light of non-zero intensity.  B^(g) is the answer
+ * to group g's sources alone (E_ref on its patches, I_ref for its light,
+ * every other source 0).  A relight that only scales each group's sources
+ * by c_{g,band} >= 0 (and changes no ρ) is then B = Σ_g c_g B^(g), likewise
+ * H and the elements' B: no F read, no solve (rad_solution_superpose).
+ *
+ * Made by the pipeline after the final B and elements exist (rad_solve_scene,
+ * rad_resolve, rad_refine_solution): for K = 1 the solution itself, for
+ * K > 1 one Gauss-Seidel solve per group on the stored rows, only when F
+ * holds every row such a solve needs.  A change of ρ, of the elements or of
+ * the mesh frees it: it describes the ρ it was made with (rho, kept in
+ * memory only, from PATCHDATA when read) and is never written stale.
+ *
+ * Invariants: groups in 1..RAD_BASIS_MAX_GROUPS; patch_group[i] < groups
+ * exactly when E_ref of patch i is > 0 in some band, else RAD_NONE; the same
+ * for light_group and I_ref; every group has a member; every value finite
+ * and >= 0; Σ_g B^(g) = the B solved with E_ref and I_ref (the solution's
+ * own B when the basis was just made) within the solve tolerance: residual[g]
+ * is group g's relative residual (sv_residual) and |Σ_g B^(g) - B| stays
+ * within a few Σ_g residual[g] max B^(g) (checked in debug builds). */
+#define RAD_BASIS_MAX_GROUPS 32u /* above it, no basis: K extra solves and K copies of B */
+
+typedef struct rad_basis {
+    uint32_t groups;        /* K */
+    uint32_t patch_count;   /* n, the solution's */
+    uint32_t light_count;   /* the scene's punctual lights */
+    uint32_t element_count; /* the solution's elements, 0 without */
+    uint32_t band_count;
+    double *E_ref;          /* n × bands: the patches' E the basis was solved with (owned) */
+    double *I_ref;          /* light_count × bands: the lights' I then, NULL without lights (owned) */
+    uint32_t *patch_group;  /* n: group of patch i, RAD_NONE when it emits nothing (owned) */
+    uint32_t *light_group;  /* light_count: group of light l, RAD_NONE when dark (owned) */
+    double *B;              /* groups × n × bands: B^(g) at [(g·n + i)·bands + b] (owned) */
+    double *H;              /* groups × n × bands: H^(g), direct light included (owned) */
+    double *Be;             /* groups × element_count × bands, NULL without elements (owned) */
+    double *residual;       /* groups: each group's relative residual (owned) */
+    double *rho;            /* n × bands: the ρ it was made with; in memory only (owned) */
+} rad_basis;
+
+typedef struct rad_solution rad_solution; /* below */
+
+/* A basis of k groups for s's sizes, E_ref, I_ref and ρ copied from s, the
+ * groups RAD_NONE, the responses zero.  NULL when memory runs out.  Caller
+ * owns. */
+rad_basis *rad_basis_create(const rad_solution *s, uint32_t groups);
+void rad_basis_destroy(rad_basis *b); /* NULL does nothing */
+
+/* The light groups of s's current sources (E and the lights' I): into
+ * patch_group[n] and light_group[light_count] (caller's buffers), the count
+ * into *groups.  RAD_ERR_NOMEM only. */
+int rad_basis_groups(const rad_solution *s, uint32_t *patch_group, uint32_t *light_group,
+                     uint32_t *groups, rad_error *err);
+
+/* Does s->basis still describe s: the same patch, light, element and band
+ * counts and ρ as when it was made?  (0 when there is none.) */
+int rad_basis_matches(const rad_solution *s);
+
 typedef struct rad_solution {
     rad_scene *scene;        /* owned */
     rad_mesh *mesh;          /* owned */
@@ -177,7 +240,9 @@ typedef struct rad_solution {
     char solver[32];         /* "gauss-seidel", "jacobi", "progressive" */
     double tolerance;
     uint32_t iterations;
-    double residual;
+    double residual;         /* max_i |E_i + ρ_i H_i - B_i| / max B (sv_residual); after a
+                              * relight by superposition the bound Σ_g c_g r_g max B^(g) /
+                              * max B of the groups' residuals r_g, with iterations 0 */
     uint64_t rows_computed;  /* hemi-cube rows computed in the run that wrote this file */
     rad_stage_info stages[RAD_STAGE_COUNT];
 
@@ -203,6 +268,7 @@ typedef struct rad_solution {
     uint64_t file_id;              /* CRC-64 of that file's index (version 6): its content */
     rad_matrix_file matrix_file;   /* where F's rows are (version 6) */
     rad_progress *progress;        /* NULL unless the last solve was progressive (owned) */
+    rad_basis *basis;              /* the stored light responses, NULL when none (owned) */
 } rad_solution;
 
 /* A new solution taking ownership of scene and mesh (on failure they are
@@ -265,6 +331,11 @@ int rad_solution_read(const char *path, rad_solution **out, rad_error *err);
 /* Parts of a solution that a reader may leave out. */
 #define RAD_PART_MATRIX 1u  /* F's entries: without it s->F has the rows present and their
                              * entry counts only (entries_loaded = 0), and s->irradiance */
+#define RAD_PART_MATRIX_PLACE 2u /* without RAD_PART_MATRIX: still find where F's rows are
+                                  * (s->matrix_file, F->key: the MATRIX section's place, or
+                                  * the file a MATRIXREF names, its index checked) so that a
+                                  * solution written from it can share them; left empty,
+                                  * without an error, when that file is gone or changed */
 #define RAD_PARTS_ALL RAD_PART_MATRIX
 
 /* rad_solution_read of the parts in `parts` only (everything else is always
@@ -445,6 +516,20 @@ int rad_edit_parse(rad_edit_kind kind, const char *arg, rad_edit *out, rad_error
  * Nothing changes on error. */
 int rad_solution_apply_edits(rad_solution *s, const rad_edit *edits, uint32_t count,
                              rad_error *err);
+
+/* Relights s by superposition of its stored light responses (s->basis,
+ * above) when its current sources allow it: ρ is the basis's, each group's
+ * patches have E = c_{g,band} E_ref and its light I = c_{g,band} I_ref (one
+ * c >= 0 per group and band, relative mismatch <= 1e-12), and every patch
+ * and light outside the groups is dark.  Then B = Σ c B^(g), s->irradiance
+ * = Σ c H^(g) and the elements' B = Σ c Be^(g) (nothing clamped), iterations
+ * 0, residual the bound of solution.h, rows and lights computed 0, progress
+ * NULL; the basis stays as it is (it still describes E_ref); *done = 1.
+ * Otherwise nothing changes and *done = 0.  Either way `why` (why_size
+ * bytes, may be NULL) says which and why, e.g. "3 stored light responses"
+ * or "reflectance changed".  Needs no F entries.  RAD_ERR_NOMEM only. */
+int rad_solution_superpose(rad_solution *s, int *done, char *why, size_t why_size,
+                           rad_error *err);
 
 /* A variations file: named variants, each a list of edits.
  *   variant NAME

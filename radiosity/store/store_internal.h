@@ -60,7 +60,12 @@
  * PROGRESS when the last solve was progressive (its shots, previews and
  * row store).  ROWS, IRRADIANCE
  * and MATRIXREF exist from version 6 on (which holds MATRIXREF or MATRIX,
- * never both).
+ * never both).  BASIS (version 6, the stored light responses, issue 21) is
+ * optional and not announced: a reader that skips it still reads the
+ * solution right (it only loses the fast relight), INFO's byte of
+ * announcements is full, and version 6's index with its CRC already tells
+ * a missing section from a file without it.  It is parsed last (it is
+ * checked against PATCHDATA, LIGHTS and ELEMENTS).
  *
  * Adding an optional section (docs/solution-format.md, "Adding a
  * section"): its enum entry just before SEC_ROWS (its INFO bit follows
@@ -70,8 +75,9 @@
 enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_ELEMENTS,
        SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_SURFACE, SEC_CLUSTERS, SEC_ELEMENT_INDIRECT,
        SEC_PROGRESS,
-       SEC_ROWS, SEC_IRRADIANCE, SEC_MATRIXREF, SEC_COUNT };
+       SEC_ROWS, SEC_IRRADIANCE, SEC_MATRIXREF, SEC_BASIS, SEC_COUNT };
 /* Sections of versions 1-5 (the others are refused there). */
+_Static_assert(SEC_BASIS > SEC_ROWS, "BASIS is a version 6 section");
 #define SEC_COUNT_V5 SEC_ROWS
 /* The optional sections INFO announces (versions 5 and 6), one bit each
  * from LIGHTS on, in enum order: LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4,
@@ -90,8 +96,8 @@ extern const int sol_version_sections[SOL_VERSION_SHEETS + 1];
 
 /* The order of the sections after the matrix, for the writer and the
  * reader of version 6 (each needs those before it): INFO, SCENE, MESH,
- * ROWS, PATCHDATA, IRRADIANCE, then the optional sections in enum order.
- * Entry q, or -1 past the end. */
+ * ROWS, PATCHDATA, IRRADIANCE, then the optional sections in enum order,
+ * then BASIS.  Entry q, or -1 past the end. */
 int sol_section_order(size_t q);
 
 /* Minimum encoded sizes of one element, used to bound counts before
@@ -108,6 +114,7 @@ int sol_section_order(size_t q);
 #define ELEMENT_VERTEX_BYTES (3u * 8u + 1u)
 /* patch, level, four corners, row count; + 8 per band */
 #define MIN_ELEMENT (4u + 1u + 16u + 4u)
+#define BASIS_HEAD (5u * 4u)  /* groups, n, bands, lights, elements */
 /* camera index, projection, xmag, ymag */
 #define PREVIEW_BYTES (4u + 4u + 8u + 8u) /* one preview of PROGRESS */
 #define ORTHO_CAMERA_BYTES (4u + 1u + 16u)
@@ -137,6 +144,7 @@ uint64_t sol_load_le64(const uint8_t *p);
 
 int sol_bad_reflectance(double r); /* not in [0, 1) (NaN included) */
 int sol_bad_nonneg(double v);      /* not finite and >= 0 */
+int sol_any_positive(const double *v, uint32_t nb); /* some of the nb values > 0: a source */
 
 /* The per-patch ρ, E and B rules; `where` is "section PATCHDATA" (reader)
  * or "cannot write" (writer), `code` the result code to fail with. */
@@ -154,6 +162,12 @@ int sol_check_info(const rad_solution *s, const char *file, const char *where, i
 /* The light rules; `where` as for sol_check_patch_values. */
 int sol_check_lights(const rad_solution *s, const char *file, const char *where, int code,
                      rad_error *err);
+
+/* The stored light responses' rules (solution.h, rad_basis): groups in
+ * range and agreeing with the reference sources, each with a member, every
+ * value finite and >= 0.  The sizes are the caller's to check. */
+int sol_check_basis(const rad_solution *s, const char *file, const char *where, int code,
+                    rad_error *err);
 
 /* ---------------------------------------------- reading (parse.c, read.c) */
 

@@ -460,10 +460,10 @@ int sol_validate_for_write(const rad_solution *s, const char *path, int check_ma
 {
     if (!s || !s->scene || !s->mesh || !s->F || !s->rho || !s->emission || !s->B)
         return rad_fail(err, RAD_ERR_USAGE, "%s: cannot write: incomplete solution", path);
-    if (!s->F->entries_loaded)
+    if (!s->F->entries_loaded && check_matrix)
         return rad_fail(err, RAD_ERR_USAGE,
-                        "%s: cannot write: the form factors were not read (read the solution whole)",
-                        path);
+                        "%s: cannot write: the form factors were not read and cannot be shared "
+                        "(read the solution whole)", path);
     const rad_scene *sc = s->scene;
     const rad_mesh *m = s->mesh;
     if (sc->band_count < 1 || sc->band_count > RAD_MAX_BANDS || s->band_count != sc->band_count)
@@ -517,6 +517,9 @@ int sol_validate_for_write(const rad_solution *s, const char *path, int check_ma
         return rad_fail(err, RAD_ERR_INVALID, "%s: cannot write: %s", path, sub.message);
     if (s->elements && rad_elements_check(s->elements, s, "elements", &sub))
         return rad_fail(err, RAD_ERR_INVALID, "%s: cannot write: %s", path, sub.message);
+    if (rad_basis_matches(s) &&
+        (rc = sol_check_basis(s, path, "cannot write: light responses", RAD_ERR_INVALID, err)))
+        return rc;
     return sol_check_patch_values(s, path, "cannot write", RAD_ERR_INVALID, err);
 }
 
@@ -626,6 +629,36 @@ static void emit_progress(sol_sink *k, const sol_write_ctx *w)
     }
 }
 
+/* BASIS: the stored light responses (parse.c's parse_basis). */
+static void emit_basis(sol_sink *k, const sol_write_ctx *w)
+{
+    const rad_basis *b = w->s->basis;
+    const uint64_t nv = (uint64_t)b->patch_count * b->band_count;
+    const uint64_t nev = (uint64_t)b->element_count * b->band_count;
+    put_u32(k, b->groups);
+    put_u32(k, b->patch_count);
+    put_u32(k, b->band_count);
+    put_u32(k, b->light_count);
+    put_u32(k, b->element_count);
+    for (uint64_t q = 0; q < nv; q++)
+        put_f64(k, b->E_ref[q]);
+    for (uint64_t q = 0; q < (uint64_t)b->light_count * b->band_count; q++)
+        put_f64(k, b->I_ref[q]);
+    for (uint32_t i = 0; i < b->patch_count; i++)
+        put_u32(k, b->patch_group[i]);
+    for (uint32_t l = 0; l < b->light_count; l++)
+        put_u32(k, b->light_group[l]);
+    for (uint32_t g = 0; g < b->groups; g++) {
+        put_f64(k, b->residual[g]);
+        for (uint64_t q = 0; q < nv; q++)
+            put_f64(k, b->B[g * nv + q]);
+        for (uint64_t q = 0; q < nv; q++)
+            put_f64(k, b->H[g * nv + q]);
+        for (uint64_t q = 0; q < nev; q++)
+            put_f64(k, b->Be[g * nev + q]);
+    }
+}
+
 typedef void (*emit_fn)(sol_sink *, const sol_write_ctx *);
 static const emit_fn sec_emit[SEC_COUNT] = {
     [SEC_INFO] = emit_info,
@@ -644,6 +677,7 @@ static const emit_fn sec_emit[SEC_COUNT] = {
     [SEC_ROWS] = emit_rows,
     [SEC_IRRADIANCE] = emit_irradiance,
     [SEC_MATRIXREF] = emit_matrixref,
+    [SEC_BASIS] = emit_basis,
 };
 
 /* Whether the file holds section i: the optional ones only when the
@@ -651,7 +685,8 @@ static const emit_fn sec_emit[SEC_COUNT] = {
  * ELEMENTLIGHTS elements with their own direct light, CAMERAS an
  * orthographic camera, SURFACE a glossy material, CLUSTERS patches of
  * several cells, ELEMENTINDIRECT elements that interpolate the light
- * reflected onto them); the others always (MATRIX and MATRIXREF are the
+ * reflected onto them, BASIS stored light responses that still describe the
+ * solution); the others always (MATRIX and MATRIXREF are the
  * writer's choice, not asked here). */
 static int section_written(const rad_solution *s, int i)
 {
@@ -672,6 +707,8 @@ static int section_written(const rad_solution *s, int i)
         return s->elements && s->elements->interp;
     case SEC_PROGRESS:
         return s->progress != NULL;
+    case SEC_BASIS: /* a basis made for another ρ or other elements is stale: left out */
+        return rad_basis_matches(s);
     default:
         return 1;
     }

@@ -22,3 +22,25 @@ polygon lamp lamp
 end
 R
 }
+
+# section_at FILE TAG: the byte offset and length of section TAG's body in a
+# version 6 file (its index at the end), or nothing when there is none.
+section_at() { # FILE TAG
+    python3 - "$1" "$2" <<'P'
+import struct, sys
+b = open(sys.argv[1], 'rb').read()
+at = struct.unpack_from('<Q', b, 16)[0]
+count = struct.unpack_from('<I', b, at)[0]
+for q in range(count):
+    tag, _, off, length, crc = struct.unpack_from('<4sIQQQ', b, at + 8 + 32 * q)
+    if tag == sys.argv[2].encode():
+        print(off, length)
+P
+}
+# section_body FILE TAG: that body on stdout; status 1 when there is none.
+section_body() {
+    local off len
+    read -r off len < <(section_at "$1" "$2")
+    [ -n "${len:-}" ] || return 1
+    tail -c +$((off + 1)) "$1" | head -c "$len"
+}

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # parts.sh - issue 21 from the command line: the solution file in parts.
 # render and report never read F, so a damaged MATRIX section leaves them
-# whole while relight refuses it naming the section; a relight shares its
+# whole; so does a relight that only scales the one light (by superposition
+# of the stored light response: exactly 2 B for light=2), while a relight
+# that needs F (--reflectance) refuses it naming the section; a relight shares its
 # base's matrix (a hard link OUT.matrix, or the base's path where no link
 # can be made) instead of copying it, stays right when the base is moved or
 # solved again, and fails clearly - never silently - when the matrix it
@@ -11,19 +13,6 @@ set -u
 ok()  { passed=$((passed + 1)); echo "ok   $1"; }
 bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 
-# The byte offset of section TAG's body in a version 6 file (its index at the end).
-section_at() { # FILE TAG
-    python3 - "$1" "$2" <<'P'
-import struct, sys
-b = open(sys.argv[1], 'rb').read()
-at = struct.unpack_from('<Q', b, 16)[0]
-count = struct.unpack_from('<I', b, at)[0]
-for q in range(count):
-    tag, _, off, length, crc = struct.unpack_from('<4sIQQQ', b, at + 8 + 32 * q)
-    if tag == sys.argv[2].encode():
-        print(off, length)
-P
-}
 flip_byte() { # FILE OFFSET: inverts one byte in place (the file keeps its inode)
     python3 -c "
 import sys
@@ -39,7 +28,10 @@ numbers() { "$BIN" report "$1" --json | sed -e 's/"stages": {.*//' -e 's/"soluti
 "$BIN" render "$dir/base.sol" -o "$dir/base.exr" --size 64x64 > /dev/null 2>&1 || exit 1
 
 # A damaged MATRIX: render and report do not notice (same image, same
-# numbers), relight refuses naming the section.
+# numbers), nor does a relight by superposition (one light group: its
+# response is the solution itself, so light=2 is exactly 2 B and reads no
+# byte of F); a relight that needs F refuses naming the section.  (Before
+# the stored responses, any relight of a damaged F failed.)
 cp "$dir/base.sol" "$dir/damaged.sol"
 read -r m mlen < <(section_at "$dir/damaged.sol" MTRX)
 flip_byte "$dir/damaged.sol" $((m + mlen / 2))
@@ -50,13 +42,49 @@ if "$BIN" render "$dir/damaged.sol" -o "$dir/damaged.exr" --size 64x64 > /dev/nu
 else
     bad "render or report of a damaged MATRIX differs or fails"
 fi
-"$BIN" relight "$dir/damaged.sol" -o "$dir/x.sol" --light light=2 > /dev/null 2> "$dir/stderr"
+"$BIN" relight "$dir/damaged.sol" -o "$dir/x2.sol" --light light=2 > "$dir/stdout" 2> "$dir/stderr"
+rc=$?
+# every patch's and element's B exactly twice the base's (relative 1e-12)
+twice() { # BASE RELIT
+    rm -rf "$dir/ea" "$dir/eb"; mkdir -p "$dir/ea" "$dir/eb"
+    "$BIN" export "$1" -o "$dir/ea" > /dev/null && "$BIN" export "$2" -o "$dir/eb" > /dev/null &&
+    python3 - "$dir/ea" "$dir/eb" <<'P'
+import csv, sys
+worst = 0.0
+for f in ('patches.csv', 'elements.csv'):
+    a = list(csv.DictReader(open(sys.argv[1] + '/' + f)))
+    b = list(csv.DictReader(open(sys.argv[2] + '/' + f)))
+    assert len(a) == len(b) > 0
+    for ra, rb in zip(a, b):
+        for k in ('B_R', 'B_G', 'B_B'):
+            x, y = 2 * float(ra[k]), float(rb[k])
+            worst = max(worst, abs(x - y) / max(abs(x), 1e-300))
+print('%.3g' % worst)
+sys.exit(0 if worst <= 1e-12 else 1)
+P
+}
+# export needs F, which x2.sol shares damaged: the same relight of the
+# intact base gives the numbers, and x2.sol's PATCHDATA and ELEMENTS must be
+# its byte for byte.
+"$BIN" relight "$dir/base.sol" -o "$dir/x3.sol" --light light=2 > /dev/null 2>&1
+same_section() { # A B TAG
+    section_body "$1" "$3" > "$dir/sa" && section_body "$2" "$3" > "$dir/sb" && [ -s "$dir/sa" ] &&
+        cmp -s "$dir/sa" "$dir/sb"
+}
+if [ "$rc" -eq 0 ] && grep -q "relit by superposition of 1 stored light response (form factors not read)" "$dir/stdout" &&
+   same_section "$dir/x2.sol" "$dir/x3.sol" PDAT && same_section "$dir/x2.sol" "$dir/x3.sol" ELEM &&
+   worst=$(twice "$dir/base.sol" "$dir/x3.sol"); then
+    ok "relight --light light=2 of it by superposition: exactly 2 B (worst relative difference $worst): $(cat "$dir/stdout" | tail -n 1)"
+else
+    bad "superposed relight of a damaged MATRIX: exit $rc, $(cat "$dir/stdout" "$dir/stderr"), 2 B: ${worst:-?}"
+fi
+"$BIN" relight "$dir/damaged.sol" -o "$dir/x.sol" --reflectance floor=0.3 > /dev/null 2> "$dir/stderr"
 rc=$?
 if [ "$rc" -eq 2 ] && grep -q "damaged.sol: section MATRIX: checksum mismatch" "$dir/stderr" &&
    [ ! -e "$dir/x.sol" ]; then
-    ok "relight of it: $(cat "$dir/stderr")"
+    ok "relight --reflectance of it: $(cat "$dir/stderr")"
 else
-    bad "relight of a damaged MATRIX: exit $rc, $(cat "$dir/stderr")"
+    bad "relight --reflectance of a damaged MATRIX: exit $rc, $(cat "$dir/stderr")"
 fi
 # a damaged section that render needs is refused by render, named
 read -r p plen < <(section_at "$dir/base.sol" PDAT)
@@ -100,10 +128,11 @@ else
     bad "relight after the base moved"
 fi
 
-# Its matrix altered in place (the base's bytes, one inode): a clear error.
+# Its matrix altered in place (the base's bytes, one inode): a clear error
+# for a relight that reads F (--resolve).
 read -r m mlen < <(section_at "$dir/elsewhere/base.sol" MTRX)
 flip_byte "$dir/elsewhere/base.sol" $((m + 100))
-"$BIN" relight "$dir/lit/lit.sol" -o "$dir/lit/y.sol" --light light=3 > /dev/null 2> "$dir/stderr"
+"$BIN" relight "$dir/lit/lit.sol" -o "$dir/lit/y.sol" --light light=3 --resolve > /dev/null 2> "$dir/stderr"
 rc=$?
 if [ "$rc" -eq 2 ] && grep -q "lit.sol.matrix: section MATRIX: checksum mismatch" "$dir/stderr" &&
    "$BIN" render "$dir/lit/lit.sol" -o "$dir/lit2.exr" --size 64x64 > /dev/null 2>&1 &&

@@ -22,27 +22,6 @@ ok()  { passed=$((passed + 1)); echo "ok   $1"; }
 bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 NOGL="MESA_GL_VERSION_OVERRIDE=2.1"
 
-# section FILE TAG: the body of section TAG of solution FILE (format version
-# 6: the index at the offset in header bytes 16..23, a u32 count, a u32 0,
-# then per section a 4-byte tag, a u32 0, u64 offset, u64 length, u64 CRC)
-# on stdout; status 1 when the file has no such section.
-section() {
-    local f=$1 tag=$2 at count q e t off len
-    at=$(od --endian=little -An -tu8 -j 16 -N8 "$f" | tr -d ' ')
-    count=$(od --endian=little -An -tu4 -j "$at" -N4 "$f" | tr -d ' ')
-    for q in $(seq 0 $((count - 1))); do
-        e=$((at + 8 + 32 * q))
-        t=$(dd if="$f" bs=1 skip="$e" count=4 2> /dev/null)
-        if [ "$t" = "$tag" ]; then
-            off=$(od --endian=little -An -tu8 -j $((e + 8)) -N8 "$f" | tr -d ' ')
-            len=$(od --endian=little -An -tu8 -j $((e + 16)) -N8 "$f" | tr -d ' ')
-            tail -c +$((off + 1)) "$f" | head -c "$len"
-            return 0
-        fi
-    done
-    return 1
-}
-
 { cat models/cornell.rad; echo "light bulb point 0.28 0.4 0.28 intensity 0.05"; } > "$dir/scene.rad"
 "$BIN" solve "$dir/scene.rad" -o "$dir/base.sol" --patch-size 0.2 --element-levels 1 \
     > /dev/null 2>&1 || { echo "cannot solve the base scene"; exit 1; }
@@ -80,14 +59,14 @@ fi
 # byte, PATCHDATA changed.
 if [ -s "$dir/relit.sol" ]; then
     for tag in MESH PDAT; do
-        section "$dir/base.sol" "$tag" > "$dir/base.$tag" || bad "base.sol has no $tag section"
-        section "$dir/relit.sol" "$tag" > "$dir/relit.$tag" || bad "relit.sol has no $tag section"
+        section_body "$dir/base.sol" "$tag" > "$dir/base.$tag" || bad "base.sol has no $tag section"
+        section_body "$dir/relit.sol" "$tag" > "$dir/relit.$tag" || bad "relit.sol has no $tag section"
     done
-    section "$dir/base.sol" MTRX > "$dir/base.MTRX" || bad "base.sol has no MTRX section"
-    section "$dir/relit.sol.matrix" MTRX > "$dir/relit.MTRX" || bad "relit.sol.matrix has no MTRX section"
+    section_body "$dir/base.sol" MTRX > "$dir/base.MTRX" || bad "base.sol has no MTRX section"
+    section_body "$dir/relit.sol.matrix" MTRX > "$dir/relit.MTRX" || bad "relit.sol.matrix has no MTRX section"
     m=$(stat -c %s "$dir/base.MTRX")
     if [ "$m" -gt 1000 ] && cmp -s "$dir/base.MTRX" "$dir/relit.MTRX" &&
-       ! section "$dir/relit.sol" MTRX > /dev/null && section "$dir/relit.sol" MREF > /dev/null; then
+       ! section_body "$dir/relit.sol" MTRX > /dev/null && section_body "$dir/relit.sol" MREF > /dev/null; then
         ok "MATRIX section identical ($m bytes), referred to, not copied"
     else
         bad "MATRIX section: $m bytes in base, $(stat -c %s "$dir/relit.MTRX") relit, $(cmp "$dir/base.MTRX" "$dir/relit.MTRX" 2>&1)"

@@ -38,6 +38,11 @@ static void parse_one(const uint8_t *data, size_t size, unsigned parts)
         }
         if (s->F->entries_loaded && rad_matrix_check(s->F, NULL) != RAD_OK)
             abort();
+        /* stored light responses: their sizes are the solution's */
+        if (s->basis && (s->basis->groups < 1 || s->basis->groups > RAD_BASIS_MAX_GROUPS ||
+                         s->basis->patch_count != s->mesh->patch_count ||
+                         !rad_basis_matches(s)))
+            abort();
     } else if (s) {
         abort(); /* a failure must not hand back a solution */
     }
