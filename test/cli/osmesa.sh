@@ -9,7 +9,7 @@
 #     library and what is wrong, no crash and no output;
 #   - under the same broken library, report, render, relight (no punctual
 #     light) and export of a stored solution work: they never load it.
-# Cost: about 1 s (one solve of a two-polygon room, three refused solves,
+# Cost: about 2 s (one solve of a two-polygon room, three refused solves,
 # two small compilations of the fake library).
 set -u
 . "$(dirname "$0")/lib.bash"
