@@ -24,7 +24,7 @@ CFLAGS   := -std=c11 $(WARN) $(CFLAGS_$(MODE))
 # tinygltf is header-only C++; its own code draws warnings we do not own.
 CXXFLAGS := -std=c++17 -Wall -Wextra -Werror -Wno-unused-parameter $(CFLAGS_$(MODE))
 LDFLAGS  := $(CFLAGS_$(MODE))
-LDLIBS   := -lOSMesa -lOpenEXRCore-3_1 -lpng -lembree3 -lstdc++ -lm -lpthread
+LDLIBS   := -lOpenEXRCore-3_1 -lpng -lembree3 -lstdc++ -lm -lpthread
 
 CLI_C    := $(wildcard radiosity/cli/*.c)
 LIB_C    := $(filter-out $(CLI_C),$(wildcard radiosity/*/*.c hemicube/*.c solver/*.c render/*.c))

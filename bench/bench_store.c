@@ -3,12 +3,14 @@
  * glTF model at its defaults, ~3k patches; models/cornell.rad at patch size
  * 0.0156, ~8k, and 0.0078, ~32k) it runs the program (build/release/
  * radiosity) as a user would and prints, per command, the wall time and the
- * peak resident memory of its largest process (wait4's ru_maxrss): solve
- * (from nothing: --fresh), report, render 1024², relight --light light=2
- * (by superposition of the stored light responses: F is not read) and
- * relight --reflectance floor=0.5 (F read, solved again); the solution's
- * size and its MATRIX section's; and how many times faster each relight is
- * than the solve.
+ * peak resident memory of its largest process (wait4's ru_maxrss, which
+ * counts the hemi-cube workers the program reaped: the solve's main process
+ * when F is large, a worker, ~90 MiB with OSMesa and llvmpipe, when it is
+ * small; report/store.md): solve (from nothing: --fresh), report, render
+ * 1024², relight --light light=2 (by superposition of the stored light
+ * responses: F is not read) and relight --reflectance floor=0.5 (F read,
+ * solved again); the solution's size and its MATRIX section's; and how
+ * many times faster each relight is than the solve.
  *
  * The 32k row takes a solve of minutes and a file of ~1.8 GB: it runs only
  * with RADIOSITY_BENCH_LARGE=1 (the table says so otherwise).  Timings are

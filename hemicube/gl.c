@@ -1,5 +1,5 @@
 /* gl.c - OSMesa/GL for the hemi-cube workers: the only file of the project
- * that includes a GL header.
+ * that includes a GL header, and the only one that knows libOSMesa.
  *
  * Owns a worker's GL context (OSMesa, llvmpipe), the shaders, the one
  * vertex buffer holding every patch (patch j's triangles contiguous,
@@ -9,21 +9,67 @@
  * draw and read with (hc_gl_* in hc_internal.h).  Only a worker process
  * ever makes a context, so the caller can fork freely.
  *
+ * libOSMesa is not linked: a worker loads it (dlopen) when it makes its
+ * context, and calls GL through a table of entry points (gl.Name) filled
+ * by OSMesaGetProcAddress.  The process that forks the workers holds F and
+ * never draws; linking OSMesa (and the LLVM it pulls in) would cost it
+ * ~48 MB resident for nothing, and render, report, relight and export
+ * would need the library without using it.
+ *
  * Invariants: depth is reversed Z with an infinite far plane (depth =
  * near/distance, the target cleared to 0, GL_GREATER); the item target
  * holds patch ids, HC_NO_PATCH where nothing or only a back side shows;
  * between calls the program is in item mode (mode 0) with the depth test on.
+ * No function of this file but hc_gl_create and hc_gl_projection runs
+ * before hc_gl_create has filled the table.
  */
-#define GL_GLEXT_PROTOTYPES 1
+#define GL_GLEXT_PROTOTYPES 1 /* the prototypes give the table its types (__typeof__) */
 #include "hc_internal.h"
 
 #include <GL/osmesa.h>
 #include <GL/gl.h>
 #include <GL/glext.h>
 
+#include <dlfcn.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* The library a worker loads, and the Debian package that ships it. */
+#define HC_OSMESA_LIB "libOSMesa.so.8"
+#define HC_OSMESA_PACKAGE "libosmesa6"
+
+/* Every GL entry point this file calls, each named once (without its "gl").
+ * A call is gl.Name(...); the header's prototype of glName gives the
+ * pointer its type (__typeof__, the GCC and Clang extension: C11 has no
+ * typeof, and GL 1.x entry points have no PFN typedef), and no GL symbol
+ * is referenced at link time. */
+#define HC_GL_ENTRY_POINTS(X)                                                                  \
+    X(AttachShader) X(BindBuffer) X(BindFramebuffer) X(BindRenderbuffer) X(BindVertexArray)     \
+    X(BufferData) X(CheckFramebufferStatus) X(ClearBufferfv) X(ClearBufferuiv) X(ClipControl)   \
+    X(CompileShader) X(CreateProgram) X(CreateShader) X(DeleteShader) X(DepthFunc) X(Disable)   \
+    X(DrawBuffers) X(Enable) X(EnableVertexAttribArray) X(FramebufferRenderbuffer)              \
+    X(GenBuffers) X(GenFramebuffers) X(GenRenderbuffers) X(GenVertexArrays) X(GetError)         \
+    X(GetIntegerv) X(GetProgramInfoLog) X(GetProgramiv) X(GetShaderInfoLog) X(GetShaderiv)      \
+    X(GetUniformLocation) X(LinkProgram) X(LogicOp) X(MultiDrawElements) X(PixelStorei)         \
+    X(ReadBuffer) X(ReadPixels) X(RenderbufferStorage) X(Scissor) X(ShaderSource)               \
+    X(Uniform1ui) X(Uniform3f) X(UniformMatrix4fv) X(UseProgram) X(VertexAttribIPointer)        \
+    X(VertexAttribPointer) X(Viewport)
+
+/* The OSMesa calls, found by dlsym (OSMesaName); the context is never
+ * destroyed (it lives until the worker's _exit), so OSMesaDestroyContext
+ * is not among them. */
+#define HC_OSMESA_ENTRY_POINTS(X) X(CreateContextAttribs) X(MakeCurrent) X(GetProcAddress)
+
+#define HC_GL_POINTER(name) __typeof__(gl##name) *name;
+#define HC_OSMESA_POINTER(name) __typeof__(OSMesa##name) *name;
+/* Per process: filled in a worker by load_gl, all NULL in the caller. */
+static struct {
+    HC_GL_ENTRY_POINTS(HC_GL_POINTER)
+} gl;
+static struct {
+    HC_OSMESA_ENTRY_POINTS(HC_OSMESA_POINTER)
+} osmesa;
 
 /* hc_internal.h keeps GL types out: draw lists are int, as GLint and GLsizei. */
 _Static_assert(_Generic((GLint)0, int: 1, default: 0) && _Generic((GLsizei)0, int: 1, default: 0),
@@ -71,7 +117,7 @@ static const char *fs_src =
 
 int hc_gl_check(const char *where, char *msg)
 {
-    GLenum e = glGetError();
+    GLenum e = gl.GetError();
     if (e == GL_NO_ERROR)
         return 0;
     snprintf(msg, HC_MAX_MSG, "hemi-cube: %s: GL error 0x%04x", where, (unsigned)e);
@@ -80,22 +126,61 @@ int hc_gl_check(const char *where, char *msg)
 
 static GLuint compile(GLenum type, const char *src, char *msg)
 {
-    GLuint s = glCreateShader(type);
-    glShaderSource(s, 1, &src, NULL);
-    glCompileShader(s);
+    GLuint s = gl.CreateShader(type);
+    gl.ShaderSource(s, 1, &src, NULL);
+    gl.CompileShader(s);
     GLint ok = 0;
-    glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+    gl.GetShaderiv(s, GL_COMPILE_STATUS, &ok);
     if (!ok) {
         char log[512] = "";
-        glGetShaderInfoLog(s, sizeof log, NULL, log);
+        gl.GetShaderInfoLog(s, sizeof log, NULL, log);
         snprintf(msg, HC_MAX_MSG, "hemi-cube: shader compile failed: %s", log);
-        glDeleteShader(s);
+        gl.DeleteShader(s);
         return 0;
     }
     return s;
 }
 
 /* ----------------------------------------------------------------- set-up */
+
+static int missing(const char *name, char *msg)
+{
+    snprintf(msg, HC_MAX_MSG, "hemi-cube: %s has no %s", HC_OSMESA_LIB, name);
+    return -1;
+}
+
+/* Loads libOSMesa and fills osmesa and gl; 0, or -1 with msg set.
+ * RTLD_NOW: a library that cannot bind its symbols fails here, as an error
+ * value, rather than at a first call, as a crash.  The library stays
+ * loaded until the worker's _exit (no dlclose: the context and llvmpipe's
+ * threads live as long; _exit runs no leak checker).  Mesa's
+ * OSMesaGetProcAddress answers for core entry points as well as
+ * extensions, and is the only way to glClipControl, which the library
+ * does not export. */
+static int load_gl(char *msg)
+{
+    void *lib = dlopen(HC_OSMESA_LIB, RTLD_NOW | RTLD_LOCAL);
+    if (!lib) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: cannot load %s (Debian package %s): %s",
+                 HC_OSMESA_LIB, HC_OSMESA_PACKAGE, dlerror());
+        return -1;
+    }
+    /* dlsym's void * to a function pointer: POSIX guarantees it works. */
+#define HC_OSMESA_LOAD(name)                                                                   \
+    if (!(osmesa.name = (__typeof__(osmesa.name))dlsym(lib, "OSMesa" #name)))                  \
+        return missing("OSMesa" #name, msg);
+    HC_OSMESA_ENTRY_POINTS(HC_OSMESA_LOAD)
+#undef HC_OSMESA_LOAD
+    /* The answer is a generic void (*)(); through void (*)(void), which
+     * -Wcast-function-type lets convert to any function type, it becomes
+     * the entry point's own type. */
+#define HC_GL_LOAD(name)                                                                       \
+    if (!(gl.name = (__typeof__(gl.name))(void (*)(void))osmesa.GetProcAddress("gl" #name)))   \
+        return missing("gl" #name, msg);
+    HC_GL_ENTRY_POINTS(HC_GL_LOAD)
+#undef HC_GL_LOAD
+    return 0;
+}
 
 /* The context and the atlas FBO (R wide, 3R tall: item buffer and depth),
  * with the fixed state every view uses. */
@@ -105,58 +190,52 @@ static int context_and_atlas(hc_gl *g, uint32_t Ru, char *msg)
                            OSMESA_STENCIL_BITS, 0, OSMESA_ACCUM_BITS, 0,
                            OSMESA_PROFILE, OSMESA_CORE_PROFILE,
                            OSMESA_CONTEXT_MAJOR_VERSION, 4, OSMESA_CONTEXT_MINOR_VERSION, 5, 0};
-    g->ctx = OSMesaCreateContextAttribs(attribs, NULL);
+    g->ctx = osmesa.CreateContextAttribs(attribs, NULL);
     if (!g->ctx) {
         snprintf(msg, HC_MAX_MSG, "hemi-cube: OSMesa could not create a GL 4.5 core context");
         return -1;
     }
-    if (!OSMesaMakeCurrent(g->ctx, g->dummy, GL_UNSIGNED_BYTE, 1, 1)) {
+    if (!osmesa.MakeCurrent(g->ctx, g->dummy, GL_UNSIGNED_BYTE, 1, 1)) {
         snprintf(msg, HC_MAX_MSG, "hemi-cube: OSMesaMakeCurrent failed");
         return -1;
     }
     GLsizei R = (GLsizei)Ru;
     GLint max_rb = 0;
-    glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
+    gl.GetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
     if (max_rb < 3 * R) {
         snprintf(msg, HC_MAX_MSG, "hemi-cube: resolution %d needs a %d-pixel render buffer, GL allows %d",
                  (int)R, (int)(3 * R), (int)max_rb);
         return -1;
     }
-    glGenFramebuffers(1, &g->fbo);
-    glBindFramebuffer(GL_FRAMEBUFFER, g->fbo);
-    glGenRenderbuffers(2, g->rb);
-    glBindRenderbuffer(GL_RENDERBUFFER, g->rb[0]);
-    glRenderbufferStorage(GL_RENDERBUFFER, GL_R32UI, R, 3 * R);
-    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, g->rb[0]);
-    glBindRenderbuffer(GL_RENDERBUFFER, g->rb[1]);
-    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, R, 3 * R);
-    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, g->rb[1]);
-    GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    gl.GenFramebuffers(1, &g->fbo);
+    gl.BindFramebuffer(GL_FRAMEBUFFER, g->fbo);
+    gl.GenRenderbuffers(2, g->rb);
+    gl.BindRenderbuffer(GL_RENDERBUFFER, g->rb[0]);
+    gl.RenderbufferStorage(GL_RENDERBUFFER, GL_R32UI, R, 3 * R);
+    gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, g->rb[0]);
+    gl.BindRenderbuffer(GL_RENDERBUFFER, g->rb[1]);
+    gl.RenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, R, 3 * R);
+    gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, g->rb[1]);
+    GLenum status = gl.CheckFramebufferStatus(GL_FRAMEBUFFER);
     if (status != GL_FRAMEBUFFER_COMPLETE) {
         snprintf(msg, HC_MAX_MSG, "hemi-cube: item-buffer framebuffer incomplete (0x%04x)",
                  (unsigned)status);
         return -1;
     }
     const GLenum draw = GL_COLOR_ATTACHMENT0;
-    glDrawBuffers(1, &draw);
-    glReadBuffer(GL_COLOR_ATTACHMENT0);
-    glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    gl.DrawBuffers(1, &draw);
+    gl.ReadBuffer(GL_COLOR_ATTACHMENT0);
+    gl.PixelStorei(GL_PACK_ALIGNMENT, 4);
     /* Reversed Z with an infinite far plane: depth = near/distance in a
      * float buffer keeps ~24 bits of relative precision at every distance,
-     * so surfaces a hundredth of a patch apart still resolve.  (libOSMesa
-     * exports every GL entry point but glClipControl.) */
-    PFNGLCLIPCONTROLPROC clip_control = (PFNGLCLIPCONTROLPROC)OSMesaGetProcAddress("glClipControl");
-    if (!clip_control) {
-        snprintf(msg, HC_MAX_MSG, "hemi-cube: glClipControl is not available");
-        return -1;
-    }
-    clip_control(GL_LOWER_LEFT, GL_ZERO_TO_ONE);
-    glEnable(GL_DEPTH_TEST);
-    glDepthFunc(GL_GREATER);
-    glEnable(GL_SCISSOR_TEST);
-    glDisable(GL_CULL_FACE);
-    glDisable(GL_DITHER);
-    glDisable(GL_BLEND);
+     * so surfaces a hundredth of a patch apart still resolve. */
+    gl.ClipControl(GL_LOWER_LEFT, GL_ZERO_TO_ONE);
+    gl.Enable(GL_DEPTH_TEST);
+    gl.DepthFunc(GL_GREATER);
+    gl.Enable(GL_SCISSOR_TEST);
+    gl.Disable(GL_CULL_FACE);
+    gl.Disable(GL_DITHER);
+    gl.Disable(GL_BLEND);
     return hc_gl_check("framebuffer set-up", msg);
 }
 
@@ -169,25 +248,25 @@ static int program(hc_gl *g, char *msg)
     GLuint fs = compile(GL_FRAGMENT_SHADER, fs_src, msg);
     if (!fs)
         return -1;
-    g->prog = glCreateProgram();
-    glAttachShader(g->prog, vs);
-    glAttachShader(g->prog, fs);
-    glLinkProgram(g->prog);
+    g->prog = gl.CreateProgram();
+    gl.AttachShader(g->prog, vs);
+    gl.AttachShader(g->prog, fs);
+    gl.LinkProgram(g->prog);
     GLint ok = 0;
-    glGetProgramiv(g->prog, GL_LINK_STATUS, &ok);
+    gl.GetProgramiv(g->prog, GL_LINK_STATUS, &ok);
     if (!ok) {
         char log[512] = "";
-        glGetProgramInfoLog(g->prog, sizeof log, NULL, log);
+        gl.GetProgramInfoLog(g->prog, sizeof log, NULL, log);
         snprintf(msg, HC_MAX_MSG, "hemi-cube: shader link failed: %s", log);
         return -1;
     }
-    glDeleteShader(vs);
-    glDeleteShader(fs);
-    glUseProgram(g->prog);
-    g->loc_m = glGetUniformLocation(g->prog, "m");
-    g->loc_eye = glGetUniformLocation(g->prog, "eye");
-    g->loc_mode = glGetUniformLocation(g->prog, "mode");
-    glUniform1ui(g->loc_mode, 0u);
+    gl.DeleteShader(vs);
+    gl.DeleteShader(fs);
+    gl.UseProgram(g->prog);
+    g->loc_m = gl.GetUniformLocation(g->prog, "m");
+    g->loc_eye = gl.GetUniformLocation(g->prog, "eye");
+    g->loc_mode = gl.GetUniformLocation(g->prog, "mode");
+    gl.Uniform1ui(g->loc_mode, 0u);
     return 0;
 }
 
@@ -229,12 +308,12 @@ static int upload(const hc_engine *e, hc_gl *g, hc_work *w, char *msg)
         ni += (size_t)w->vcount[j];
     }
     w->nvert = (uint32_t)ni;
-    glGenVertexArrays(1, &g->vao);
-    glBindVertexArray(g->vao);
-    glGenBuffers(1, &g->vbo);
-    glBindBuffer(GL_ARRAY_BUFFER, g->vbo);
-    glGenBuffers(1, &g->ibo);
-    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, g->ibo);
+    gl.GenVertexArrays(1, &g->vao);
+    gl.BindVertexArray(g->vao);
+    gl.GenBuffers(1, &g->vbo);
+    gl.BindBuffer(GL_ARRAY_BUFFER, g->vbo);
+    gl.GenBuffers(1, &g->ibo);
+    gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, g->ibo);
     if (ni) {
         size_t cap = 16;
         while (cap < 2 * ni)
@@ -265,8 +344,8 @@ static int upload(const hc_engine *e, hc_gl *g, hc_work *w, char *msg)
                         idx[k++] = slot[h] - 1;
                     }
             }
-        glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(nv * sizeof *buf), buf, GL_STATIC_DRAW);
-        glBufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(ni * sizeof *idx), idx, GL_STATIC_DRAW);
+        gl.BufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(nv * sizeof *buf), buf, GL_STATIC_DRAW);
+        gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(ni * sizeof *idx), idx, GL_STATIC_DRAW);
         free(buf), free(idx), free(slot);
     }
     g->offsets = malloc(((size_t)n + 1) * sizeof *g->offsets);
@@ -274,10 +353,10 @@ static int upload(const hc_engine *e, hc_gl *g, hc_work *w, char *msg)
         snprintf(msg, HC_MAX_MSG, "hemi-cube: out of memory for %u draw ranges", n);
         return -1;
     }
-    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(hc_vtx), (const void *)0);
-    glVertexAttribIPointer(1, 1, GL_UNSIGNED_INT, sizeof(hc_vtx), (const void *)12);
-    glEnableVertexAttribArray(0);
-    glEnableVertexAttribArray(1);
+    gl.VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(hc_vtx), (const void *)0);
+    gl.VertexAttribIPointer(1, 1, GL_UNSIGNED_INT, sizeof(hc_vtx), (const void *)12);
+    gl.EnableVertexAttribArray(0);
+    gl.EnableVertexAttribArray(1);
     return hc_gl_check("geometry upload", msg);
 }
 
@@ -292,7 +371,7 @@ int hc_gl_create(const hc_engine *e, hc_work *w, char *msg)
     if (!(w->vfirst = hc_alloc(e->n, sizeof *w->vfirst, msg)) ||
         !(w->vcount = hc_alloc(e->n, sizeof *w->vcount, msg)))
         return -1;
-    if (context_and_atlas(g, e->R, msg) != 0 || program(g, msg) != 0)
+    if (load_gl(msg) != 0 || context_and_atlas(g, e->R, msg) != 0 || program(g, msg) != 0)
         return -1;
     return upload(e, g, w, msg);
 }
@@ -300,31 +379,31 @@ int hc_gl_create(const hc_engine *e, hc_work *w, char *msg)
 int hc_gl_light_target(hc_gl *g, uint32_t R, char *msg)
 {
     if (g->lR == R) {
-        glBindFramebuffer(GL_FRAMEBUFFER, g->lfbo);
+        gl.BindFramebuffer(GL_FRAMEBUFFER, g->lfbo);
         return 0;
     }
     GLint max_rb = 0;
-    glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
+    gl.GetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
     if (max_rb < (GLint)R) {
         snprintf(msg, HC_MAX_MSG, "hemi-cube: light resolution %u exceeds GL's %d", R, (int)max_rb);
         return -1;
     }
     g->lR = 0;
     if (!g->lfbo) {
-        glGenFramebuffers(1, &g->lfbo);
-        glGenRenderbuffers(2, g->lrb);
+        gl.GenFramebuffers(1, &g->lfbo);
+        gl.GenRenderbuffers(2, g->lrb);
     }
-    glBindFramebuffer(GL_FRAMEBUFFER, g->lfbo);
-    glBindRenderbuffer(GL_RENDERBUFFER, g->lrb[0]);
-    glRenderbufferStorage(GL_RENDERBUFFER, GL_R32UI, (GLsizei)R, (GLsizei)R);
-    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, g->lrb[0]);
-    glBindRenderbuffer(GL_RENDERBUFFER, g->lrb[1]);
-    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, (GLsizei)R, (GLsizei)R);
-    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, g->lrb[1]);
+    gl.BindFramebuffer(GL_FRAMEBUFFER, g->lfbo);
+    gl.BindRenderbuffer(GL_RENDERBUFFER, g->lrb[0]);
+    gl.RenderbufferStorage(GL_RENDERBUFFER, GL_R32UI, (GLsizei)R, (GLsizei)R);
+    gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, g->lrb[0]);
+    gl.BindRenderbuffer(GL_RENDERBUFFER, g->lrb[1]);
+    gl.RenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, (GLsizei)R, (GLsizei)R);
+    gl.FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, g->lrb[1]);
     const GLenum draw = GL_COLOR_ATTACHMENT0;
-    glDrawBuffers(1, &draw);
-    glReadBuffer(GL_COLOR_ATTACHMENT0);
-    GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    gl.DrawBuffers(1, &draw);
+    gl.ReadBuffer(GL_COLOR_ATTACHMENT0);
+    GLenum status = gl.CheckFramebufferStatus(GL_FRAMEBUFFER);
     if (status != GL_FRAMEBUFFER_COMPLETE) {
         snprintf(msg, HC_MAX_MSG, "hemi-cube: light framebuffer incomplete (0x%04x)", (unsigned)status);
         return -1;
@@ -357,17 +436,17 @@ void hc_gl_projection(double m[16], rad_vec3 right, rad_vec3 up, rad_vec3 d, int
 
 void hc_gl_eye(hc_gl *g, rad_vec3 eye)
 {
-    glUniform3f(g->loc_eye, (float)eye.x, (float)eye.y, (float)eye.z);
+    gl.Uniform3f(g->loc_eye, (float)eye.x, (float)eye.y, (float)eye.z);
 }
 
 void hc_gl_atlas_begin(hc_gl *g, uint32_t R, rad_vec3 eye)
 {
     const GLuint clear_id[4] = {HC_NO_PATCH, 0, 0, 0};
     const GLfloat clear_depth = 0.0f;
-    glBindFramebuffer(GL_FRAMEBUFFER, g->fbo);
-    glScissor(0, 0, (GLsizei)R, (GLsizei)(3 * R));
-    glClearBufferuiv(GL_COLOR, 0, clear_id);
-    glClearBufferfv(GL_DEPTH, 0, &clear_depth);
+    gl.BindFramebuffer(GL_FRAMEBUFFER, g->fbo);
+    gl.Scissor(0, 0, (GLsizei)R, (GLsizei)(3 * R));
+    gl.ClearBufferuiv(GL_COLOR, 0, clear_id);
+    gl.ClearBufferfv(GL_DEPTH, 0, &clear_depth);
     hc_gl_eye(g, eye);
 }
 
@@ -375,15 +454,15 @@ void hc_gl_clear_items(hc_gl *g, uint32_t w, uint32_t h, uint32_t value)
 {
     (void)g;
     const GLuint clear_id[4] = {value, 0, 0, 0};
-    glScissor(0, 0, (GLsizei)w, (GLsizei)h);
-    glClearBufferuiv(GL_COLOR, 0, clear_id);
+    gl.Scissor(0, 0, (GLsizei)w, (GLsizei)h);
+    gl.ClearBufferuiv(GL_COLOR, 0, clear_id);
 }
 
 void hc_gl_view(hc_gl *g, uint32_t y0, uint32_t w, uint32_t h, const float m[16])
 {
-    glViewport(0, (GLint)y0, (GLsizei)w, (GLsizei)h);
-    glScissor(0, (GLint)y0, (GLsizei)w, (GLsizei)h);
-    glUniformMatrix4fv(g->loc_m, 1, GL_TRUE, m);
+    gl.Viewport(0, (GLint)y0, (GLsizei)w, (GLsizei)h);
+    gl.Scissor(0, (GLint)y0, (GLsizei)w, (GLsizei)h);
+    gl.UniformMatrix4fv(g->loc_m, 1, GL_TRUE, m);
 }
 
 void hc_gl_square_view(hc_gl *g, const double m[16], uint32_t R, uint32_t y0)
@@ -393,24 +472,24 @@ void hc_gl_square_view(hc_gl *g, const double m[16], uint32_t R, uint32_t y0)
         mf[k] = (float)m[k];
     const GLuint clear_id[4] = {HC_NO_PATCH, 0, 0, 0};
     const GLfloat clear_depth = 0.0f;
-    glViewport(0, (GLint)y0, (GLsizei)R, (GLsizei)R);
-    glScissor(0, (GLint)y0, (GLsizei)R, (GLsizei)R);
-    glClearBufferuiv(GL_COLOR, 0, clear_id);
-    glClearBufferfv(GL_DEPTH, 0, &clear_depth);
-    glUniformMatrix4fv(g->loc_m, 1, GL_TRUE, mf);
+    gl.Viewport(0, (GLint)y0, (GLsizei)R, (GLsizei)R);
+    gl.Scissor(0, (GLint)y0, (GLsizei)R, (GLsizei)R);
+    gl.ClearBufferuiv(GL_COLOR, 0, clear_id);
+    gl.ClearBufferfv(GL_DEPTH, 0, &clear_depth);
+    gl.UniformMatrix4fv(g->loc_m, 1, GL_TRUE, mf);
 }
 
 void hc_gl_or_mode(hc_gl *g, int on)
 {
     if (on) {
-        glUniform1ui(g->loc_mode, 1u);
-        glDisable(GL_DEPTH_TEST);
-        glEnable(GL_COLOR_LOGIC_OP);
-        glLogicOp(GL_OR);
+        gl.Uniform1ui(g->loc_mode, 1u);
+        gl.Disable(GL_DEPTH_TEST);
+        gl.Enable(GL_COLOR_LOGIC_OP);
+        gl.LogicOp(GL_OR);
     } else {
-        glUniform1ui(g->loc_mode, 0u);
-        glDisable(GL_COLOR_LOGIC_OP);
-        glEnable(GL_DEPTH_TEST);
+        gl.Uniform1ui(g->loc_mode, 0u);
+        gl.Disable(GL_COLOR_LOGIC_OP);
+        gl.Enable(GL_DEPTH_TEST);
     }
 }
 
@@ -420,19 +499,19 @@ void hc_gl_draw(hc_gl *g, const int *first, const int *count, int nr)
 {
     for (int k = 0; k < nr; k++)
         g->offsets[k] = (const void *)((size_t)first[k] * sizeof(uint32_t));
-    glMultiDrawElements(GL_TRIANGLES, count, GL_UNSIGNED_INT, g->offsets, nr);
+    gl.MultiDrawElements(GL_TRIANGLES, count, GL_UNSIGNED_INT, g->offsets, nr);
 }
 
 void hc_gl_read_items(hc_gl *g, uint32_t w, uint32_t h, uint32_t *dst)
 {
     (void)g;
-    glReadPixels(0, 0, (GLsizei)w, (GLsizei)h, GL_RED_INTEGER, GL_UNSIGNED_INT, dst);
+    gl.ReadPixels(0, 0, (GLsizei)w, (GLsizei)h, GL_RED_INTEGER, GL_UNSIGNED_INT, dst);
 }
 
 float hc_gl_read_depth(hc_gl *g, uint32_t x, uint32_t y)
 {
     (void)g;
     GLfloat D = 0.0f;
-    glReadPixels((GLint)x, (GLint)y, 1, 1, GL_DEPTH_COMPONENT, GL_FLOAT, &D);
+    gl.ReadPixels((GLint)x, (GLint)y, 1, 1, GL_DEPTH_COMPONENT, GL_FLOAT, &D);
     return D;
 }

@@ -7,7 +7,8 @@
  *   wire.c     the protocol between the caller and a worker over a byte
  *              stream (today a socketpair): framing, requests, replies;
  *   worker.c   a worker process: its buffers and its request loop;
- *   gl.c       OSMesa/GL, the only file that includes a GL header: the
+ *   gl.c       OSMesa/GL, the only file that includes a GL header: loads
+ *              libOSMesa (dlopen, in a worker only), the
  *              context, the shaders, the vertex buffer of every patch,
  *              views, drawing into an item buffer, readback;
  *   rows.c     one hemi-cube row F_ij (or a point receiver's F_ej), with
@@ -294,9 +295,10 @@ int hc_light_points(const hc_engine *e, hc_work *w, const hc_light_req *q,
 
 /* ------------------------------------------------------------------ gl.c */
 
-/* Makes the worker's OSMesa context, the 3R×R item-buffer atlas, the
- * shaders and the vertex buffer of every patch (filling w->gl, w->vfirst,
- * w->vcount, w->nvert); 0, or -1 with msg set. */
+/* Loads libOSMesa.so.8 (the library is never linked: only a worker loads
+ * it, here) and makes the worker's OSMesa context, the 3R×R item-buffer
+ * atlas, the shaders and the vertex buffer of every patch (filling w->gl,
+ * w->vfirst, w->vcount, w->nvert); 0, or -1 with msg set. */
 int hc_gl_create(const hc_engine *e, hc_work *w, char *msg);
 /* 0, or -1 with msg "hemi-cube: WHERE: GL error ..." when GL flagged one. */
 int hc_gl_check(const char *where, char *msg);

@@ -16,7 +16,8 @@
  *
  * This is the only module that sees OSMesa/GL.  Rows are computed by worker
  * processes, each with its own OSMesa context, so a caller never holds a GL
- * context and can fork freely.
+ * context and can fork freely; only the workers load libOSMesa (at run
+ * time), so the caller's memory holds none of it.
  */
 #ifndef HC_HEMICUBE_H
 #define HC_HEMICUBE_H

@@ -19,6 +19,7 @@
 #include "cli.h"
 
 #include <errno.h>
+#include <malloc.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -427,6 +428,14 @@ static const char usage[] =
 
 int main(int argc, char **argv)
 {
+    /* Blocks of 1 MiB and more always get their own mapping.  Left to
+     * itself, glibc raises that threshold to the largest block freed (up
+     * to 32 MiB) and then serves such blocks from the heap, where a growing
+     * array's realloc copies (old and new resident at once) and a freed
+     * block's pages stay resident: the element rows refinement grows,
+     * beside F, cost the 8k-patch solve 23 MB more peak (report/store.md).
+     * (The hemi-cube workers set their own, after the fork.) */
+    mallopt(M_MMAP_THRESHOLD, 1 << 20);
     if (argc < 2)
         return cli_usage_error("no command given");
     const char *cmd = argv[1];

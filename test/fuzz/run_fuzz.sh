@@ -39,7 +39,7 @@ LIBFLAGS="-g -O1 -fno-omit-frame-pointer $SAN -fsanitize=fuzzer-no-link"
 CFLAGS_LIB="-std=c11 $LIBFLAGS"
 CXXFLAGS_LIB="-std=c++17 $LIBFLAGS"
 TARGET_FLAGS="-std=c11 -g -O1 -fno-omit-frame-pointer $SAN -fsanitize=fuzzer"
-LDLIBS="-lOSMesa -lOpenEXRCore-3_1 -lpng -lm -lpthread"
+LDLIBS="-lOpenEXRCore-3_1 -lpng -lm -lpthread"
 
 mkdir -p "$OUT/obj" "$OUT/artifacts"
 
