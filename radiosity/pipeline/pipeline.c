@@ -830,20 +830,29 @@ static int solve_group(run *c, const sv_system *all, const double *tau, rad_basi
 }
 
 #if RAD_DEBUG
-/* solution.h's invariant: Σ_g B^(g) = B within a few Σ_g r_g max B^(g)
- * (a residual r bounds the error by r max B / (1 - ρ_max); 100 covers ρ
- * up to 0.99). */
+/* solution.h's invariant: Σ_g B^(g) = B within what the solves' residuals
+ * allow.  A residual r (of max B) bounds a solve's error by r max B / (1 -
+ * ρ_max) (ρ_max: the largest ρ + τ, rows summing to at most 1 + 1e-3), and
+ * B itself carries one too; twice that, for the estimate's rounding. */
 static void check_basis(const rad_solution *s)
 {
     const rad_basis *b = s->basis;
     const size_t nv = (size_t)b->patch_count * b->band_count;
-    double slack = 1e-12;
+    double rho_max = 0.0, top_B = 0.0;
+    for (size_t q = 0; q < nv; q++) {
+        const rad_material *m = &s->scene->materials[s->mesh->patches[q / b->band_count].material];
+        rho_max = fmax(rho_max, s->rho[q] + m->transmit[q % b->band_count]);
+        top_B = fmax(top_B, s->B[q]);
+    }
+    const double gain = 1.0 / fmax(1e-6, 1.0 - rho_max * (1.0 + 1e-3));
+    double slack = 1e-12 + s->residual * top_B;
     for (uint32_t g = 0; g < b->groups; g++) {
         double top = 0.0;
         for (size_t q = 0; q < nv; q++)
             top = fmax(top, b->B[g * nv + q]);
-        slack += 100.0 * b->residual[g] * top;
+        slack += b->residual[g] * top;
     }
+    slack *= 2.0 * gain;
     for (size_t q = 0; q < nv; q++) {
         double sum = 0.0;
         for (uint32_t g = 0; g < b->groups; g++)

@@ -187,7 +187,9 @@ typedef struct rad_progress {
  * and >= 0; Σ_g B^(g) = the B solved with E_ref and I_ref (the solution's
  * own B when the basis was just made) within the solve tolerance: residual[g]
  * is group g's relative residual (sv_residual) and |Σ_g B^(g) - B| stays
- * within a few Σ_g residual[g] max B^(g) (checked in debug builds). */
+ * within (Σ_g residual[g] max B^(g) + residual max B) / (1 - ρ_max), each
+ * solve's error bound, ρ_max the largest ρ + τ (checked in debug builds,
+ * with a factor 2). */
 #define RAD_BASIS_MAX_GROUPS 32u /* above it, no basis: K extra solves and K copies of B */
 
 typedef struct rad_basis {
