@@ -124,6 +124,10 @@ static int encode(rad_output *out, const rn_image *img, double scale, const char
     png_set_IHDR(png, info, img->width, img->height, 8, grey ? PNG_COLOR_TYPE_GRAY : PNG_COLOR_TYPE_RGB,
                  PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_set_sRGB_gAMA_and_cHRM(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+    /* zlib's fastest level: a 1024² view's PNG in half the time (0.045
+     * against 0.094 s of CPU, a tenth of a view's whole cost) for a file
+     * half as large again (343 against 226 KB); it is a preview. */
+    png_set_compression_level(png, 1);
     png_write_info(png, info);
     uint32_t used = grey ? 1 : 3;
     srgb_table tab;
