@@ -59,23 +59,9 @@ static double image_rms(const bench *b, const rn_image *a)
     return m ? sqrt(sum / (double)m) / b->ref_mean : 0.0;
 }
 
-static double *REFB;
 static int on_preview(void *user, const rad_solution *s, uint32_t shots, const double *B)
 {
     bench *b = user;
-    if (getenv("BENCH_OBJ") && shots == (uint32_t)atoi(getenv("BENCH_OBJ"))) {
-        uint32_t no = s->scene->object_count, nb = s->band_count;
-        double tp = 0, tc = 0;
-        for (uint32_t i = 0; i < s->mesh->patch_count; i++) if (s->emission[i*nb] == 0) { tp += s->mesh->patches[i].area * B[i*nb+1]; tc += s->mesh->patches[i].area * REFB[i*nb+1]; }
-        printf("  total reflected power: preview %.5f converged %.5f ratio %.3f\n", tp, tc, tp / tc);
-        for (uint32_t o = 0; o < no; o++) {
-            double a = 0, x = 0, y = 0, e2 = 0;
-            for (uint32_t i = 0; i < s->mesh->patch_count; i++) if (s->mesh->patches[i].object == o) {
-                double A = s->mesh->patches[i].area; a += A; x += A * B[i*nb+1]; y += A * REFB[i*nb+1]; e2 += A * (B[i*nb+1]-REFB[i*nb+1])*(B[i*nb+1]-REFB[i*nb+1]); }
-            printf("  %-18s preview %.4f converged %.4f ratio %.3f  patch rms %.3f\n", s->scene->objects[o].name, x/a, y/a, x/y, sqrt(e2/a)/(y/a));
-        }
-    }
-    if (getenv("BENCH_STOP") && shots > (uint32_t)atoi(getenv("BENCH_STOP"))) return 1;
     rad_solution view = *s;
     view.B = (double *)B;
     rn_image *img = NULL;
@@ -90,16 +76,6 @@ static int on_preview(void *user, const rad_solution *s, uint32_t shots, const d
         b->rms = realloc(b->rms, b->slots * sizeof *b->rms);
         b->unshot = realloc(b->unshot, b->slots * sizeof *b->unshot);
         b->shots = realloc(b->shots, b->slots * sizeof *b->shots);
-    }
-    if (getenv("BENCH_OBJ") && shots == (uint32_t)atoi(getenv("BENCH_OBJ"))) {
-        double se[16] = {0}; size_t cnt[16] = {0};
-        const rn_image *r = b->ref;
-        for (size_t q = 0; q < (size_t)r->width * r->height; q++) {
-            uint32_t id = r->patch[q]; if (id == RAD_NONE || b->emits[id]) continue;
-            uint32_t o = s->mesh->patches[id].object;
-            for (uint32_t c = 0; c < 3; c++) { double d = img->pixels[q*3+c] - r->pixels[q*3+c]; se[o] += d*d; cnt[o]++; }
-        }
-        for (uint32_t o = 0; o < s->scene->object_count; o++) printf("  image %-18s pixels %6zu rms/mean %.3f contribution %.4f\n", s->scene->objects[o].name, cnt[o]/3, cnt[o] ? sqrt(se[o]/cnt[o])/b->ref_mean : 0, se[o]);
     }
     b->shots[b->count] = shots;
     b->rms[b->count++] = image_rms(b, img);
@@ -155,7 +131,6 @@ int main(int argc, char **argv)
             for (uint32_t c = 0; c < b.ref->channels; c++, m++)
                 sum += b.ref->pixels[q * b.ref->channels + c];
     b.ref_mean = sum / (double)(m ? m : 1);
-    REFB = malloc(sizeof(double) * n * nb); memcpy(REFB, s->B, sizeof(double) * n * nb);
     rad_solution_destroy(s);
 
     /* Progressive, previews every `every` shots. */

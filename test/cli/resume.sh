@@ -3,8 +3,9 @@
 # killed with SIGKILL part-way (its whole process group) and run again
 # computes only the rows it lacks and gives the same solution as a run never
 # interrupted; Ctrl-C (SIGINT) keeps the finished rows, exits 130 with a line
-# saying how to resume; a worker killed mid-solve costs the rows it held,
-# not the solve.  The kills wait for rows in OUT.partial, not for a time.
+# saying how to resume; a worker killed mid-solve costs the one row it was
+# computing (the rows it had been handed but not begun go to another
+# worker), not the solve.  The kills wait for rows in OUT.partial, not for a time.
 # Cost: ~6 s (a Cornell box of 907 patches, solved about four times over).
 set -u
 . "$(dirname "$0")/lib.bash"
@@ -95,7 +96,7 @@ else
     bad "after Ctrl-C: $(cat "$dir/again.out")"
 fi
 
-# A worker killed mid-solve costs the rows it held, not the solve.
+# A worker killed mid-solve costs the row it was computing, not the solve.
 setsid "$BIN" solve "${args[@]}" -o "$dir/c.sol" --processes 2 > "$dir/stdout" 2> "$dir/stderr" &
 pid=$!
 for _ in $(seq 1 3000); do
