@@ -271,17 +271,18 @@ int rad_solution_superpose(rad_solution *s, int *done, char *why, size_t why_siz
             if (!group_factor(s, bs, g, b, &c[(size_t)g * nb + b], why, why_size))
                 return RAD_OK;
     double *B = malloc((nv + 1) * sizeof *B), *H = malloc((nv + 1) * sizeof *H);
-    double *Be = ne ? malloc((ne + 1) * sizeof *Be) : NULL;
-    if (!B || !H || (ne && !Be)) {
+    if (!B || !H) {
         free(B);
         free(H);
-        free(Be);
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
     }
+    /* Nothing can fail from here: the elements' B is summed in place. */
     weighted_sum(bs->B, c, K, nv, nb, B);
     weighted_sum(bs->H, c, K, nv, nb, H);
-    if (ne)
-        weighted_sum(bs->Be, c, K, ne, nb, Be);
+    if (ne) {
+        weighted_sum(bs->Be, c, K, ne, nb, s->elements->B);
+        s->elements->rows_computed = 0;
+    }
     /* The residual: each group's solve left r_g max B^(g) behind, scaled by
      * its largest factor; relative to the new max B. */
     double bound = 0.0, top = max_of(B, nv);
@@ -293,11 +294,6 @@ int rad_solution_superpose(rad_solution *s, int *done, char *why, size_t why_siz
     s->B = B;
     free(s->irradiance);
     s->irradiance = H;
-    if (ne) {
-        memcpy(s->elements->B, Be, ne * sizeof *Be);
-        s->elements->rows_computed = 0;
-    }
-    free(Be);
     s->iterations = 0;
     s->residual = top > 0.0 ? bound / top : 0.0;
     s->rows_computed = 0;

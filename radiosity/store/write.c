@@ -806,12 +806,29 @@ uint64_t rad_solution_file_bytes(const rad_solution *s)
     return total + count.total + SOL_INDEX_HEAD + (uint64_t)sections * SOL_INDEX_ENTRY;
 }
 
+/* Is s's basis one group made from s's own sources and B?  Its H is then
+ * the very H of s, computed by the same pass over F (make_basis), and a
+ * write need not make that pass again. */
+static int basis_is_solution(const rad_solution *s)
+{
+    const rad_basis *b = s->basis;
+    const size_t nv = (size_t)s->mesh->patch_count * s->band_count;
+    const size_t nl = (size_t)b->light_count * b->band_count;
+    return b->groups == 1 && memcmp(b->B, s->B, nv * sizeof *s->B) == 0 &&
+           memcmp(b->E_ref, s->emission, nv * sizeof *s->emission) == 0 &&
+           (!nl || memcmp(b->I_ref, s->light_intensity, nl * sizeof *b->I_ref) == 0);
+}
+
 int sol_irradiance_for_write(const rad_solution *s, double **H, rad_error *err)
 {
     size_t count = (size_t)s->mesh->patch_count * s->band_count;
     *H = malloc((count + 1) * sizeof **H);
     if (!*H)
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
+    if (rad_basis_matches(s) && basis_is_solution(s)) {
+        memcpy(*H, s->basis->H, count * sizeof **H);
+        return RAD_OK;
+    }
     int rc = rad_solution_irradiance(s, *H, err);
     if (rc) {
         free(*H);
