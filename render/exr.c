@@ -2,7 +2,7 @@
  *
  * The only file that includes OpenEXR.  Images are linear radiance, one float
  * channel per band: R,G,B for three bands, Y for one, B0..Bk otherwise;
- * scanline storage, ZIP compression by default (rn_exr_compression).  Invariant: a write goes through a
+ * scanline storage, uncompressed by default, ZIP, RLE or PIZ on request (rn_exr_compression).  Invariant: a write goes through a
  * rad_output, so it either renames a complete temporary onto path or leaves
  * path exactly as it was and no temporary file behind.  The library's own messages are caught by a
  * handler (library code never prints) and end up in the rad_error.
@@ -123,7 +123,7 @@ static int64_t exr_to_output(exr_const_context_t ctxt, void *user, const void *b
 
 int rn_exr_compression_parse(const char *word, rn_exr_compression *out)
 {
-    static const char *const names[] = {"zip", "none", "rle", "piz"};
+    static const char *const names[] = {"none", "zip", "rle", "piz"};
     for (int k = 0; k < 4; k++)
         if (word && strcmp(word, names[k]) == 0) {
             *out = (rn_exr_compression)k;
@@ -134,13 +134,13 @@ int rn_exr_compression_parse(const char *word, rn_exr_compression *out)
 
 int rn_write_exr(const rn_image *img, const char *path, rad_error *err)
 {
-    return rn_write_exr_with(img, path, RN_EXR_ZIP, err);
+    return rn_write_exr_with(img, path, RN_EXR_NONE, err);
 }
 
 int rn_write_exr_with(const rn_image *img, const char *path, rn_exr_compression compression,
                       rad_error *err)
 {
-    static const exr_compression_t codec[] = {EXR_COMPRESSION_ZIP, EXR_COMPRESSION_NONE,
+    static const exr_compression_t codec[] = {EXR_COMPRESSION_NONE, EXR_COMPRESSION_ZIP,
                                               EXR_COMPRESSION_RLE, EXR_COMPRESSION_PIZ};
     if ((unsigned)compression > RN_EXR_PIZ)
         return rad_fail(err, RAD_ERR_USAGE, "%s: unknown EXR compression %d", path ? path : "",

@@ -47,7 +47,7 @@ int cli_view_option(int argc, char **argv, int *i, cli_view *v)
         rc = cli_parse_double(a, val, -64, 64, &v->exposure);
     } else if (!strcmp(a, "--exr-compression")) {
         if (rn_exr_compression_parse(val, &v->exr_compression))
-            return cli_usage_error("--exr-compression: '%s' is not zip, none, rle or piz",
+            return cli_usage_error("--exr-compression: '%s' is not none, zip, rle or piz",
                                    val ? val : ""), -1;
     } else {
         return 0;
