@@ -191,6 +191,8 @@ int main(int argc, char **argv)
     printf("\npreview RMS vs converged, every %u-th preview:", b.count > 40 ? b.count / 20 : 1);
     for (uint32_t q = 0; q < b.count; q += b.count > 40 ? b.count / 20 : 1)
         printf(" %u:%.3g", b.shots[q], b.rms[q]);
+    printf("\npreviews: %u, their estimates and rendering %.2f s (outside both totals)",
+           p->preview_count, p->preview_seconds);
     printf("\npeak memory of this process %.0f MiB\n", peak_mib());
     rad_solution_destroy(s);
     rn_image_destroy(b.ref);

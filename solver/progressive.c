@@ -49,6 +49,18 @@
  * the budget at a time (one compaction of the pool per quarter), and
  * computed again if they shoot again.
  *
+ * Previews: the ambient term below gives a first estimate of what the
+ * unshot power will add; a preview then improves it by SV_PREVIEW_SWEEPS
+ * Gauss-Seidel sweeps of the system itself, where a patch without a row
+ * keeps B + R (what the shots brought it, through the shooters' rows) and
+ * gathers what is still to come, Σ_j F_ij (X_j - B_j), through the row of
+ * the nearest patch of its surface that has one (F_ij ≈ F_rep,j: a
+ * neighbour on the same plane sees nearly what it sees).  So the preview is
+ * the answer of the rows present and borrowed, not of a uniform ambient:
+ * on the glTF Cornell box the 10 % image comes after 15 % of the rows
+ * instead of 27 %.  The prefetch gives every surface one row first, so that
+ * every patch soon has a representative.
+ *
  * The ambient term (Cohen et al. 1988) stands for what the unshot power U
  * will add once shot.  Their closed-scene form, U/(A_total (1 - ρ_avg))
  * spread evenly, is up to 3× too bright in an open scene.  Here it is
@@ -76,6 +88,11 @@
 /* ... 1/SV_READY_SHARE_BOUNDED when the matrix does not fit in the row
  * store: a row computed again costs far more than a few more shots. */
 #define SV_READY_SHARE_BOUNDED 64.0
+/* Sweeps of a preview's estimate over the rows present and borrowed
+ * (borrowed_sweeps).  On the glTF Cornell box the first sweep takes the
+ * 10 % image from 700 rows to 510, a second brings the 2 % image from 85 %
+ * of the rows to 73 %, six change the RMS by less than 1e-3. */
+#define SV_PREVIEW_SWEEPS 2u
 /* Progress callbacks at most this often (seconds). */
 #define SV_PROGRESS_EVERY 0.25
 /* An eviction frees this fraction of the budget beyond what the batch
@@ -190,6 +207,7 @@ typedef struct prog {
     uint32_t scan;    /* where the search for the next pending one resumes */
     uint32_t pscan;   /* ... and the prefetch of pending ones: patch pscan·stride mod n, */
     uint32_t stride;  /* coprime to n, so that every surface has a few rows early */
+    uint32_t gscan;   /* where the prefetch of one row per surface resumes */
     uint32_t shots;
     /* power per band */
     double area_sum;
@@ -620,6 +638,38 @@ static int settle(prog *p, const uint32_t *keep, uint32_t nkeep, rad_error *err)
     return rad_matrix_compact(F, budget, err);
 }
 
+/* Prefetch: one row on each surface (sv_system.group) that has none yet,
+ * its middle patch that gathers, surfaces in index order, into the batch
+ * up to `quota`; returns the batch's count.  Before it the previews drew a
+ * surface without a row from B + R and the ambient alone: the short block's
+ * faces 31 % too bright at 480 shots, and the 10 % image waited for 510
+ * rows instead of 383 (glTF Cornell box). */
+static uint32_t one_per_surface(prog *p, uint32_t i, uint32_t count, uint32_t quota)
+{
+    const uint32_t *g = p->s->group;
+    while (p->gscan < p->n && count < quota) {
+        const uint32_t a = p->gscan;
+        uint32_t z = a + 1;
+        while (z < p->n && g[z] == g[a])
+            z++;
+        uint32_t best = RAD_NONE, dist = UINT32_MAX;
+        int have = 0;
+        for (uint32_t j = a; j < z && !have; j++) {
+            have = sv_row_present(p->s->F, j) || (p->state[j] & ST_COMPUTED);
+            const uint32_t c = a + (z - a) / 2, d = j > c ? j - c : c - j;
+            if (gathers(p, j) && d < dist) {
+                best = j;
+                dist = d;
+            }
+        }
+        if (!have && best != RAD_NONE && best != i && missing_rows(p, best) &&
+            !batch_add(p, best, expects_column(p, best), &count, quota))
+            break;
+        p->gscan = z;
+    }
+    return count;
+}
+
 /* Computes the rows shooter i lacks (need: its rows, those of its shot) and,
  * in the same call, those of the next shooters: by unshot power, or in the
  * last phase the next patches that have not gathered.  The batch shrinks
@@ -662,6 +712,8 @@ static int fetch(prog *p, uint32_t i, int column, int last_phase, rad_error *err
          * the previews then stay 0.7 % off until the last phase computes
          * the buried patches' rows). */
         const uint32_t quota = p->fits ? count + 3 * (room - count) / 4 : count;
+        if (p->s->group)
+            count = one_per_surface(p, i, count, quota);
         for (; p->pscan < p->n && count < quota; p->pscan++) {
             const uint32_t j = (uint32_t)(((uint64_t)p->pscan * p->stride) % p->n);
             if (j != i && gathers(p, j) && !(p->state[j] & ST_GATHERED) && missing_rows(p, j) &&
@@ -1004,15 +1056,79 @@ static void first_bounce(prog *p, double *loose)
     }
 }
 
-/* Calls on_preview with the estimate (see the top of the file): B + R,
- * the unshot's first bounce - gathered exactly where the rows are present
- * (one Jacobi sweep from B + R), else received from the rows present by
- * reciprocity and from the rest evenly - and its later bounces, U r²/(1 - r)
- * in all, spread in proportion to A_i ρ_i and to how much of the patch's
- * view its row covers against the mean, Σ_j F_ij / c (nothing on a patch
- * buried under a block: it sees nothing and keeps B = E exactly, as the
- * renderer expects of it).  Returns 1 when the callback asks to stop, or
- * -code on an error (a bad row). */
+/* What is still to come at a patch whose representative is r, through r's
+ * row standing for its own: Σ_j F_rj (X_j - B_j), the unshot R_j and the
+ * correction X_j - (B_j + R_j) the sweeps have found so far. */
+static void borrowed_gather(const prog *p, uint32_t r, const double *X, double *h)
+{
+    const uint32_t nb = p->nb;
+    for (uint32_t b = 0; b < nb; b++)
+        h[b] = 0.0;
+    const rad_row row = rad_matrix_row(p->s->F, r);
+    const uint8_t *at = row.col;
+    uint32_t j = 0;
+    for (uint32_t q = 0; q < row.count; q++) {
+        j = rad_row_next(&at, j);
+        const double f = rad_row_value(&row, q);
+        const size_t o = (size_t)j * nb;
+        for (uint32_t b = 0; b < nb; b++)
+            h[b] += f * (X[o + b] - p->B[o + b]);
+    }
+}
+
+/* SV_PREVIEW_SWEEPS Gauss-Seidel sweeps over the preview X in place (see
+ * preview): a swept patch gathers all of X through its own row; a patch
+ * without a row keeps B + R, the light the shots brought it through the
+ * shooters' exact rows, and gathers what is still to come through its
+ * representative's row (borrowed_gather); a patch without a representative
+ * keeps X. */
+static int borrowed_sweeps(prog *p, double *X, rad_error *err)
+{
+    const sv_system *s = p->s;
+    const uint32_t nb = p->nb;
+    for (uint32_t i = 0; i < p->n; i++)
+        if (p->rep[i] != RAD_NONE) {
+            int rc = check(p, p->rep[i], err);
+            if (rc)
+                return rc;
+        }
+    for (uint32_t k = 0; k < SV_PREVIEW_SWEEPS; k++)
+        for (uint32_t i = 0; i < p->n; i++) {
+            double g[RAD_MAX_BANDS], h[RAD_MAX_BANDS];
+            const size_t o = (size_t)i * nb;
+            if (p->swept[i]) {
+                sv_update(s, i, X, g);
+                memcpy(X + o, g, nb * sizeof *g);
+                continue;
+            }
+            const uint32_t t = sv_transmits_from(s, i);
+            if (p->rep[i] == RAD_NONE || (t != RAD_NONE && p->rep[t] == RAD_NONE))
+                continue;
+            borrowed_gather(p, p->rep[i], X, h);
+            for (uint32_t b = 0; b < nb; b++)
+                g[b] = p->B[o + b] + p->R[o + b] + s->rho[o + b] * h[b];
+            if (t != RAD_NONE) {
+                borrowed_gather(p, p->rep[t], X, h);
+                for (uint32_t b = 0; b < nb; b++)
+                    g[b] += s->tau[o + b] * h[b];
+            }
+            memcpy(X + o, g, nb * sizeof *g);
+        }
+    return RAD_OK;
+}
+
+/* Calls on_preview with the estimate (see the top of the file).  First
+ * the ambient estimate: B + R, the unshot's first bounce - gathered exactly
+ * where the rows are present (one Jacobi sweep from B + R), else received
+ * from the rows present by reciprocity and from the rest evenly - and its
+ * later bounces, U r²/(1 - r) in all, spread in proportion to A_i ρ_i and
+ * to how much of the patch's view its row covers against the mean, Σ_j F_ij
+ * / c (nothing on a patch buried under a block: it sees nothing and keeps
+ * B = E exactly, as the renderer expects of it).  Then, from it,
+ * borrowed_sweeps: the system solved on the rows present, each missing row
+ * borrowed from the patch's representative for what is still to come.
+ * Returns 1 when the callback asks to stop, or -code on an error (a bad
+ * row). */
 static int preview(prog *p, rad_error *err)
 {
     const sv_system *s = p->s;
@@ -1059,6 +1175,9 @@ static int preview(prog *p, rad_error *err)
             p->display[x] += add;
         }
     }
+    rc = borrowed_sweeps(p, p->display, err);
+    if (rc)
+        return -rc;
     sv_progress pr = progress_of(p, e);
     pr.seconds = t - p->t0 - p->cb_seconds;
     pr.B = p->display;
