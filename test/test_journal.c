@@ -309,6 +309,62 @@ TEST(one_writer_at_a_time)
     rad_matrix_destroy(G);
 }
 
+/* With refinement (the default) and one light group, a journaled solve
+ * frees F's entries once refinement has read what it needs of them
+ * (pipeline.c, release_rows): the solution comes back without them, its H
+ * kept, and its file is the one a solve that kept F in memory writes - the
+ * same rows, B, elements, irradiance and light response, bit for bit. */
+TEST(refinement_without_the_rows_in_memory)
+{
+    char jpath[300], ppath[300];
+    path_in(jpath, sizeof jpath, "journaled.sol");
+    path_in(ppath, sizeof ppath, "plain.sol");
+    rad_error e = {0};
+    rad_scene *sc = NULL, *sc2 = NULL;
+    CHECK(rad_scene_parse_polyfile(box, strlen(box), "box.rad", NULL, &sc, &e) == RAD_OK);
+    CHECK(rad_scene_parse_polyfile(box, strlen(box), "box.rad", NULL, &sc2, &e) == RAD_OK);
+    rad_journal *j = NULL;
+    CHECK(rad_journal_open(jpath, 1, &j, &e) == RAD_OK);
+    rad_solve_options o = options(NULL);
+    o.journal = j;
+    rad_solution *s = NULL, *t = NULL;
+    CHECK_MSG(rad_solve_scene(sc, &o, &s, &e) == RAD_OK, "%s", e.message);
+    if (s) {
+        CHECK(!s->F->entries_loaded && s->F->rows_done > 60 && !s->F->data);
+        CHECK(s->irradiance && s->elements && s->elements->mesh->patch_count > 96);
+        CHECK(s->basis && s->basis->groups == 1);
+        CHECK_MSG(rad_journal_commit(j, s, &e) == RAD_OK, "%s", e.message);
+    } else {
+        rad_journal_close(j);
+    }
+    rad_solve_options p = options(NULL);
+    CHECK_MSG(rad_solve_scene(sc2, &p, &t, &e) == RAD_OK, "%s", e.message);
+    CHECK(t && t->F->entries_loaded && t->F->rows_done == (s ? s->F->rows_done : 0));
+    CHECK_MSG(t && rad_solution_write(t, ppath, &e) == RAD_OK, "%s", e.message);
+    rad_solution_destroy(s);
+    rad_solution_destroy(t);
+    same_solution(ppath, jpath);
+    rad_solution *x = NULL, *y = NULL;
+    CHECK(rad_solution_read(ppath, &x, &e) == RAD_OK && rad_solution_read(jpath, &y, &e) == RAD_OK);
+    if (x && y && x->elements && y->elements) {
+        const size_t n = (size_t)x->mesh->patch_count * 3;
+        const size_t m = (size_t)x->elements->mesh->patch_count * 3;
+        CHECK(x->elements->mesh->patch_count == y->elements->mesh->patch_count);
+        CHECK(memcmp(x->elements->B, y->elements->B, m * sizeof(double)) == 0);
+        CHECK(x->elements->nnz == y->elements->nnz && x->elements->nnz > 0);
+        if (x->elements->nnz == y->elements->nnz && x->elements->col && y->elements->col)
+            CHECK(memcmp(x->elements->col, y->elements->col, 4 * x->elements->nnz) == 0 &&
+                  memcmp(x->elements->val, y->elements->val, 4 * x->elements->nnz) == 0);
+        CHECK(x->irradiance && y->irradiance &&
+              memcmp(x->irradiance, y->irradiance, n * sizeof(double)) == 0);
+        CHECK(x->basis && y->basis && memcmp(x->basis->H, y->basis->H, n * sizeof(double)) == 0);
+    } else {
+        CHECK(!"both solutions read, with elements");
+    }
+    rad_solution_destroy(x);
+    rad_solution_destroy(y);
+}
+
 static void remove_dir(const char *dir)
 {
     char cmd[400];
@@ -328,6 +384,7 @@ int main(void)
     RUN(a_stop_keeps_the_finished_rows);
     RUN(other_inputs_start_afresh);
     RUN(one_writer_at_a_time);
+    RUN(refinement_without_the_rows_in_memory);
     remove_dir(tmpdir);
     return test_finish("test_journal");
 }

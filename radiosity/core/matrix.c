@@ -59,6 +59,17 @@ void rad_matrix_destroy(rad_matrix *m)
     free(m);
 }
 
+void rad_matrix_release_entries(rad_matrix *m)
+{
+    if (!m)
+        return;
+    free(m->data);
+    m->data = NULL;
+    m->bytes = m->capacity = 0;
+    memset(m->row_start, 0, (m->n ? m->n : 1) * sizeof *m->row_start);
+    m->entries_loaded = 0;
+}
+
 uint8_t *rad_matrix_reserve(rad_matrix *m, uint64_t more, rad_error *err)
 {
     if (more > UINT64_MAX - m->bytes || m->bytes + more > SIZE_MAX)

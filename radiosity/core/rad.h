@@ -243,6 +243,12 @@ struct rad_matrix {
 rad_matrix *rad_matrix_create(uint32_t n);
 void rad_matrix_destroy(rad_matrix *m); /* NULL does nothing */
 
+/* Frees the entries and keeps which rows exist and their counts
+ * (entries_loaded = 0, as a matrix read without its entries): for when
+ * the rows are safe in a file (rad_journal_holds) and nothing left to do
+ * in memory reads them.  NULL does nothing. */
+void rad_matrix_release_entries(rad_matrix *m);
+
 /* Stores row i (replacing any earlier copy).  col must be strictly increasing.
  * Encodes the data; returns RAD_OK or RAD_ERR_NOMEM / RAD_ERR_USAGE, or what
  * the sink returns. */

@@ -111,6 +111,14 @@ typedef struct rad_refine_options {
      * 0 = interpolated elements wherever nothing rests on the surface
      * (solution.h). */
     int element_hemicubes;
+    /* Called once, when refinement has read all it needs of F's entries
+     * (the patches' indirect irradiance, the light through sheets) and
+     * before the first element row: from then on it reads only which rows
+     * exist and their counts, so the caller may release the entries (the
+     * pipeline does when the rows are safe in the solve's file: the matrix
+     * and the element rows need not be in memory together).  NULL: none. */
+    void (*entries_read)(void *user);
+    void *entries_read_user;
 } rad_refine_options;
 
 /* Builds s->elements (replacing any) from the patch solution s->B, as opt

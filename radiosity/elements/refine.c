@@ -1030,6 +1030,8 @@ int rad_elements_refine(rad_solution *s, hc_engine *hc, const rad_refine_options
         if (rc != RAD_OK)
             goto done;
     }
+    if (opt.entries_read)
+        opt.entries_read(opt.entries_read_user);
     min_edge = malloc((np ? np : 1) * sizeof *min_edge);
     if (!min_edge) {
         rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");

@@ -103,7 +103,11 @@ typedef struct rad_solve_options {
     /* rad_solve_scene only, may be NULL: the solve's output file in progress
      * (rad_journal in solution.h).  Rows it already holds for this mesh and
      * these options are reused, every new row is appended to it as soon as
-     * it is computed; the caller commits it with the solution. */
+     * it is computed; the caller commits it with the solution.  With
+     * refinement and one light group, the solution comes back with F's
+     * entries released (s->F->entries_loaded = 0, H in s->irradiance, as
+     * if read without them): the file holds them, and the matrix and the
+     * element rows are then never in memory together. */
     rad_journal *journal;
     /* May be NULL: a flag the caller sets (from a signal handler, say) to
      * stop the form factors (hc_options.stop): no new row is started, the

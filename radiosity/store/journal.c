@@ -243,6 +243,16 @@ static int rows_dropped(const rad_journal *j)
     return 0;
 }
 
+int rad_journal_holds(const rad_journal *j, const rad_matrix *F)
+{
+    if (!j || !F || !j->out || j->F != F || !F->entries_loaded)
+        return 0;
+    for (uint32_t i = 0; i < F->n; i++)
+        if (j->written[i] != F->row_done[i])
+            return 0;
+    return 1;
+}
+
 int rad_journal_commit(rad_journal *j, const rad_solution *s, rad_error *err)
 {
     const char *path = j->path;
@@ -260,7 +270,7 @@ int rad_journal_commit(rad_journal *j, const rad_solution *s, rad_error *err)
     }
     int rc = (!s || !j->out || s->F != j->F) ? rad_fail(err, RAD_ERR_USAGE,
                                              "%s: rad_journal_commit: not the attached matrix", path)
-                                  : sol_validate_for_write(s, path, 1, err);
+                                  : sol_validate_for_write(s, path, s->F->entries_loaded, err);
     sol_write_ctx w = {.s = s};
     if (!rc)
         rc = sol_irradiance_for_write(s, &w.H, err);

@@ -399,6 +399,14 @@ int rad_journal_open(const char *path, int fresh, rad_journal **out, rad_error *
  * journal or be detached by rad_journal_close). */
 int rad_journal_attach(rad_journal *j, rad_matrix *F, uint64_t key, rad_error *err);
 
+/* Does the file hold exactly the rows F holds, every one written since
+ * attach (F attached, no row dropped by a bounded row store)?  Then F's
+ * entries may be released (rad_matrix_release_entries) once nothing in
+ * memory needs them: rad_journal_commit writes the file without them (its
+ * MATRIX is already there, checked row by row as it was appended), the
+ * irradiance then from s->irradiance or the basis. */
+int rad_journal_holds(const rad_journal *j, const rad_matrix *F);
+
 /* What rad_journal_attach found. */
 rad_journal_stats rad_journal_stats_of(const rad_journal *j);
 
@@ -409,7 +417,7 @@ const char *rad_journal_path(const rad_journal *j);
  * renames the file onto PATH.  s->F must be the attached matrix.  When F
  * has dropped rows the file holds (the progressive solver's bounded row
  * store), PATH is written whole from F instead and the partial file
- * removed.  Frees j whatever happens; on failure the partial file stays. */
+ * removed; F's entries may have been released (rad_journal_holds).  Frees j whatever happens; on failure the partial file stays. */
 int rad_journal_commit(rad_journal *j, const rad_solution *s, rad_error *err);
 
 /* Stops taking F's rows (before F is freed: a solve that failed). */
