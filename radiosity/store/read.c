@@ -274,6 +274,26 @@ static int check_announced(const sol_reader *r, const sol_index *x)
     return RAD_OK;
 }
 
+/* ELEMENTROWS is there exactly when a version 7 file's ELEMENTS counts
+ * some row entry (never in version 6, whose ELEMENTS holds the entries),
+ * checked from the index whether the section is read or not.  *read: it
+ * is there and `parts` asks for it. */
+static int element_rows_wanted(const sol_reader *r, const sol_index *x, const rad_solution *s,
+                               unsigned parts, int *read)
+{
+    const int present = x->at[SEC_ELEMENT_ROWS] >= 0;
+    *read = 0;
+    if (present && r->version < SOL_VERSION_ELEMENT_ROWS)
+        return rad_fail(r->err, RAD_ERR_CORRUPT, "%s: section ELEMENTROWS in a version %u file",
+                        r->name, r->version);
+    const int needed = s->elements && !s->elements->rows_loaded;
+    if (present != needed)
+        return rad_fail(r->err, RAD_ERR_CORRUPT, "%s: section ELEMENTROWS %s", r->name,
+                        needed ? "missing" : "without element rows to hold");
+    *read = present && (parts & RAD_PART_ELEMENT_ROWS);
+    return RAD_OK;
+}
+
 /* ------------------------------------------- version 6 from a file */
 
 /* An open solution file. */
@@ -612,9 +632,12 @@ static int read_v6(sol_reader *r, const sol_file *f, const uint8_t head[SOL_HEAD
     /* the sections in the order they are parsed (each needs those before it) */
     for (size_t q = 0; !rc && sol_section_order(q) >= 0; q++) {
         int sec = sol_section_order(q);
+        int read = x.at[sec] >= 0;
         if (sec == SEC_LIGHTS && (rc = check_announced(r, &x)))
             break;
-        if (x.at[sec] >= 0)
+        if (sec == SEC_ELEMENT_ROWS && (rc = element_rows_wanted(r, &x, s, parts, &read)))
+            break;
+        if (read)
             rc = file_section(r, f, &x.e[x.at[sec]], sec, s);
     }
     if (!rc && (parts & RAD_PART_MATRIX))
@@ -762,9 +785,12 @@ static int parse_v6(sol_reader *r, const uint8_t *d, size_t size, const sol_head
             sec = matrix;
             done = 1;
         }
+        int read = sec >= 0 && x.at[sec] >= 0;
         if (sec == SEC_LIGHTS && (rc = check_announced(r, &x)))
             break;
-        if (sec < 0 || x.at[sec] < 0)
+        if (sec == SEC_ELEMENT_ROWS && (rc = element_rows_wanted(r, &x, s, parts, &read)))
+            break;
+        if (!read)
             continue;
         const sol_index_entry *e = &x.e[x.at[sec]];
         uint64_t got = 0;
