@@ -201,13 +201,19 @@ static int index_extent(const sol_head *h, uint64_t size, const char *name, uint
     return RAD_OK;
 }
 
-static int parse_index(const uint8_t *d, uint64_t len, uint64_t at, const char *name,
-                       int check_sum, uint64_t crc, sol_index *x, rad_error *err)
+/* The index of a file of header h.  Its second u32 is 0 in version 6 and
+ * the version from 7 on: the header's version under the index's CRC, so
+ * that no flip of it passes (a version 7 file without elements reads the
+ * same as version 6). */
+static int parse_index(const uint8_t *d, uint64_t len, const sol_head *h, const char *name,
+                       int check_sum, sol_index *x, rad_error *err)
 {
+    const uint64_t at = h->a, crc = h->b;
     uint32_t count = (uint32_t)sol_load_le64(d), reserved = (uint32_t)(sol_load_le64(d) >> 32);
-    if (count < 1 || count > SOL_MAX_SECTIONS || reserved != 0)
-        return rad_fail(err, RAD_ERR_CORRUPT, "%s: index: %u sections (1..%u), reserved %u", name,
-                        count, SOL_MAX_SECTIONS, reserved);
+    uint32_t want = h->version >= SOL_VERSION_ELEMENT_ROWS ? h->version : 0;
+    if (count < 1 || count > SOL_MAX_SECTIONS || reserved != want)
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: index: %u sections (1..%u), version field %u "
+                        "(%u)", name, count, SOL_MAX_SECTIONS, reserved, want);
     uint64_t need = SOL_INDEX_HEAD + (uint64_t)count * SOL_INDEX_ENTRY;
     if (len < need)
         return rad_fail(err, RAD_ERR_CORRUPT, "%s: truncated: %llu of %llu bytes", name,
@@ -256,6 +262,9 @@ static int parse_index(const uint8_t *d, uint64_t len, uint64_t at, const char *
         if (x->at[required[q]] < 0)
             return rad_fail(err, RAD_ERR_CORRUPT, "%s: section %s missing", name,
                             sol_sec_name[required[q]]);
+    if (x->at[SEC_ELEMENT_ROWS] >= 0 && h->version < SOL_VERSION_ELEMENT_ROWS)
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: section ELEMENTROWS in a version %u file", name,
+                        h->version);
     if ((x->at[SEC_MATRIX] >= 0) == (x->at[SEC_MATRIXREF] >= 0))
         return rad_fail(err, RAD_ERR_CORRUPT, "%s: %s", name,
                         x->at[SEC_MATRIX] >= 0 ? "both MATRIX and MATRIXREF"
@@ -275,17 +284,14 @@ static int check_announced(const sol_reader *r, const sol_index *x)
 }
 
 /* ELEMENTROWS is there exactly when a version 7 file's ELEMENTS counts
- * some row entry (never in version 6, whose ELEMENTS holds the entries),
- * checked from the index whether the section is read or not.  *read: it
- * is there and `parts` asks for it. */
+ * some row entry (parse_index refuses it in version 6, whose ELEMENTS
+ * holds the entries), checked from the index whether the section is read
+ * or not.  *read: it is there and `parts` asks for it. */
 static int element_rows_wanted(const sol_reader *r, const sol_index *x, const rad_solution *s,
                                unsigned parts, int *read)
 {
     const int present = x->at[SEC_ELEMENT_ROWS] >= 0;
     *read = 0;
-    if (present && r->version < SOL_VERSION_ELEMENT_ROWS)
-        return rad_fail(r->err, RAD_ERR_CORRUPT, "%s: section ELEMENTROWS in a version %u file",
-                        r->name, r->version);
     const int needed = s->elements && !s->elements->rows_loaded;
     if (present != needed)
         return rad_fail(r->err, RAD_ERR_CORRUPT, "%s: section ELEMENTROWS %s", r->name,
@@ -379,7 +385,7 @@ static int file_index(const sol_file *f, const uint8_t head[SOL_HEADER_BYTES], i
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", f->name);
     rc = file_read(f, buf, (size_t)len, h.a, err);
     if (!rc)
-        rc = parse_index(buf, len, h.a, f->name, check_sum, h.b, x, err);
+        rc = parse_index(buf, len, &h, f->name, check_sum, x, err);
     free(buf);
     return rc;
 }
@@ -772,7 +778,7 @@ static int parse_v6(sol_reader *r, const uint8_t *d, size_t size, const sol_head
     sol_index x;
     int rc = index_extent(h, size, r->name, &len, r->err);
     if (!rc)
-        rc = parse_index(d + h->a, len, h->a, r->name, r->check_sum, h->b, &x, r->err);
+        rc = parse_index(d + h->a, len, h, r->name, r->check_sum, &x, r->err);
     int matrix = (parts & RAD_PART_MATRIX) ? SEC_MATRIX : -1;
     if (!rc && matrix >= 0 && x.at[SEC_MATRIX] < 0)
         rc = rad_fail(r->err, RAD_ERR_USAGE,

@@ -37,7 +37,7 @@
  * Every file is written as version 7. */
 #define SOL_VERSION_ELEMENT_ROWS 7u
 #define SOL_HEADER_BYTES 32u
-#define SOL_INDEX_HEAD 8u        /* u32 count, u32 reserved */
+#define SOL_INDEX_HEAD 8u        /* u32 count, u32 version (7 on; 0 in version 6) */
 #define SOL_INDEX_ENTRY 32u      /* tag, u32 reserved, u64 offset, u64 length, u64 CRC */
 #define SOL_MAX_SECTIONS 64u
 #define SOL_MATRIX_HEAD 16u      /* MATRIX body: u32 n, u32 reserved, u64 rows key */

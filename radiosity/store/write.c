@@ -777,7 +777,7 @@ int sol_write_rest(sol_sink *k, const sol_write_ctx *w, const sol_index_entry *m
     uint64_t at = k->total;
     uint8_t head[SOL_INDEX_HEAD], ent[SOL_INDEX_ENTRY];
     sol_store_le(head, count, 4);
-    sol_store_le(head + 4, 0, 4);
+    sol_store_le(head + 4, SOL_VERSION, 4); /* the header's version, under the index's CRC */
     sol_index_entry crc_of_index;
     sol_sink_begin(k, &crc_of_index, SEC_INFO);
     put(k, head, sizeof head);
