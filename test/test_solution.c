@@ -1,13 +1,13 @@
 /* test_solution.c - the solution store: round trip, the file layout of
- * docs/solution-format.md (version 6, checked with this file's own
+ * docs/solution-format.md (version 7, checked with this file's own
  * CRC-64/XZ), refusal of truncated, corrupted, newer and foreign files,
- * reading without the matrix, every older version still read (the frozen
- * files of test/fuzz/corpus/solution/, versions 1 to 5, and their damage
- * refused), and writes that fail without leaving a temporary file or
- * harming the file already there.
+ * reading without the matrix or the elements' rows, every older version
+ * still read (the frozen files of test/fuzz/corpus/solution/, versions 1
+ * to 6, and their damage refused), and writes that fail without leaving a
+ * temporary file or harming the file already there.
  *
- * Run as `test_solution --write-seeds DIR` it writes the fuzzer's version 6
- * seeds (small valid solution files, NAME-v6) into DIR instead.
+ * Run as `test_solution --write-seeds DIR` it writes the fuzzer's version 7
+ * seeds (small valid solution files, NAME-v7) into DIR instead.
  */
 #include "../radiosity/mesh/mesh.h"
 #include "../radiosity/pipeline/pipeline.h"
@@ -2557,8 +2557,6 @@ TEST(version_6_elements_read_identically)
     }
 }
 
-/* The fuzzer's version 6 seeds (the corpus keeps the files older versions
- * wrote under the names without -v6). */
 /* ------------------------------------------------------------- BASIS */
 
 /* The rgb room with stored light responses made by hand (its F lacks rows,
@@ -2701,12 +2699,15 @@ TEST(basis_round_trip_and_damage)
     free(img);
 }
 
+/* The fuzzer's version 7 seeds, NAME-v7 (the corpus keeps the files older
+ * versions wrote: NAME-v6 for version 6, the names without a suffix for
+ * versions 1 to 5). */
 static int write_seeds(const char *dir)
 {
     rad_solution *(*make[7])(void) = {make_rgb, make_grey, make_wide, make_elements, make_sheets,
                                       make_interp, make_basis};
-    const char *names[7] = {"rgb-room-v6", "grey-box-v6", "wide-floor-v6", "elements-room-v6",
-                            "sheets-room-v6", "interp-room-v6", "basis-room-v6"};
+    const char *names[7] = {"rgb-room-v7", "grey-box-v7", "wide-floor-v7", "elements-room-v7",
+                            "sheets-room-v7", "interp-room-v7", "basis-room-v7"};
     for (int v = 0; v < 7; v++) {
         rad_solution *s = make[v]();
         char p[600];
@@ -2725,7 +2726,7 @@ static int write_seeds(const char *dir)
     for (int v = 0; v < 3; v++) {
         char from[300], p[600];
         snprintf(from, sizeof from, CORPUS "%s", frozen[v]);
-        snprintf(p, sizeof p, "%s/%s-v6", dir, frozen[v]);
+        snprintf(p, sizeof p, "%s/%s-v7", dir, frozen[v]);
         rad_solution *s = NULL;
         rad_error e;
         if (rad_solution_read(from, &s, &e) || rad_solution_write(s, p, &e)) {
