@@ -1,5 +1,5 @@
 /* read.c - reading a solution file (docs/solution-format.md): the header,
- * then for version 6 the index and only the sections asked for, each
+ * then for versions 6 and 7 the index and only the sections asked for, each
  * checked against its own CRC, the matrix read straight into F's pool or
  * taken from the file a MATRIXREF names; for versions 1-5 the whole payload
  * under its one CRC.  parse.c parses the sections.

@@ -384,7 +384,7 @@ int rad_solution_parse_parts(const void *data, size_t size, const char *name, in
 uint64_t rad_rows_key(const rad_mesh *mesh, uint32_t resolution, const uint8_t *exact,
                       uint32_t flags);
 
-/* A solve's output file while the solve runs: PATH.partial, a version 6
+/* A solve's output file while the solve runs: PATH.partial, a version 7
  * file whose MATRIX section grows by one block per finished row.  A crash,
  * a kill or Ctrl-C leaves the rows finished so far in it; the next solve
  * for the same PATH reads them back (a block cut short by the crash is
@@ -449,7 +449,9 @@ int rad_elements_complete(rad_elements *el, const rad_solution *s, const char *n
                           rad_error *err);
 
 /* The same checks without completing (the derived fields must already
- * agree): what the writer runs before it creates a file. */
+ * agree): what the writer runs before it creates a file.  Elements without
+ * their entries (rows_loaded 0) have their rows checked as far as the
+ * counts go. */
 int rad_elements_check(const rad_elements *el, const rad_solution *s, const char *name,
                        rad_error *err);
 

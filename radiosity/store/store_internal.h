@@ -299,7 +299,7 @@ int sol_validate_for_write(const rad_solution *s, const char *path, int check_ma
 /* H of s for IRRADIANCE into a new array (caller frees). */
 int sol_irradiance_for_write(const rad_solution *s, double **H, rad_error *err);
 
-/* A version 6 header with the index not yet written (offset 0). */
+/* A version 7 header with the index not yet written (offset 0). */
 void sol_header(uint8_t head[SOL_HEADER_BYTES]);
 
 /* The start of a MATRIX body: n, reserved, the rows key. */
