@@ -2628,10 +2628,15 @@ TEST(basis_round_trip_and_damage)
     uint8_t *img2 = written_image(r, "basis2.sol", p2, &size2);
     CHECK(img2 && size2 == size && memcmp(img, img2, size) == 0);
     free(img2);
-    /* read without F (render's way) it is there too */
+    /* read without F (relight's way) it is there too; without the part
+     * (render's and report's way) it is not read, and that is known */
     rad_solution *parts = NULL;
-    CHECK(rad_solution_read_parts(p, 0, &parts, &e) == RAD_OK && parts && parts->basis &&
-          parts->basis->groups == 3);
+    CHECK(rad_solution_read_parts(p, RAD_PART_BASIS, &parts, &e) == RAD_OK && parts &&
+          parts->basis && parts->basis->groups == 3 && !parts->basis_skipped);
+    rad_solution_destroy(parts);
+    parts = NULL;
+    CHECK(rad_solution_read_parts(p, 0, &parts, &e) == RAD_OK && parts && !parts->basis &&
+          parts->basis_skipped);
     rad_solution_destroy(parts);
 
     /* the sizes in BASIS's head, then a group, then a value */

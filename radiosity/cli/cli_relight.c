@@ -327,9 +327,11 @@ int cli_relight(int argc, char **argv)
     if (!rc && a.variations)
         rc = read_variations(a.variations, &var, &nvar);
     double t0 = rad_seconds();
-    /* The elements' rows always: every path writes a whole new file, and
-     * the full one gathers the elements again through them. */
-    const unsigned parts = a.resolve ? RAD_PARTS_ALL : RAD_PART_MATRIX_PLACE | RAD_PART_ELEMENT_ROWS;
+    /* The elements' rows and the light responses always: every path writes
+     * a whole new file, the full one gathers the elements again through the
+     * rows, and superposition is made of the responses. */
+    const unsigned parts = a.resolve ? RAD_PARTS_ALL
+                                     : RAD_PART_MATRIX_PLACE | RAD_PART_ELEMENT_ROWS | RAD_PART_BASIS;
     if (!rc && rad_solution_read_parts(a.in, parts, &s, &err))
         rc = cli_error(&err);
     double load_seconds = rad_seconds() - t0;

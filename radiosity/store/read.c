@@ -661,6 +661,8 @@ static int read_v6(sol_reader *r, const sol_file *f, const uint8_t head[SOL_HEAD
             break;
         if (sec == SEC_ELEMENT_ROWS && (rc = element_rows_wanted(r, &x, s, parts, &read)))
             break;
+        if (sec == SEC_BASIS && read && !(parts & RAD_PART_BASIS))
+            read = 0, s->basis_skipped = 1;
         if (read)
             rc = file_section(r, f, &x.e[x.at[sec]], sec, s, &scratch);
     }
@@ -815,6 +817,8 @@ static int parse_v6(sol_reader *r, const uint8_t *d, size_t size, const sol_head
             break;
         if (sec == SEC_ELEMENT_ROWS && (rc = element_rows_wanted(r, &x, s, parts, &read)))
             break;
+        if (sec == SEC_BASIS && read && !(parts & RAD_PART_BASIS))
+            read = 0, s->basis_skipped = 1;
         if (!read)
             continue;
         const sol_index_entry *e = &x.e[x.at[sec]];

@@ -278,6 +278,8 @@ typedef struct rad_solution {
     rad_matrix_file matrix_file;   /* where F's rows are (version 6) */
     rad_progress *progress;        /* NULL unless the last solve was progressive (owned) */
     rad_basis *basis;              /* the stored light responses, NULL when none (owned) */
+    int basis_skipped;             /* 1: the file holds them, read without RAD_PART_BASIS (a
+                                    * writer refuses: they would be lost) */
 } rad_solution;
 
 /* A new solution taking ownership of scene and mesh (on failure they are
@@ -350,7 +352,10 @@ int rad_solution_read(const char *path, rad_solution **out, rad_error *err);
 #define RAD_PART_ELEMENT_ROWS 4u /* the elements' row entries F_ej (ELEMENTROWS, version 7):
                                   * without it rad_elements.rows_loaded = 0; what gathers
                                   * the elements again, exports or writes them needs it */
-#define RAD_PARTS_ALL (RAD_PART_MATRIX | RAD_PART_ELEMENT_ROWS)
+#define RAD_PART_BASIS 8u /* the stored light responses (BASIS): without it s->basis is NULL,
+                           * and basis_skipped 1 when the file holds them; a relight by
+                           * superposition and the writer need it */
+#define RAD_PARTS_ALL (RAD_PART_MATRIX | RAD_PART_ELEMENT_ROWS | RAD_PART_BASIS)
 
 /* rad_solution_read of the parts in `parts` only (everything else is always
  * read).  A version 6 or 7 file's sections that are not needed are neither

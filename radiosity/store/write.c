@@ -536,8 +536,13 @@ int sol_validate_for_write(const rad_solution *s, const char *path, int check_ma
         return rad_fail(err, RAD_ERR_INVALID, "%s: cannot write: mesh: %s", path, sub.message);
     if (check_matrix && rad_matrix_check(s->F, &sub))
         return rad_fail(err, RAD_ERR_INVALID, "%s: cannot write: %s", path, sub.message);
-    /* Elements read without their rows would lose them: the caller should
-     * have read RAD_PART_ELEMENT_ROWS. */
+    /* Elements read without their rows, or a solution read without its
+     * light responses, would lose them: the caller should have read
+     * RAD_PART_ELEMENT_ROWS and RAD_PART_BASIS. */
+    RAD_ASSERT(!s->basis_skipped);
+    if (s->basis_skipped)
+        return rad_fail(err, RAD_ERR_USAGE, "%s: cannot write: the stored light responses were "
+                        "not read", path);
     RAD_ASSERT(!s->elements || s->elements->rows_loaded);
     if (s->elements && !s->elements->rows_loaded)
         return rad_fail(err, RAD_ERR_USAGE, "%s: cannot write: the elements' rows were not read",
