@@ -308,10 +308,14 @@ static size_t gather_patch(gather *g, const rad_mesh *m, const uint8_t *outline,
 }
 
 /* Interior vertex v by the quadratic fit (RN_FIT_QUADRATIC in render.h).
- * start/adj: vertex -> cells.  Returns -1, writing nothing, when no
- * quadratic is determined (the caller falls back to the affine fit). */
+ * start/adj: vertex -> cells; seen (may be NULL): a stamp per cell, v + 1
+ * once a cell was looked at for v (the two rings reach most cells several
+ * times: skipping those changes no sample and saves comparing centres).
+ * Returns -1, writing nothing, when no quadratic is determined (the
+ * caller falls back to the affine fit). */
 static int quadratic_vertex(const rad_mesh *mesh, const uint64_t *start, const uint32_t *adj,
-                            uint32_t v, uint32_t bands, const double *B, double *vertex_B)
+                            uint32_t v, uint32_t bands, const double *B, double *vertex_B,
+                            uint32_t *seen)
 {
     enum { CAP = 256 }; /* more distinct centres than this: fall back */
     uint32_t id[CAP];
@@ -321,6 +325,10 @@ static int quadratic_vertex(const rad_mesh *mesh, const uint64_t *start, const u
         for (int c = 0; c < rad_patch_corners(pa); c++) {
             uint32_t u = pa->v[c];
             for (uint64_t q = start[u]; q < start[u + 1]; q++) {
+                if (seen && seen[adj[q]] == v + 1)
+                    continue;
+                if (seen)
+                    seen[adj[q]] = v + 1;
                 /* The cells of one fan share their element's centre: one
                  * sample each. */
                 rad_vec3 b = mesh->patches[adj[q]].center;
@@ -419,6 +427,7 @@ void rn_vertex_radiosity_fit(const rad_mesh *mesh, uint32_t bands, const double 
     for (uint32_t v = 0; v < nv; v++)
         most = start[v + 1] - start[v] > most ? start[v + 1] - start[v] : most;
     double *fit = malloc(3 * (size_t)(most ? most : 1) * sizeof *fit);
+    uint32_t *seen = how == RN_FIT_QUADRATIC ? calloc(np ? np : 1, sizeof *seen) : NULL;
     for (uint32_t v = 0; v < nv; v++) {
         uint64_t n = start[v + 1] - start[v];
         if (n == 0)
@@ -426,7 +435,7 @@ void rn_vertex_radiosity_fit(const rad_mesh *mesh, uint32_t bands, const double 
         const int interior = !(mesh->vertex_boundary && mesh->vertex_boundary[v]);
         if (interior && how == RN_FIT_QUADRATIC &&
             rad_length(mesh->patches[adj[start[v]]].normal) > 0.0 &&
-            quadratic_vertex(mesh, start, adj, v, bands, B, vertex_B) == 0)
+            quadratic_vertex(mesh, start, adj, v, bands, B, vertex_B, seen) == 0)
             continue;
         if (interior && fit && rad_length(mesh->patches[adj[start[v]]].normal) > 0.0) {
             double *x = fit, *y = fit + n, *w = fit + 2 * n;
@@ -455,6 +464,7 @@ void rn_vertex_radiosity_fit(const rad_mesh *mesh, uint32_t bands, const double 
         }
     }
     free(fit);
+    free(seen);
 
     /* Outline vertices read only interior values, which are final already,
      * so they can be overwritten in place. */

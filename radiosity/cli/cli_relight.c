@@ -313,8 +313,8 @@ static int read_variations(const char *path, rad_variant **var, uint32_t *nvar)
 }
 
 /* relight: the solution is read once without F (with it under --resolve),
- * whatever the number of variants; every edit and variant is checked
- * before any solve. */
+ * its elements' rows included, whatever the number of variants; every edit
+ * and variant is checked before any solve. */
 int cli_relight(int argc, char **argv)
 {
     relight_args a = {0};
@@ -327,8 +327,12 @@ int cli_relight(int argc, char **argv)
     if (!rc && a.variations)
         rc = read_variations(a.variations, &var, &nvar);
     double t0 = rad_seconds();
-    if (!rc && rad_solution_read_parts(a.in, a.resolve ? RAD_PARTS_ALL : RAD_PART_MATRIX_PLACE,
-                                       &s, &err))
+    /* The elements' rows and the light responses always: every path writes
+     * a whole new file, the full one gathers the elements again through the
+     * rows, and superposition is made of the responses. */
+    const unsigned parts = a.resolve ? RAD_PARTS_ALL
+                                     : RAD_PART_MATRIX_PLACE | RAD_PART_ELEMENT_ROWS | RAD_PART_BASIS;
+    if (!rc && rad_solution_read_parts(a.in, parts, &s, &err))
         rc = cli_error(&err);
     double load_seconds = rad_seconds() - t0;
     if (!rc) {

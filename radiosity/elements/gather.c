@@ -143,6 +143,11 @@ int rad_elements_gather(const rad_solution *s, rad_elements *el, rad_error *err)
 {
     if (!s || !el)
         return rad_fail(err, RAD_ERR_USAGE, "rad_elements_gather: solution and elements must be given");
+    /* the gather reads every row: the caller reads RAD_PART_ELEMENT_ROWS */
+    RAD_ASSERT(el->rows_loaded);
+    if (!el->rows_loaded)
+        return rad_fail(err, RAD_ERR_USAGE, "%s: the elements' rows were not read",
+                        s->scene->source);
     double *Hd, *Tr = NULL, *Hi = NULL;
     el_interp ip = {0};
     int rc = direct_irradiance(s, &Hd, err);

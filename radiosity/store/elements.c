@@ -38,6 +38,7 @@ rad_elements *rad_elements_alloc(uint32_t vertex_count, uint32_t count, uint32_t
         return NULL;
     }
     el->capacity = entries;
+    el->rows_loaded = 1;
     return el;
 }
 
@@ -121,8 +122,12 @@ int rad_elements_check(const rad_elements *el, const rad_solution *s, const char
 {
     const rad_mesh *pm = s->mesh, *m = el->mesh;
     const uint32_t bands = s->band_count;
+    /* Without their entries (rows_loaded 0) the rows are checked as far as
+     * their counts go: in range of nnz, none at level 0. */
+    const int rows = el->rows_loaded;
     if (!m || !el->patch || !el->level || !el->B || !el->row_start || !el->row_count ||
-        (el->nnz && (!el->col || !el->val)) || el->nnz > el->capacity)
+        (rows && el->nnz && (!el->col || !el->val)) || (rows && el->nnz > el->capacity) ||
+        (!rows && (el->col || el->val)))
         return rad_fail(err, RAD_ERR_CORRUPT, "%s: elements: missing arrays", name);
     int rc = rad_mesh_check(m, s->scene->polygon_count, s->scene->object_count,
                             s->scene->material_count, err);
@@ -149,7 +154,7 @@ int rad_elements_check(const rad_elements *el, const rad_solution *s, const char
         if (el->level[e] == 0 && cnt != 0)
             return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: level 0 with a row", name, e);
         double sum = 0.0;
-        for (uint32_t q = 0; q < cnt; q++) {
+        for (uint32_t q = 0; rows && q < cnt; q++) {
             uint64_t k = el->row_start[e] + q;
             uint32_t j = el->col[k];
             if (j >= pm->patch_count || j == p || (q && j <= el->col[k - 1]) ||
@@ -191,7 +196,7 @@ int rad_elements_check(const rad_elements *el, const rad_solution *s, const char
         if (el->interp[e] > 1 || (el->interp[e] && el->level[e] == 0))
             return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: interpolation flag %u at level %u",
                             name, e, el->interp[e], el->level[e]);
-        for (uint32_t q = 0; el->interp[e] && q < el->row_count[e]; q++)
+        for (uint32_t q = 0; rows && el->interp[e] && q < el->row_count[e]; q++)
             if (!el->direct[el->col[el->row_start[e] + q]])
                 return rad_fail(err, RAD_ERR_CORRUPT,
                                 "%s: element %u: interpolated, but its row holds patch %u, "

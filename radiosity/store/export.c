@@ -244,6 +244,9 @@ int rad_solution_export(const rad_solution *s, const char *dir, rad_error *err)
         return rad_fail(err, RAD_ERR_USAGE, "export: no solution or no directory");
     if (!s->F->entries_loaded)
         return rad_fail(err, RAD_ERR_USAGE, "export: the form factors were not read");
+    RAD_ASSERT(!s->elements || s->elements->rows_loaded); /* read with RAD_PART_ELEMENT_ROWS */
+    if (s->elements && !s->elements->rows_loaded)
+        return rad_fail(err, RAD_ERR_USAGE, "export: the elements' rows were not read");
     int files = s->elements ? OUT_COUNT : OUT_ELEMENTS;
     rad_output *out[OUT_COUNT] = {0};
     text_out *t = malloc(sizeof *t);

@@ -35,6 +35,7 @@ const char sol_sec_tag[SEC_COUNT][4] = {
     [SEC_IRRADIANCE] = {'I', 'R', 'R', 'D'},
     [SEC_MATRIXREF] = {'M', 'R', 'E', 'F'},
     [SEC_BASIS] = {'B', 'A', 'S', 'I'},
+    [SEC_ELEMENT_ROWS] = {'E', 'L', 'R', 'W'},
 };
 
 const char *const sol_sec_name[SEC_COUNT] = {
@@ -55,6 +56,7 @@ const char *const sol_sec_name[SEC_COUNT] = {
     [SEC_IRRADIANCE] = "IRRADIANCE",
     [SEC_MATRIXREF] = "MATRIXREF",
     [SEC_BASIS] = "BASIS",
+    [SEC_ELEMENT_ROWS] = "ELEMENTROWS",
 };
 
 const int sol_version_sections[SOL_VERSION_SHEETS + 1] = {0, SEC_LIGHTS, SEC_ELEMENTS,
@@ -71,7 +73,9 @@ int sol_section_order(size_t q)
     q -= nh;
     if (q <= (size_t)(SEC_LAST_ANNOUNCED - SEC_LIGHTS))
         return SEC_LIGHTS + (int)q;
-    return q == (size_t)(SEC_LAST_ANNOUNCED - SEC_LIGHTS) + 1 ? SEC_BASIS : -1;
+    q -= (size_t)(SEC_LAST_ANNOUNCED - SEC_LIGHTS) + 1;
+    static const int tail[] = {SEC_BASIS, SEC_ELEMENT_ROWS};
+    return q < sizeof tail / sizeof tail[0] ? tail[q] : -1;
 }
 
 /* ------------------------------------------------------------- CRC-64/XZ */

@@ -1,5 +1,5 @@
 /* journal.c - a solve's output file while the solve runs (solution.h,
- * rad_journal): PATH.partial, a version 6 solution file begun with its
+ * rad_journal): PATH.partial, a version 7 solution file begun with its
  * header (index offset 0: unfinished) and the head of its MATRIX section,
  * to which every finished row is appended at once as a block of its own
  * (tag, 1 row, length, CRC-64 of the record, the record).  When the solve is

@@ -239,7 +239,7 @@ static int get_count(sol_reader *r, uint32_t *count, uint64_t min_bytes, const c
 
 static int parse_materials(sol_reader *r, rad_scene *sc)
 {
-    uint32_t nb = sc->band_count, count;
+    uint32_t nb = sc->band_count, count = 0;
     int rc = get_count(r, &count, MIN_STRING + 24ull * nb, "material", "materials");
     for (uint32_t i = 0; i < count && !rc; i++) {
         double rho[RAD_MAX_BANDS], e[RAD_MAX_BANDS], t[RAD_MAX_BANDS];
@@ -320,7 +320,7 @@ static int parse_polygons(sol_reader *r, rad_scene *sc)
 static int parse_scene_cameras(sol_reader *r, rad_scene *sc)
 {
     sol_cursor *c = &r->c;
-    uint32_t count;
+    uint32_t count = 0;
     int rc = get_count(r, &count, MIN_CAMERA, "camera", "cameras");
     for (uint32_t i = 0; i < count && !rc; i++) {
         rad_vec3 eye, target, up;
@@ -674,9 +674,12 @@ static int parse_lights(sol_reader *r, rad_solution *s)
 
 /* ELEMENTS: every count is bounded by the bytes left before allocating;
  * rad_elements_complete then derives each cell from its patch and checks
- * the whole (solution.h). */
+ * the whole (solution.h).  Up to version 6 each element's row entries
+ * follow its count; from version 7 on they are ELEMENTROWS', and the
+ * elements stay without them (rows_loaded 0) until that is read. */
 static int parse_elements(sol_reader *r, rad_solution *s)
 {
+    const int inline_rows = r->version < SOL_VERSION_ELEMENT_ROWS;
     sol_cursor *c = &r->c;
     double threshold, min_size;
     uint64_t computed;
@@ -688,12 +691,12 @@ static int parse_elements(sol_reader *r, rad_solution *s)
         return TRUNC("%u bands but the solution has %u", nb, s->band_count);
     int rc;
     /* The vertices and the elements' fixed parts must fit what is left;
-     * the row entries get the rest, at MIN_ENTRY each. */
+     * the row entries (up to version 6) get the rest, at MIN_ENTRY each. */
     uint64_t fixed = (uint64_t)nv * ELEMENT_VERTEX_BYTES + (uint64_t)ne * (MIN_ELEMENT + 8u * nb);
     if (fixed > c->left)
         return TRUNC("%u vertices and %u elements need %llu bytes, %zu left", nv, ne,
                      (unsigned long long)fixed, c->left);
-    uint64_t max_entries = c->left > fixed ? (c->left - fixed) / MIN_ENTRY : 0;
+    uint64_t max_entries = c->left > fixed && inline_rows ? (c->left - fixed) / MIN_ENTRY : 0;
     rad_elements *el = s->elements = rad_elements_alloc(nv, ne, nb, max_entries);
     if (!el)
         return sol_rfail(r, RAD_ERR_NOMEM, "out of memory for %u elements", ne);
@@ -719,14 +722,22 @@ static int parse_elements(sol_reader *r, rad_solution *s)
         if (el->patch[e] >= s->mesh->patch_count)
             return TRUNC("element %u: patch %u out of range (%u patches)", e, el->patch[e],
                           s->mesh->patch_count);
-        if (cnt > max_entries - el->nnz)
-            return TRUNC("element %u: %u entries: more than the section holds", e, cnt);
+        if (inline_rows ? cnt > max_entries - el->nnz : cnt >= s->mesh->patch_count)
+            return TRUNC("element %u: %u entries: more than the %s", e, cnt,
+                         inline_rows ? "section holds" : "patches but itself");
         el->row_start[e] = el->nnz;
         el->row_count[e] = cnt;
-        if ((rc = get_row(r, "element", e, cnt, s->mesh->patch_count, el->patch[e],
-                          el->col + el->nnz, el->val + el->nnz)))
+        if (inline_rows && (rc = get_row(r, "element", e, cnt, s->mesh->patch_count,
+                                         el->patch[e], el->col + el->nnz, el->val + el->nnz)))
             return rc;
         el->nnz += cnt;
+    }
+    if (!inline_rows && el->nnz) { /* ELEMENTROWS holds them */
+        free(el->col);
+        free(el->val);
+        el->col = NULL;
+        el->val = NULL;
+        el->rows_loaded = 0;
     }
     /* Elements in clusters take their polygon and normal from the cell
      * they lie in: with CLUSTERS to come, they are completed there. */
@@ -1114,6 +1125,45 @@ static int parse_element_indirect(sol_reader *r, rad_solution *s)
     return RAD_OK;
 }
 
+/* ELEMENTROWS (version 7): the row entries of the elements ELEMENTS
+ * counted, element by element, encoded as version 6 had them inside
+ * ELEMENTS.  The counts must be ELEMENTS' and the entries must fit what is
+ * left before anything is allocated; each row is checked as it is read
+ * (get_row), then the whole against the complete elements
+ * (rad_elements_check: interpolated rows hold direct sources only). */
+static int parse_element_rows(sol_reader *r, rad_solution *s)
+{
+    rad_elements *el = s->elements;
+    uint32_t ne;
+    uint64_t nnz;
+    if (!el || el->rows_loaded)
+        return TRUNC("no elements whose rows it would hold");
+    if (!sol_get_u32(&r->c, &ne) || !sol_get_u64(&r->c, &nnz))
+        return TRUNC("truncated");
+    if (ne != el->mesh->patch_count || nnz != el->nnz)
+        return TRUNC("%u elements and %llu entries, but ELEMENTS has %u and %llu", ne,
+                     (unsigned long long)nnz, el->mesh->patch_count,
+                     (unsigned long long)el->nnz);
+    int rc = check_count(r, nnz, MIN_ENTRY, "entries");
+    if (rc)
+        return rc;
+    el->col = malloc((size_t)(nnz ? nnz : 1) * sizeof *el->col);
+    el->val = malloc((size_t)(nnz ? nnz : 1) * sizeof *el->val);
+    if (!el->col || !el->val)
+        return sol_rfail(r, RAD_ERR_NOMEM, "out of memory for %llu entries",
+                         (unsigned long long)nnz);
+    el->capacity = nnz;
+    el->rows_loaded = 1;
+    for (uint32_t e = 0; e < ne; e++)
+        if ((rc = get_row(r, "element", e, el->row_count[e], s->mesh->patch_count, el->patch[e],
+                          el->col + el->row_start[e], el->val + el->row_start[e])))
+            return rc;
+    rad_error sub;
+    if (rad_elements_check(el, s, "elements", &sub))
+        return sol_rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
+    return RAD_OK;
+}
+
 /* ---------------------------------------------------------------- dispatch */
 
 /* PROGRESS (write.c's emit_progress). */
@@ -1211,6 +1261,7 @@ static const parse_fn sec_parse[SEC_COUNT] = {
     [SEC_IRRADIANCE] = parse_irradiance,
     [SEC_MATRIXREF] = parse_matrixref,
     [SEC_BASIS] = parse_basis,
+    [SEC_ELEMENT_ROWS] = parse_element_rows,
 };
 
 int sol_parse_section(sol_reader *r, int sec, rad_solution *s)

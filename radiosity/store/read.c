@@ -1,5 +1,5 @@
 /* read.c - reading a solution file (docs/solution-format.md): the header,
- * then for version 6 the index and only the sections asked for, each
+ * then for versions 6 and 7 the index and only the sections asked for, each
  * checked against its own CRC, the matrix read straight into F's pool or
  * taken from the file a MATRIXREF names; for versions 1-5 the whole payload
  * under its one CRC.  parse.c parses the sections.
@@ -201,13 +201,19 @@ static int index_extent(const sol_head *h, uint64_t size, const char *name, uint
     return RAD_OK;
 }
 
-static int parse_index(const uint8_t *d, uint64_t len, uint64_t at, const char *name,
-                       int check_sum, uint64_t crc, sol_index *x, rad_error *err)
+/* The index of a file of header h.  Its second u32 is 0 in version 6 and
+ * the version from 7 on: the header's version under the index's CRC, so
+ * that no flip of it passes (a version 7 file without elements reads the
+ * same as version 6). */
+static int parse_index(const uint8_t *d, uint64_t len, const sol_head *h, const char *name,
+                       int check_sum, sol_index *x, rad_error *err)
 {
+    const uint64_t at = h->a, crc = h->b;
     uint32_t count = (uint32_t)sol_load_le64(d), reserved = (uint32_t)(sol_load_le64(d) >> 32);
-    if (count < 1 || count > SOL_MAX_SECTIONS || reserved != 0)
-        return rad_fail(err, RAD_ERR_CORRUPT, "%s: index: %u sections (1..%u), reserved %u", name,
-                        count, SOL_MAX_SECTIONS, reserved);
+    uint32_t want = h->version >= SOL_VERSION_ELEMENT_ROWS ? h->version : 0;
+    if (count < 1 || count > SOL_MAX_SECTIONS || reserved != want)
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: index: %u sections (1..%u), version field %u "
+                        "(%u)", name, count, SOL_MAX_SECTIONS, reserved, want);
     uint64_t need = SOL_INDEX_HEAD + (uint64_t)count * SOL_INDEX_ENTRY;
     if (len < need)
         return rad_fail(err, RAD_ERR_CORRUPT, "%s: truncated: %llu of %llu bytes", name,
@@ -256,6 +262,9 @@ static int parse_index(const uint8_t *d, uint64_t len, uint64_t at, const char *
         if (x->at[required[q]] < 0)
             return rad_fail(err, RAD_ERR_CORRUPT, "%s: section %s missing", name,
                             sol_sec_name[required[q]]);
+    if (x->at[SEC_ELEMENT_ROWS] >= 0 && h->version < SOL_VERSION_ELEMENT_ROWS)
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: section ELEMENTROWS in a version %u file", name,
+                        h->version);
     if ((x->at[SEC_MATRIX] >= 0) == (x->at[SEC_MATRIXREF] >= 0))
         return rad_fail(err, RAD_ERR_CORRUPT, "%s: %s", name,
                         x->at[SEC_MATRIX] >= 0 ? "both MATRIX and MATRIXREF"
@@ -271,6 +280,23 @@ static int check_announced(const sol_reader *r, const sol_index *x)
             return rad_fail(r->err, RAD_ERR_CORRUPT, "%s: section %s %s", r->name,
                             sol_sec_name[k],
                             sol_announced(r, k) ? "missing" : "not announced in INFO");
+    return RAD_OK;
+}
+
+/* ELEMENTROWS is there exactly when a version 7 file's ELEMENTS counts
+ * some row entry (parse_index refuses it in version 6, whose ELEMENTS
+ * holds the entries), checked from the index whether the section is read
+ * or not.  *read: it is there and `parts` asks for it. */
+static int element_rows_wanted(const sol_reader *r, const sol_index *x, const rad_solution *s,
+                               unsigned parts, int *read)
+{
+    const int present = x->at[SEC_ELEMENT_ROWS] >= 0;
+    *read = 0;
+    const int needed = s->elements && !s->elements->rows_loaded;
+    if (present != needed)
+        return rad_fail(r->err, RAD_ERR_CORRUPT, "%s: section ELEMENTROWS %s", r->name,
+                        needed ? "missing" : "without element rows to hold");
+    *read = present && (parts & RAD_PART_ELEMENT_ROWS);
     return RAD_OK;
 }
 
@@ -359,19 +385,36 @@ static int file_index(const sol_file *f, const uint8_t head[SOL_HEADER_BYTES], i
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", f->name);
     rc = file_read(f, buf, (size_t)len, h.a, err);
     if (!rc)
-        rc = parse_index(buf, len, h.a, f->name, check_sum, h.b, x, err);
+        rc = parse_index(buf, len, &h, f->name, check_sum, x, err);
     free(buf);
     return rc;
 }
 
-/* Reads section entry e into memory, checks its CRC and parses it. */
+/* A buffer that the sections of one read share: a fresh buffer for each
+ * would fault in every page of every section anew (at 32k patches, 13 MB
+ * for report; the largest section is 3.5 MB). */
+typedef struct sol_scratch {
+    uint8_t *p;
+    size_t cap;
+} sol_scratch;
+
+/* Reads section entry e into memory (scratch, grown as needed, or a buffer
+ * of its own with scratch NULL), checks its CRC and parses it. */
 static int file_section(sol_reader *r, const sol_file *f, const sol_index_entry *e, int sec,
-                        rad_solution *s)
+                        rad_solution *s, sol_scratch *scratch)
 {
     if (e->length > SIZE_MAX)
         return rad_fail(r->err, RAD_ERR_LIMIT, "%s: section %s too large", f->name,
                         sol_sec_name[sec]);
-    uint8_t *buf = malloc(e->length ? (size_t)e->length : 1);
+    sol_scratch own = {0};
+    sol_scratch *b = scratch ? scratch : &own;
+    if (b->cap < e->length || !b->p) {
+        size_t cap = e->length ? (size_t)e->length : 1;
+        free(b->p);
+        b->p = malloc(cap);
+        b->cap = b->p ? cap : 0;
+    }
+    uint8_t *buf = b->p;
     if (!buf)
         return rad_fail(r->err, RAD_ERR_NOMEM, "%s: section %s: out of memory for %llu bytes",
                         f->name, sol_sec_name[sec], (unsigned long long)e->length);
@@ -386,7 +429,7 @@ static int file_section(sol_reader *r, const sol_file *f, const sol_index_entry 
         r->c.left = (size_t)e->length;
         rc = sol_parse_section(r, sec, s);
     }
-    free(buf);
+    free(own.p);
     return rc;
 }
 
@@ -561,7 +604,7 @@ static void locate_matrix(const sol_reader *r, const sol_file *f, const sol_inde
         snprintf(holder, sizeof holder, "%s", f->name);
     } else if (!rc) {
         sol_file h = {.fd = -1};
-        rc = file_section(q, f, &x->e[x->at[SEC_MATRIXREF]], SEC_MATRIXREF, s);
+        rc = file_section(q, f, &x->e[x->at[SEC_MATRIXREF]], SEC_MATRIXREF, s, NULL);
         if (!rc)
             rc = find_matrixref(q, f->name, &h, holder, sizeof holder, &e);
         file_close(&h);
@@ -589,7 +632,7 @@ static int load_matrix(sol_reader *r, const sol_file *f, const sol_index *x, rad
         snprintf(holder, sizeof holder, "%s", f->name);
         rc = file_matrix(r, f, &e, s);
     } else {
-        rc = file_section(r, f, &x->e[x->at[SEC_MATRIXREF]], SEC_MATRIXREF, s);
+        rc = file_section(r, f, &x->e[x->at[SEC_MATRIXREF]], SEC_MATRIXREF, s, NULL);
         if (!rc)
             rc = follow_matrixref(r, f->name, s, holder, sizeof holder, &e);
     }
@@ -608,15 +651,22 @@ static int read_v6(sol_reader *r, const sol_file *f, const uint8_t head[SOL_HEAD
                    unsigned parts, rad_solution *s)
 {
     sol_index x;
+    sol_scratch scratch = {0};
     int rc = file_index(f, head, r->check_sum, &x, r->err);
     /* the sections in the order they are parsed (each needs those before it) */
     for (size_t q = 0; !rc && sol_section_order(q) >= 0; q++) {
         int sec = sol_section_order(q);
+        int read = x.at[sec] >= 0;
         if (sec == SEC_LIGHTS && (rc = check_announced(r, &x)))
             break;
-        if (x.at[sec] >= 0)
-            rc = file_section(r, f, &x.e[x.at[sec]], sec, s);
+        if (sec == SEC_ELEMENT_ROWS && (rc = element_rows_wanted(r, &x, s, parts, &read)))
+            break;
+        if (sec == SEC_BASIS && read && !(parts & RAD_PART_BASIS))
+            read = 0, s->basis_skipped = 1;
+        if (read)
+            rc = file_section(r, f, &x.e[x.at[sec]], sec, s, &scratch);
     }
+    free(scratch.p);
     if (!rc && (parts & RAD_PART_MATRIX))
         rc = load_matrix(r, f, &x, s);
     else if (!rc && (parts & RAD_PART_MATRIX_PLACE))
@@ -749,7 +799,7 @@ static int parse_v6(sol_reader *r, const uint8_t *d, size_t size, const sol_head
     sol_index x;
     int rc = index_extent(h, size, r->name, &len, r->err);
     if (!rc)
-        rc = parse_index(d + h->a, len, h->a, r->name, r->check_sum, h->b, &x, r->err);
+        rc = parse_index(d + h->a, len, h, r->name, r->check_sum, &x, r->err);
     int matrix = (parts & RAD_PART_MATRIX) ? SEC_MATRIX : -1;
     if (!rc && matrix >= 0 && x.at[SEC_MATRIX] < 0)
         rc = rad_fail(r->err, RAD_ERR_USAGE,
@@ -762,9 +812,14 @@ static int parse_v6(sol_reader *r, const uint8_t *d, size_t size, const sol_head
             sec = matrix;
             done = 1;
         }
+        int read = sec >= 0 && x.at[sec] >= 0;
         if (sec == SEC_LIGHTS && (rc = check_announced(r, &x)))
             break;
-        if (sec < 0 || x.at[sec] < 0)
+        if (sec == SEC_ELEMENT_ROWS && (rc = element_rows_wanted(r, &x, s, parts, &read)))
+            break;
+        if (sec == SEC_BASIS && read && !(parts & RAD_PART_BASIS))
+            read = 0, s->basis_skipped = 1;
+        if (!read)
             continue;
         const sol_index_entry *e = &x.e[x.at[sec]];
         uint64_t got = 0;

@@ -121,6 +121,13 @@ typedef struct rad_elements {
     float *val;            /* F_ej (owned) */
     uint64_t nnz;          /* entries used */
     uint64_t capacity;     /* entries allocated */
+    /* 1: col and val hold the rows' entries.  0: a version 7 file read
+     * without RAD_PART_ELEMENT_ROWS: row_start, row_count and nnz are
+     * right (so an empty row, a buried element, is still known), col and
+     * val are NULL and capacity 0.  Whatever reads an entry (the gather,
+     * export, the writer) refuses such elements: a bug of its caller, who
+     * should have asked for the part. */
+    int rows_loaded;
     /* provenance */
     double threshold;      /* the refinement threshold used (0: uniform levels) */
     double min_size;       /* smallest element edge allowed, scene units */
@@ -271,6 +278,8 @@ typedef struct rad_solution {
     rad_matrix_file matrix_file;   /* where F's rows are (version 6) */
     rad_progress *progress;        /* NULL unless the last solve was progressive (owned) */
     rad_basis *basis;              /* the stored light responses, NULL when none (owned) */
+    int basis_skipped;             /* 1: the file holds them, read without RAD_PART_BASIS (a
+                                    * writer refuses: they would be lost) */
 } rad_solution;
 
 /* A new solution taking ownership of scene and mesh (on failure they are
@@ -285,8 +294,10 @@ void rad_solution_destroy(rad_solution *s); /* NULL does nothing */
 rad_progress *rad_progress_create(uint32_t previews);
 void rad_progress_destroy(rad_progress *p); /* NULL does nothing */
 
-/* Writes the solution to path (format version 6, docs/solution-format.md)
- * through a temporary file and rename, F's rows included. */
+/* Writes the solution to path (format version 7, docs/solution-format.md)
+ * through a temporary file and rename, F's rows included.  Elements whose
+ * rows were not read (rows_loaded 0) are refused (RAD_ERR_USAGE): read
+ * RAD_PART_ELEMENT_ROWS to write them. */
 int rad_solution_write(const rad_solution *s, const char *path, rad_error *err);
 
 /* {0} means defaults: the rows are written. */
@@ -338,12 +349,19 @@ int rad_solution_read(const char *path, rad_solution **out, rad_error *err);
                                   * the file a MATRIXREF names, its index checked) so that a
                                   * solution written from it can share them; left empty,
                                   * without an error, when that file is gone or changed */
-#define RAD_PARTS_ALL RAD_PART_MATRIX
+#define RAD_PART_ELEMENT_ROWS 4u /* the elements' row entries F_ej (ELEMENTROWS, version 7):
+                                  * without it rad_elements.rows_loaded = 0; what gathers
+                                  * the elements again, exports or writes them needs it */
+#define RAD_PART_BASIS 8u /* the stored light responses (BASIS): without it s->basis is NULL,
+                           * and basis_skipped 1 when the file holds them; a relight by
+                           * superposition and the writer need it */
+#define RAD_PARTS_ALL (RAD_PART_MATRIX | RAD_PART_ELEMENT_ROWS | RAD_PART_BASIS)
 
 /* rad_solution_read of the parts in `parts` only (everything else is always
- * read).  A version 6 file's sections that are not needed are neither read
- * nor checked: render and report read no byte of F.  Older files are read
- * whole. */
+ * read).  A version 6 or 7 file's sections that are not needed are neither
+ * read nor checked: render and report read no byte of F, nor (version 7) of
+ * the elements' rows.  Older files are read whole (a version 6 file's
+ * element rows are inside ELEMENTS: always read). */
 int rad_solution_read_parts(const char *path, unsigned parts, rad_solution **out,
                             rad_error *err);
 
@@ -371,7 +389,7 @@ int rad_solution_parse_parts(const void *data, size_t size, const char *name, in
 uint64_t rad_rows_key(const rad_mesh *mesh, uint32_t resolution, const uint8_t *exact,
                       uint32_t flags);
 
-/* A solve's output file while the solve runs: PATH.partial, a version 6
+/* A solve's output file while the solve runs: PATH.partial, a version 7
  * file whose MATRIX section grows by one block per finished row.  A crash,
  * a kill or Ctrl-C leaves the rows finished so far in it; the next solve
  * for the same PATH reads them back (a block cut short by the crash is
@@ -444,7 +462,9 @@ int rad_elements_complete(rad_elements *el, const rad_solution *s, const char *n
                           rad_error *err);
 
 /* The same checks without completing (the derived fields must already
- * agree): what the writer runs before it creates a file. */
+ * agree): what the writer runs before it creates a file.  Elements without
+ * their entries (rows_loaded 0) have their rows checked as far as the
+ * counts go. */
 int rad_elements_check(const rad_elements *el, const rad_solution *s, const char *name,
                        rad_error *err);
 

@@ -24,16 +24,20 @@
  * without a word, which for the last would relight the elements from their
  * patches' direct light, or taking a sheet's two sides for two unrelated
  * opaque surfaces - carries a version they refuse. */
-#define SOL_VERSION 6u
+#define SOL_VERSION 7u
 #define SOL_VERSION_SHEETS 5u
 /* Version 6: the sections' table and checksums in an index at the end of
  * the file (any command reads only the sections it needs, each checked on
  * its own), the matrix in row blocks that a solve streams as rows finish,
- * or a reference to another file's matrix.  Every file is written as
- * version 6; versions 1-5 are still read. */
+ * or a reference to another file's matrix.  Versions 1-6 are still read. */
 #define SOL_VERSION_INDEX 6u
+/* Version 7 = version 6 with the elements' row entries (F_ej) out of
+ * ELEMENTS, in ELEMENTROWS: ELEMENTS keeps each row's entry count, so
+ * render and report read the elements without a byte of their rows.
+ * Every file is written as version 7. */
+#define SOL_VERSION_ELEMENT_ROWS 7u
 #define SOL_HEADER_BYTES 32u
-#define SOL_INDEX_HEAD 8u        /* u32 count, u32 reserved */
+#define SOL_INDEX_HEAD 8u        /* u32 count, u32 version (7 on; 0 in version 6) */
 #define SOL_INDEX_ENTRY 32u      /* tag, u32 reserved, u64 offset, u64 length, u64 CRC */
 #define SOL_MAX_SECTIONS 64u
 #define SOL_MATRIX_HEAD 16u      /* MATRIX body: u32 n, u32 reserved, u64 rows key */
@@ -64,8 +68,13 @@
  * optional and not announced: a reader that skips it still reads the
  * solution right (it only loses the fast relight), INFO's byte of
  * announcements is full, and version 6's index with its CRC already tells
- * a missing section from a file without it.  It is parsed last (it is
- * checked against PATCHDATA, LIGHTS and ELEMENTS).
+ * a missing section from a file without it.  It is parsed after the
+ * announced ones (it is checked against PATCHDATA, LIGHTS and ELEMENTS).
+ * ELEMENTROWS (version 7) is not announced either: it is there exactly
+ * when ELEMENTS counts some row entry, which the reader checks against the
+ * index whether it reads the section or not (RAD_PART_ELEMENT_ROWS).  It
+ * is parsed last (its rows are checked against the complete elements,
+ * ELEMENTINDIRECT's flags included).
  *
  * Adding an optional section (docs/solution-format.md, "Adding a
  * section"): its enum entry just before SEC_ROWS (its INFO bit follows
@@ -75,9 +84,10 @@
 enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_ELEMENTS,
        SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_SURFACE, SEC_CLUSTERS, SEC_ELEMENT_INDIRECT,
        SEC_PROGRESS,
-       SEC_ROWS, SEC_IRRADIANCE, SEC_MATRIXREF, SEC_BASIS, SEC_COUNT };
+       SEC_ROWS, SEC_IRRADIANCE, SEC_MATRIXREF, SEC_BASIS, SEC_ELEMENT_ROWS, SEC_COUNT };
 /* Sections of versions 1-5 (the others are refused there). */
 _Static_assert(SEC_BASIS > SEC_ROWS, "BASIS is a version 6 section");
+_Static_assert(SEC_ELEMENT_ROWS > SEC_ROWS, "ELEMENTROWS is a version 7 section");
 #define SEC_COUNT_V5 SEC_ROWS
 /* The optional sections INFO announces (versions 5 and 6), one bit each
  * from LIGHTS on, in enum order: LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4,
@@ -95,9 +105,9 @@ extern const char *const sol_sec_name[SEC_COUNT];
 extern const int sol_version_sections[SOL_VERSION_SHEETS + 1];
 
 /* The order of the sections after the matrix, for the writer and the
- * reader of version 6 (each needs those before it): INFO, SCENE, MESH,
- * ROWS, PATCHDATA, IRRADIANCE, then the optional sections in enum order,
- * then BASIS.  Entry q, or -1 past the end. */
+ * reader of versions 6 and 7 (each needs those before it): INFO, SCENE,
+ * MESH, ROWS, PATCHDATA, IRRADIANCE, then the optional sections in enum
+ * order, then BASIS, then ELEMENTROWS.  Entry q, or -1 past the end. */
 int sol_section_order(size_t q);
 
 /* Minimum encoded sizes of one element, used to bound counts before
@@ -289,7 +299,7 @@ int sol_validate_for_write(const rad_solution *s, const char *path, int check_ma
 /* H of s for IRRADIANCE into a new array (caller frees). */
 int sol_irradiance_for_write(const rad_solution *s, double **H, rad_error *err);
 
-/* A version 6 header with the index not yet written (offset 0). */
+/* A version 7 header with the index not yet written (offset 0). */
 void sol_header(uint8_t head[SOL_HEADER_BYTES]);
 
 /* The start of a MATRIX body: n, reserved, the rows key. */

@@ -1,8 +1,9 @@
 /* write.c - rad_solution_write: the solution file of
- * docs/solution-format.md, format version 6.  A header, the sections each
+ * docs/solution-format.md, format version 7.  A header, the sections each
  * with its own CRC-64 (MATRIX or MATRIXREF, INFO, SCENE, MESH, ROWS,
  * PATCHDATA, IRRADIANCE, then the optional ones as the solution has them:
- * LIGHTS, ELEMENTS, ELEMENTLIGHTS, CAMERAS, SURFACE, CLUSTERS), and at the
+ * LIGHTS, ELEMENTS, ELEMENTLIGHTS, CAMERAS, SURFACE, CLUSTERS, ...,
+ * BASIS, ELEMENTROWS), and at the
  * end the index that lists them, whose CRC the header holds.  The index
  * comes last so that a solve can stream its matrix first, one row block
  * per finished row (journal.c), and add the rest when it is done; this file
@@ -269,7 +270,7 @@ static void put_row(sol_sink *k, uint32_t cnt, const uint32_t *col, const float 
 }
 
 /* Elements: provenance, vertices, then per element its patch, level,
- * corners, B and row (rows encoded like the matrix's). */
+ * corners, B and row entry count; the entries are ELEMENTROWS'. */
 static void emit_elements(sol_sink *k, const sol_write_ctx *w)
 {
     const rad_solution *s = w->s;
@@ -294,9 +295,29 @@ static void emit_elements(sol_sink *k, const sol_write_ctx *w)
         for (uint32_t b = 0; b < nb; b++)
             put_f64(k, el->B[(size_t)e * nb + b]);
         put_u32(k, el->row_count[e]);
+    }
+}
+
+/* Σ_e of the elements' row entry counts: what ELEMENTROWS holds. */
+static uint64_t element_entries(const rad_elements *el)
+{
+    uint64_t total = 0;
+    for (uint32_t e = 0; el && e < el->mesh->patch_count; e++)
+        total += el->row_count[e];
+    return total;
+}
+
+/* The elements' row entries, element by element (rows encoded like the
+ * matrix's), after their counts. */
+static void emit_element_rows(sol_sink *k, const sol_write_ctx *w)
+{
+    const rad_elements *el = w->s->elements;
+    RAD_ASSERT(el->rows_loaded); /* sol_validate_for_write refuses the others */
+    put_u32(k, el->mesh->patch_count);
+    put_u64(k, element_entries(el));
+    for (uint32_t e = 0; e < el->mesh->patch_count; e++)
         if (el->row_count[e])
             put_row(k, el->row_count[e], el->col + el->row_start[e], el->val + el->row_start[e]);
-    }
 }
 
 /* The cell layer: per patch its number of cells, then the corners and
@@ -515,6 +536,17 @@ int sol_validate_for_write(const rad_solution *s, const char *path, int check_ma
         return rad_fail(err, RAD_ERR_INVALID, "%s: cannot write: mesh: %s", path, sub.message);
     if (check_matrix && rad_matrix_check(s->F, &sub))
         return rad_fail(err, RAD_ERR_INVALID, "%s: cannot write: %s", path, sub.message);
+    /* Elements read without their rows, or a solution read without its
+     * light responses, would lose them: the caller should have read
+     * RAD_PART_ELEMENT_ROWS and RAD_PART_BASIS. */
+    RAD_ASSERT(!s->basis_skipped);
+    if (s->basis_skipped)
+        return rad_fail(err, RAD_ERR_USAGE, "%s: cannot write: the stored light responses were "
+                        "not read", path);
+    RAD_ASSERT(!s->elements || s->elements->rows_loaded);
+    if (s->elements && !s->elements->rows_loaded)
+        return rad_fail(err, RAD_ERR_USAGE, "%s: cannot write: the elements' rows were not read",
+                        path);
     if (s->elements && rad_elements_check(s->elements, s, "elements", &sub))
         return rad_fail(err, RAD_ERR_INVALID, "%s: cannot write: %s", path, sub.message);
     if (rad_basis_matches(s) &&
@@ -678,6 +710,7 @@ static const emit_fn sec_emit[SEC_COUNT] = {
     [SEC_IRRADIANCE] = emit_irradiance,
     [SEC_MATRIXREF] = emit_matrixref,
     [SEC_BASIS] = emit_basis,
+    [SEC_ELEMENT_ROWS] = emit_element_rows,
 };
 
 /* Whether the file holds section i: the optional ones only when the
@@ -709,6 +742,8 @@ static int section_written(const rad_solution *s, int i)
         return s->progress != NULL;
     case SEC_BASIS: /* a basis made for another ρ or other elements is stale: left out */
         return rad_basis_matches(s);
+    case SEC_ELEMENT_ROWS:
+        return element_entries(s->elements) > 0;
     default:
         return 1;
     }
@@ -747,7 +782,7 @@ int sol_write_rest(sol_sink *k, const sol_write_ctx *w, const sol_index_entry *m
     uint64_t at = k->total;
     uint8_t head[SOL_INDEX_HEAD], ent[SOL_INDEX_ENTRY];
     sol_store_le(head, count, 4);
-    sol_store_le(head + 4, 0, 4);
+    sol_store_le(head + 4, SOL_VERSION, 4); /* the header's version, under the index's CRC */
     sol_index_entry crc_of_index;
     sol_sink_begin(k, &crc_of_index, SEC_INFO);
     put(k, head, sizeof head);

@@ -7,7 +7,9 @@
 # base's matrix (a hard link OUT.matrix, or the base's path where no link
 # can be made) instead of copying it, stays right when the base is moved or
 # solved again, and fails clearly - never silently - when the matrix it
-# shares is removed or altered.  Cost: ~3 s (small Cornell boxes).
+# shares is removed or altered.  The same for the elements' rows
+# (ELEMENTROWS): render, render --gather and report never read them.
+# Cost: ~3 s (small Cornell boxes).
 set -u
 . "$(dirname "$0")/lib.bash"
 ok()  { passed=$((passed + 1)); echo "ok   $1"; }
@@ -96,6 +98,40 @@ if ! "$BIN" render "$dir/pdat.sol" -o "$dir/p.exr" > /dev/null 2> "$dir/stderr" 
 else
     bad "render of a damaged PATCHDATA: $(cat "$dir/stderr")"
 fi
+
+# A damaged ELEMENTROWS (the elements' row entries F_ej, format version 7):
+# render, with and without --gather, and report never read it (same images,
+# same numbers); what needs the rows refuses it naming the section: export,
+# and relight (every relight writes them again, and --reflectance gathers
+# the elements through them).
+read -r r rlen < <(section_at "$dir/base.sol" ELRW)
+cp "$dir/base.sol" "$dir/erows.sol"
+[ -n "${rlen:-}" ] && flip_byte "$dir/erows.sol" $((r + rlen / 2))
+gather() { "$BIN" render "$1" -o "$2" --size 24x24 --gather --no-cache-file > /dev/null 2>&1; }
+if [ -n "${rlen:-}" ] &&
+   "$BIN" render "$dir/erows.sol" -o "$dir/erows.exr" --size 64x64 > /dev/null 2>&1 &&
+   cmp -s "$dir/base.exr" "$dir/erows.exr" &&
+   [ "$(numbers "$dir/erows.sol")" = "$(numbers "$dir/base.sol")" ] &&
+   gather "$dir/base.sol" "$dir/base-g.exr" && gather "$dir/erows.sol" "$dir/erows-g.exr" &&
+   cmp -s "$dir/base-g.exr" "$dir/erows-g.exr"; then
+    ok "render, render --gather and report of a solution whose ELEMENTROWS is damaged: identical"
+else
+    bad "render, render --gather or report of a damaged ELEMENTROWS differs or fails (ELRW: ${rlen:-none})"
+fi
+for cmd in "export -o $dir/ex-erows" "relight -o $dir/e1.sol --reflectance floor=0.3" \
+           "relight -o $dir/e2.sol --light light=2"; do
+    mkdir -p "$dir/ex-erows"
+    read -r verb rest <<< "$cmd"
+    # shellcheck disable=SC2086
+    "$BIN" $verb "$dir/erows.sol" $rest > /dev/null 2> "$dir/stderr"
+    rc=$?
+    if [ "$rc" -eq 2 ] && grep -q "erows.sol: section ELEMENTROWS: checksum mismatch" "$dir/stderr" &&
+       [ ! -e "$dir/e1.sol" ] && [ ! -e "$dir/e2.sol" ] && [ -z "$(ls "$dir/ex-erows")" ]; then
+        ok "$verb ${rest#-o * } of it: $(cat "$dir/stderr")"
+    else
+        bad "$verb of a damaged ELEMENTROWS: exit $rc, $(cat "$dir/stderr")"
+    fi
+done
 
 # A relight shares the matrix: a hard link, no copy; the output is smaller
 # than the base by about its MATRIX (the elements, on by default, and their

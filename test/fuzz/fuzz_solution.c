@@ -7,8 +7,10 @@
  * or trips a sanitizer, and anything accepted keeps solution.h's
  * invariants (F is n×n for the mesh's n patches, B finite and >= 0,
  * patch corners index existing vertices).
- * Seeds: test/fuzz/corpus/solution/ - files of versions 1 to 5 as those
- * wrote them, and version 6 ones (NAME-v6, `test_solution --write-seeds`).
+ * Seeds: test/fuzz/corpus/solution/ - files of versions 1 to 6 as those
+ * wrote them (version 6: NAME-v6), and version 7 ones (NAME-v7,
+ * `test_solution --write-seeds`; elements-room-v7 and interp-room-v7 hold
+ * ELEMENTROWS).
  */
 #include "../../radiosity/store/solution.h"
 
@@ -37,6 +39,12 @@ static void parse_one(const uint8_t *data, size_t size, unsigned parts)
                     abort();
         }
         if (s->F->entries_loaded && rad_matrix_check(s->F, NULL) != RAD_OK)
+            abort();
+        /* elements: whole, their row entries there exactly when asked for
+         * (or inside a version 3-6 ELEMENTS) */
+        if (s->elements && (rad_elements_check(s->elements, s, "fuzz", NULL) != RAD_OK ||
+                            (!s->elements->rows_loaded &&
+                             ((parts & RAD_PART_ELEMENT_ROWS) || s->elements->col))))
             abort();
         /* stored light responses: their sizes are the solution's */
         if (s->basis && (s->basis->groups < 1 || s->basis->groups > RAD_BASIS_MAX_GROUPS ||
