@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# hugepages.sh - main runs itself again once with glibc's tunable
+# glibc.malloc.hugetlb=1 added to GLIBC_TUNABLES (radiosity/cli/main.c,
+# with_huge_pages: transparent huge pages for malloc's memory), and only
+# once:
+#   - without GLIBC_TUNABLES, the running program's environment holds it;
+#   - a hugetlb setting given (here 0, off) is left as it is: no second run;
+#   - a render and a report are the same bytes either way, and with another
+#     tunable given (the setting is appended to it; glibc rewrites the
+#     variable it has read, so the environment does not show that one).
+# The program is caught while it waits to open a FIFO as its solution
+# (before that it has run itself again; it then refuses the FIFO).
+# Cost: well under 1 s (one solve of a two-polygon room).
+set -u
+. "$(dirname "$0")/lib.bash"
+ok()  { passed=$((passed + 1)); echo "ok   $1"; }
+bad() { failed=$((failed + 1)); echo "FAIL $1"; }
+
+# env_of WANT [VAR=VALUE]: the GLIBC_TUNABLES the program runs with, given
+# the environment (env -u GLIBC_TUNABLES without one), must be WANT.
+env_of() {
+    local want=$1 label=$2; shift 2
+    rm -f "$dir/fifo"; mkfifo "$dir/fifo"
+    env "$@" "$BIN" report "$dir/fifo" > /dev/null 2>&1 &
+    local pid=$! got="" k
+    for k in $(seq 100); do
+        got=$(tr '\0' '\n' < "/proc/$pid/environ" 2>/dev/null | grep '^GLIBC_TUNABLES=' || true)
+        [ "$got" = "GLIBC_TUNABLES=$want" ] && break
+        sleep 0.05
+    done
+    : > "$dir/fifo" # let it go: it refuses the FIFO
+    wait "$pid" 2>/dev/null
+    if [ "$got" = "GLIBC_TUNABLES=$want" ]; then
+        ok "$label: runs with GLIBC_TUNABLES=$want"
+    else
+        bad "$label: runs with '$got', not GLIBC_TUNABLES=$want"
+    fi
+}
+
+env_of "glibc.malloc.hugetlb=1" "no tunables given" -u GLIBC_TUNABLES
+env_of "glibc.malloc.hugetlb=0" "huge pages turned off" GLIBC_TUNABLES=glibc.malloc.hugetlb=0
+
+room > "$dir/room.rad"
+if "$BIN" solve "$dir/room.rad" -o "$dir/room.sol" > /dev/null 2>&1 &&
+   env -u GLIBC_TUNABLES "$BIN" render "$dir/room.sol" -o "$dir/on.exr" --size 64x64 > /dev/null 2>&1 &&
+   GLIBC_TUNABLES=glibc.malloc.hugetlb=0 "$BIN" render "$dir/room.sol" -o "$dir/off.exr" --size 64x64 > /dev/null 2>&1 &&
+   GLIBC_TUNABLES=glibc.malloc.tcache_count=7 "$BIN" render "$dir/room.sol" -o "$dir/other.exr" --size 64x64 > /dev/null 2>&1 &&
+   env -u GLIBC_TUNABLES "$BIN" report "$dir/room.sol" > "$dir/on.txt" 2>&1 &&
+   GLIBC_TUNABLES=glibc.malloc.hugetlb=0 "$BIN" report "$dir/room.sol" > "$dir/off.txt" 2>&1 &&
+   cmp -s "$dir/on.exr" "$dir/off.exr" && cmp -s "$dir/on.exr" "$dir/other.exr" &&
+   cmp -s "$dir/on.txt" "$dir/off.txt"; then
+    ok "render and report: the same bytes with and without huge pages, and with another tunable"
+else
+    bad "render or report differ with huge pages: $(ls -l "$dir")"
+fi
+
+echo "hugepages.sh: $passed passed, $failed failed"
+[ "$failed" -eq 0 ]
