@@ -16,8 +16,9 @@ set -u
 ok()  { passed=$((passed + 1)); echo "ok   $1"; }
 bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 
-# env_of WANT [VAR=VALUE]: the GLIBC_TUNABLES the program runs with, given
-# the environment (env -u GLIBC_TUNABLES without one), must be WANT.
+# env_of WANT LABEL ENV-ARGS...: the GLIBC_TUNABLES the program runs with,
+# started through `env ENV-ARGS...` (-u GLIBC_TUNABLES: without one), must
+# be WANT.
 env_of() {
     local want=$1 label=$2; shift 2
     rm -f "$dir/fifo"; mkfifo "$dir/fifo"
