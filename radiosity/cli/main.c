@@ -437,11 +437,13 @@ static const char usage[] =
  * main runs itself again once, with it added to GLIBC_TUNABLES; nothing
  * has happened yet but this.  When it is already there (the second start,
  * or a user's choice: glibc.malloc.hugetlb=0 turns it off), or the program
- * cannot be run again, main goes on as it is. */
+ * cannot be run again, main goes on as it is.  Under Valgrind (its preload
+ * library in LD_PRELOAD) it does not try: /proc/self/exe is Valgrind's
+ * tool there, and a program started again would run outside it. */
 static void with_huge_pages(char **argv)
 {
-    const char *was = getenv("GLIBC_TUNABLES");
-    if (was && strstr(was, "glibc.malloc.hugetlb"))
+    const char *was = getenv("GLIBC_TUNABLES"), *pre = getenv("LD_PRELOAD");
+    if ((was && strstr(was, "glibc.malloc.hugetlb")) || (pre && strstr(pre, "vgpreload")))
         return;
     char value[1024];
     int n = snprintf(value, sizeof value, "%s%sglibc.malloc.hugetlb=1", was ? was : "",

@@ -5,41 +5,46 @@
 # once:
 #   - without GLIBC_TUNABLES, the running program's environment holds it;
 #   - a hugetlb setting given (here 0, off) is left as it is: no second run;
+#   - under Valgrind (its preload library named in LD_PRELOAD; here a name
+#     that does not exist, which the loader reports and ignores) no second
+#     run either: /proc/self/exe would be Valgrind's tool;
 #   - a render and a report are the same bytes either way, and with another
 #     tunable given (the setting is appended to it; glibc rewrites the
 #     variable it has read, so the environment does not show that one).
 # The program is caught while it waits to open a FIFO as its solution
-# (before that it has run itself again; it then refuses the FIFO).
+# (its wait channel wait_for_partner; before that it has run itself again,
+# or not; it then refuses the FIFO).
 # Cost: well under 1 s (one solve of a two-polygon room).
 set -u
 . "$(dirname "$0")/lib.bash"
 ok()  { passed=$((passed + 1)); echo "ok   $1"; }
 bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 
-# env_of WANT LABEL ENV-ARGS...: the GLIBC_TUNABLES the program runs with,
-# started through `env ENV-ARGS...` (-u GLIBC_TUNABLES: without one), must
-# be WANT.
+# env_of WANT LABEL ENV-ARGS...: the GLIBC_TUNABLES line of the program's
+# environment once it waits at the FIFO, started through `env ENV-ARGS...`
+# (-u GLIBC_TUNABLES: without one), must be WANT (empty: no such line).
 env_of() {
     local want=$1 label=$2; shift 2
     rm -f "$dir/fifo"; mkfifo "$dir/fifo"
     env "$@" "$BIN" report "$dir/fifo" > /dev/null 2>&1 &
     local pid=$! got="" k
     for k in $(seq 100); do
-        got=$(tr '\0' '\n' < "/proc/$pid/environ" 2>/dev/null | grep '^GLIBC_TUNABLES=' || true)
-        [ "$got" = "GLIBC_TUNABLES=$want" ] && break
+        [ "$(cat "/proc/$pid/wchan" 2>/dev/null)" = wait_for_partner ] && break
         sleep 0.05
     done
+    got=$(tr '\0' '\n' < "/proc/$pid/environ" 2>/dev/null | grep '^GLIBC_TUNABLES=' || true)
     : > "$dir/fifo" # let it go: it refuses the FIFO
     wait "$pid" 2>/dev/null
-    if [ "$got" = "GLIBC_TUNABLES=$want" ]; then
-        ok "$label: runs with GLIBC_TUNABLES=$want"
+    if [ "$got" = "$want" ]; then
+        ok "$label: runs with '$want'"
     else
-        bad "$label: runs with '$got', not GLIBC_TUNABLES=$want"
+        bad "$label: runs with '$got', not '$want'"
     fi
 }
 
-env_of "glibc.malloc.hugetlb=1" "no tunables given" -u GLIBC_TUNABLES
-env_of "glibc.malloc.hugetlb=0" "huge pages turned off" GLIBC_TUNABLES=glibc.malloc.hugetlb=0
+env_of "GLIBC_TUNABLES=glibc.malloc.hugetlb=1" "no tunables given" -u GLIBC_TUNABLES
+env_of "GLIBC_TUNABLES=glibc.malloc.hugetlb=0" "huge pages turned off" GLIBC_TUNABLES=glibc.malloc.hugetlb=0
+env_of "" "under Valgrind" -u GLIBC_TUNABLES LD_PRELOAD=/nonexistent/vgpreload_memcheck-amd64-linux.so
 
 room > "$dir/room.rad"
 if "$BIN" solve "$dir/room.rad" -o "$dir/room.sol" > /dev/null 2>&1 &&
