@@ -300,6 +300,25 @@ static int element_rows_wanted(const sol_reader *r, const sol_index *x, const ra
     return RAD_OK;
 }
 
+/* Whether section sec (-1: none) of index x is read, into *read, as both
+ * version 6 readers decide it: at LIGHTS' turn INFO's announcements are
+ * checked against the index; ELEMENTROWS as element_rows_wanted says;
+ * BASIS only with RAD_PART_BASIS (else s->basis_skipped, so that no write
+ * loses it); the others whenever they are there. */
+static int section_read(const sol_reader *r, const sol_index *x, rad_solution *s,
+                        unsigned parts, int sec, int *read)
+{
+    *read = sec >= 0 && x->at[sec] >= 0;
+    int rc = sec == SEC_LIGHTS ? check_announced(r, x) : RAD_OK;
+    if (!rc && sec == SEC_ELEMENT_ROWS)
+        rc = element_rows_wanted(r, x, s, parts, read);
+    if (!rc && sec == SEC_BASIS && *read && !(parts & RAD_PART_BASIS)) {
+        *read = 0;
+        s->basis_skipped = 1;
+    }
+    return rc;
+}
+
 /* ------------------------------------------- version 6 from a file */
 
 /* An open solution file. */
@@ -655,14 +674,9 @@ static int read_v6(sol_reader *r, const sol_file *f, const uint8_t head[SOL_HEAD
     int rc = file_index(f, head, r->check_sum, &x, r->err);
     /* the sections in the order they are parsed (each needs those before it) */
     for (size_t q = 0; !rc && sol_section_order(q) >= 0; q++) {
-        int sec = sol_section_order(q);
-        int read = x.at[sec] >= 0;
-        if (sec == SEC_LIGHTS && (rc = check_announced(r, &x)))
+        int sec = sol_section_order(q), read;
+        if ((rc = section_read(r, &x, s, parts, sec, &read)))
             break;
-        if (sec == SEC_ELEMENT_ROWS && (rc = element_rows_wanted(r, &x, s, parts, &read)))
-            break;
-        if (sec == SEC_BASIS && read && !(parts & RAD_PART_BASIS))
-            read = 0, s->basis_skipped = 1;
         if (read)
             rc = file_section(r, f, &x.e[x.at[sec]], sec, s, &scratch);
     }
@@ -812,13 +826,9 @@ static int parse_v6(sol_reader *r, const uint8_t *d, size_t size, const sol_head
             sec = matrix;
             done = 1;
         }
-        int read = sec >= 0 && x.at[sec] >= 0;
-        if (sec == SEC_LIGHTS && (rc = check_announced(r, &x)))
+        int read;
+        if ((rc = section_read(r, &x, s, parts, sec, &read)))
             break;
-        if (sec == SEC_ELEMENT_ROWS && (rc = element_rows_wanted(r, &x, s, parts, &read)))
-            break;
-        if (sec == SEC_BASIS && read && !(parts & RAD_PART_BASIS))
-            read = 0, s->basis_skipped = 1;
         if (!read)
             continue;
         const sol_index_entry *e = &x.e[x.at[sec]];

@@ -18,8 +18,6 @@
 # Cost: ~3 s (a 0.15 m Cornell box, one split of elements).
 set -u
 . "$(dirname "$0")/lib.bash"
-ok()  { passed=$((passed + 1)); echo "ok   $1"; }
-bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 
 { cat models/cornell.rad; cat <<'R'
 material glow reflectance 0 emission 3 2 1

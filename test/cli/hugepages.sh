@@ -17,8 +17,6 @@
 # Cost: well under 1 s (one solve of a two-polygon room).
 set -u
 . "$(dirname "$0")/lib.bash"
-ok()  { passed=$((passed + 1)); echo "ok   $1"; }
-bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 
 # env_of WANT LABEL ENV-ARGS...: the GLIBC_TUNABLES line of the program's
 # environment once it waits at the FIFO, started through `env ENV-ARGS...`

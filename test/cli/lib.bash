@@ -1,11 +1,16 @@
 # lib.bash - shared by the command-line tests (sourced, not run: run_tests.sh
 # runs test/cli/*.sh only): the program under test, a scratch directory
-# removed on exit, the counters each script ends by printing.
+# removed on exit, the counters each script ends by printing and the two
+# functions that count.
 
 BIN=${RADIOSITY_BIN:-build/release/radiosity}
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
 passed=0; failed=0
+
+# ok TEXT / bad TEXT: count a check passed or failed and say which.
+ok()  { passed=$((passed + 1)); echo "ok   $1"; }
+bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 
 # room: a small valid polygon file (a floor and a lamp above it) that tests
 # edit with sed to make one thing wrong or different.

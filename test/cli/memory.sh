@@ -6,8 +6,6 @@
 # 8 s (three solves of the Cornell box at 368 patches or fewer).
 set -u
 . "$(dirname "$0")/lib.bash"
-ok() { passed=$((passed + 1)); echo "ok   $1"; }
-bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 
 # 368 patches, 364 rows: the dense bound, 364 × 368 entries at 5 bytes
 # (F's rows are packed, issue 21), 654 KiB, was refused under 500K; the

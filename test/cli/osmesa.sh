@@ -13,8 +13,6 @@
 # two small compilations of the fake library).
 set -u
 . "$(dirname "$0")/lib.bash"
-ok()  { passed=$((passed + 1)); echo "ok   $1"; }
-bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 
 if ldd "$BIN" > "$dir/ldd" 2>&1 && ! grep -Eq 'libOSMesa|libLLVM|libglapi' "$dir/ldd"; then
     ok "not linked with libOSMesa, libLLVM or libglapi"

@@ -12,8 +12,6 @@
 # Cost: ~3 s (small Cornell boxes).
 set -u
 . "$(dirname "$0")/lib.bash"
-ok()  { passed=$((passed + 1)); echo "ok   $1"; }
-bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 
 flip_byte() { # FILE OFFSET: inverts one byte in place (the file keeps its inode)
     python3 -c "

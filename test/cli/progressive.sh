@@ -6,8 +6,6 @@
 # Cost: about 5 s (small scenes, one worker each).
 set -u
 . "$(dirname "$0")/lib.bash"
-ok()  { passed=$((passed + 1)); echo "ok   $1"; }
-bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 
 # The shot limit before the tolerance: exit 0, the solution saved, exactly
 # one warning line naming the limit and the unshot fraction; report says so.

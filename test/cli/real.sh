@@ -7,8 +7,6 @@
 # Cost: about 6 s (five small solves; each opens the hemi-cube engine).
 set -u
 source "$(dirname "$0")/lib.bash"
-ok()  { passed=$((passed + 1)); echo "ok   $1"; }
-bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 real=test/data/real
 
 # solves FILE LINES NEEDLE...: exit 0, exactly LINES lines on stderr, each a

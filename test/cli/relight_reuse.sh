@@ -18,8 +18,6 @@
 set -u
 cd "$(dirname "$0")/../.."
 . test/cli/lib.bash
-ok()  { passed=$((passed + 1)); echo "ok   $1"; }
-bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 NOGL="MESA_GL_VERSION_OVERRIDE=2.1"
 
 { cat models/cornell.rad; echo "light bulb point 0.28 0.4 0.28 intensity 0.05"; } > "$dir/scene.rad"

@@ -9,8 +9,6 @@
 # Cost: ~6 s (a Cornell box of 907 patches, solved about four times over).
 set -u
 . "$(dirname "$0")/lib.bash"
-ok()  { passed=$((passed + 1)); echo "ok   $1"; }
-bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 args=(models/cornell.rad --patch-size 0.05 --processes 1)
 
 # Rows in a partial file: its block heads (48 bytes of file and matrix head first).

@@ -6,8 +6,6 @@
 # Cost: one solve of the small room (~0.2 s) and a dozen 64×64 renders.
 set -u
 . "$(dirname "$0")/lib.bash"
-ok()  { passed=$((passed + 1)); echo "ok   $1"; }
-bad() { failed=$((failed + 1)); echo "FAIL $1"; }
 
 # refuse NAME PATTERN ARGS...: exit 2, one line matching PATTERN, and
 # nothing written into $dir/out.
