@@ -178,15 +178,17 @@ static tri_rule make_tri_rule(void)
 typedef struct pp_ctx {
     rad_vec3 origin, e1, e2; /* the fan triangle: origin + u e1 + v e2 */
     rad_vec3 n;              /* unit normal of polygon a */
-    const rad_vec3 *b;
+    const rad_vec3 *b;       /* the target: polygon b[0..nb), */
     uint32_t nb;
+    const double *edges;     /* or, when b is NULL, directed edges (hc_ff_polygon_edges) */
 } pp_ctx;
 
 /* F_{dA→b} at parameter (u, v) of the current fan triangle. */
 static double pp_point(const pp_ctx *c, double u, double v)
 {
     rad_vec3 x = rad_add(c->origin, rad_add(rad_scale(c->e1, u), rad_scale(c->e2, v)));
-    return hc_ff_point_polygon(x, c->n, c->b, c->nb);
+    return c->b ? hc_ff_point_polygon(x, c->n, c->b, c->nb)
+                : rad_point_edges_factor(x, c->n, c->edges, c->nb);
 }
 
 /* Mean of F_{dA→b} over the sub-triangle with parameter corners
@@ -215,14 +217,31 @@ static double pp_subtriangle(const pp_ctx *c, const tri_rule *r, double u0, doub
  * of "up" and "down" cells), each integrated with the 7-point rule.  The
  * element normal is a's Newell normal, so b behind a (as a's winding says)
  * is clipped away.  subdiv 0 is taken as 1, values above 1024 as 1024. */
+static double polygon_to_target(const rad_vec3 *a, uint32_t na, pp_ctx c, uint32_t subdiv);
+
 double hc_ff_polygon_polygon(const rad_vec3 *a, uint32_t na, const rad_vec3 *b, uint32_t nb,
                              uint32_t subdiv)
 {
     if (a == NULL || b == NULL || na < 3 || nb < 3) return 0.0;
-    for (uint32_t k = 0; k < na; k++)
-        if (!rad_finite3(a[k])) return NAN;
     for (uint32_t k = 0; k < nb; k++)
         if (!rad_finite3(b[k])) return NAN;
+    return polygon_to_target(a, na, (pp_ctx){.b = b, .nb = nb}, subdiv);
+}
+
+double hc_ff_polygon_edges(const rad_vec3 *a, uint32_t na, const double *edges, uint32_t ne,
+                           uint32_t subdiv)
+{
+    if (a == NULL || edges == NULL || na < 3 || ne < 3) return 0.0;
+    for (size_t k = 0; k < 6 * (size_t)ne; k++)
+        if (!isfinite(edges[k])) return NAN;
+    return polygon_to_target(a, na, (pp_ctx){.edges = edges, .nb = ne}, subdiv);
+}
+
+/* The integral over a of F_{dA→target}, the target (b or edges) in c. */
+static double polygon_to_target(const rad_vec3 *a, uint32_t na, pp_ctx c, uint32_t subdiv)
+{
+    for (uint32_t k = 0; k < na; k++)
+        if (!rad_finite3(a[k])) return NAN;
     uint32_t s = subdiv < 1 ? 1 : (subdiv > PP_MAX_SUBDIV ? PP_MAX_SUBDIV : subdiv);
 
     /* Newell normal, from vertices taken relative to a[0] so that polygons
@@ -235,7 +254,8 @@ double hc_ff_polygon_polygon(const rad_vec3 *a, uint32_t na, const rad_vec3 *b, 
     double area2 = len; /* 2 A_a */
 
     tri_rule rule = make_tri_rule();
-    pp_ctx c = {.origin = a[0], .n = rad_scale(N, 1.0 / len), .b = b, .nb = nb};
+    c.origin = a[0];
+    c.n = rad_scale(N, 1.0 / len);
     double inv_s = 1.0 / (double)s;
     double total = 0.0; /* Σ 2A_T · mean over T of F_{dA→b} */
     for (uint32_t k = 1; k + 1 < na; k++) {

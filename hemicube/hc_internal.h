@@ -82,6 +82,14 @@ struct hc_engine {
     rad_vec3 *center;  /* n: patch centre - origin */
     double *bsphere;   /* per HC_BLOCK consecutive patches: centre - origin, radius */
     double *radius;    /* n: largest distance from patch centre to a corner of its cells */
+    /* A cluster's outline: the directed edges of its cells left when every
+     * inner edge, run once each way by two cells, is dropped (exact factors
+     * to the cluster sum these alone: rows.c, rad_point_edges_factor).
+     * Patch j's are edges [ofirst[j], ofirst[j + 1]) of oedge (x0 y0 z0 x1
+     * y1 z1 each, - origin, the cells' corners bit for bit); none for a
+     * one-cell patch or where dropping saves nothing.  NULL without clusters. */
+    uint32_t *ofirst;  /* n + 1, or NULL */
+    double *oedge;
     double bradius;    /* every corner lies within this distance of the origin */
     uint8_t *exact;    /* n: copy of opt->exact, or NULL */
     int any_exact;     /* rows may have candidates: exact marks, exact_near or small
@@ -255,6 +263,12 @@ double hc_point_to_patch(const hc_engine *e, rad_vec3 c, rad_vec3 n, uint32_t j)
  * one every watt leaves by; at the centre a closed room absorbed 0.3-0.8 %
  * more than its lamp emitted), and column.c's factor for its receivers. */
 double hc_area_factor(const hc_engine *e, uint32_t i, uint32_t j, int near);
+/* analytic.c: hc_ff_polygon_polygon's area average over polygon a of the
+ * factor to a surface given as directed edges (rad_point_edges_factor: no
+ * clipping, so every end point must lie strictly in front of a's plane and
+ * a in front of every cell the edges bound). */
+double hc_ff_polygon_edges(const rad_vec3 *a, uint32_t na, const double *edges, uint32_t ne,
+                           uint32_t subdiv);
 /* worker.c: calloc of at least one element; NULL with msg set on failure. */
 void *hc_alloc(size_t count, size_t size, char *msg);
 

@@ -89,6 +89,8 @@ void hc_destroy(hc_engine *e)
     free(e->poly_patches);
     free(e->poly_center);
     free(e->radius);
+    free(e->ofirst);
+    free(e->oedge);
     free(e->exact);
     free(e->rx_col);
     free(e->rx_val);
@@ -389,6 +391,93 @@ static void prepare_geometry(hc_engine *e, rad_vec3 lo, rad_vec3 hi)
             e->poly_center[q] = rad_scale(e->poly_center[q], 1.0 / e->poly_area[q]);
 }
 
+/* An edge of a cell by its mesh vertices: (lo, hi) and whether it runs
+ * lo -> hi (dir 1) or back (0); `at` is its start corner in e->corner. */
+typedef struct cell_edge {
+    uint32_t lo, hi;
+    uint32_t dir;
+    uint32_t at, to; /* corner indices (cell × 4 + k) of its start and end */
+} cell_edge;
+
+static int edge_order(const void *pa, const void *pb)
+{
+    const cell_edge *a = pa, *b = pb;
+    if (a->lo != b->lo)
+        return a->lo < b->lo ? -1 : 1;
+    if (a->hi != b->hi)
+        return a->hi < b->hi ? -1 : 1;
+    return (a->dir > b->dir) - (a->dir < b->dir);
+}
+
+/* e->ofirst and e->oedge (hc_internal.h) for every cluster of the mesh: its
+ * cells' edges by mesh vertex, sorted so the two runs of one inner edge
+ * meet; of an edge run f times one way and b times the other, |f - b| are
+ * kept, in the majority's direction (the rest cancel in pairs). */
+static int cluster_outlines(hc_engine *e, rad_error *err)
+{
+    const rad_mesh *m = e->mesh;
+    if (!m->cell_first || !e->n)
+        return RAD_OK;
+    uint32_t most = 0;
+    for (uint32_t j = 0; j < e->n; j++)
+        most = e->cfirst[j + 1] - e->cfirst[j] > most ? e->cfirst[j + 1] - e->cfirst[j] : most;
+    e->ofirst = calloc((size_t)e->n + 1, sizeof *e->ofirst);
+    cell_edge *ed = malloc(4 * (size_t)most * sizeof *ed);
+    size_t cap = 0, used = 0;
+    int rc = e->ofirst && ed ? RAD_OK : RAD_ERR_NOMEM;
+    for (uint32_t j = 0; j < e->n && rc == RAD_OK; j++) {
+        const rad_patch *cells;
+        const uint32_t nc = rad_patch_cells(m, j, &cells);
+        e->ofirst[j] = (uint32_t)used;
+        if (nc < 2)
+            continue;
+        uint32_t ne = 0;
+        for (uint32_t c = 0; c < nc; c++) {
+            const int k = rad_patch_corners(&cells[c]);
+            for (int q = 0; q < k; q++) {
+                uint32_t a = cells[c].v[q], b = cells[c].v[(q + 1) % k];
+                uint32_t base = (e->cfirst[j] + c) * 4;
+                ed[ne++] = (cell_edge){a < b ? a : b, a < b ? b : a, a < b, base + (uint32_t)q,
+                                       base + (uint32_t)((q + 1) % k)};
+            }
+        }
+        qsort(ed, ne, sizeof *ed, edge_order);
+        size_t kept = 0, start = used;
+        for (uint32_t r = 0; r < ne && rc == RAD_OK;) {
+            uint32_t z = r, fwd = 0;
+            while (z < ne && ed[z].lo == ed[r].lo && ed[z].hi == ed[r].hi)
+                fwd += ed[z++].dir;
+            const uint32_t back = z - r - fwd, keep = fwd > back ? fwd - back : back - fwd;
+            /* the run is sorted back edges first: the majority's are at its ends */
+            for (uint32_t t = 0; t < keep; t++) {
+                const cell_edge *x = fwd > back ? &ed[z - 1 - t] : &ed[r + t];
+                if (used == cap) {
+                    cap = cap ? 2 * cap : 4096;
+                    double *g = realloc(e->oedge, cap * 6 * sizeof *g);
+                    if (!g) {
+                        rc = RAD_ERR_NOMEM;
+                        break;
+                    }
+                    e->oedge = g;
+                }
+                memcpy(e->oedge + 6 * used, e->corner + 3 * (size_t)x->at, 3 * sizeof(double));
+                memcpy(e->oedge + 6 * used + 3, e->corner + 3 * (size_t)x->to, 3 * sizeof(double));
+                used++;
+                kept++;
+            }
+            r = z;
+        }
+        if (kept >= ne) /* nothing cancels: the cells themselves are as cheap */
+            used = start;
+    }
+    if (rc == RAD_OK)
+        e->ofirst[e->n] = (uint32_t)used;
+    free(ed);
+    if (rc != RAD_OK || used > UINT32_MAX)
+        return rad_fail(err, RAD_ERR_NOMEM, "hc_create: out of memory for the clusters' outlines");
+    return RAD_OK;
+}
+
 /* The bounding sphere of every HC_BLOCK consecutive patches (rows.c culls
  * a block against i's plane at once). */
 static void block_spheres(hc_engine *e)
@@ -437,7 +526,9 @@ int hc_create(const rad_mesh *mesh, const hc_options *opt, hc_engine **out, rad_
     hc_delta_form_factors(e->R, e->dff);
     prepare_geometry(e, lo, hi);
     block_spheres(e);
-    rc = start_workers(e, err);
+    rc = cluster_outlines(e, err);
+    if (rc == RAD_OK)
+        rc = start_workers(e, err);
     if (rc != RAD_OK) {
         hc_destroy(e);
         return rc;

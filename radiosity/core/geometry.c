@@ -95,3 +95,25 @@ double rad_point_polygon_factor(rad_vec3 p, rad_vec3 n, const rad_vec3 *poly, ui
     return f > 1.0 ? 1.0 : f; /* round-off may pass 1 by an ulp */
 }
 
+/* The same sum over a list of directed edges instead of one polygon's
+ * outline: the union of cells that share edges (a cluster), whose interior
+ * edges run once each way and cancel term for term (an edge's term changes
+ * sign exactly with its direction: r1 × r0 = −(r0 × r1) in floating point),
+ * so only the outline's edges are summed.  No clipping: the caller has
+ * every end point strictly in front of p (r·n > 0) and p in front of every
+ * cell, so the cells' sums share one sign and |Σ| is their total. */
+double rad_point_edges_factor(rad_vec3 p, rad_vec3 n, const double *edges, uint32_t count)
+{
+    if (!rad_finite3(p) || !rad_finite3(n)) return NAN;
+    double nl = rad_length(n);
+    if (!(nl > 0.0) || !isfinite(nl)) return NAN;
+    contour acc = {.n = rad_scale(n, 1.0 / nl), .emitted = 0, .sum = 0.0};
+    for (uint32_t k = 0; k < count; k++) {
+        const double *q = edges + 6 * (size_t)k;
+        rad_vec3 r0 = rad_v3(q[0] - p.x, q[1] - p.y, q[2] - p.z);
+        rad_vec3 r1 = rad_v3(q[3] - p.x, q[4] - p.y, q[5] - p.z);
+        contour_edge(&acc, r0, r1);
+    }
+    double f = fabs(acc.sum) / (2.0 * M_PI);
+    return f > 1.0 ? 1.0 : f;
+}

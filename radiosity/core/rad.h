@@ -381,6 +381,14 @@ int rad_matrix_check(const rad_matrix *m, rad_error *err);
  * for fewer than 3 corners. */
 double rad_point_polygon_factor(rad_vec3 p, rad_vec3 n, const rad_vec3 *poly, uint32_t count);
 
+/* The same factor to a surface given as directed edges edges[0..count)
+ * (x0 y0 z0 x1 y1 z1 each): the outline of cells sharing their inner edges,
+ * each inner edge once each way, or those alone (they cancel).  No
+ * clipping: every end point must lie strictly in front of p (r·n > 0) and p
+ * in front of every cell the edges bound; the caller checks.  In [0, 1];
+ * NAN for non-finite p or n, or n = 0. */
+double rad_point_edges_factor(rad_vec3 p, rad_vec3 n, const double *edges, uint32_t count);
+
 /* ------------------------------------------------------------------ memory */
 
 /* Physical memory the system reports as available, in bytes (0 if unknown). */
