@@ -10,7 +10,8 @@
  * centimetre is 20-40 % darker than its patches say).  Those meetings are
  * found here, from the scene's polygons alone: a polygon that reaches a
  * cell's plane, inside the cell or along its edge, from in front of it (a
- * patch's cells: a cluster's, or the patch itself).
+ * patch's cells: a cluster's, or the patch itself), and is not of the
+ * cell's own surface (mesh.h's RAD_MESH_SURFACE_COS).
  * The elements they touch get hemi-cubes.
  *
  * Invariant: the result depends only on the geometry (a uniform grid over
@@ -129,8 +130,15 @@ static void grid_free(grid *g)
 int el_cell_touches(const rad_scene *sc, const rad_vec3 *V, const uint32_t *v, int corners,
                     rad_vec3 n, uint32_t polygon, uint32_t q, double tol)
 {
-    const rad_polygon *pg = &sc->polygons[q];
+    const rad_polygon *pg = &sc->polygons[q], *own = &sc->polygons[polygon];
     if (q == polygon)
+        return 0;
+    /* A polygon of the cell's own surface, as the mesher groups them: where
+     * a curved surface of small triangles (a vault, an arch's underside)
+     * folds towards itself it bends, and its light changes over the bend,
+     * not over less than a patch as at the foot of another surface. */
+    if (pg->object == own->object && pg->material == own->material &&
+        rad_dot(pg->normal, own->normal) >= RAD_MESH_SURFACE_COS)
         return 0;
     const rad_vec3 c = V[v[0]], *Q = sc->points + pg->first_point;
     const uint32_t nq = pg->point_count;

@@ -33,8 +33,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* cos 30°: the crease and the cluster normal tolerance. */
-#define CLUSTER_COS 0.86602540378443865
+/* The crease and the cluster normal tolerance (mesh.h). */
+#define CLUSTER_COS RAD_MESH_SURFACE_COS
 /* A cluster smaller than this share of size² is a sliver to merge. */
 #define SLIVER_AREA 0.25
 /* Merged clusters must fit in a box of this many sizes. */

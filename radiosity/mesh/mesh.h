@@ -27,6 +27,12 @@
  * otherwise: the memory check's first line of defence. */
 #define RAD_MESH_DEFAULT_MAX_PATCHES 2000000u
 
+/* cos 30° (a modeller's auto-smooth angle): neighbouring small polygons of
+ * one object and material whose normals agree within it are one surface
+ * (cluster.c); where they meet, the surface bends, no other surface meets
+ * it (elements/contact.c). */
+#define RAD_MESH_SURFACE_COS 0.86602540378443865
+
 /* {0} means defaults. */
 typedef struct rad_mesh_options {
     /* Target patch edge length in scene units.  0 = the polygons' own
