@@ -910,8 +910,8 @@ int rad_solution_write_opts(const rad_solution *s, const char *path, const rad_w
         return rad_fail(err, RAD_ERR_USAGE, "rad_solution_write: no path");
     /* A matrix shared, not written, was checked when it was read and has
      * not changed since. */
-    int shared = opt->share_matrix && s && s->F && s->matrix_file.path &&
-                 s->F->bytes == s->matrix_file.bytes && strlen(s->matrix_file.path) <= SOL_MAX_STRING;
+    int shared = opt->share_matrix && rad_solution_matrix_in_file(s) &&
+                 strlen(s->matrix_file.path) <= SOL_MAX_STRING;
     int rc = sol_validate_for_write(s, path, !shared, err);
     if (rc)
         return rc;
