@@ -330,7 +330,9 @@ int rad_solution_write_opts(const rad_solution *s, const char *path, const rad_w
 /* The size in bytes of s's file as a solve writes it now (rad_journal: each
  * row present in a block of its own; rad_solution_write groups rows into
  * larger blocks, a little smaller): a counting pass, nothing written, what
- * a solve's estimate builds on. */
+ * a solve's estimate builds on.  Elements whose rows were not read count
+ * them at the least an entry takes (MIN_ENTRY bytes: a float and a column
+ * gap of one byte). */
 uint64_t rad_solution_file_bytes(const rad_solution *s);
 
 /* The bytes row i of F adds to that file (0 for a missing row). */

@@ -833,10 +833,13 @@ uint64_t rad_solution_file_bytes(const rad_solution *s)
     uint32_t sections = 1; /* MATRIX */
     for (size_t q = 0; sol_section_order(q) >= 0; q++) {
         int sec = sol_section_order(q);
-        if (section_written(s, sec)) {
+        if (!section_written(s, sec))
+            continue;
+        sections++;
+        if (sec == SEC_ELEMENT_ROWS && !s->elements->rows_loaded) /* a relight reads them late */
+            count.total += 4u + 8u + MIN_ENTRY * element_entries(s->elements);
+        else
             sec_emit[sec](&count, &w);
-            sections++;
-        }
     }
     return total + count.total + SOL_INDEX_HEAD + (uint64_t)sections * SOL_INDEX_ENTRY;
 }
