@@ -173,12 +173,15 @@ static int check_edits(rad_solution *s, const relight_args *a, const rad_variant
 }
 
 /* Writes a relit solution sharing the base's matrix where it can, and
- * says so. */
-static int write_relit(const rad_solution *s, const char *path, rad_error *err)
+ * says so.  The file holds the elements' rows again: read now if no gather
+ * read them (superposition). */
+static int write_relit(rad_solution *s, const char *path, rad_error *err)
 {
     const rad_write_options wo = {.share_matrix = 1};
     rad_write_info info;
-    int rc = rad_solution_write_opts(s, path, &wo, &info, err);
+    int rc = rad_solution_load_element_rows(s, err);
+    if (!rc)
+        rc = rad_solution_write_opts(s, path, &wo, &info, err);
     if (!rc && info.matrix_shared)
         printf("%s: form factors shared with %s%s\n", path, info.matrix_path,
                info.linked ? " (a hard link, no copy)" : " (by path)");
@@ -312,9 +315,12 @@ static int read_variations(const char *path, rad_variant **var, uint32_t *nvar)
     return rc ? cli_error(&err) : 0;
 }
 
-/* relight: the solution is read once without F (with it under --resolve),
- * its elements' rows included, whatever the number of variants; every edit
- * and variant is checked before any solve. */
+/* relight: the solution is read once without F (with it under --resolve)
+ * and without its elements' rows, whatever the number of variants; every
+ * edit and variant is checked before any solve.  The rows are read when
+ * first needed, by the gather or the writer; one change set solved again
+ * frees F's entries before (release_matrix): the relight's peak is then F
+ * and the patches' data, not F and the rows too. */
 int cli_relight(int argc, char **argv)
 {
     relight_args a = {0};
@@ -327,17 +333,16 @@ int cli_relight(int argc, char **argv)
     if (!rc && a.variations)
         rc = read_variations(a.variations, &var, &nvar);
     double t0 = rad_seconds();
-    /* The elements' rows and the light responses always: every path writes
-     * a whole new file, the full one gathers the elements again through the
-     * rows, and superposition is made of the responses. */
-    const unsigned parts = a.resolve ? RAD_PARTS_ALL
-                                     : RAD_PART_MATRIX_PLACE | RAD_PART_ELEMENT_ROWS | RAD_PART_BASIS;
+    /* The light responses always: every path writes a whole new file, and
+     * superposition is made of them. */
+    const unsigned parts = (a.resolve ? RAD_PART_MATRIX : RAD_PART_MATRIX_PLACE) | RAD_PART_BASIS;
     if (!rc && rad_solution_read_parts(a.in, parts, &s, &err))
         rc = cli_error(&err);
     double load_seconds = rad_seconds() - t0;
     if (!rc) {
         default_solver(s, &a.opt, a.solver_given, a.tol_given);
         cli_enable_progress(&a.opt);
+        a.opt.release_matrix = !a.variations;
         rc = values_alloc(s, &base);
     }
     if (!rc)

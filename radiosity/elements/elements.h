@@ -22,6 +22,18 @@
  * no hemi-cube, no item buffer. */
 int rad_elements_gather(const rad_solution *s, rad_elements *el, rad_error *err);
 
+/* rad_elements_gather in two steps, so that F's entries can go in between
+ * (a relight: F and the elements' rows never in memory together).  What
+ * the gather reads of F is the patches' irradiance from all but the direct
+ * sources, for the interpolated elements: into *Hi (patch_count × bands,
+ * caller owns; NULL when el interpolates none), while F is loaded.  The
+ * gather proper then needs of F only H, through rad_solution_irradiance
+ * (s->irradiance once F is released), and el's rows. */
+int rad_elements_patch_indirect(const rad_solution *s, const rad_elements *el, double **Hi,
+                                rad_error *err);
+int rad_elements_gather_from(const rad_solution *s, rad_elements *el, const double *Hi,
+                             rad_error *err);
+
 /* H_d,e of every element per band, mesh->patch_count × bands into the
  * caller's buffer: Σ_l I_l h_le with the intensities solved with, or its
  * patch's H_d,p for a level-0 element and for elements without light_h. */

@@ -139,31 +139,43 @@ int rad_elements_direct_irradiance(const rad_solution *s, const rad_elements *el
     return RAD_OK;
 }
 
-int rad_elements_gather(const rad_solution *s, rad_elements *el, rad_error *err)
+int rad_elements_patch_indirect(const rad_solution *s, const rad_elements *el, double **Hi,
+                                rad_error *err)
 {
-    if (!s || !el)
-        return rad_fail(err, RAD_ERR_USAGE, "rad_elements_gather: solution and elements must be given");
+    *Hi = NULL;
+    if (!el->interp)
+        return RAD_OK;
+    /* The patches' indirect irradiance, drawn the elements' way. */
+    RAD_ASSERT(s->F->entries_loaded);
+    if (!s->F->entries_loaded)
+        return rad_fail(err, RAD_ERR_USAGE, "%s: the form factors were not read",
+                        s->scene->source);
+    *Hi = malloc(((size_t)s->mesh->patch_count * s->band_count + 1) * sizeof **Hi);
+    if (!*Hi)
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    el_patch_indirect(s, el->direct, *Hi);
+    return RAD_OK;
+}
+
+int rad_elements_gather_from(const rad_solution *s, rad_elements *el, const double *Hi,
+                             rad_error *err)
+{
     /* the gather reads every row: the caller reads RAD_PART_ELEMENT_ROWS */
-    RAD_ASSERT(el->rows_loaded);
+    RAD_ASSERT(el->rows_loaded && (Hi || !el->interp));
     if (!el->rows_loaded)
         return rad_fail(err, RAD_ERR_USAGE, "%s: the elements' rows were not read",
                         s->scene->source);
-    double *Hd, *Tr = NULL, *Hi = NULL;
+    if (el->interp && !Hi)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_elements_gather_from: no Hi for the "
+                        "interpolated elements (rad_elements_patch_indirect)");
+    double *Hd, *Tr = NULL;
     el_interp ip = {0};
     int rc = direct_irradiance(s, &Hd, err);
     if (rc == RAD_OK)
         rc = el_transmitted(s, &Tr, err);
     const uint32_t bands = s->band_count;
-    if (rc == RAD_OK && el->interp) {
-        /* The patches' indirect irradiance, drawn the elements' way. */
-        Hi = malloc(((size_t)s->mesh->patch_count * bands + 1) * sizeof *Hi);
-        if (!Hi)
-            rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
-        else
-            el_patch_indirect(s, el->direct, Hi);
-        if (rc == RAD_OK)
-            rc = el_interp_make(s, Hi, &ip, err);
-    }
+    if (rc == RAD_OK && el->interp)
+        rc = el_interp_make(s, Hi, &ip, err);
     double hd[RAD_MAX_BANDS], ind[RAD_MAX_BANDS];
     for (uint32_t e = 0; rc == RAD_OK && e < el->mesh->patch_count; e++) {
         const int interp = el->interp && el->interp[e];
@@ -175,9 +187,20 @@ int rad_elements_gather(const rad_solution *s, rad_elements *el, rad_error *err)
                       el->B + (size_t)e * bands);
     }
     el_interp_free(&ip);
-    free(Hi);
     free(Hd);
     free(Tr);
+    return rc;
+}
+
+int rad_elements_gather(const rad_solution *s, rad_elements *el, rad_error *err)
+{
+    if (!s || !el)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_elements_gather: solution and elements must be given");
+    double *Hi;
+    int rc = rad_elements_patch_indirect(s, el, &Hi, err);
+    if (rc == RAD_OK)
+        rc = rad_elements_gather_from(s, el, Hi, err);
+    free(Hi);
     return rc;
 }
 

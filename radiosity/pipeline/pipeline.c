@@ -668,6 +668,61 @@ static int solve_patches(run *c, const sv_system *all, const double *E, rad_erro
     return RAD_OK;
 }
 
+/* F's entries freed (rad_solution_release_matrix) when nothing left in the
+ * run reads them: one light group at most, whose stored response is the
+ * solution itself (more need F for their solves, which come after).  H of
+ * the current B is taken first, into s->irradiance: the writer and that
+ * response need it.  The caller knows that a file holds the entries.  A
+ * failure only keeps F. */
+static void release_entries(run *c)
+{
+    rad_solution *s = c->s;
+    const uint32_t n = s->mesh->patch_count;
+    uint32_t *pg = malloc(((size_t)n + 1) * sizeof *pg);
+    uint32_t *lg = malloc(((size_t)s->scene->light_count + 1) * sizeof *lg);
+    double *H = malloc(((size_t)n * s->band_count + 1) * sizeof *H);
+    uint32_t K = 2;
+    rad_error ignored; /* a failure only keeps F */
+    if (pg && lg && H && rad_basis_groups(s, pg, lg, &K, &ignored) == RAD_OK && K <= 1 &&
+        rad_solution_irradiance(s, H, &ignored) == RAD_OK) {
+        free(s->irradiance);
+        s->irradiance = H;
+        H = NULL;
+        rad_solution_release_matrix(s);
+    }
+    free(pg);
+    free(lg);
+    free(H);
+}
+
+/* A stored element mesh gathered again from the new patch solution through
+ * its stored rows (no hemi-cube).  What the gather reads of F is taken
+ * first; then F's entries go when the options allow it (release_matrix) and
+ * the solution's file holds them, and only then are the elements' rows read
+ * if they were left out (RAD_PART_ELEMENT_ROWS): F and the rows are never
+ * in memory together.  Reading them counts as loading, the rest as
+ * solving. */
+static int gather_elements(run *c, rad_error *err)
+{
+    rad_solution *s = c->s;
+    const double t0 = rad_seconds();
+    double *Hi = NULL;
+    int rc = rad_elements_patch_indirect(s, s->elements, &Hi, err);
+    if (!rc && c->opt->release_matrix && rad_solution_matrix_in_file(s))
+        release_entries(c);
+    const double t1 = rad_seconds();
+    if (!rc)
+        rc = rad_solution_load_element_rows(s, err);
+    const double t2 = rad_seconds();
+    if (!rc)
+        rc = rad_elements_gather_from(s, s->elements, Hi, err);
+    free(Hi);
+    s->elements->rows_computed = 0;
+    s->stages[RAD_STAGE_LOAD].seconds += t2 - t1;
+    s->stages[RAD_STAGE_SOLVE].seconds += rad_seconds() - t2 + t1 - t0;
+    return rc;
+}
+
 /* rad_resolve on a run whose engine the caller may reuse afterwards. */
 static int resolve(run *c, rad_error *err)
 {
@@ -701,14 +756,8 @@ static int resolve(run *c, rad_error *err)
     if (!rc)
         rc = solve_patches(c, &all, src ? src : s->emission, err);
 
-    /* Elements: a stored element mesh is gathered again from the new patch
-     * solution through its stored rows (no hemi-cube). */
-    if (!rc && s->elements) {
-        double t0 = rad_seconds();
-        rc = rad_elements_gather(s, s->elements, err);
-        s->elements->rows_computed = 0;
-        s->stages[RAD_STAGE_SOLVE].seconds += rad_seconds() - t0;
-    }
+    if (!rc && s->elements)
+        rc = gather_elements(c, err);
     free(src);
     free(tau);
 
@@ -948,35 +997,15 @@ static int refines(const rad_solve_options *opt)
 }
 
 /* Refinement has read what it needs of F's entries (rad_refine_options.
- * entries_read).  When the solve's file holds every row (the journal) and
- * nothing left in the run reads them - one light group at most, whose
- * stored response is the solution itself - H is taken now (the writer and
- * the response need it) and the entries are freed: the element rows are
- * then computed in the memory F held (8k patches: the solve's peak 205 ->
- * 146 MiB, 1.54 -> 1.09 × F).  More groups need F for their solves, after
- * refinement: F stays. */
+ * entries_read).  When the solve's file holds every row (the journal), the
+ * entries go as release_entries allows: the element rows are then computed
+ * in the memory F held (8k patches: the solve's peak 205 -> 146 MiB, 1.54
+ * -> 1.09 × F). */
 static void release_rows(void *user)
 {
     run *c = user;
-    rad_solution *s = c->s;
-    if (!rad_journal_holds(c->opt->journal, s->F))
-        return;
-    const uint32_t n = s->mesh->patch_count;
-    uint32_t *pg = malloc(((size_t)n + 1) * sizeof *pg);
-    uint32_t *lg = malloc(((size_t)s->scene->light_count + 1) * sizeof *lg);
-    double *H = malloc(((size_t)n * s->band_count + 1) * sizeof *H);
-    uint32_t K = 2;
-    rad_error ignored; /* a failure only keeps F */
-    if (pg && lg && H && rad_basis_groups(s, pg, lg, &K, &ignored) == RAD_OK && K <= 1 &&
-        rad_solution_irradiance(s, H, &ignored) == RAD_OK) {
-        free(s->irradiance);
-        s->irradiance = H;
-        H = NULL;
-        rad_matrix_release_entries(s->F);
-    }
-    free(pg);
-    free(lg);
-    free(H);
+    if (rad_journal_holds(c->opt->journal, c->s->F))
+        release_entries(c);
 }
 
 /* Refinement on the run's engine (started if the solve reused every row):

@@ -114,6 +114,16 @@ typedef struct rad_solve_options {
      * rows the workers are computing are still stored (and journaled), and
      * the call fails with RAD_ERR_INTERRUPTED. */
     const volatile sig_atomic_t *stop;
+    /* rad_resolve of a solution read from a file: 1 = once the patches are
+     * solved, F's entries are freed before the elements are gathered when
+     * that file holds them (rad_solution_matrix_in_file: no row computed)
+     * and nothing after reads them (one light group at most); H is kept in
+     * s->irradiance, the elements' rows are read only then when the
+     * solution was read without them (RAD_PART_ELEMENT_ROWS), and a writer
+     * still shares F.  What a relight of one change set asks: F and the
+     * element rows never in memory together.  0 keeps F (a relight of
+     * several variants reads it once for all). */
+    int release_matrix;
 } rad_solve_options;
 
 /* The whole computation for a scene file: load, mesh, form factors, solve.

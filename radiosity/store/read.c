@@ -769,14 +769,15 @@ int rad_solution_read(const char *path, rad_solution **out, rad_error *err)
     return rad_solution_read_parts(path, RAD_PARTS_ALL, out, err);
 }
 
-int rad_solution_load_matrix(rad_solution *s, rad_error *err)
+/* A part of s left out when it was read (RAD_PART_MATRIX or
+ * RAD_PART_ELEMENT_ROWS), read now from the file s was read from, which
+ * must not have changed since (its index's CRC is s->file_id). */
+static int load_later(rad_solution *s, unsigned part, rad_error *err)
 {
-    if (!s || !s->F)
-        return rad_fail(err, RAD_ERR_USAGE, "rad_solution_load_matrix: no solution");
-    if (s->F->entries_loaded)
-        return RAD_OK;
     if (!s->file)
-        return rad_fail(err, RAD_ERR_USAGE, "rad_solution_load_matrix: not read from a file");
+        return rad_fail(err, RAD_ERR_USAGE, "%s: not read from a file",
+                        part == RAD_PART_MATRIX ? "rad_solution_load_matrix"
+                                                : "rad_solution_load_element_rows");
     sol_file f = {.fd = -1};
     int rc = file_open(&f, s->file, err);
     if (rc)
@@ -796,11 +797,50 @@ int rad_solution_load_matrix(rad_solution *s, rad_error *err)
     if (!rc) {
         *r = (sol_reader){.name = s->file, .err = err, .check_sum = 1,
                           .version = SOL_VERSION_INDEX};
-        rc = load_matrix(r, &f, &x, s);
+        /* the index is the one read, which had ELEMENTROWS exactly when
+         * the elements' rows were left out (element_rows_wanted) */
+        const int rows_at = x.at[SEC_ELEMENT_ROWS];
+        if (part == RAD_PART_MATRIX)
+            rc = load_matrix(r, &f, &x, s);
+        else if (rows_at < 0)
+            rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: section ELEMENTROWS missing", s->file);
+        else
+            rc = file_section(r, &f, &x.e[rows_at], SEC_ELEMENT_ROWS, s, NULL);
     }
     free(r);
     file_close(&f);
     return rc;
+}
+
+int rad_solution_load_matrix(rad_solution *s, rad_error *err)
+{
+    if (!s || !s->F)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_solution_load_matrix: no solution");
+    return s->F->entries_loaded ? RAD_OK : load_later(s, RAD_PART_MATRIX, err);
+}
+
+int rad_solution_load_element_rows(rad_solution *s, rad_error *err)
+{
+    if (!s)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_solution_load_element_rows: no solution");
+    if (!s->elements || s->elements->rows_loaded)
+        return RAD_OK;
+    return load_later(s, RAD_PART_ELEMENT_ROWS, err);
+}
+
+int rad_solution_matrix_in_file(const rad_solution *s)
+{
+    return s && s->F && s->matrix_file.path && s->F->bytes == s->matrix_file.bytes;
+}
+
+void rad_solution_release_matrix(rad_solution *s)
+{
+    if (!s || !s->F || !s->F->entries_loaded)
+        return;
+    const int in_file = rad_solution_matrix_in_file(s);
+    rad_matrix_release_entries(s->F);
+    if (in_file) /* still that section: as read without RAD_PART_MATRIX */
+        s->matrix_file.bytes = s->F->bytes;
 }
 
 /* ------------------------------------------------------------- from memory */

@@ -144,7 +144,9 @@ typedef struct rad_matrix_file {
     uint64_t offset;      /* the section as that file's index lists it */
     uint64_t length;
     uint64_t crc;         /* CRC-64/XZ of the section */
-    uint64_t bytes;       /* F->bytes when read: a matrix that grew since is another one */
+    uint64_t bytes;       /* F->bytes when read (0 once its entries are released,
+                           * rad_solution_release_matrix): a matrix that grew since is
+                           * another one */
 } rad_matrix_file;
 
 /* What a progressive solve did (NULL for the other solvers): how far it
@@ -328,7 +330,9 @@ int rad_solution_write_opts(const rad_solution *s, const char *path, const rad_w
 /* The size in bytes of s's file as a solve writes it now (rad_journal: each
  * row present in a block of its own; rad_solution_write groups rows into
  * larger blocks, a little smaller): a counting pass, nothing written, what
- * a solve's estimate builds on. */
+ * a solve's estimate builds on.  Elements whose rows were not read count
+ * them at the least an entry takes (MIN_ENTRY bytes: a float and a column
+ * gap of one byte). */
 uint64_t rad_solution_file_bytes(const rad_solution *s);
 
 /* The bytes row i of F adds to that file (0 for a missing row). */
@@ -369,6 +373,27 @@ int rad_solution_read_parts(const char *path, unsigned parts, rad_solution **out
  * was read from (which must not have changed since: its index's CRC is
  * compared). */
 int rad_solution_load_matrix(rad_solution *s, rad_error *err);
+
+/* Reads the elements' rows into a solution read without them
+ * (RAD_PART_ELEMENT_ROWS), from its file as rad_solution_load_matrix does;
+ * nothing to do when it has no elements or they are read.  A relight reads
+ * them only once F's entries are released, so that the two are never in
+ * memory together. */
+int rad_solution_load_element_rows(rad_solution *s, rad_error *err);
+
+/* Is F, as it is now, the MATRIX section s->matrix_file names: read from
+ * it (or released since, below) and no row added?  What a writer needs to
+ * share it (rad_write_options.share_matrix). */
+int rad_solution_matrix_in_file(const rad_solution *s);
+
+/* Frees F's entries (rad_matrix_release_entries), keeping which rows exist
+ * and s->matrix_file in step: when F was that file's section it still is,
+ * as for a solution read without RAD_PART_MATRIX, so a writer still shares
+ * it and rad_solution_load_matrix reads it again.  For when nothing left
+ * in memory reads the entries and a file holds them (this one, or the
+ * solve's journal); the caller first puts the H of the current B in
+ * s->irradiance (the writer needs it).  NULL does nothing. */
+void rad_solution_release_matrix(rad_solution *s);
 
 /* rad_solution_read from memory; `name` appears in messages.  check_sum = 0
  * skips the checksums (the fuzzer uses that to reach the structure checks).

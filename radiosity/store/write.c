@@ -833,10 +833,13 @@ uint64_t rad_solution_file_bytes(const rad_solution *s)
     uint32_t sections = 1; /* MATRIX */
     for (size_t q = 0; sol_section_order(q) >= 0; q++) {
         int sec = sol_section_order(q);
-        if (section_written(s, sec)) {
+        if (!section_written(s, sec))
+            continue;
+        sections++;
+        if (sec == SEC_ELEMENT_ROWS && !s->elements->rows_loaded) /* a relight reads them late */
+            count.total += 4u + 8u + MIN_ENTRY * element_entries(s->elements);
+        else
             sec_emit[sec](&count, &w);
-            sections++;
-        }
     }
     return total + count.total + SOL_INDEX_HEAD + (uint64_t)sections * SOL_INDEX_ENTRY;
 }
@@ -910,8 +913,8 @@ int rad_solution_write_opts(const rad_solution *s, const char *path, const rad_w
         return rad_fail(err, RAD_ERR_USAGE, "rad_solution_write: no path");
     /* A matrix shared, not written, was checked when it was read and has
      * not changed since. */
-    int shared = opt->share_matrix && s && s->F && s->matrix_file.path &&
-                 s->F->bytes == s->matrix_file.bytes && strlen(s->matrix_file.path) <= SOL_MAX_STRING;
+    int shared = opt->share_matrix && rad_solution_matrix_in_file(s) &&
+                 strlen(s->matrix_file.path) <= SOL_MAX_STRING;
     int rc = sol_validate_for_write(s, path, !shared, err);
     if (rc)
         return rc;
