@@ -941,8 +941,9 @@ void rn_canvas_destroy(rn_canvas *c)
 }
 
 /* Makes c's buffers fit a w×h image of `bands` channels and a mesh of nv
- * vertices, and clears them: every pixel background, every depth 0 (at
- * infinity).  Buffers of the right size are kept; new ones are written
+ * vertices, and clears them: every pixel's patch RAD_NONE, every depth 0
+ * (at infinity); a kept image's radiance is left to the shading pass, which
+ * writes every pixel (0 for the background).  Buffers of the right size are kept; new ones are written
  * here first, so each page is faulted in once, not read as the shared
  * zero page and copied on the first depth test. */
 static int canvas_prepare(rn_canvas *c, uint32_t w, uint32_t h, uint32_t bands, uint32_t nv,
@@ -966,8 +967,7 @@ static int canvas_prepare(rn_canvas *c, uint32_t w, uint32_t h, uint32_t bands, 
         if (!img)
             return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory for a %ux%u image", w, h);
         c->img = img;
-    } else {
-        memset(img->pixels, 0, npix * bands * sizeof *img->pixels);
+    } else { /* the pixels: every one is written by the shading pass */
         for (size_t k = 0; k < npix; k++)
             img->patch[k] = RAD_NONE;
     }
@@ -1144,8 +1144,12 @@ int rn_canvas_draw(rn_canvas *canvas, const rad_mesh *mesh, uint32_t bands,
         for (uint32_t i = 0; i < fr.w; i++) {
             size_t k = (size_t)j * fr.w + i;
             uint32_t p = img->patch[k];
-            if (p == RAD_NONE)
+            float *px = img->pixels + k * bands;
+            if (p == RAD_NONE) {
+                for (uint32_t c = 0; c < bands; c++)
+                    px[c] = 0.0f;
                 continue;
+            }
             if (!ss || p != ss->patch) {
                 shade_setup *e = &canvas->setup[p % SHADE_CACHE];
                 if (e->patch != p)
@@ -1154,7 +1158,6 @@ int rn_canvas_draw(rn_canvas *canvas, const rad_mesh *mesh, uint32_t bands,
             }
             double w[4], a = ((double)i + 0.5 - fr.cx) / fr.k;
             shade_weights(ss, a, b, w);
-            float *px = img->pixels + k * bands;
             const double *cB = ss->cB;
             if (ss->cell.corners == 4) {
                 for (uint32_t c = 0; c < bands; c++) {
