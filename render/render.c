@@ -943,9 +943,9 @@ void rn_canvas_destroy(rn_canvas *c)
 /* Makes c's buffers fit a w×h image of `bands` channels and a mesh of nv
  * vertices, and clears them: every pixel's patch RAD_NONE, every depth 0
  * (at infinity); a kept image's radiance is left to the shading pass, which
- * writes every pixel (0 for the background).  Buffers of the right size are kept; new ones are written
- * here first, so each page is faulted in once, not read as the shared
- * zero page and copied on the first depth test. */
+ * writes every pixel (0 for the background).  Buffers of the right size are
+ * kept; new ones are written here first, so each page is faulted in once,
+ * not read as the shared zero page and copied on the first depth test. */
 static int canvas_prepare(rn_canvas *c, uint32_t w, uint32_t h, uint32_t bands, uint32_t nv,
                           rad_error *err)
 {
