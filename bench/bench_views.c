@@ -11,7 +11,8 @@
  *     to nothing to load, the hardest case for the ratio.
  * One view is `render SOL -o DIR/one.exr --eye .. --target ..`, ten views
  * are `render SOL -o DIR --path ten.txt` (an orbit; its first view is the
- * one view), on 1 thread and on every CPU.  Each is run three times and the
+ * one view), on 1 thread and on the default threads (one per CPU and one
+ * more, rad_view_threads).  Each is run three times and the
  * fastest wall time kept (the machine is shared); CPU is user + system
  * time of that run, peak RSS the largest of the three.
  */
@@ -263,7 +264,8 @@ int main(int argc, char **argv)
            "at the start (other work on the machine stretches the wall times, not the CPU)\n\n",
            cpus, load[0]);
     printf("| solution | patches | file MB | size | files (EXR codec) | one view s (CPU) | ten views, 1 thread "
-           "s (CPU) | ten views, %ld threads s (CPU) | ten / one | peak MiB one / ten |\n", cpus);
+           "s (CPU) | ten views, %u threads s (CPU) | ten / one | peak MiB one / ten |\n",
+           rad_view_threads(0, 10));
     printf("|---|--:|--:|---|---|--:|--:|--:|--:|--:|\n");
     int rc = 0;
     for (size_t c = 0; c < sizeof cases / sizeof cases[0] && !rc; c++) {

@@ -613,6 +613,15 @@ static int clip_polygon(const rad_vec3 *in, int n, rad_vec3 *out, const plane4 *
 
 /* --------------------------------------------------------- item buffer */
 
+/* llround(x) for |x| < 2^52 without the libm call: x − trunc(x) is exact
+ * there, so rounding half away from zero is a comparison with ±0.5. */
+static inline int64_t round_half_away(double x)
+{
+    int64_t t = (int64_t)x;
+    double f = x - (double)t;
+    return t + (f >= 0.5) - (f <= -0.5);
+}
+
 typedef struct ibuf {
     double *invz;  /* 1/z of the nearest surface so far; 0 = none (background) */
     uint32_t *id;  /* its patch */
@@ -765,7 +774,8 @@ static void inverse_bilinear(const rn_cell2d *s, double hx, double hy, double *u
     *vo = v;
 }
 
-void rn_cell2d_weights(const rn_cell2d *s, double hx, double hy, double *w)
+/* rn_cell2d_weights's body, inline: the shading loop calls it per pixel. */
+static inline void cell2d_weights(const rn_cell2d *s, double hx, double hy, double *w)
 {
     if (!isfinite(hx) || !isfinite(hy))
         hx = hy = 0.0;
@@ -795,12 +805,19 @@ void rn_cell2d_weights(const rn_cell2d *s, double hx, double hy, double *w)
     w[2] = w2 / sum;
 }
 
-/* What shading one patch needs, prepared once per run of pixels that see it.
- * For the pixel ray d = f + a·r + b·u every needed dot product is affine in
- * (a, b), so a pixel costs a few multiply-adds before (u, v). */
+void rn_cell2d_weights(const rn_cell2d *s, double hx, double hy, double *w)
+{
+    cell2d_weights(s, hx, hy, w);
+}
+
+/* What shading one patch needs, prepared once per patch and view (kept in
+ * the canvas's setup cache, see SHADE_CACHE).  For the pixel ray
+ * d = f + a·r + b·u every needed dot product is affine in (a, b), so a pixel
+ * costs a few multiply-adds before (u, v). */
 typedef struct shade_setup {
-    uint32_t patch;
+    uint32_t patch;        /* RAD_NONE: empty cache slot */
     rn_cell2d cell;
+    double *cB;            /* the corners' vertex radiosities, cB[q·bands + c] */
     int ortho;             /* rays parallel to f from the window, not from the eye */
     double Dn;             /* n·(centre − eye) */
     double nf, nr, nu;     /* n·f, n·r, n·u */
@@ -809,9 +826,13 @@ typedef struct shade_setup {
     double f2, r2, u2;     /* f·e2, r·e2, u·e2 */
 } shade_setup;
 
-static void shade_prepare(shade_setup *s, const rad_mesh *m, uint32_t patch, const rn_frame *fr)
+static void shade_prepare(shade_setup *s, const rad_mesh *m, uint32_t patch, const rn_frame *fr,
+                          const double *vertex_B, uint32_t bands)
 {
     const rad_patch *pa = &m->patches[patch];
+    for (int q = 0; q < rad_patch_corners(pa); q++)
+        memcpy(s->cB + (size_t)q * bands, vertex_B + (size_t)pa->v[q] * bands,
+               bands * sizeof *s->cB);
     rn_cell2d_init(&s->cell, m, patch);
     rad_vec3 n = pa->normal, e1 = s->cell.e1, e2 = s->cell.e2;
     rad_vec3 o = rad_sub(fr->eye, s->cell.v0);
@@ -834,7 +855,7 @@ static void shade_prepare(shade_setup *s, const rad_mesh *m, uint32_t patch, con
 /* Interpolation weights of the patch's corners where the ray of pixel
  * (a, b) meets its plane (from the eye along f + a·r + b·u, or, for an
  * orthographic view, from eye + a·r + b·u along f). */
-static void shade_weights(const shade_setup *s, double a, double b, double *w)
+static inline void shade_weights(const shade_setup *s, double a, double b, double *w)
 {
     double hx, hy;
     if (s->ortho) { /* eye + a·r + b·u + t·f */
@@ -847,7 +868,7 @@ static void shade_weights(const shade_setup *s, double a, double b, double *w)
         hx = s->of1 + t * (s->f1 + a * s->r1 + b * s->u1);
         hy = s->of2 + t * (s->f2 + a * s->r2 + b * s->u2);
     }
-    rn_cell2d_weights(&s->cell, hx, hy, w);
+    cell2d_weights(&s->cell, hx, hy, w);
 }
 
 /* -------------------------------------------------------------- render */
@@ -886,13 +907,23 @@ int rn_camera_check(const rn_camera *cam, rad_error *err)
     return rad_fail(err, rc, "%s", strncmp(why.message, prefix, n) ? why.message : why.message + n);
 }
 
+/* Shading setups kept per view, direct-mapped by patch index: a patch is
+ * met again on the next rows of the image, by which time a scan line has
+ * passed a few hundred others.  A setup is a pure function of the patch and
+ * the view, so a hit gives exactly what preparing it again would. */
+#define SHADE_CACHE 512
+
 /* What a canvas keeps between views: the image drawn last, its depth buffer
- * (1/z per pixel) and room for the camera-space vertices. */
+ * (1/z per pixel), room for the camera-space vertices and the shading
+ * setups (emptied at each view). */
 struct rn_canvas {
     rn_image *img;
     double *invz;      /* img->width × img->height */
     rad_vec3 *cv;      /* cv_cap entries */
     uint32_t cv_cap;
+    shade_setup *setup; /* SHADE_CACHE entries, each with 4 × setup_bands corner values */
+    double *setup_B;
+    uint32_t setup_bands;
 };
 
 rn_canvas *rn_canvas_create(void) { return calloc(1, sizeof(rn_canvas)); }
@@ -904,14 +935,17 @@ void rn_canvas_destroy(rn_canvas *c)
     rn_image_destroy(c->img);
     free(c->invz);
     free(c->cv);
+    free(c->setup);
+    free(c->setup_B);
     free(c);
 }
 
 /* Makes c's buffers fit a w×h image of `bands` channels and a mesh of nv
- * vertices, and clears them: every pixel background, every depth 0 (at
- * infinity).  Buffers of the right size are kept; new ones are written
- * here first, so each page is faulted in once, not read as the shared
- * zero page and copied on the first depth test. */
+ * vertices, and clears them: every pixel's patch RAD_NONE, every depth 0
+ * (at infinity); a kept image's radiance is left to the shading pass, which
+ * writes every pixel (0 for the background).  Buffers of the right size are
+ * kept; new ones are written here first, so each page is faulted in once,
+ * not read as the shared zero page and copied on the first depth test. */
 static int canvas_prepare(rn_canvas *c, uint32_t w, uint32_t h, uint32_t bands, uint32_t nv,
                           rad_error *err)
 {
@@ -933,8 +967,7 @@ static int canvas_prepare(rn_canvas *c, uint32_t w, uint32_t h, uint32_t bands, 
         if (!img)
             return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory for a %ux%u image", w, h);
         c->img = img;
-    } else {
-        memset(img->pixels, 0, npix * bands * sizeof *img->pixels);
+    } else { /* the pixels: every one is written by the shading pass */
         for (size_t k = 0; k < npix; k++)
             img->patch[k] = RAD_NONE;
     }
@@ -947,6 +980,20 @@ static int canvas_prepare(rn_canvas *c, uint32_t w, uint32_t h, uint32_t bands, 
             return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory for %u vertices", nv);
         c->cv_cap = nv + 1;
     }
+    if (!c->setup || c->setup_bands != bands) {
+        free(c->setup);
+        free(c->setup_B);
+        c->setup_bands = 0;
+        c->setup = malloc(SHADE_CACHE * sizeof *c->setup);
+        c->setup_B = malloc((size_t)SHADE_CACHE * 4 * bands * sizeof *c->setup_B);
+        if (!c->setup || !c->setup_B)
+            return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory for shading");
+        c->setup_bands = bands;
+        for (size_t e = 0; e < SHADE_CACHE; e++)
+            c->setup[e].cB = c->setup_B + e * 4 * bands;
+    }
+    for (size_t e = 0; e < SHADE_CACHE; e++)
+        c->setup[e].patch = RAD_NONE;
     return RAD_OK;
 }
 
@@ -1053,7 +1100,16 @@ int rn_canvas_draw(rn_canvas *canvas, const rad_mesh *mesh, uint32_t bands,
         for (int c = 0; c < nc; c++)
             bufa[c] = cv[pa->v[c]];
         rad_vec3 *cur = bufa, *nxt = bufb;
-        for (int k = 0; k < 5 && nc >= 3; k++) {
+        /* A patch inside all five planes (most are) comes out of clipping
+         * unchanged: then the clipping is skipped. */
+        int inside = 1;
+        for (int k = 0; k < 5 && inside; k++)
+            for (int c = 0; c < nc; c++)
+                if (!(plane_dist(&planes[k], bufa[c]) >= 0.0)) {
+                    inside = 0;
+                    break;
+                }
+        for (int k = 0; k < 5 && nc >= 3 && !inside; k++) {
             nc = clip_polygon(cur, nc, nxt, &planes[k]);
             rad_vec3 *t = cur;
             cur = nxt;
@@ -1069,8 +1125,8 @@ int rn_canvas_draw(rn_canvas *canvas, const rad_mesh *mesh, uint32_t bands,
                 ok = 0;
                 break;
             }
-            X[c] = llround(sx * (double)SUBPIX);
-            Y[c] = llround(sy * (double)SUBPIX);
+            X[c] = round_half_away(sx * (double)SUBPIX);
+            Y[c] = round_half_away(sy * (double)SUBPIX);
         }
         if (!ok)
             continue;
@@ -1079,29 +1135,47 @@ int rn_canvas_draw(rn_canvas *canvas, const rad_mesh *mesh, uint32_t bands,
     }
 
     /* Shade: interpolate the vertex radiosities at the ray-plane point.
-     * Neighbouring pixels mostly see the same patch, so its setup is kept. */
+     * Neighbouring pixels mostly see the same patch, so its setup is kept;
+     * the sums run over the corners in order, as Σ_q w_q B_q. */
     const double inv_pi = 1.0 / M_PI;
-    shade_setup ss;
-    memset(&ss, 0, sizeof ss);
-    ss.patch = RAD_NONE;
+    const shade_setup *ss = NULL;
     for (uint32_t j = 0; j < fr.h; j++) {
         double b = (fr.cy - (double)j - 0.5) / fr.k;
         for (uint32_t i = 0; i < fr.w; i++) {
             size_t k = (size_t)j * fr.w + i;
             uint32_t p = img->patch[k];
-            if (p == RAD_NONE)
-                continue;
-            if (p != ss.patch)
-                shade_prepare(&ss, mesh, p, &fr);
-            double w[4], a = ((double)i + 0.5 - fr.cx) / fr.k;
-            shade_weights(&ss, a, b, w);
-            const uint32_t *v = mesh->patches[p].v;
             float *px = img->pixels + k * bands;
-            for (uint32_t c = 0; c < bands; c++) {
-                double sum = 0.0;
-                for (int q = 0; q < ss.cell.corners; q++)
-                    sum += w[q] * vertex_B[(size_t)v[q] * bands + c];
-                px[c] = (float)(sum * inv_pi);
+            if (p == RAD_NONE) {
+                for (uint32_t c = 0; c < bands; c++)
+                    px[c] = 0.0f;
+                continue;
+            }
+            if (!ss || p != ss->patch) {
+                shade_setup *e = &canvas->setup[p % SHADE_CACHE];
+                if (e->patch != p)
+                    shade_prepare(e, mesh, p, &fr, vertex_B, bands);
+                ss = e;
+            }
+            double w[4], a = ((double)i + 0.5 - fr.cx) / fr.k;
+            shade_weights(ss, a, b, w);
+            const double *cB = ss->cB;
+            if (ss->cell.corners == 4) {
+                for (uint32_t c = 0; c < bands; c++) {
+                    double sum = 0.0;
+                    sum += w[0] * cB[c];
+                    sum += w[1] * cB[bands + c];
+                    sum += w[2] * cB[2 * bands + c];
+                    sum += w[3] * cB[3 * bands + c];
+                    px[c] = (float)(sum * inv_pi);
+                }
+            } else {
+                for (uint32_t c = 0; c < bands; c++) {
+                    double sum = 0.0;
+                    sum += w[0] * cB[c];
+                    sum += w[1] * cB[bands + c];
+                    sum += w[2] * cB[2 * bands + c];
+                    px[c] = (float)(sum * inv_pi);
+                }
             }
         }
     }

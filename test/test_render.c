@@ -498,6 +498,58 @@ TEST(linear_ramp_trapezoid)
     mesh_free(m);
 }
 
+/* A canvas drawn over, view after view, on a mesh of more cells than the
+ * canvas keeps shading setups for (patches p and p + 512 share a slot):
+ * each view is right against the analytic field (check_view, on a fresh
+ * canvas), and the kept canvas gives exactly the fresh canvas's image,
+ * background included where the view before had drawn (its radiance is not
+ * cleared in between). */
+TEST(canvas_kept_between_views)
+{
+    rad_vec3 c[4];
+    rect_z(c, -1, -1, 1, 1, 0, 0);
+    rad_mesh *m = mesh_new(25 * 25, 576);
+    add_grid(m, c, 24, 24, 0, 0); /* 576 cells */
+    const double k[4] = {2.0, 0.9, -0.5, 0.0};
+    double *vb = vertex_field(m, 3, k);
+    rn_camera cams[3] = {
+        camera(rad_v3(0.3, -2.0, 2.5), rad_v3(0.1, 0.2, 0), rad_v3(0, 0, 1), 40, 64, 48),
+        camera(rad_v3(0, 0, 2.0), rad_v3(0, 0, 0), rad_v3(0, 1, 0), 30, 64, 48), /* all plane */
+        camera(rad_v3(-1.5, 1.0, 3.0), rad_v3(0, 0, 0), rad_v3(0, 1, 0), 35, 64, 48),
+    };
+    rn_image *fresh[3] = {NULL, NULL, NULL};
+    for (int v = 0; v < 3; v++)
+        CHECK(check_view(m, 3, vb, &cams[v], field_lin, k, &fresh[v]) > 500);
+    rn_canvas *canvas = rn_canvas_create();
+    CHECK(canvas != NULL);
+    static const int order[5] = {0, 1, 2, 1, 0};
+    size_t bg_after_covered = 0;
+    for (int q = 0; q < 5 && canvas; q++) {
+        int v = order[q];
+        rn_image *img = NULL;
+        rad_error err = {0};
+        CHECK_MSG(rn_canvas_draw(canvas, m, 3, vb, &cams[v], &img, &err) == RAD_OK, "%s",
+                  err.message);
+        if (!img || !fresh[v])
+            continue;
+        size_t n = (size_t)img->width * img->height;
+        CHECK(!memcmp(img->pixels, fresh[v]->pixels, n * 3 * sizeof(float)));
+        CHECK(!memcmp(img->patch, fresh[v]->patch, n * sizeof(uint32_t)));
+        if (q > 0 && order[q - 1] == 1) /* the view before covered every pixel */
+            for (size_t i = 0; i < n; i++)
+                bg_after_covered += img->patch[i] == RAD_NONE;
+    }
+    /* The second view fills the image; the others leave background. */
+    CHECK(fresh[1] && fresh[1]->patch[0] != RAD_NONE &&
+          fresh[1]->patch[(size_t)64 * 48 - 1] != RAD_NONE);
+    CHECK(bg_after_covered > 100);
+    rn_canvas_destroy(canvas);
+    for (int v = 0; v < 3; v++)
+        rn_image_destroy(fresh[v]);
+    free(vb);
+    mesh_free(m);
+}
+
 TEST(linear_ramp_triangles)
 {
     rad_vec3 c[4];
@@ -1022,6 +1074,7 @@ int main(void)
     RUN(linear_ramp_quads);
     RUN(linear_ramp_trapezoid);
     RUN(linear_ramp_triangles);
+    RUN(canvas_kept_between_views);
     RUN(no_cracks);
     RUN(occlusion_and_culling);
     RUN(orthographic_views);
