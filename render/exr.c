@@ -140,6 +140,12 @@ int rn_write_exr(const rn_image *img, const char *path, rad_error *err)
 int rn_write_exr_with(const rn_image *img, const char *path, rn_exr_compression compression,
                       rad_error *err)
 {
+    return rn_write_exr_later(img, path, compression, NULL, err);
+}
+
+int rn_write_exr_later(const rn_image *img, const char *path, rn_exr_compression compression,
+                       rad_committer *committer, rad_error *err)
+{
     static const exr_compression_t codec[] = {EXR_COMPRESSION_NONE, EXR_COMPRESSION_ZIP,
                                               EXR_COMPRESSION_RLE, EXR_COMPRESSION_PIZ};
     if ((unsigned)compression > RN_EXR_PIZ)
@@ -192,7 +198,7 @@ int rn_write_exr_with(const rn_image *img, const char *path, rn_exr_compression 
         rad_output_abort(out);
         return rc;
     }
-    return rad_output_commit(out, err);
+    return rad_output_commit_later(out, committer, err);
 }
 
 int rn_read_exr(const char *path, rn_image **out, rad_error *err)

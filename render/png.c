@@ -147,6 +147,12 @@ static int encode(rad_output *out, const rn_image *img, double scale, const char
 
 int rn_write_png(const rn_image *img, const char *path, double exposure, rad_error *err)
 {
+    return rn_write_png_later(img, path, exposure, NULL, err);
+}
+
+int rn_write_png_later(const rn_image *img, const char *path, double exposure,
+                       rad_committer *committer, rad_error *err)
+{
     int rc = rn_image_check(img, path, err);
     if (rc)
         return rc;
@@ -162,5 +168,5 @@ int rn_write_png(const rn_image *img, const char *path, double exposure, rad_err
         rad_output_abort(out);
         return rc;
     }
-    return rad_output_commit(out, err);
+    return rad_output_commit_later(out, committer, err);
 }

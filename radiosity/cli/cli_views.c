@@ -227,6 +227,7 @@ typedef struct sink {
     const view_list *views;
     const cli_view *v;
     int png;
+    rad_committer *committer; /* syncs and renames the files while the next views draw */
 } sink;
 
 /* rad_view_fn: writes view k's files (its own names: threads never meet). */
@@ -235,10 +236,10 @@ static int write_view(void *user, uint32_t k, const rn_image *img, rad_error *er
     const sink *w = user;
     char path[4096];
     snprintf(path, sizeof path, "%s/%s.exr", w->dir, w->views->stem[k]);
-    int rc = rn_write_exr_with(img, path, w->v->exr_compression, err);
+    int rc = rn_write_exr_later(img, path, w->v->exr_compression, w->committer, err);
     if (!rc && w->png) {
         snprintf(path, sizeof path, "%s/%s.png", w->dir, w->views->stem[k]);
-        rc = rn_write_png(img, path, w->v->exposure, err);
+        rc = rn_write_png_later(img, path, w->v->exposure, w->committer, err);
     }
     return rc;
 }
@@ -265,9 +266,19 @@ int cli_render_many(const rad_solution *s, const cli_view *v, const cli_many *m,
     double t0 = rad_seconds();
     if (!rc)
         rc = rad_drawing_create(s, &d, &err);
-    sink w = {dir, &l, v, !m->no_png};
+    sink w = {dir, &l, v, !m->no_png, NULL};
+    if (!rc)
+        rc = rad_committer_create(&w.committer, &err);
     if (!rc)
         rc = rad_drawing_views(d, l.cams, l.count, m->threads, write_view, &w, &err);
+    /* The files of the views drawn are complete: committed even after a
+     * failure, which is the one reported. */
+    rad_error cerr = {0};
+    int crc = rad_committer_finish(w.committer, &cerr);
+    if (!rc && crc) {
+        rc = crc;
+        err = cerr;
+    }
     if (!rc)
         printf("%s: %u view%s %ux%u (%s%s%s)%s, %u thread%s, %.3f s\n", dir, l.count,
                l.count == 1 ? "" : "s", l.cams[0].width, l.cams[0].height, l.stem[0],

@@ -17,6 +17,7 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -323,4 +324,100 @@ int rad_output_commit(rad_output *o, rad_error *err)
     sync_directory_of(o->path);
     release(o);
     return RAD_OK;
+}
+
+/* ------------------------------------------------------------ committer */
+
+/* Invariant: outputs are committed in the order handed over; `rc`/`err`
+ * hold the first failure; everything under `lock` but the commits. */
+struct rad_committer {
+    pthread_t thread;
+    pthread_mutex_t lock;
+    pthread_cond_t cond;
+    rad_output **queue; /* [head, tail) waiting */
+    size_t head, tail, cap;
+    int closing;        /* finish called: drain and stop */
+    int rc;
+    rad_error err;
+};
+
+static void *committer_main(void *arg)
+{
+    rad_committer *c = arg;
+    pthread_mutex_lock(&c->lock);
+    for (;;) {
+        while (c->head == c->tail && !c->closing)
+            pthread_cond_wait(&c->cond, &c->lock);
+        if (c->head == c->tail)
+            break;
+        rad_output *o = c->queue[c->head++];
+        pthread_mutex_unlock(&c->lock);
+        rad_error e = {0};
+        int rc = rad_output_commit(o, &e);
+        pthread_mutex_lock(&c->lock);
+        if (rc && !c->rc) {
+            c->rc = rc;
+            c->err = e;
+        }
+    }
+    pthread_mutex_unlock(&c->lock);
+    return NULL;
+}
+
+int rad_committer_create(rad_committer **out, rad_error *err)
+{
+    *out = NULL;
+    rad_committer *c = calloc(1, sizeof *c);
+    if (!c)
+        return rad_fail(err, RAD_ERR_NOMEM, "output: out of memory for a committer");
+    pthread_mutex_init(&c->lock, NULL);
+    pthread_cond_init(&c->cond, NULL);
+    if (pthread_create(&c->thread, NULL, committer_main, c) != 0) {
+        pthread_cond_destroy(&c->cond);
+        pthread_mutex_destroy(&c->lock);
+        free(c);
+        return rad_fail(err, RAD_ERR_NOMEM, "output: cannot start a committer thread");
+    }
+    *out = c;
+    return RAD_OK;
+}
+
+int rad_output_commit_later(rad_output *o, rad_committer *c, rad_error *err)
+{
+    if (!c)
+        return rad_output_commit(o, err);
+    pthread_mutex_lock(&c->lock);
+    if (c->tail == c->cap) {
+        size_t cap = c->cap ? 2 * c->cap : 16;
+        rad_output **q = realloc(c->queue, cap * sizeof *q);
+        if (!q) {
+            pthread_mutex_unlock(&c->lock);
+            return rad_output_commit(o, err);
+        }
+        c->queue = q;
+        c->cap = cap;
+    }
+    c->queue[c->tail++] = o;
+    pthread_cond_signal(&c->cond);
+    pthread_mutex_unlock(&c->lock);
+    return RAD_OK;
+}
+
+int rad_committer_finish(rad_committer *c, rad_error *err)
+{
+    if (!c)
+        return RAD_OK;
+    pthread_mutex_lock(&c->lock);
+    c->closing = 1;
+    pthread_cond_signal(&c->cond);
+    pthread_mutex_unlock(&c->lock);
+    pthread_join(c->thread, NULL);
+    const int rc = c->rc;
+    if (rc && err)
+        *err = c->err;
+    pthread_cond_destroy(&c->cond);
+    pthread_mutex_destroy(&c->lock);
+    free(c->queue);
+    free(c);
+    return rc;
 }
