@@ -88,11 +88,22 @@ static void run_child(const char *scene, const char *sol, double size, int no_cl
         opt.max_memory = 1;
     rad_error err = {0};
     rad_solution *s = NULL;
+    /* As `radiosity solve` does: the rows go to SOL.partial as they come
+     * (so F can be freed before refinement) and the file is finished from
+     * them.  Not for the estimate alone, which keeps no rows. */
+    rad_journal *j = NULL;
+    r->rc = no_clusters ? RAD_OK : rad_journal_open(sol, 1, &j, &err);
+    opt.journal = j;
     double t0 = rad_seconds();
-    r->rc = rad_solve_scene_file(scene, &opt, &s, &err);
-    r->wall_s = rad_seconds() - t0;
     if (r->rc == RAD_OK)
-        r->rc = rad_solution_write(s, sol, &err);
+        r->rc = rad_solve_scene_file(scene, &opt, &s, &err);
+    r->wall_s = rad_seconds() - t0;
+    if (r->rc == RAD_OK) {
+        r->rc = j ? rad_journal_commit(j, s, &err) /* frees j */
+                  : rad_solution_write(s, sol, &err);
+        j = NULL;
+    }
+    rad_journal_close(j);
     if (r->rc != RAD_OK) {
         snprintf(r->message, sizeof r->message, "%s", err.message);
     } else {
