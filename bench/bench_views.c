@@ -11,8 +11,8 @@
  *     to nothing to load, the hardest case for the ratio.
  * One view is `render SOL -o DIR/one.exr --eye .. --target ..`, ten views
  * are `render SOL -o DIR --path ten.txt` (an orbit; its first view is the
- * one view), on 1 thread and on the default threads (one per CPU and one
- * more, rad_view_threads).  Each is run three times and the
+ * one view), on 1 thread and on the default threads (one per CPU,
+ * rad_view_threads).  Each is run three times and the
  * fastest wall time kept (the machine is shared); CPU is user + system
  * time of that run, peak RSS the largest of the three.
  */

@@ -642,6 +642,26 @@ static int64_t floor_div(int64_t a, int64_t b) { return a >= 0 ? a / b : -((-a +
  * up).  The reversed edge of the neighbour gets the complementary answer. */
 static int64_t edge_bias(int64_t dx, int64_t dy) { return (dy < 0 || (dy == 0 && dx > 0)) ? 0 : -1; }
 
+/* Narrows [*lo, *hi] (offsets from the row's first pixel) to where
+ * e + s·t >= 0; 0 when nothing is left. */
+static inline int edge_run(int64_t e, int64_t s, int64_t *lo, int64_t *hi)
+{
+    if (s > 0) {
+        int64_t t = e >= 0 ? 0 : -floor_div(e, s); /* ceil(−e / s) */
+        if (t > *lo)
+            *lo = t;
+    } else if (s < 0) {
+        if (e < 0)
+            return 0;
+        int64_t t = e / -s; /* floor(e / −s), e >= 0 */
+        if (t < *hi)
+            *hi = t;
+    } else if (e < 0) {
+        return 0;
+    }
+    return *lo <= *hi;
+}
+
 static void raster_triangle(ibuf *ib, const int64_t *X, const int64_t *Y, int i0, int i1, int i2,
                             uint32_t pid, const depth_plane *dp)
 {
@@ -678,25 +698,28 @@ static void raster_triangle(ibuf *ib, const int64_t *X, const int64_t *Y, int i0
     int64_t dx0 = x1 - x0, dy0 = y1 - y0, dx1 = x2 - x1, dy1 = y2 - y1, dx2 = x0 - x2, dy2 = y0 - y2;
     int64_t b0 = edge_bias(dx0, dy0), b1 = edge_bias(dx1, dy1), b2 = edge_bias(dx2, dy2);
     int64_t px0 = ia * SUBPIX + SUBPIX / 2;
+    /* Along a row an edge function is e(i) = e(ia) + s·(i − ia), s = −dy·SUBPIX:
+     * the pixels inside all three edges are one run [lo, hi], found with a
+     * division per edge instead of a test per pixel (the same pixels). */
+    int64_t s0 = -dy0 * SUBPIX, s1 = -dy1 * SUBPIX, s2 = -dy2 * SUBPIX;
     for (int64_t j = ja; j <= jb; j++) {
         int64_t py = j * SUBPIX + SUBPIX / 2;
         int64_t e0 = dx0 * (py - y0) - dy0 * (px0 - x0) + b0;
         int64_t e1 = dx1 * (py - y1) - dy1 * (px0 - x1) + b1;
         int64_t e2 = dx2 * (py - y2) - dy2 * (px0 - x2) + b2;
+        int64_t lo = 0, hi = ib_ - ia;
+        if (!edge_run(e0, s0, &lo, &hi) || !edge_run(e1, s1, &lo, &hi) ||
+            !edge_run(e2, s2, &lo, &hi))
+            continue;
         size_t row = (size_t)j * ib->w;
-        for (int64_t i = ia; i <= ib_; i++) {
-            if ((e0 | e1 | e2) >= 0) {
-                double z = dp->A * (double)i + dp->Bj * (double)j + dp->C;
-                size_t k = row + (size_t)i;
-                /* Nearer wins; on equal depth the lower patch index. */
-                if (z > 0.0 && (z > ib->invz[k] || (z == ib->invz[k] && pid < ib->id[k]))) {
-                    ib->invz[k] = z;
-                    ib->id[k] = pid;
-                }
+        for (int64_t i = ia + lo; i <= ia + hi; i++) {
+            double z = dp->A * (double)i + dp->Bj * (double)j + dp->C;
+            size_t k = row + (size_t)i;
+            /* Nearer wins; on equal depth the lower patch index. */
+            if (z > 0.0 && (z > ib->invz[k] || (z == ib->invz[k] && pid < ib->id[k]))) {
+                ib->invz[k] = z;
+                ib->id[k] = pid;
             }
-            e0 -= dy0 * SUBPIX;
-            e1 -= dy1 * SUBPIX;
-            e2 -= dy2 * SUBPIX;
         }
     }
 }
@@ -707,6 +730,7 @@ void rn_cell2d_init(rn_cell2d *c, const rad_mesh *m, uint32_t cell)
 {
     const rad_patch *pa = &m->patches[cell];
     c->corners = rad_patch_corners(pa);
+    c->linear = c->para = 0; /* a cached cell is initialised over an older one */
     c->v0 = m->vertices[pa->v[0]];
     c->e1 = rad_normalize(rad_sub(m->vertices[pa->v[1]], c->v0));
     c->e2 = rad_cross(pa->normal, c->e1);
@@ -724,8 +748,30 @@ void rn_cell2d_init(rn_cell2d *c, const rad_mesh *m, uint32_t cell)
         c->gy = -c->p[1][1] + c->p[2][1] - c->p[3][1];
         c->k2 = c->gx * c->fy - c->gy * c->fx;
         c->kef = c->ex * c->fy - c->ey * c->fx;
+        /* Subdivided rectangles and parallelograms are parallelograms only
+         * up to rounding (|g| ~ 1e-16 of a side): below 1e-10 of the sides
+         * g is taken as 0, so (u, v) is linear in h.  What that ignores
+         * moves u and v by under 1e-10, far below a float pixel's 6e-8. */
+        double side = fabs(c->ex) + fabs(c->ey) + fabs(c->fx) + fabs(c->fy);
+        c->para = c->kef != 0.0 && fabs(c->gx) + fabs(c->gy) <= 1e-10 * side;
+        if (c->para) { /* h = u·e + v·f: Cramer's rule */
+            double ik = 1.0 / c->kef;
+            c->linear = 1;
+            c->lin[0][0] = c->fy * ik;
+            c->lin[0][1] = -c->fx * ik;
+            c->lin[1][0] = -c->ey * ik;
+            c->lin[1][1] = c->ex * ik;
+        }
     } else {
         c->det = c->p[1][0] * c->p[2][1] - c->p[1][1] * c->p[2][0];
+        if (c->det != 0.0) { /* h = w1·p1 + w2·p2 */
+            double id = 1.0 / c->det;
+            c->linear = 1;
+            c->lin[0][0] = c->p[2][1] * id;
+            c->lin[0][1] = -c->p[2][0] * id;
+            c->lin[1][0] = -c->p[1][1] * id;
+            c->lin[1][1] = c->p[1][0] * id;
+        }
     }
 }
 
@@ -774,26 +820,28 @@ static void inverse_bilinear(const rn_cell2d *s, double hx, double hy, double *u
     *vo = v;
 }
 
-/* rn_cell2d_weights's body, inline: the shading loop calls it per pixel. */
-static inline void cell2d_weights(const rn_cell2d *s, double hx, double hy, double *w)
+/* The bilinear weights at (u, v), clamped to the cell (NaN to 0). */
+static inline void quad_weights(double u, double v, double *w)
 {
-    if (!isfinite(hx) || !isfinite(hy))
-        hx = hy = 0.0;
-    if (s->corners == 4) {
-        double u, v;
-        inverse_bilinear(s, hx, hy, &u, &v);
-        w[0] = (1 - u) * (1 - v);
-        w[1] = u * (1 - v);
-        w[2] = u * v;
-        w[3] = (1 - u) * v;
+    u = u > 0.0 ? (u < 1.0 ? u : 1.0) : 0.0;
+    v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0;
+    w[0] = (1 - u) * (1 - v);
+    w[1] = u * (1 - v);
+    w[2] = u * v;
+    w[3] = (1 - u) * v;
+}
+
+/* The barycentric weights (1 − w1 − w2, w1, w2); a point outside (a
+ * snapping error away) is clamped and renormalised. */
+static inline void tri_weights(double w1, double w2, double *w)
+{
+    double w0 = 1.0 - w1 - w2;
+    if (w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0) { /* inside (no NaN): sums to 1 by construction */
+        w[0] = w0;
+        w[1] = w1;
+        w[2] = w2;
         return;
     }
-    double w1 = 1.0 / 3.0, w2 = 1.0 / 3.0;
-    if (s->det != 0.0) {
-        w1 = (hx * s->p[2][1] - hy * s->p[2][0]) / s->det;
-        w2 = (s->p[1][0] * hy - s->p[1][1] * hx) / s->det;
-    }
-    double w0 = 1.0 - w1 - w2;
     w0 = w0 > 0.0 ? w0 : 0.0;
     w1 = w1 > 0.0 ? w1 : 0.0;
     w2 = w2 > 0.0 ? w2 : 0.0;
@@ -803,6 +851,34 @@ static inline void cell2d_weights(const rn_cell2d *s, double hx, double hy, doub
     w[0] = w0 / sum;
     w[1] = w1 / sum;
     w[2] = w2 / sum;
+}
+
+/* The weights from a linear cell's coordinates (l1, l2).  Coordinates
+ * that are not finite (a ray grazing the plane) need no test: the clamps
+ * above still give weights in [0, 1] summing to 1. */
+static inline void linear_weights(const rn_cell2d *s, double l1, double l2, double *w)
+{
+    if (s->corners == 4)
+        quad_weights(l1, l2, w);
+    else
+        tri_weights(l1, l2, w);
+}
+
+/* rn_cell2d_weights's body, inline: the shading loop calls it per pixel. */
+static inline void cell2d_weights(const rn_cell2d *s, double hx, double hy, double *w)
+{
+    if (!isfinite(hx) || !isfinite(hy))
+        hx = hy = 0.0;
+    if (s->linear) {
+        linear_weights(s, s->lin[0][0] * hx + s->lin[0][1] * hy,
+                       s->lin[1][0] * hx + s->lin[1][1] * hy, w);
+    } else if (s->corners == 4) {
+        double u, v;
+        inverse_bilinear(s, hx, hy, &u, &v);
+        quad_weights(u, v, w);
+    } else {
+        tri_weights(1.0 / 3.0, 1.0 / 3.0, w);
+    }
 }
 
 void rn_cell2d_weights(const rn_cell2d *s, double hx, double hy, double *w)
@@ -824,6 +900,10 @@ typedef struct shade_setup {
     double of1, of2;       /* (eye − v0)·e1, ·e2 */
     double f1, r1, u1;     /* f·e1, r·e1, u·e1 */
     double f2, r2, u2;     /* f·e2, r·e2, u·e2 */
+    /* A linear cell seen in perspective: its coordinates are
+     * l_k = L[k][0] + t·(L[k][1] + a·L[k][2] + b·L[k][3]), t = Dn / (n·d). */
+    int linear;
+    double L[2][4];
 } shade_setup;
 
 static void shade_prepare(shade_setup *s, const rad_mesh *m, uint32_t patch, const rn_frame *fr,
@@ -850,6 +930,14 @@ static void shade_prepare(shade_setup *s, const rad_mesh *m, uint32_t patch, con
     s->f2 = rad_dot(fr->f, e2);
     s->r2 = rad_dot(fr->r, e2);
     s->u2 = rad_dot(fr->u, e2);
+    s->linear = !s->ortho && s->cell.linear;
+    for (int k = 0; k < 2 && s->linear; k++) {
+        double mx = s->cell.lin[k][0], my = s->cell.lin[k][1];
+        s->L[k][0] = mx * s->of1 + my * s->of2;
+        s->L[k][1] = mx * s->f1 + my * s->f2;
+        s->L[k][2] = mx * s->r1 + my * s->r2;
+        s->L[k][3] = mx * s->u1 + my * s->u2;
+    }
 }
 
 /* Interpolation weights of the patch's corners where the ray of pixel
@@ -857,6 +945,14 @@ static void shade_prepare(shade_setup *s, const rad_mesh *m, uint32_t patch, con
  * orthographic view, from eye + a·r + b·u along f). */
 static inline void shade_weights(const shade_setup *s, double a, double b, double *w)
 {
+    if (s->linear) { /* the plane point's two coordinates, without the point */
+        double dn = s->nf + a * s->nr + b * s->nu;
+        double t = dn != 0.0 ? s->Dn / dn : 0.0;
+        double l1 = s->L[0][0] + t * (s->L[0][1] + a * s->L[0][2] + b * s->L[0][3]);
+        double l2 = s->L[1][0] + t * (s->L[1][1] + a * s->L[1][2] + b * s->L[1][3]);
+        linear_weights(&s->cell, l1, l2, w);
+        return;
+    }
     double hx, hy;
     if (s->ortho) { /* eye + a·r + b·u + t·f */
         double t = s->nf != 0.0 ? (s->Dn - a * s->nr - b * s->nu) / s->nf : 0.0;
@@ -869,6 +965,34 @@ static inline void shade_weights(const shade_setup *s, double a, double b, doubl
         hy = s->of2 + t * (s->f2 + a * s->r2 + b * s->u2);
     }
     cell2d_weights(&s->cell, hx, hy, w);
+}
+
+/* px = Σ_q w_q B_q / π per band, the corners summed in order.  Three
+ * bands (the common case) are written out, the compiler does not unroll
+ * the loop; the arithmetic is the same either way. */
+static inline double corner_sum(const double *w, const double *cB, uint32_t bands, int corners,
+                                uint32_t c)
+{
+    double sum = 0.0;
+    sum += w[0] * cB[c];
+    sum += w[1] * cB[bands + c];
+    sum += w[2] * cB[2 * bands + c];
+    if (corners == 4)
+        sum += w[3] * cB[3 * bands + c];
+    return sum;
+}
+
+static inline void shade_store(float *px, const double *w, const double *cB, uint32_t bands,
+                               int corners, double inv_pi)
+{
+    if (bands == 3) {
+        px[0] = (float)(corner_sum(w, cB, 3, corners, 0) * inv_pi);
+        px[1] = (float)(corner_sum(w, cB, 3, corners, 1) * inv_pi);
+        px[2] = (float)(corner_sum(w, cB, 3, corners, 2) * inv_pi);
+        return;
+    }
+    for (uint32_t c = 0; c < bands; c++)
+        px[c] = (float)(corner_sum(w, cB, bands, corners, c) * inv_pi);
 }
 
 /* -------------------------------------------------------------- render */
@@ -927,6 +1051,8 @@ struct rn_canvas {
     shade_setup *setup; /* SHADE_CACHE entries, each with 4 × setup_bands corner values */
     double *setup_B;
     uint32_t setup_bands;
+    double *acol;       /* acol_cap entries: each column's ray coordinate a */
+    uint32_t acol_cap;
 };
 
 rn_canvas *rn_canvas_create(void) { return calloc(1, sizeof(rn_canvas)); }
@@ -940,6 +1066,7 @@ void rn_canvas_destroy(rn_canvas *c)
     free(c->cv);
     free(c->setup);
     free(c->setup_B);
+    free(c->acol);
     free(c);
 }
 
@@ -997,6 +1124,14 @@ static int canvas_prepare(rn_canvas *c, uint32_t w, uint32_t h, uint32_t bands, 
     }
     for (size_t e = 0; e < SHADE_CACHE; e++)
         c->setup[e].patch = RAD_NONE;
+    if (c->acol_cap < w) {
+        free(c->acol);
+        c->acol_cap = 0;
+        c->acol = malloc((size_t)w * sizeof *c->acol);
+        if (!c->acol)
+            return rad_fail(err, RAD_ERR_NOMEM, "render: out of memory for a %u-pixel row", w);
+        c->acol_cap = w;
+    }
     return RAD_OK;
 }
 
@@ -1142,6 +1277,9 @@ int rn_canvas_draw(rn_canvas *canvas, const rad_mesh *mesh, uint32_t bands,
      * the sums run over the corners in order, as Σ_q w_q B_q. */
     const double inv_pi = 1.0 / M_PI;
     const shade_setup *ss = NULL;
+    double *acol = canvas->acol; /* a of each column, computed once a view */
+    for (uint32_t i = 0; i < fr.w; i++)
+        acol[i] = ((double)i + 0.5 - fr.cx) / fr.k;
     for (uint32_t j = 0; j < fr.h; j++) {
         double b = (fr.cy - (double)j - 0.5) / fr.k;
         for (uint32_t i = 0; i < fr.w; i++) {
@@ -1159,27 +1297,13 @@ int rn_canvas_draw(rn_canvas *canvas, const rad_mesh *mesh, uint32_t bands,
                     shade_prepare(e, mesh, p, &fr, vertex_B, bands);
                 ss = e;
             }
-            double w[4], a = ((double)i + 0.5 - fr.cx) / fr.k;
-            shade_weights(ss, a, b, w);
+            double w[4];
+            shade_weights(ss, acol[i], b, w);
             const double *cB = ss->cB;
-            if (ss->cell.corners == 4) {
-                for (uint32_t c = 0; c < bands; c++) {
-                    double sum = 0.0;
-                    sum += w[0] * cB[c];
-                    sum += w[1] * cB[bands + c];
-                    sum += w[2] * cB[2 * bands + c];
-                    sum += w[3] * cB[3 * bands + c];
-                    px[c] = (float)(sum * inv_pi);
-                }
-            } else {
-                for (uint32_t c = 0; c < bands; c++) {
-                    double sum = 0.0;
-                    sum += w[0] * cB[c];
-                    sum += w[1] * cB[bands + c];
-                    sum += w[2] * cB[2 * bands + c];
-                    px[c] = (float)(sum * inv_pi);
-                }
-            }
+            if (ss->cell.corners == 4)
+                shade_store(px, w, cB, bands, 4, inv_pi);
+            else
+                shade_store(px, w, cB, bands, 3, inv_pi);
         }
     }
     *out = img;

@@ -498,9 +498,8 @@ TEST(linear_ramp_trapezoid)
     mesh_free(m);
 }
 
-/* A canvas drawn over, view after view, on a mesh of more cells than the
- * canvas keeps shading setups for (patches p and p + 512 share a slot):
- * each view is right against the analytic field (check_view, on a fresh
+/* A canvas drawn over, view after view (slots shared between patches:
+ * shading_slots_shared_by_kinds): each view is right against the analytic field (check_view, on a fresh
  * canvas), and the kept canvas gives exactly the fresh canvas's image,
  * background included where the view before had drawn (its radiance is not
  * cleared in between). */
@@ -545,6 +544,53 @@ TEST(canvas_kept_between_views)
     CHECK(bg_after_covered > 100);
     rn_canvas_destroy(canvas);
     for (int v = 0; v < 3; v++)
+        rn_image_destroy(fresh[v]);
+    free(vb);
+    mesh_free(m);
+}
+
+/* Cells of different kinds sharing a shading slot.  The canvas keeps one
+ * setup per slot (patch index mod a power of two up to 4096), and a setup
+ * prepared over an older one must not keep anything of it.  Triangles
+ * 0..127 (linear: barycentric), 3,968 quads far off screen (never drawn),
+ * then trapezoid cells 4096..4159 (not parallelograms: the quadratic
+ * inverse): triangle q and trapezoid cell 4096 + q share a slot, and both
+ * are on screen, so their setups replace each other scan line after scan
+ * line.  Every pixel is checked against the analytic field (check_view),
+ * and a kept canvas gives the fresh canvas's image. */
+TEST(shading_slots_shared_by_kinds)
+{
+    rad_vec3 tri[4], far[4];
+    rect_z(tri, -1.1, -1, -0.1, 1, 0, 0);
+    rect_z(far, 50, 50, 60, 60, 0, 0);
+    rad_vec3 trap[4] = {{0.1, -1, 0}, {1.1, -1, 0}, {0.8, 1, 0}, {0.3, 1, 0}};
+    rad_mesh *m = mesh_new(81 + 63 * 65 + 81, 4160);
+    add_grid(m, tri, 8, 8, 1, 0);
+    add_grid(m, far, 62, 64, 0, 0);
+    uint32_t first = add_grid(m, trap, 8, 8, 0, 0);
+    CHECK(m->patch_count == 4160 && first == 4096 && m->patches[0].v[3] == RAD_NONE);
+    const double k[4] = {2.0, 0.9, -0.5, 0.0};
+    double *vb = vertex_field(m, 3, k);
+    rn_camera cams[2] = {
+        camera(rad_v3(0, 0, 2.5), rad_v3(0, 0, 0), rad_v3(0, 1, 0), 50, 64, 48),
+        camera(rad_v3(0.4, -1.5, 2.0), rad_v3(0, 0, 0), rad_v3(0, 0, 1), 55, 64, 48),
+    };
+    rn_image *fresh[2] = {NULL, NULL};
+    for (int v = 0; v < 2; v++)
+        CHECK(check_view(m, 3, vb, &cams[v], field_lin, k, &fresh[v]) > 500);
+    rn_canvas *canvas = rn_canvas_create();
+    CHECK(canvas != NULL);
+    for (int q = 0; q < 4 && canvas; q++) {
+        rn_image *img = NULL;
+        rad_error err = {0};
+        CHECK_MSG(rn_canvas_draw(canvas, m, 3, vb, &cams[q % 2], &img, &err) == RAD_OK, "%s",
+                  err.message);
+        if (img && fresh[q % 2])
+            CHECK(!memcmp(img->pixels, fresh[q % 2]->pixels,
+                          (size_t)img->width * img->height * 3 * sizeof(float)));
+    }
+    rn_canvas_destroy(canvas);
+    for (int v = 0; v < 2; v++)
         rn_image_destroy(fresh[v]);
     free(vb);
     mesh_free(m);
@@ -1117,6 +1163,7 @@ int main(void)
     RUN(linear_ramp_trapezoid);
     RUN(linear_ramp_triangles);
     RUN(canvas_kept_between_views);
+    RUN(shading_slots_shared_by_kinds);
     RUN(no_cracks);
     RUN(occlusion_and_culling);
     RUN(orthographic_views);

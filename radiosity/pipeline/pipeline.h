@@ -199,8 +199,9 @@ int rad_drawing_views(const rad_drawing *d, const rn_camera *cams, uint32_t coun
                       uint32_t threads, rad_view_fn done, void *user, rad_error *err);
 
 /* The threads rad_drawing_views uses for `views` views: `threads`, or 0 =
- * one per online CPU and one more (to draw while another waits for its
- * files to reach the disk); never more than the views, at least 1. */
+ * one per online CPU (the files reach the disk on the caller's committer
+ * thread, so no drawing thread waits for them); never more than the
+ * views, at least 1. */
 uint32_t rad_view_threads(uint32_t threads, uint32_t views);
 
 /* A camera path (a fly-through) held in memory, one view per line:

@@ -179,14 +179,15 @@ static void *views_worker(void *arg)
     return NULL;
 }
 
-/* One thread more than CPUs: a view's files are synced to the disk before
- * they are renamed (rad_output_commit), tens of milliseconds per 1024² EXR
- * spent waiting, and meanwhile the extra thread draws (report/views.md). */
+/* One thread per CPU.  A view's files are synced and renamed by the
+ * committer thread (rad_committer), so no drawing thread waits for the
+ * disk, and each extra thread would cost a canvas (24 MB at 1024², faulted
+ * in on its first view: report/views.md). */
 uint32_t rad_view_threads(uint32_t threads, uint32_t views)
 {
     if (!threads) {
         long cpus = sysconf(_SC_NPROCESSORS_ONLN);
-        threads = cpus > 0 ? (uint32_t)(cpus < 255 ? cpus + 1 : 256) : 1;
+        threads = cpus > 0 ? (uint32_t)(cpus < 256 ? cpus : 256) : 1;
     }
     if (threads > views)
         threads = views;
