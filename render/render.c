@@ -726,11 +726,25 @@ static void raster_triangle(ibuf *ib, const int64_t *X, const int64_t *Y, int i0
 
 /* ------------------------------------------------------- interpolation */
 
+/* h = l1·a + l2·b solved by Cramer's rule, det = a × b: c becomes linear
+ * with (l1, l2) = lin·h, unless det is 0. */
+static void cell_linear(rn_cell2d *c, double det, double ax, double ay, double bx, double by)
+{
+    if (det == 0.0)
+        return;
+    double id = 1.0 / det;
+    c->linear = 1;
+    c->lin[0][0] = by * id;
+    c->lin[0][1] = -bx * id;
+    c->lin[1][0] = -ay * id;
+    c->lin[1][1] = ax * id;
+}
+
 void rn_cell2d_init(rn_cell2d *c, const rad_mesh *m, uint32_t cell)
 {
     const rad_patch *pa = &m->patches[cell];
     c->corners = rad_patch_corners(pa);
-    c->linear = c->para = 0; /* a cached cell is initialised over an older one */
+    c->linear = 0; /* a cached cell is initialised over an older one */
     c->v0 = m->vertices[pa->v[0]];
     c->e1 = rad_normalize(rad_sub(m->vertices[pa->v[1]], c->v0));
     c->e2 = rad_cross(pa->normal, c->e1);
@@ -753,32 +767,20 @@ void rn_cell2d_init(rn_cell2d *c, const rad_mesh *m, uint32_t cell)
          * g is taken as 0, so (u, v) is linear in h.  What that ignores
          * moves u and v by under 1e-10, far below a float pixel's 6e-8. */
         double side = fabs(c->ex) + fabs(c->ey) + fabs(c->fx) + fabs(c->fy);
-        c->para = c->kef != 0.0 && fabs(c->gx) + fabs(c->gy) <= 1e-10 * side;
-        if (c->para) { /* h = u·e + v·f: Cramer's rule */
-            double ik = 1.0 / c->kef;
-            c->linear = 1;
-            c->lin[0][0] = c->fy * ik;
-            c->lin[0][1] = -c->fx * ik;
-            c->lin[1][0] = -c->ey * ik;
-            c->lin[1][1] = c->ex * ik;
-        }
+        if (fabs(c->gx) + fabs(c->gy) <= 1e-10 * side) /* h = u·e + v·f */
+            cell_linear(c, c->kef, c->ex, c->ey, c->fx, c->fy);
     } else {
         c->det = c->p[1][0] * c->p[2][1] - c->p[1][1] * c->p[2][0];
-        if (c->det != 0.0) { /* h = w1·p1 + w2·p2 */
-            double id = 1.0 / c->det;
-            c->linear = 1;
-            c->lin[0][0] = c->p[2][1] * id;
-            c->lin[0][1] = -c->p[2][0] * id;
-            c->lin[1][0] = -c->p[1][1] * id;
-            c->lin[1][1] = c->p[1][0] * id;
-        }
+        /* h = w1·p1 + w2·p2 */
+        cell_linear(c, c->det, c->p[1][0], c->p[1][1], c->p[2][0], c->p[2][1]);
     }
 }
 
 /* (u, v) of the plane point h in the quad: h = u·e + v·f + u·v·g.
  * Eliminating u gives k2·v² + k1·v + k0 = 0, solved in the
- * cancellation-free form (a parallelogram, k2 = 0, falls out as
- * v = −k0/k1); the root nearest [0, 1] is taken, then u by projection on
+ * cancellation-free form (k2 = 0, g parallel to f, falls out as
+ * v = −k0/k1; parallelograms never get here, rn_cell2d_init made them
+ * linear); the root nearest [0, 1] is taken, then u by projection on
  * e + v·g.  Both are clamped to [0, 1]: a pixel centre may sit a snapping
  * error outside the patch that owns it, and clamping keeps B a convex
  * combination of the corner values (never negative). */
@@ -786,7 +788,7 @@ static void inverse_bilinear(const rn_cell2d *s, double hx, double hy, double *u
 {
     double k1 = s->kef + hx * s->gy - hy * s->gx;
     double k0 = hx * s->ey - hy * s->ex;
-    if (s->k2 == 0.0 && k1 != 0.0) { /* parallelogram: linear, no root to pick */
+    if (s->k2 == 0.0 && k1 != 0.0) { /* linear in v, no root to pick */
         double v = -k0 / k1;
         v = v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0;
         double ax = s->ex + s->gx * v, ay = s->ey + s->gy * v, den = ax * ax + ay * ay;

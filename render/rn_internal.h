@@ -54,10 +54,10 @@ typedef struct rn_cell2d {
     rad_vec3 v0, e1, e2;
     double p[4][2];                         /* corners; p[0] = (0, 0) */
     double ex, ey, fx, fy, gx, gy, k2, kef; /* quads: x = u·e + v·f + u·v·g */
-    int para;                               /* quads: g below 1e-10 of the sides, taken as 0 */
     double det;                             /* triangles: p1 × p2 */
-    /* A triangle with det != 0 or a parallelogram is linear: its two
-     * coordinates (w1, w2), or (u, v), are lin·(hx, hy). */
+    /* A triangle with det != 0 or a parallelogram (a quad whose g is below
+     * 1e-10 of its sides) is linear: its two coordinates (w1, w2), or
+     * (u, v), are lin·(hx, hy). */
     int linear;
     double lin[2][2];
 } rn_cell2d;
