@@ -449,7 +449,7 @@ int main(void)
         /* 0 splits: a size floor nothing passes keeps the patches as elements. */
         uni[l] = l ? refine(s, name, 0, l, 0, 0, &el) : refine(s, name, 1.0, 0, 1e300, 0, &el);
         score(s, el, ref, ref_view, ref_surf, &uni[l]);
-        rad_elements_destroy(el);
+        rad_element_store_destroy(el);
     }
     if (uniform_sets) {
         char name[64];
@@ -457,7 +457,7 @@ int main(void)
         rad_elements *el = NULL;
         conv = refine(s, name, 0, REF_LEVELS - 1, 0, 1, &el);
         score(s, el, ref, ref_view, ref_surf, &conv);
-        rad_elements_destroy(el);
+        rad_element_store_destroy(el);
     }
     for (int a = 0; a < threshold_count; a++) {
         char name[64];
@@ -465,7 +465,7 @@ int main(void)
         rad_elements *el = NULL;
         ada[a] = refine(s, name, thresholds[a], 0, min_size, 0, &el);
         score(s, el, ref, ref_view, ref_surf, &ada[a]);
-        rad_elements_destroy(el);
+        rad_element_store_destroy(el);
     }
     static const char *const title[METRICS] = {
         "Element MAE (piecewise-constant B at the reference element centres)",
@@ -506,7 +506,7 @@ int main(void)
     for (int k = 0; k < SURFACES; k++)
         rn_image_destroy(ref_surf[k]);
     rn_image_destroy(ref_view);
-    rad_elements_destroy(ref);
+    rad_element_store_destroy(ref);
     rad_solution_destroy(s);
     return 0;
 }

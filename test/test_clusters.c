@@ -316,7 +316,7 @@ TEST(elements_in_clusters)
     free(a);
     free(b);
     /* Elements of a cluster lie in its cells: polygon and normal the cell's. */
-    CHECK(rad_elements_check(el, s, "elements", &err) == RAD_OK);
+    CHECK(rad_element_store_check(el, s, "elements", &err) == RAD_OK);
     /* and they survive the file */
     rad_solution *r = round_trip(s);
     CHECK(r && r->elements && r->elements->mesh->patch_count == el->mesh->patch_count);

@@ -12,7 +12,7 @@
 #include "../radiosity/mesh/mesh.h"
 #include "../radiosity/pipeline/pipeline.h"
 #include "../radiosity/scene/scene.h"
-#include "../radiosity/store/solution.h"
+#include "../radiosity/solfile/solfile.h"
 #include "test.h"
 #include "util.h"
 
@@ -29,7 +29,7 @@
 
 /* CRC-64/XZ written from its definition (bit by bit, reflected polynomial
  * 0xC96C5795D7870F42, init and final XOR all ones), independent of
- * store/format.c's table-driven code.  crc_step advances the raw register. */
+ * solfile/format.c's table-driven code.  crc_step advances the raw register. */
 static uint64_t crc_step(uint64_t reg, uint8_t byte)
 {
     reg ^= byte;
@@ -788,7 +788,7 @@ static void tally_flip(const uint8_t *buf, size_t size, size_t k, flip_tally *t)
 TEST(crc_matches_published_check_value)
 {
     /* The catalogue check value of CRC-64/XZ: validates this file's CRC,
-     * which the layout tests below use to judge store/read.c's. */
+     * which the layout tests below use to judge solfile/read.c's. */
     CHECK(crc64_xz((const uint8_t *)"123456789", 9) == 0x995DC9BBDF1939FAull);
     CHECK(crc64_xz(NULL, 0) == 0);
 }
@@ -1069,7 +1069,7 @@ TEST(version_2_file_reads_as_written)
     rad_error e;
     CHECK_MSG(rad_solution_read(CORPUS "rgb-room", &r, &e) == RAD_OK, "%s", e.message);
     check_same(s, r);
-    CHECK(r && invariants_hold(r) && r->irradiance == NULL && !r->matrix_file.path);
+    CHECK(r && invariants_hold(r) && r->irradiance == NULL && !rad_solution_matrix_file(r));
     rad_solution_destroy(r);
     size_t m = find_section(b, golden_size, "MTRX", &len);
     CHECK(m && s && rd32(b + m) == s->mesh->patch_count);
@@ -1701,7 +1701,7 @@ TEST(read_without_matrix)
         /* loaded afterwards, it is the whole matrix */
         CHECK_MSG(rad_solution_load_matrix(v, &e) == RAD_OK, "%s", e.message);
         check_same(w, v);
-        CHECK(v->matrix_file.path && v->matrix_file.offset == 32);
+        CHECK(rad_solution_matrix_file(v) && rad_solution_matrix_file(v)->offset == 32);
     }
     rad_solution_destroy(v);
     rad_solution_destroy(w);
@@ -2131,7 +2131,7 @@ static size_t v6_damage_from(uint8_t *buf, size_t size, size_t at, size_t body, 
         int rc = rad_solution_parse(buf, size, "flip", 0, &s, &e);
         if ((rc == RAD_OK && (!s || !invariants_hold(s) ||
                               (s->elements &&
-                               rad_elements_check(s->elements, s, "x", NULL) != RAD_OK))) ||
+                               rad_element_store_check(s->elements, s, "x", NULL) != RAD_OK))) ||
             (rc != RAD_OK && s))
             bad++;
         rad_solution_destroy(s);
@@ -2445,7 +2445,7 @@ TEST(element_rows_section)
         CHECK(y->nnz == x->nnz && same_bits(y->row_count, x->row_count, 4ull * ne) &&
               same_bits(y->row_start, x->row_start, 8ull * ne) &&
               same_bits(y->B, x->B, 8ull * ne * nb));
-        CHECK(rad_elements_check(y, r, "p", NULL) == RAD_OK);
+        CHECK(rad_element_store_check(y, r, "p", NULL) == RAD_OK);
         if (rows)
             check_same_elements(x, y, nb);
         rad_solution_destroy(r);
@@ -2636,11 +2636,11 @@ TEST(basis_round_trip_and_damage)
      * (render's and report's way) it is not read, and that is known */
     rad_solution *parts = NULL;
     CHECK(rad_solution_read_parts(p, RAD_PART_BASIS, &parts, &e) == RAD_OK && parts &&
-          parts->basis && parts->basis->groups == 3 && !parts->basis_skipped);
+          parts->basis && parts->basis->groups == 3 && !rad_solution_basis_skipped(parts));
     rad_solution_destroy(parts);
     parts = NULL;
     CHECK(rad_solution_read_parts(p, 0, &parts, &e) == RAD_OK && parts && !parts->basis &&
-          parts->basis_skipped);
+          rad_solution_basis_skipped(parts));
     rad_solution_destroy(parts);
 
     /* the sizes in BASIS's head, then a group, then a value */

@@ -211,7 +211,7 @@ static int relight_solution(rad_solution *s, const relight_args *a, relit_how *h
     int rc = RAD_OK;
     if (a->resolve)
         snprintf(how->why, sizeof how->why, "--resolve");
-    else if (!s->F->entries_loaded && !s->matrix_file.path)
+    else if (!s->F->entries_loaded && !rad_solution_matrix_file(s))
         snprintf(how->why, sizeof how->why, "the form factors it shares could not be found");
     else
         rc = rad_solution_superpose(s, &how->superposed, how->why, sizeof how->why, err);

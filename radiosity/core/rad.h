@@ -117,6 +117,18 @@ static inline rad_vec3 rad_lerp(rad_vec3 a, rad_vec3 b, double t)
 }
 static inline int rad_finite3(rad_vec3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
 
+/* ------------------------------------------------------------------- bands */
+
+/* Is some band of v[0..bands) > 0?  An emitter's E, a light's I: what makes
+ * a source. */
+static inline int rad_any_positive(const double *v, uint32_t bands)
+{
+    for (uint32_t b = 0; b < bands; b++)
+        if (v[b] > 0.0)
+            return 1;
+    return 0;
+}
+
 /* -------------------------------------------------------------------- mesh */
 
 /* A patch: the unit of the radiosity solution.  It is a planar convex quad

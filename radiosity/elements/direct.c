@@ -134,12 +134,10 @@ int el_sources_make(const rad_solution *s, el_sources *src, rad_error *err)
     if (!src->direct)
         return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for the direct sources");
     for (uint32_t j = 0; j < n; j++)
-        for (uint32_t b = 0; b < bands; b++)
-            if (s->emission[(size_t)j * bands + b] > 0.0) {
-                src->direct[j] = 1;
-                src->patches++;
-                break;
-            }
+        if (rad_any_positive(s->emission + (size_t)j * bands, bands)) {
+            src->direct[j] = 1;
+            src->patches++;
+        }
     size_t total = 0;
     for (uint32_t j = 0; j < n; j++)
         total += src->direct[j] ? strata_count(s->mesh, j) : 0;

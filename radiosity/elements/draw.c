@@ -188,7 +188,7 @@ int rad_elements_of_cells(const rad_solution *s, rad_elements **out, rad_error *
     const uint32_t bands = s->band_count;
     const uint32_t count = pm->cell_first ? pm->cell_count : pm->patch_count;
     *out = NULL;
-    rad_elements *el = rad_elements_alloc(pm->vertex_count, count, bands, 0);
+    rad_elements *el = rad_element_store_alloc(pm->vertex_count, count, bands, 0);
     if (!el)
         return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for %u cells", count);
     memcpy(el->mesh->vertices, pm->vertices, (size_t)pm->vertex_count * sizeof *pm->vertices);
@@ -289,7 +289,7 @@ done:
  * nothing of its neighbourhood) at their centres, limited to the range of
  * those B and to >= 0.  The vertex fits then run smoothly across the
  * cells as across the patches of a polygon.  pB is the patches' field so
- * drawn (s->B, or another field of the patches: gather.c's el_interp). */
+ * drawn (s->B, or another field of the patches: element_gather.c's el_interp). */
 static void cluster_value(const rad_solution *s, const double *pB, const uint64_t *start,
                           const uint32_t *adj, const uint8_t *dark, uint32_t p, rad_vec3 x,
                           double *sx, double *sy, double *w, uint32_t *id, double *out)

@@ -78,7 +78,7 @@ int el_direct_rows(const rad_solution *s, const el_sources *src, hc_engine *hc, 
                    const hc_receiver *pts, uint32_t count, el_rows *out, uint64_t *renders,
                    rad_error *err);
 
-/* ----------------------------------------------------- gather (gather.c) */
+/* --------------------------------------------- gather (element_gather.c) */
 
 /* A field of the patches (n × bands) drawn as elements are (buried patches
  * extrapolated, quadratic vertex fits on the patches' fans), to be read at

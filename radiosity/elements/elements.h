@@ -1,7 +1,7 @@
 /* elements.h - elements: detail where the light changes (substructuring,
  * Cohen, Greenberg, Immel & Brock 1986: patches shoot, elements receive).
  *
- * The element data (rad_elements) belongs to the solution store
+ * The element data (rad_elements) belongs to the solution
  * (solution.h); this module computes with it: the gather of each element's
  * B from the patch solution, what the renderer draws for elements, and the
  * refinement that decides where elements are needed.  Only refinement
@@ -13,9 +13,9 @@
 
 #include "../../hemicube/hemicube.h"
 #include "../../render/render.h"
-#include "../store/solution.h"
+#include "../solution/solution.h"
 
-/* ---------------------------------------------------------- gather (gather.c) */
+/* -------------------------------------------------- gather (element_gather.c) */
 
 /* B_e of every element from the patch solution s->B (and the punctual
  * lights' direct irradiance), by the gather in solution.h's rad_elements.  What a relight calls:

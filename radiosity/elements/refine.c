@@ -12,7 +12,7 @@
  *   - adaptive, by default: an interpolated element (solution.h) - its row
  *     is the emitters' strata entries (direct.c: one item buffer per
  *     stratum and pass, for every element of the pass), and its reflected
- *     light is read from the patches' field (gather.c's el_interp);
+ *     light is read from the patches' field (element_gather.c's el_interp);
  *   - where another surface meets it (contact.c), a hemi-cube at its
  *     centre, whose entries for the emitters are replaced by the strata's
  *     so that both kinds agree on the direct light;
@@ -576,7 +576,7 @@ static void drop_elements(rad_elements *el, int borrow)
         el->col = NULL;
         el->val = NULL;
     }
-    rad_elements_destroy(el);
+    rad_element_store_destroy(el);
 }
 
 /* The builder's leaves as a rad_elements, with their rows and only the
@@ -612,7 +612,7 @@ static int leaves_to_elements(const builder *b, int borrow, rad_elements **out,
             if (remap[n->v[k]] == RAD_NONE)
                 remap[n->v[k]] = used++;
     }
-    rad_elements *el = rad_elements_alloc(used, leaves, b->bands, borrow ? 0 : entries);
+    rad_elements *el = rad_element_store_alloc(used, leaves, b->bands, borrow ? 0 : entries);
     if (el && borrow) {
         free(el->col);
         free(el->val);
@@ -675,7 +675,7 @@ static int leaves_to_elements(const builder *b, int borrow, rad_elements **out,
             el->interp[k] = n->interp;
     }
     free(remap);
-    int rc = rad_elements_complete(el, b->s, "elements", err);
+    int rc = rad_element_store_complete(el, b->s, "elements", err);
     if (rc != RAD_OK) {
         drop_elements(el, borrow);
         free(of);
@@ -986,7 +986,7 @@ int rad_elements_refine(rad_solution *s, hc_engine *hc, const rad_refine_options
                         "levels at most %u", RAD_MAX_ELEMENT_LEVEL);
     if (s->scene->light_count && (!opt.lights || !opt.light_resolution))
         return rad_fail(err, RAD_ERR_USAGE, "rad_elements_refine: the scene's lights are missing");
-    rad_elements_destroy(s->elements);
+    rad_element_store_destroy(s->elements);
     s->elements = NULL;
     if (opt.threshold == 0.0)
         opt.threshold = RAD_DEFAULT_REFINE_THRESHOLD;

@@ -25,6 +25,10 @@
  * is shot first, as the source term E_j + ρ_j H_d,j, and the solver carries
  * the interreflection from there.  Φ is stored, so a relight that scales or
  * switches a light renders nothing again.
+ *
+ * Once B and the elements are final, the stored light responses are made
+ * (rad_basis_make, radiosity/relight/), whose per-group solves run on this
+ * file's solver (make_basis).
  */
 #include "pipeline.h"
 
@@ -87,15 +91,6 @@ static void row_progress(void *user, uint32_t done, uint32_t total)
         c->opt->hemicube.progress(c->opt->hemicube.progress_user, done, total);
 }
 
-/* Does patch i emit (E > 0 in some band; punctual lights do not count)? */
-static int emits(const rad_solution *s, uint32_t i)
-{
-    for (uint32_t b = 0; b < s->band_count; b++)
-        if (s->emission[(size_t)i * s->band_count + b] > 0.0)
-            return 1;
-    return 0;
-}
-
 /* The patches whose incoming factors are exact, into c->exact (NULL when
  * none are: pixel_emitters, or the caller's own marks): emitters, whose few
  * pixels are where aliasing hurts. */
@@ -108,7 +103,8 @@ static int mark_exact(run *c, rad_error *err)
     if (!c->exact)
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", c->s->scene->source);
     for (uint32_t i = 0; i < n; i++)
-        c->exact[i] = (uint8_t)emits(c->s, i);
+        c->exact[i] = (uint8_t)rad_any_positive(c->s->emission + (size_t)i * c->s->band_count,
+                                                c->s->band_count);
     return RAD_OK;
 }
 
@@ -177,7 +173,8 @@ static int need_column(void *user, uint32_t i, uint32_t *col, float *val, uint32
 {
     run *c = user;
     *count = RAD_NONE;
-    if (c->opt->pixel_emitters || c->opt->hemicube.exact || !emits(c->s, i))
+    if (c->opt->pixel_emitters || c->opt->hemicube.exact ||
+        !rad_any_positive(c->s->emission + (size_t)i * c->s->band_count, c->s->band_count))
         return RAD_OK;
     const double t0 = rad_seconds();
     int rc = start_hemicube(c, err);
@@ -777,204 +774,63 @@ static int resolve(run *c, rad_error *err)
 
 /* ------------------------------------------------ stored light responses */
 
-/* Does F hold every row a Gauss-Seidel solve of s needs? */
-static int rows_for_gauss_seidel(const rad_solution *s, const sv_system *all)
+/* What rad_basis_make's solves share: the run, and τ and the system of
+ * the solution's patches (prepare). */
+typedef struct group_solve {
+    run *c;
+    double *tau;
+    sv_system all;
+} group_solve;
+
+/* rad_group_solver.prepare: τ and the system, and whether F holds every
+ * row a Gauss-Seidel solve of s needs. */
+static int prepare_groups(void *user, const rad_solution *s, int *rows_ready, rad_error *err)
 {
+    group_solve *gs = user;
+    int rc = patch_tau(s, &gs->tau, err);
+    if (rc)
+        return rc;
+    gs->all = (sv_system){.n = s->mesh->patch_count, .bands = s->band_count, .F = s->F,
+                          .rho = s->rho, .emission = s->emission, .tau = gs->tau,
+                          .twin = gs->tau ? s->mesh->twin : NULL};
+    *rows_ready = 1;
     for (uint32_t i = 0; i < s->mesh->patch_count; i++)
-        if (!s->F->row_done[i] && sv_row_needed(all, i))
-            return 0;
-    return 1;
+        if (!s->F->row_done[i] && sv_row_needed(&gs->all, i))
+            *rows_ready = 0;
+    return RAD_OK;
 }
 
-/* The solution's sources and answers, kept while the groups are solved
- * one by one and put back after. */
-typedef struct kept {
-    double *E, *I, *B, *Be, residual;
-    uint32_t iterations;
-} kept;
-
-static void kept_free(kept *k)
+/* rad_group_solver.solve: the patches for s's current sources (one light
+ * group's), by Gauss-Seidel on the stored rows with the solve's tolerance. */
+static int solve_sources(void *user, rad_solution *s, double *residual, rad_error *err)
 {
-    free(k->E);
-    free(k->I);
-    free(k->B);
-    free(k->Be);
-}
-
-static int keep(const rad_solution *s, kept *k)
-{
-    const size_t nv = (size_t)s->mesh->patch_count * s->band_count;
-    const size_t nl = s->light_intensity ? (size_t)s->scene->light_count * s->band_count : 0;
-    const size_t ne = s->elements ? (size_t)s->elements->mesh->patch_count * s->band_count : 0;
-    *k = (kept){.E = malloc((nv + 1) * sizeof *k->E), .I = malloc((nl + 1) * sizeof *k->I),
-                .B = malloc((nv + 1) * sizeof *k->B), .Be = malloc((ne + 1) * sizeof *k->Be),
-                .residual = s->residual, .iterations = s->iterations};
-    if (!k->E || !k->I || !k->B || !k->Be) {
-        kept_free(k);
-        return -1;
-    }
-    memcpy(k->E, s->emission, nv * sizeof *k->E);
-    memcpy(k->B, s->B, nv * sizeof *k->B);
-    if (nl)
-        memcpy(k->I, s->light_intensity, nl * sizeof *k->I);
-    if (ne)
-        memcpy(k->Be, s->elements->B, ne * sizeof *k->Be);
-    return 0;
-}
-
-static void put_back(rad_solution *s, const kept *k)
-{
-    const size_t nv = (size_t)s->mesh->patch_count * s->band_count;
-    const size_t nl = s->light_intensity ? (size_t)s->scene->light_count * s->band_count : 0;
-    const size_t ne = s->elements ? (size_t)s->elements->mesh->patch_count * s->band_count : 0;
-    memcpy(s->emission, k->E, nv * sizeof *k->E);
-    memcpy(s->B, k->B, nv * sizeof *k->B);
-    if (nl)
-        memcpy(s->light_intensity, k->I, nl * sizeof *k->I);
-    if (ne)
-        memcpy(s->elements->B, k->Be, ne * sizeof *k->Be);
-    s->residual = k->residual;
-    s->iterations = k->iterations;
-}
-
-/* Group g's response into b: s's sources set to g's alone (the reference
- * ones on its members, 0 elsewhere), solved by Gauss-Seidel on the stored
- * rows with the solve's tolerance, the elements gathered, H computed. */
-static int solve_group(run *c, const sv_system *all, const double *tau, rad_basis *b,
-                       uint32_t g, rad_error *err)
-{
-    rad_solution *s = c->s;
-    const uint32_t n = s->mesh->patch_count, nb = s->band_count;
-    const size_t nv = (size_t)n * nb;
-    for (uint32_t i = 0; i < n; i++)
-        for (uint32_t k = 0; k < nb; k++)
-            s->emission[(size_t)i * nb + k] =
-                b->patch_group[i] == g ? b->E_ref[(size_t)i * nb + k] : 0.0;
-    for (uint32_t l = 0; l < b->light_count; l++)
-        for (uint32_t k = 0; k < nb; k++)
-            s->light_intensity[(size_t)l * nb + k] =
-                b->light_group[l] == g ? b->I_ref[(size_t)l * nb + k] : 0.0;
+    group_solve *gs = user;
     double *src = NULL;
-    int rc = source_term(s, tau, &src, err);
-    sv_options so = solver_options(c);
+    int rc = source_term(s, gs->tau, &src, err);
+    sv_options so = solver_options(gs->c);
     so.method = SV_GAUSS_SEIDEL;
     so.tolerance = s->tolerance;
     so.on_preview = NULL;
     sv_stats st = {0};
     if (!rc)
-        rc = solve_bands(c, all, src ? src : s->emission, &so, &st, err);
+        rc = solve_bands(gs->c, &gs->all, src ? src : s->emission, &so, &st, err);
     free(src);
-    if (!rc && s->elements)
-        rc = rad_elements_gather(s, s->elements, err);
-    if (!rc)
-        rc = rad_solution_irradiance(s, b->H + g * nv, err);
-    if (rc)
-        return rc;
-    memcpy(b->B + g * nv, s->B, nv * sizeof *s->B);
-    if (b->Be)
-        memcpy(b->Be + (size_t)g * b->element_count * nb, s->elements->B,
-               (size_t)b->element_count * nb * sizeof *b->Be);
-    b->residual[g] = st.residual;
-    return RAD_OK;
+    *residual = st.residual;
+    return rc;
 }
 
-#if RAD_DEBUG
-/* solution.h's invariant: Σ_g B^(g) = B within what the solves' residuals
- * allow.  A residual r (of max B) bounds a solve's error by r max B / (1 -
- * ρ_max) (ρ_max: the largest ρ + τ, rows summing to at most 1 + 1e-3), and
- * B itself carries one too; twice that, for the estimate's rounding. */
-static void check_basis(const rad_solution *s)
-{
-    const rad_basis *b = s->basis;
-    const size_t nv = (size_t)b->patch_count * b->band_count;
-    double rho_max = 0.0, top_B = 0.0;
-    for (size_t q = 0; q < nv; q++) {
-        const rad_material *m = &s->scene->materials[s->mesh->patches[q / b->band_count].material];
-        rho_max = fmax(rho_max, s->rho[q] + m->transmit[q % b->band_count]);
-        top_B = fmax(top_B, s->B[q]);
-    }
-    const double gain = 1.0 / fmax(1e-6, 1.0 - rho_max * (1.0 + 1e-3));
-    double slack = 1e-12 + s->residual * top_B;
-    for (uint32_t g = 0; g < b->groups; g++) {
-        double top = 0.0;
-        for (size_t q = 0; q < nv; q++)
-            top = fmax(top, b->B[g * nv + q]);
-        slack += b->residual[g] * top;
-    }
-    slack *= 2.0 * gain;
-    for (size_t q = 0; q < nv; q++) {
-        double sum = 0.0;
-        for (uint32_t g = 0; g < b->groups; g++)
-            sum += b->B[g * nv + q];
-        RAD_ASSERT(fabs(sum - s->B[q]) <= slack + 1e-9 * s->B[q]);
-    }
-}
-#endif
-
-/* The stored light responses of s's final B and elements (solution.h,
- * rad_basis): for one group the solution itself, exact for every solver;
- * for more, one Gauss-Seidel solve per group when F holds every row it
- * needs (else none).  The time counts as solving. */
+/* The stored light responses of s's final B and elements (rad_basis_make,
+ * relight.h), the groups solved on this run's solver.  The time counts as
+ * solving. */
 static int make_basis(run *c, rad_error *err)
 {
-    rad_solution *s = c->s;
     const double t0 = rad_seconds();
-    const uint32_t n = s->mesh->patch_count, nb = s->band_count;
-    const size_t nv = (size_t)n * nb;
-    rad_basis_destroy(s->basis);
-    s->basis = NULL;
-    /* Without F's entries, only when H was kept (release_rows): one group. */
-    if ((!s->F->entries_loaded && !s->irradiance) || !(s->residual >= 0.0) ||
-        !isfinite(s->residual))
-        return RAD_OK;
-    uint32_t *pg = malloc(((size_t)n + 1) * sizeof *pg);
-    uint32_t *lg = malloc(((size_t)s->scene->light_count + 1) * sizeof *lg);
-    uint32_t K = 0;
-    double *tau = NULL;
-    int rc = pg && lg ? rad_basis_groups(s, pg, lg, &K, err)
-                      : rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
-    if (!rc)
-        rc = patch_tau(s, &tau, err);
-    const sv_system all = {.n = n, .bands = nb, .F = s->F, .rho = s->rho, .emission = s->emission,
-                           .tau = tau, .twin = tau ? s->mesh->twin : NULL};
-    rad_basis *b = NULL;
-    if (!rc && K >= 1 && K <= RAD_BASIS_MAX_GROUPS &&
-        (K == 1 || (s->F->entries_loaded && rows_for_gauss_seidel(s, &all))) &&
-        !(b = rad_basis_create(s, K)))
-        rc = rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory for %u light responses",
-                      s->scene->source, K);
-    if (b) {
-        memcpy(b->patch_group, pg, (size_t)n * sizeof *pg);
-        memcpy(b->light_group, lg, (size_t)b->light_count * sizeof *lg);
-    }
-    if (b && K == 1) { /* scaling the one source scales the answer */
-        memcpy(b->B, s->B, nv * sizeof *s->B);
-        if (b->Be)
-            memcpy(b->Be, s->elements->B, (size_t)b->element_count * nb * sizeof *b->Be);
-        b->residual[0] = s->residual;
-        rc = rad_solution_irradiance(s, b->H, err);
-    } else if (b) {
-        kept k;
-        if (keep(s, &k) != 0)
-            rc = rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->scene->source);
-        for (uint32_t g = 0; !rc && g < K; g++)
-            rc = solve_group(c, &all, tau, b, g, err);
-        if (k.E)
-            put_back(s, &k);
-        kept_free(&k);
-    }
-    free(pg);
-    free(lg);
-    free(tau);
-    if (rc)
-        rad_basis_destroy(b);
-    else
-        s->basis = b;
-#if RAD_DEBUG
-    if (s->basis)
-        check_basis(s);
-#endif
-    s->stages[RAD_STAGE_SOLVE].seconds += rad_seconds() - t0;
+    group_solve gs = {.c = c};
+    const rad_group_solver solver = {.prepare = prepare_groups, .solve = solve_sources,
+                                     .user = &gs};
+    int rc = rad_basis_make(c->s, &solver, err);
+    free(gs.tau);
+    c->s->stages[RAD_STAGE_SOLVE].seconds += rad_seconds() - t0;
     return rc;
 }
 

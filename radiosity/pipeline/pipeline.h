@@ -10,8 +10,10 @@
 #include "../../solver/solver.h"
 #include "../elements/elements.h"
 #include "../mesh/mesh.h"
+#include "../relight/relight.h"
 #include "../scene/scene.h"
-#include "../store/solution.h"
+#include "../solfile/solfile.h"
+#include "../solution/solution.h"
 
 #include <signal.h>
 
@@ -101,7 +103,7 @@ typedef struct rad_solve_options {
     int element_hemicubes;   /* 1 = every adaptive element's row from a hemi-cube of its own
                               * (rad_refine_options: the slow reference) */
     /* rad_solve_scene only, may be NULL: the solve's output file in progress
-     * (rad_journal in solution.h).  Rows it already holds for this mesh and
+     * (rad_journal in solfile.h).  Rows it already holds for this mesh and
      * these options are reused, every new row is appended to it as soon as
      * it is computed; the caller commits it with the solution.  With
      * refinement and one light group, the solution comes back with F's
@@ -218,7 +220,7 @@ int rad_camera_path_parse(const char *text, size_t size, const char *name, const
 int rad_camera_from_scene(const rad_scene *scene, const char *name, uint32_t width,
                           uint32_t height, rn_camera *cam, rad_error *err);
 
-/* ------------------------------------------ the final gather (gather.c here) */
+/* --------------------------------------------- the final gather (gather_scene.c) */
 
 /* The gather renderer's input (render.h's rn_scene) built from a solution,
  * with the arrays it points to: the cells the vertex renderer draws (the

@@ -76,12 +76,12 @@ int rad_drawing_create(const rad_solution *s, rad_drawing **out, rad_error *err)
     if (rc != RAD_OK)
         goto fail;
     free(cell_element);
-    rad_elements_destroy(of_cells);
+    rad_element_store_destroy(of_cells);
     *out = d;
     return RAD_OK;
 fail:
     free(cell_element);
-    rad_elements_destroy(of_cells);
+    rad_element_store_destroy(of_cells);
     rad_drawing_destroy(d);
     return rc;
 }

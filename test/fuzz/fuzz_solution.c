@@ -12,7 +12,7 @@
  * `test_solution --write-seeds`; elements-room-v7 and interp-room-v7 hold
  * ELEMENTROWS).
  */
-#include "../../radiosity/store/solution.h"
+#include "../../radiosity/solfile/solfile.h"
 
 #include <stdint.h>
 #include <stdlib.h>
@@ -42,7 +42,7 @@ static void parse_one(const uint8_t *data, size_t size, unsigned parts)
             abort();
         /* elements: whole, their row entries there exactly when asked for
          * (or inside a version 3-6 ELEMENTS) */
-        if (s->elements && (rad_elements_check(s->elements, s, "fuzz", NULL) != RAD_OK ||
+        if (s->elements && (rad_element_store_check(s->elements, s, "fuzz", NULL) != RAD_OK ||
                             (!s->elements->rows_loaded &&
                              ((parts & RAD_PART_ELEMENT_ROWS) || s->elements->col))))
             abort();

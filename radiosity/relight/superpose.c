@@ -1,18 +1,18 @@
-/* basis.c - the stored light responses of a solution (solution.h,
- * rad_basis) and relighting by their superposition.
+/* superpose.c - relighting by superposition of a solution's stored light
+ * responses (solution.h, rad_basis; relight.h, rad_solution_superpose).
  *
  * B is linear in the sources, per band: B = M (E + ρ H_d) with
  * M = (I - diag(ρ) F)^-1, and so are H and the elements' B.  A relight that
  * scales each light group's sources by one factor per band is therefore a
  * weighted sum of the stored responses, exact up to the groups' own solve
- * tolerance: no F read, no solve.
+ * tolerance: no F read, no solve.  The responses are made in responses.c.
  *
  * Invariant: rad_solution_superpose either finds one c_{g,band} >= 0 for
  * every group such that the solution's sources are exactly (to 1e-12
  * relative) c times the reference ones, and then replaces B, H and the
  * elements' B by the sums, or changes nothing.
  */
-#include "store_internal.h"
+#include "relight.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -23,114 +23,6 @@
  * still counts as a scaling: what a decimal scale factor costs in rounding
  * (two products and a quotient), far below any intended edit. */
 #define SCALE_MISMATCH 1e-12
-
-void rad_basis_destroy(rad_basis *b)
-{
-    if (!b)
-        return;
-    free(b->E_ref);
-    free(b->I_ref);
-    free(b->patch_group);
-    free(b->light_group);
-    free(b->B);
-    free(b->H);
-    free(b->Be);
-    free(b->residual);
-    free(b->rho);
-    free(b);
-}
-
-/* count doubles, or NULL (count 0 allocates one, so that NULL means OOM). */
-static double *doubles(uint64_t count)
-{
-    return count > SIZE_MAX / sizeof(double) - 1 ? NULL : calloc((size_t)count + 1, sizeof(double));
-}
-
-rad_basis *rad_basis_create(const rad_solution *s, uint32_t groups)
-{
-    rad_basis *b = calloc(1, sizeof *b);
-    if (!b)
-        return NULL;
-    const uint32_t n = s->mesh->patch_count, nb = s->band_count;
-    const uint32_t nl = s->light_intensity ? s->scene->light_count : 0;
-    const uint32_t ne = s->elements ? s->elements->mesh->patch_count : 0;
-    const uint64_t nv = (uint64_t)n * nb;
-    *b = (rad_basis){.groups = groups, .patch_count = n, .light_count = nl,
-                     .element_count = ne, .band_count = nb};
-    b->E_ref = doubles(nv);
-    b->rho = doubles(nv);
-    b->I_ref = nl ? doubles((uint64_t)nl * nb) : NULL;
-    b->patch_group = malloc(((size_t)n + 1) * sizeof *b->patch_group);
-    b->light_group = malloc(((size_t)nl + 1) * sizeof *b->light_group);
-    b->B = doubles(groups * nv);
-    b->H = doubles(groups * nv);
-    b->Be = ne ? doubles((uint64_t)groups * ne * nb) : NULL;
-    b->residual = doubles(groups);
-    if (!b->E_ref || !b->rho || (nl && !b->I_ref) || !b->patch_group || !b->light_group ||
-        !b->B || !b->H || (ne && !b->Be) || !b->residual) {
-        rad_basis_destroy(b);
-        return NULL;
-    }
-    memcpy(b->E_ref, s->emission, nv * sizeof *b->E_ref);
-    memcpy(b->rho, s->rho, nv * sizeof *b->rho);
-    if (nl)
-        memcpy(b->I_ref, s->light_intensity, (size_t)nl * nb * sizeof *b->I_ref);
-    for (uint32_t i = 0; i < n; i++)
-        b->patch_group[i] = RAD_NONE;
-    for (uint32_t l = 0; l < nl; l++)
-        b->light_group[l] = RAD_NONE;
-    return b;
-}
-
-int rad_basis_groups(const rad_solution *s, uint32_t *patch_group, uint32_t *light_group,
-                     uint32_t *groups, rad_error *err)
-{
-    (void)err; /* nothing is allocated: the pairs seen are at most the cap + 1 */
-    const uint32_t n = s->mesh->patch_count, nb = s->band_count;
-    const uint32_t nl = s->light_intensity ? s->scene->light_count : 0;
-    uint32_t pair[RAD_BASIS_MAX_GROUPS + 1][2], k = 0;
-    for (uint32_t i = 0; i < n; i++) {
-        patch_group[i] = RAD_NONE;
-        if (!sol_any_positive(s->emission + (size_t)i * nb, nb))
-            continue;
-        const rad_patch *p = &s->mesh->patches[i];
-        uint32_t g = 0;
-        while (g < k && (pair[g][0] != p->object || pair[g][1] != p->material))
-            g++;
-        if (g == k && k <= RAD_BASIS_MAX_GROUPS) {
-            pair[k][0] = p->object;
-            pair[k][1] = p->material;
-            k++;
-        }
-        patch_group[i] = g < k ? g : RAD_NONE; /* past the cap: the count says so */
-    }
-    for (uint32_t l = 0; l < nl; l++) {
-        light_group[l] = RAD_NONE;
-        if (sol_any_positive(s->light_intensity + (size_t)l * nb, nb))
-            light_group[l] = k++;
-    }
-    *groups = k;
-    return RAD_OK;
-}
-
-/* The basis's sizes are s's (patches, bands, lights, elements). */
-static int sizes_match(const rad_solution *s)
-{
-    const rad_basis *b = s->basis;
-    const uint32_t nl = s->light_intensity ? s->scene->light_count : 0;
-    const uint32_t ne = s->elements ? s->elements->mesh->patch_count : 0;
-    return b && b->patch_count == s->mesh->patch_count && b->band_count == s->band_count &&
-           b->light_count == nl && b->element_count == ne;
-}
-
-int rad_basis_matches(const rad_solution *s)
-{
-    const rad_basis *b = s->basis;
-    return sizes_match(s) &&
-           memcmp(b->rho, s->rho, (size_t)b->patch_count * b->band_count * sizeof *b->rho) == 0;
-}
-
-/* ----------------------------------------------------------- superposition */
 
 /* Is v = c × ref within SCALE_MISMATCH? (ref 0: v must be 0.) */
 static int scaled(double v, double c, double ref)
@@ -184,7 +76,7 @@ static int outside_dark(const rad_solution *s, const rad_basis *bs, char *why, s
 {
     const uint32_t nb = bs->band_count;
     for (uint32_t i = 0; i < bs->patch_count; i++)
-        if (bs->patch_group[i] == RAD_NONE && sol_any_positive(s->emission + (size_t)i * nb, nb)) {
+        if (bs->patch_group[i] == RAD_NONE && rad_any_positive(s->emission + (size_t)i * nb, nb)) {
             const rad_patch *p = &s->mesh->patches[i];
             snprintf(why, why_size, "'%s' (material '%s') emits, but emitted nothing when solved",
                      s->scene->objects[p->object].name, s->scene->materials[p->material].name);
@@ -192,7 +84,7 @@ static int outside_dark(const rad_solution *s, const rad_basis *bs, char *why, s
         }
     for (uint32_t l = 0; l < bs->light_count; l++)
         if (bs->light_group[l] == RAD_NONE &&
-            sol_any_positive(s->light_intensity + (size_t)l * nb, nb)) {
+            rad_any_positive(s->light_intensity + (size_t)l * nb, nb)) {
             snprintf(why, why_size, "light '%s' shines, but was dark when solved",
                      s->scene->lights[l].name);
             return 0;
@@ -221,7 +113,7 @@ static const char *no_basis(const rad_solution *s, char *buf, size_t size)
         return buf;
     }
     if (!rad_basis_matches(s))
-        return sizes_match(s) ? "reflectance changed"
+        return rad_basis_fits(s) ? "reflectance changed"
                               : "the stored light responses no longer match the solution";
     return NULL;
 }

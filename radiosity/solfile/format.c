@@ -5,7 +5,7 @@
  * Invariant: a rule lives here once, so the writer refuses exactly what the
  * reader would.
  */
-#include "store_internal.h"
+#include "solfile_internal.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -267,14 +267,6 @@ int sol_check_lights(const rad_solution *s, const char *file, const char *where,
     return RAD_OK;
 }
 
-int sol_any_positive(const double *v, uint32_t nb)
-{
-    for (uint32_t b = 0; b < nb; b++)
-        if (v[b] > 0.0)
-            return 1;
-    return 0;
-}
-
 /* Values of n doubles, each finite and >= 0: the first bad index, or n. */
 static uint64_t first_bad(const double *v, uint64_t n)
 {
@@ -291,7 +283,7 @@ static uint32_t bad_groups(const uint32_t *group, const double *ref, uint32_t co
                            uint32_t groups, uint32_t *members)
 {
     for (uint32_t i = 0; i < count; i++) {
-        const int emits = sol_any_positive(ref + (size_t)i * nb, nb);
+        const int emits = rad_any_positive(ref + (size_t)i * nb, nb);
         if (group[i] == RAD_NONE ? emits : (!emits || group[i] >= groups))
             return i;
         if (group[i] != RAD_NONE)

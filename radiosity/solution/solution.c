@@ -1,22 +1,18 @@
 /* solution.c - creating and destroying a rad_solution (solution.h): the
  * per-patch ρ (its polygon's, rad_polygon_rho) and E from the scene's
- * materials, B = E, an empty matrix, the
- * punctual lights' nominal intensities.  The file is read and written by
- * read.c and write.c.
+ * materials, B = E, an empty matrix, the punctual lights' nominal
+ * intensities; the per-band arrays and light arrays the file reader fills
+ * too (radiosity/solfile/), and the progress record.
  *
  * Invariant: a solution made here satisfies solution.h (arrays sized
- * patch_count × band_count, F->n == patch_count, B >= 0 finite).
+ * patch_count × band_count, F->n == patch_count, B >= 0 finite), and
+ * rad_solution_destroy frees whatever a creator or a reader attached,
+ * the reader's record (origin) through the function the reader gave.
  */
-#include "store_internal.h"
+#include "solution.h"
 
-#include <errno.h>
-#include <fcntl.h>
-#include <stdarg.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 const char *rad_stage_name(rad_stage s)
 {
@@ -31,8 +27,6 @@ const char *rad_stage_name(rad_stage s)
 }
 
 /* ------------------------------------------------------- create / destroy */
-
-double *sol_alloc_band_array(uint32_t n, uint32_t bands);
 
 void rad_solution_destroy(rad_solution *s)
 {
@@ -50,12 +44,12 @@ void rad_solution_destroy(rad_solution *s)
     }
     free(s->light_power);
     free(s->light_intensity);
-    rad_elements_destroy(s->elements);
+    rad_element_store_destroy(s->elements);
     free(s->irradiance);
-    free(s->file);
-    free(s->matrix_file.path);
     rad_progress_destroy(s->progress);
     rad_basis_destroy(s->basis);
+    if (s->origin && s->origin_destroy)
+        s->origin_destroy(s->origin);
     free(s);
 }
 
@@ -81,13 +75,11 @@ void rad_progress_destroy(rad_progress *p)
     free(p);
 }
 
-/* The light arrays for `count` lights (intensity from the scene's nominal
- * values, no power yet); 0, or -1 when memory runs out. */
-int sol_alloc_lights(rad_solution *s, uint32_t count)
+int rad_solution_alloc_lights(rad_solution *s, uint32_t count)
 {
     if (count == 0)
         return 0;
-    s->light_intensity = sol_alloc_band_array(count, s->band_count);
+    s->light_intensity = rad_solution_band_array(count, s->band_count);
     s->light_power = calloc(count, sizeof *s->light_power);
     if (!s->light_intensity || !s->light_power)
         return -1;
@@ -95,8 +87,7 @@ int sol_alloc_lights(rad_solution *s, uint32_t count)
     return 0;
 }
 
-/* n × bands doubles, or NULL when that does not fit in size_t or memory. */
-double *sol_alloc_band_array(uint32_t n, uint32_t bands)
+double *rad_solution_band_array(uint32_t n, uint32_t bands)
 {
     uint64_t count = (uint64_t)n * bands;
     if (count > SIZE_MAX / sizeof(double))
@@ -141,11 +132,12 @@ int rad_solution_create(rad_scene *scene, rad_mesh *mesh, rad_solution **out, ra
     s->mesh = mesh;
     s->band_count = scene->band_count;
     uint32_t n = mesh->patch_count, nb = s->band_count;
-    s->rho = sol_alloc_band_array(n, nb);
-    s->emission = sol_alloc_band_array(n, nb);
-    s->B = sol_alloc_band_array(n, nb);
+    s->rho = rad_solution_band_array(n, nb);
+    s->emission = rad_solution_band_array(n, nb);
+    s->B = rad_solution_band_array(n, nb);
     s->F = rad_matrix_create(n);
-    if (!s->rho || !s->emission || !s->B || !s->F || sol_alloc_lights(s, scene->light_count) != 0) {
+    if (!s->rho || !s->emission || !s->B || !s->F ||
+        rad_solution_alloc_lights(s, scene->light_count) != 0) {
         rad_solution_destroy(s);
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory for %u patches × %u bands", src, n,
                         nb);

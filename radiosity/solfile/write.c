@@ -13,7 +13,7 @@
  * file, so it never writes a file the reader would refuse, and it never
  * replaces a good file with a bad one (rad_output: temporary and rename).
  */
-#include "store_internal.h"
+#include "solfile_internal.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -539,15 +539,15 @@ int sol_validate_for_write(const rad_solution *s, const char *path, int check_ma
     /* Elements read without their rows, or a solution read without its
      * light responses, would lose them: the caller should have read
      * RAD_PART_ELEMENT_ROWS and RAD_PART_BASIS. */
-    RAD_ASSERT(!s->basis_skipped);
-    if (s->basis_skipped)
+    RAD_ASSERT(!rad_solution_basis_skipped(s));
+    if (rad_solution_basis_skipped(s))
         return rad_fail(err, RAD_ERR_USAGE, "%s: cannot write: the stored light responses were "
                         "not read", path);
     RAD_ASSERT(!s->elements || s->elements->rows_loaded);
     if (s->elements && !s->elements->rows_loaded)
         return rad_fail(err, RAD_ERR_USAGE, "%s: cannot write: the elements' rows were not read",
                         path);
-    if (s->elements && rad_elements_check(s->elements, s, "elements", &sub))
+    if (s->elements && rad_element_store_check(s->elements, s, "elements", &sub))
         return rad_fail(err, RAD_ERR_INVALID, "%s: cannot write: %s", path, sub.message);
     if (rad_basis_matches(s) &&
         (rc = sol_check_basis(s, path, "cannot write: light responses", RAD_ERR_INVALID, err)))
@@ -580,7 +580,7 @@ static void emit_irradiance(sol_sink *k, const sol_write_ctx *w)
 /* MATRIXREF: the file holding the matrix and its MATRIX section. */
 static void emit_matrixref(sol_sink *k, const sol_write_ctx *w)
 {
-    const rad_matrix_file *mf = &w->s->matrix_file;
+    const rad_matrix_file *mf = rad_solution_matrix_file(w->s); /* shared: known */
     put_str(k, w->ref_name);
     put_str(k, mf->path);
     put_u64(k, mf->offset);
@@ -845,7 +845,7 @@ uint64_t rad_solution_file_bytes(const rad_solution *s)
 }
 
 /* Is s's basis one group made from s's own sources and B?  Its H is then
- * the very H of s, computed by the same pass over F (make_basis), and a
+ * the very H of s, computed by the same pass over F (rad_basis_make), and a
  * write need not make that pass again. */
 static int basis_is_solution(const rad_solution *s)
 {
@@ -884,7 +884,8 @@ static void share_matrix(const rad_solution *s, const char *path, sol_write_ctx 
     char link_path[sizeof info->matrix_path];
     int n = snprintf(link_path, sizeof link_path, "%s.matrix", path);
     const char *slash = strrchr(link_path, '/');
-    const char *name = slash ? slash + 1 : link_path, *target = s->matrix_file.path;
+    const char *name = slash ? slash + 1 : link_path;
+    const char *target = rad_solution_matrix_file(s)->path; /* shared: known */
     rad_error ignored;
     if (n > 0 && (size_t)n < sizeof link_path && strlen(name) <= SOL_MAX_STRING &&
         rad_output_link(target, link_path, &ignored) == 0) {
@@ -914,7 +915,7 @@ int rad_solution_write_opts(const rad_solution *s, const char *path, const rad_w
     /* A matrix shared, not written, was checked when it was read and has
      * not changed since. */
     int shared = opt->share_matrix && rad_solution_matrix_in_file(s) &&
-                 strlen(s->matrix_file.path) <= SOL_MAX_STRING;
+                 strlen(rad_solution_matrix_file(s)->path) <= SOL_MAX_STRING;
     int rc = sol_validate_for_write(s, path, !shared, err);
     if (rc)
         return rc;

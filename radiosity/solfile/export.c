@@ -13,7 +13,7 @@
  * are committed only once all are written, so a failure leaves every
  * earlier file in the directory as it was.
  */
-#include "solution.h"
+#include "solfile.h"
 
 #include <stdarg.h>
 #include <stdio.h>

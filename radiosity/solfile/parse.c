@@ -10,7 +10,7 @@
  * B >= 0 are finite.  Every count is compared with the bytes left before
  * anything is allocated.
  */
-#include "store_internal.h"
+#include "solfile_internal.h"
 
 #include <stdarg.h>
 #include <stdio.h>
@@ -566,9 +566,9 @@ static int parse_patchdata(sol_reader *r, rad_solution *s)
     uint64_t count = (uint64_t)n * nb;
     if (count * 3 * 8 > r->c.left)
         return TRUNC("%u patches × %u bands cannot fit in the %zu bytes left", n, nb, r->c.left);
-    s->rho = sol_alloc_band_array(n, nb);
-    s->emission = sol_alloc_band_array(n, nb);
-    s->B = sol_alloc_band_array(n, nb);
+    s->rho = rad_solution_band_array(n, nb);
+    s->emission = rad_solution_band_array(n, nb);
+    s->B = rad_solution_band_array(n, nb);
     if (!s->rho || !s->emission || !s->B)
         return sol_rfail(r, RAD_ERR_NOMEM, "out of memory for %u patches × %u bands", n, nb);
     for (uint64_t i = 0; i < count; i++)
@@ -594,7 +594,7 @@ static int parse_lights(sol_reader *r, rad_solution *s)
     int rc = check_count(r, nl, MIN_LIGHT + 16ull * nb, "lights");
     if (rc)
         return rc;
-    if (sol_alloc_lights(s, nl) != 0)
+    if (rad_solution_alloc_lights(s, nl) != 0)
         return sol_rfail(r, RAD_ERR_NOMEM, "out of memory for %u lights", nl);
     /* scene.c names the file being read, as in parse_scene */
     char *stored_source = sc->source;
@@ -673,7 +673,7 @@ static int parse_lights(sol_reader *r, rad_solution *s)
 }
 
 /* ELEMENTS: every count is bounded by the bytes left before allocating;
- * rad_elements_complete then derives each cell from its patch and checks
+ * rad_element_store_complete then derives each cell from its patch and checks
  * the whole (solution.h).  Up to version 6 each element's row entries
  * follow its count; from version 7 on they are ELEMENTROWS', and the
  * elements stay without them (rows_loaded 0) until that is read. */
@@ -697,7 +697,7 @@ static int parse_elements(sol_reader *r, rad_solution *s)
         return TRUNC("%u vertices and %u elements need %llu bytes, %zu left", nv, ne,
                      (unsigned long long)fixed, c->left);
     uint64_t max_entries = c->left > fixed && inline_rows ? (c->left - fixed) / MIN_ENTRY : 0;
-    rad_elements *el = s->elements = rad_elements_alloc(nv, ne, nb, max_entries);
+    rad_elements *el = s->elements = rad_element_store_alloc(nv, ne, nb, max_entries);
     if (!el)
         return sol_rfail(r, RAD_ERR_NOMEM, "out of memory for %u elements", ne);
     el->threshold = threshold;
@@ -742,14 +742,14 @@ static int parse_elements(sol_reader *r, rad_solution *s)
     /* Elements in clusters take their polygon and normal from the cell
      * they lie in: with CLUSTERS to come, they are completed there. */
     rad_error sub;
-    if (!deferred(r) && rad_elements_complete(el, s, "elements", &sub))
+    if (!deferred(r) && rad_element_store_complete(el, s, "elements", &sub))
         return sol_rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
     return RAD_OK;
 }
 
 /* ELEMENTLIGHTS: the counts must be the elements' and the lights', and the
  * values exactly fill the body, before anything is allocated; then
- * rad_elements_check applies the rules (finite, >= 0, 0 at level 0). */
+ * rad_element_store_check applies the rules (finite, >= 0, 0 at level 0). */
 static int parse_element_lights(sol_reader *r, rad_solution *s)
 {
     sol_cursor *c = &r->c;
@@ -772,7 +772,7 @@ static int parse_element_lights(sol_reader *r, rad_solution *s)
         if (!sol_get_f32(c, &el->light_h[q]))
             return TRUNC("truncated");
     rad_error sub;
-    if (!deferred(r) && rad_elements_check(el, s, "elements", &sub))
+    if (!deferred(r) && rad_element_store_check(el, s, "elements", &sub))
         return sol_rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
     return RAD_OK;
 }
@@ -822,7 +822,7 @@ static int parse_irradiance(sol_reader *r, rad_solution *s)
     if (count * 8 != r->c.left)
         return TRUNC("%llu values need %llu bytes, %zu left", (unsigned long long)count,
                      (unsigned long long)count * 8, r->c.left);
-    if (!(s->irradiance = sol_alloc_band_array(n, nb)))
+    if (!(s->irradiance = rad_solution_band_array(n, nb)))
         return sol_rfail(r, RAD_ERR_NOMEM, "out of memory for %u patches × %u bands", n, nb);
     for (uint64_t q = 0; q < count; q++) {
         sol_get_f64(&r->c, &s->irradiance[q]);
@@ -1066,7 +1066,7 @@ static int parse_clusters(sol_reader *r, rad_solution *s)
     if (rad_mesh_check(m, sc->polygon_count, sc->object_count, sc->material_count, &sub))
         return sol_rfail(r, RAD_ERR_CORRUPT, "%s",
                      strncmp(sub.message, "mesh: ", 6) == 0 ? sub.message + 6 : sub.message);
-    if (s->elements && rad_elements_complete(s->elements, s, "elements", &sub))
+    if (s->elements && rad_element_store_complete(s->elements, s, "elements", &sub))
         return sol_rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
     return RAD_OK;
 }
@@ -1097,7 +1097,7 @@ static int parse_surface(sol_reader *r, rad_solution *s)
 }
 
 /* ELEMENTINDIRECT: the counts must be the elements' and the patches', and
- * the flags exactly fill the body; rad_elements_check applies the rules.
+ * the flags exactly fill the body; rad_element_store_check applies the rules.
  * It follows ELEMENTS and CLUSTERS, so the elements are complete. */
 static int parse_element_indirect(sol_reader *r, rad_solution *s)
 {
@@ -1120,7 +1120,7 @@ static int parse_element_indirect(sol_reader *r, rad_solution *s)
     if (!sol_get_bytes(c, el->interp, ne) || !sol_get_bytes(c, el->direct, np))
         return TRUNC("truncated");
     rad_error sub;
-    if (rad_elements_check(el, s, "elements", &sub))
+    if (rad_element_store_check(el, s, "elements", &sub))
         return sol_rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
     return RAD_OK;
 }
@@ -1130,7 +1130,7 @@ static int parse_element_indirect(sol_reader *r, rad_solution *s)
  * ELEMENTS.  The counts must be ELEMENTS' and the entries must fit what is
  * left before anything is allocated; each row is checked as it is read
  * (get_row), then the whole against the complete elements
- * (rad_elements_check: interpolated rows hold direct sources only). */
+ * (rad_element_store_check: interpolated rows hold direct sources only). */
 static int parse_element_rows(sol_reader *r, rad_solution *s)
 {
     rad_elements *el = s->elements;
@@ -1159,7 +1159,7 @@ static int parse_element_rows(sol_reader *r, rad_solution *s)
                           el->col + el->row_start[e], el->val + el->row_start[e])))
             return rc;
     rad_error sub;
-    if (rad_elements_check(el, s, "elements", &sub))
+    if (rad_element_store_check(el, s, "elements", &sub))
         return sol_rfail(r, RAD_ERR_CORRUPT, "%s", sub.message);
     return RAD_OK;
 }

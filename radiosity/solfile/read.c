@@ -11,7 +11,7 @@
  * another file is used only if that file's MATRIX section is, byte for
  * byte by its CRC and length, the one the reference names.
  */
-#include "store_internal.h"
+#include "solfile_internal.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -303,7 +303,7 @@ static int element_rows_wanted(const sol_reader *r, const sol_index *x, const ra
 /* Whether section sec (-1: none) of index x is read, into *read, as both
  * version 6 readers decide it: at LIGHTS' turn INFO's announcements are
  * checked against the index; ELEMENTROWS as element_rows_wanted says;
- * BASIS only with RAD_PART_BASIS (else s->basis_skipped, so that no write
+ * BASIS only with RAD_PART_BASIS (else origin's basis_skipped, so that no write
  * loses it); the others whenever they are there. */
 static int section_read(const sol_reader *r, const sol_index *x, rad_solution *s,
                         unsigned parts, int sec, int *read)
@@ -314,7 +314,7 @@ static int section_read(const sol_reader *r, const sol_index *x, rad_solution *s
         rc = element_rows_wanted(r, x, s, parts, read);
     if (!rc && sec == SEC_BASIS && *read && !(parts & RAD_PART_BASIS)) {
         *read = 0;
-        s->basis_skipped = 1;
+        s->origin->basis_skipped = 1;
     }
     return rc;
 }
@@ -591,7 +591,7 @@ static int follow_matrixref(sol_reader *r, const char *path, rad_solution *s, ch
     return rc;
 }
 
-/* Where F's rows are, without reading them: s->matrix_file and F->key
+/* Where F's rows are, without reading them: origin's matrix_file and F->key
  * (from the MATRIX section's head, or from the MATRIXREF, whose file's
  * index must still list that section), so that a solution written from s
  * can refer to them.  Left empty when that file is gone or changed: render
@@ -633,14 +633,15 @@ static void locate_matrix(const sol_reader *r, const sol_file *f, const sol_inde
     char *abs = rc ? NULL : realpath(holder, NULL);
     if (!abs)
         return;
-    free(s->matrix_file.path);
-    s->matrix_file = (rad_matrix_file){.path = abs, .offset = e.offset, .length = e.length,
-                                       .crc = e.crc, .bytes = s->F->bytes};
+    free(s->origin->matrix_file.path);
+    s->origin->matrix_file = (rad_matrix_file){.path = abs, .offset = e.offset,
+                                               .length = e.length, .crc = e.crc,
+                                               .bytes = s->F->bytes};
     s->F->key = key;
 }
 
 /* F's entries from the MATRIX of s's own file or from the file its
- * MATRIXREF names; records where they came from in s->matrix_file. */
+ * MATRIXREF names; records where they came from in origin's matrix_file. */
 static int load_matrix(sol_reader *r, const sol_file *f, const sol_index *x, rad_solution *s)
 {
     char holder[PATH_MAX + SOL_MAX_STRING + 2];
@@ -658,9 +659,10 @@ static int load_matrix(sol_reader *r, const sol_file *f, const sol_index *x, rad
     if (rc)
         return rc;
     char *abs = realpath(holder, NULL);
-    free(s->matrix_file.path);
-    s->matrix_file = (rad_matrix_file){.path = abs, .offset = e.offset, .length = e.length,
-                                       .crc = e.crc, .bytes = s->F->bytes};
+    free(s->origin->matrix_file.path);
+    s->origin->matrix_file = (rad_matrix_file){.path = abs, .offset = e.offset,
+                                               .length = e.length, .crc = e.crc,
+                                               .bytes = s->F->bytes};
     return RAD_OK;
 }
 
@@ -685,7 +687,7 @@ static int read_v6(sol_reader *r, const sol_file *f, const uint8_t head[SOL_HEAD
         rc = load_matrix(r, f, &x, s);
     else if (!rc && (parts & RAD_PART_MATRIX_PLACE))
         locate_matrix(r, f, &x, s);
-    s->file_id = x.id;
+    s->origin->file_id = x.id;
     return rc;
 }
 
@@ -718,9 +720,11 @@ static int new_reader(const char *name, int check_sum, sol_reader **r, rad_solut
 {
     *r = calloc(1, sizeof **r);
     *s = calloc(1, sizeof **s);
-    if (!*r || !*s) {
+    if (!*r || !*s || sol_origin_attach(*s) != 0) {
         free(*r);
-        free(*s);
+        rad_solution_destroy(*s);
+        *r = NULL;
+        *s = NULL;
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", name);
     }
     (*r)->name = name;
@@ -752,7 +756,7 @@ int rad_solution_read_parts(const char *path, unsigned parts, rad_solution **out
         r->version = h.version;
         rc = h.version >= SOL_VERSION_INDEX ? read_v6(r, &f, head, parts, s) : read_old(r, &f, s);
     }
-    if (!rc && !(s->file = strdup(path)))
+    if (!rc && !(s->origin->file = strdup(path)))
         rc = rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", path);
     file_close(&f);
     free(r);
@@ -771,31 +775,32 @@ int rad_solution_read(const char *path, rad_solution **out, rad_error *err)
 
 /* A part of s left out when it was read (RAD_PART_MATRIX or
  * RAD_PART_ELEMENT_ROWS), read now from the file s was read from, which
- * must not have changed since (its index's CRC is s->file_id). */
+ * must not have changed since (its index's CRC is origin's file_id). */
 static int load_later(rad_solution *s, unsigned part, rad_error *err)
 {
-    if (!s->file)
+    const char *file = s->origin ? s->origin->file : NULL;
+    if (!file)
         return rad_fail(err, RAD_ERR_USAGE, "%s: not read from a file",
                         part == RAD_PART_MATRIX ? "rad_solution_load_matrix"
                                                 : "rad_solution_load_element_rows");
     sol_file f = {.fd = -1};
-    int rc = file_open(&f, s->file, err);
+    int rc = file_open(&f, file, err);
     if (rc)
         return rc;
     uint8_t head[SOL_HEADER_BYTES];
     sol_index x;
     sol_reader *r = calloc(1, sizeof *r);
     if (!r)
-        rc = rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", s->file);
+        rc = rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", file);
     if (!rc)
-        rc = f.size < SOL_HEADER_BYTES ? rad_fail(err, RAD_ERR_CORRUPT, "%s: truncated", s->file)
+        rc = f.size < SOL_HEADER_BYTES ? rad_fail(err, RAD_ERR_CORRUPT, "%s: truncated", file)
                                        : file_read(&f, head, sizeof head, 0, err);
     if (!rc)
         rc = file_index(&f, head, 1, &x, err);
-    if (!rc && x.id != s->file_id)
-        rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: changed since it was read", s->file);
+    if (!rc && x.id != s->origin->file_id)
+        rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: changed since it was read", file);
     if (!rc) {
-        *r = (sol_reader){.name = s->file, .err = err, .check_sum = 1,
+        *r = (sol_reader){.name = file, .err = err, .check_sum = 1,
                           .version = SOL_VERSION_INDEX};
         /* the index is the one read, which had ELEMENTROWS exactly when
          * the elements' rows were left out (element_rows_wanted) */
@@ -803,7 +808,7 @@ static int load_later(rad_solution *s, unsigned part, rad_error *err)
         if (part == RAD_PART_MATRIX)
             rc = load_matrix(r, &f, &x, s);
         else if (rows_at < 0)
-            rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: section ELEMENTROWS missing", s->file);
+            rc = rad_fail(err, RAD_ERR_CORRUPT, "%s: section ELEMENTROWS missing", file);
         else
             rc = file_section(r, &f, &x.e[rows_at], SEC_ELEMENT_ROWS, s, NULL);
     }
@@ -826,21 +831,6 @@ int rad_solution_load_element_rows(rad_solution *s, rad_error *err)
     if (!s->elements || s->elements->rows_loaded)
         return RAD_OK;
     return load_later(s, RAD_PART_ELEMENT_ROWS, err);
-}
-
-int rad_solution_matrix_in_file(const rad_solution *s)
-{
-    return s && s->F && s->matrix_file.path && s->F->bytes == s->matrix_file.bytes;
-}
-
-void rad_solution_release_matrix(rad_solution *s)
-{
-    if (!s || !s->F || !s->F->entries_loaded)
-        return;
-    const int in_file = rad_solution_matrix_in_file(s);
-    rad_matrix_release_entries(s->F);
-    if (in_file) /* still that section: as read without RAD_PART_MATRIX */
-        s->matrix_file.bytes = s->F->bytes;
 }
 
 /* ------------------------------------------------------------- from memory */
@@ -884,7 +874,7 @@ static int parse_v6(sol_reader *r, const uint8_t *d, size_t size, const sol_head
         r->c.left = (size_t)e->length;
         rc = sol_parse_section(r, sec, s);
     }
-    s->file_id = rc ? 0 : x.id;
+    s->origin->file_id = rc ? 0 : x.id;
     return rc;
 }
 

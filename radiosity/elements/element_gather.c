@@ -1,4 +1,4 @@
-/* gather.c - an element's radiosity from the patch solution:
+/* element_gather.c - an element's radiosity from the patch solution:
  *   B_e = E_p + ρ_p (Σ_j F_ej B_j + [Ĥ_i(c_e)] + H_d,e) + τ_p H_twin(p),
  *   H_d,e = Σ_l I_l h_le,
  * with h_le the punctual lights' direct irradiance at the element's centre
@@ -252,7 +252,7 @@ int el_interp_make(const rad_solution *s, const double *field, el_interp *ip, ra
     if (rc == RAD_OK)
         rc = el_fan_mesh(cm, &ip->rm, &ip->cells_of, err);
     if (rc != RAD_OK) {
-        rad_elements_destroy(cells);
+        rad_element_store_destroy(cells);
         return rc;
     }
     const uint32_t nc = ip->rm->patch_count;
@@ -282,7 +282,7 @@ int el_interp_make(const rad_solution *s, const double *field, el_interp *ip, ra
             ip->first[p + 1] += ip->first[p];
         rn_vertex_radiosity_fit(ip->rm, bands, cell, ip->vB, RN_FIT_QUADRATIC);
     }
-    rad_elements_destroy(cells);
+    rad_element_store_destroy(cells);
     free(cfield);
     free(drawn);
     free(cell);

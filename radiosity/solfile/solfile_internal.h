@@ -1,13 +1,14 @@
-/* store_internal.h - what the files of radiosity/store/ share; private to
- * the folder (the public contract is solution.h): the solution file's
- * constants and section table (docs/solution-format.md), its checksum, and
- * the rules both the writer and the reader apply, so that the writer never
- * writes a file the reader would refuse.
+/* solfile_internal.h - what the files of radiosity/solfile/ share; private
+ * to the folder (the public contract is solfile.h): the solution file's
+ * constants and section table (docs/solution-format.md), its checksum, the
+ * rules both the writer and the reader apply, so that the writer never
+ * writes a file the reader would refuse, and the reader's record of a
+ * solution (origin.c).
  */
-#ifndef RAD_STORE_INTERNAL_H
-#define RAD_STORE_INTERNAL_H
+#ifndef RAD_SOLFILE_INTERNAL_H
+#define RAD_SOLFILE_INTERNAL_H
 
-#include "solution.h"
+#include "solfile.h"
 
 #define SOL_MAGIC "RADSOL\r\n"  /* 8 bytes; the CR LF catches text-mode mangling */
 /* Version 2 = version 1 + the LIGHTS section; version 3 = + the ELEMENTS
@@ -154,7 +155,6 @@ uint64_t sol_load_le64(const uint8_t *p);
 
 int sol_bad_reflectance(double r); /* not in [0, 1) (NaN included) */
 int sol_bad_nonneg(double v);      /* not finite and >= 0 */
-int sol_any_positive(const double *v, uint32_t nb); /* some of the nb values > 0: a source */
 
 /* The per-patch ρ, E and B rules; `where` is "section PATCHDATA" (reader)
  * or "cannot write" (writer), `code` the result code to fail with. */
@@ -316,13 +316,21 @@ uint64_t sol_rows_crc(sol_sink *k, const rad_mesh *m);
 
 void sol_store_le(uint8_t *p, uint64_t v, int bytes);
 
-/* ------------------------------------------- allocation (solution.c) */
+/* ------------------------------------- the reader's record (origin.c) */
 
-/* n × bands doubles, or NULL when that does not fit in size_t or memory. */
-double *sol_alloc_band_array(uint32_t n, uint32_t bands);
+/* What a solution read from a file (or from memory) remembers of it
+ * (rad_solution.origin): the reader attaches it before the first section
+ * is parsed, and only this folder looks inside. */
+struct rad_solution_origin {
+    char *file;                  /* the file it was read from (owned), NULL from memory */
+    uint64_t file_id;            /* CRC-64 of that file's index (version 6): its content */
+    rad_matrix_file matrix_file; /* where F's rows are (version 6); path NULL when F came
+                                  * from memory or an older file, or was not found */
+    int basis_skipped;           /* 1: the file holds BASIS, read without RAD_PART_BASIS */
+};
 
-/* The light arrays for `count` lights (intensity from the scene's nominal
- * values, no power yet); 0, or -1 when memory runs out. */
-int sol_alloc_lights(rad_solution *s, uint32_t count);
+/* Attaches an empty record to s (which has none); 0, or -1 when memory
+ * runs out. */
+int sol_origin_attach(rad_solution *s);
 
-#endif /* RAD_STORE_INTERNAL_H */
+#endif /* RAD_SOLFILE_INTERNAL_H */

@@ -1,12 +1,12 @@
-/* elements.c - the element store of solution.h: allocating, freeing and
- * checking a rad_elements (substructuring: Cohen, Greenberg, Immel & Brock
- * 1986: patches shoot, elements receive).  What elements are and how they
- * are made lives in radiosity/elements/; this file only keeps the data,
- * which the solution file reads and writes.
+/* element_store.c - the element store of solution.h: allocating, freeing
+ * and checking a rad_elements (substructuring: Cohen, Greenberg, Immel &
+ * Brock 1986: patches shoot, elements receive).  What elements are and how
+ * they are made lives in radiosity/elements/; this file only keeps the
+ * data, which the solution file (radiosity/solfile/) reads and writes.
  *
- * Invariant: rad_elements_check accepts exactly the element sets that obey
- * solution.h's element invariants against their solution, and the reader
- * and the writer both run it.
+ * Invariant: rad_element_store_check accepts exactly the element sets that
+ * obey solution.h's element invariants against their solution, and the
+ * reader and the writer both run it.
  */
 #include "solution.h"
 
@@ -17,8 +17,8 @@
 
 /* ------------------------------------------------------------ storage */
 
-rad_elements *rad_elements_alloc(uint32_t vertex_count, uint32_t count, uint32_t bands,
-                                 uint64_t entries)
+rad_elements *rad_element_store_alloc(uint32_t vertex_count, uint32_t count, uint32_t bands,
+                                      uint64_t entries)
 {
     rad_elements *el = calloc(1, sizeof *el);
     if (!el)
@@ -34,7 +34,7 @@ rad_elements *rad_elements_alloc(uint32_t vertex_count, uint32_t count, uint32_t
     el->val = malloc(ne * sizeof *el->val);
     if (!el->mesh || !el->patch || !el->level || !el->B || !el->row_start || !el->row_count ||
         !el->col || !el->val) {
-        rad_elements_destroy(el);
+        rad_element_store_destroy(el);
         return NULL;
     }
     el->capacity = entries;
@@ -42,7 +42,7 @@ rad_elements *rad_elements_alloc(uint32_t vertex_count, uint32_t count, uint32_t
     return el;
 }
 
-void rad_elements_destroy(rad_elements *el)
+void rad_element_store_destroy(rad_elements *el)
 {
     if (!el)
         return;
@@ -89,8 +89,8 @@ static const rad_patch *element_cell(const rad_mesh *pm, uint32_t p, const rad_m
     return best;
 }
 
-int rad_elements_complete(rad_elements *el, const rad_solution *s, const char *name,
-                          rad_error *err)
+int rad_element_store_complete(rad_elements *el, const rad_solution *s, const char *name,
+                               rad_error *err)
 {
     const rad_mesh *pm = s->mesh;
     rad_mesh *m = el->mesh;
@@ -114,11 +114,11 @@ int rad_elements_complete(rad_elements *el, const rad_solution *s, const char *n
         if (rad_cell_geometry(m->vertices, c->v, c->normal, &c->center, &c->area) != 0)
             return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: area is not positive", name, e);
     }
-    return rad_elements_check(el, s, name, err);
+    return rad_element_store_check(el, s, name, err);
 }
 
-int rad_elements_check(const rad_elements *el, const rad_solution *s, const char *name,
-                       rad_error *err)
+int rad_element_store_check(const rad_elements *el, const rad_solution *s, const char *name,
+                            rad_error *err)
 {
     const rad_mesh *pm = s->mesh, *m = el->mesh;
     const uint32_t bands = s->band_count;

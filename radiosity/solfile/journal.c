@@ -1,4 +1,4 @@
-/* journal.c - a solve's output file while the solve runs (solution.h,
+/* journal.c - a solve's output file while the solve runs (solfile.h,
  * rad_journal): PATH.partial, a version 7 solution file begun with its
  * header (index offset 0: unfinished) and the head of its MATRIX section,
  * to which every finished row is appended at once as a block of its own
@@ -12,7 +12,7 @@
  * the rest off.  Rows are reused only under the same rows key, i.e. the
  * same mesh, resolution, exact marks and options.
  */
-#include "store_internal.h"
+#include "solfile_internal.h"
 
 #include <stdio.h>
 #include <stdlib.h>

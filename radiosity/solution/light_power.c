@@ -1,4 +1,4 @@
-/* lights.c - punctual lights in a solution: the per-patch power they deliver
+/* light_power.c - punctual lights in a solution: the per-patch power they deliver
  * (sparse, float), the direct irradiance it gives, and their power balance.
  *
  * Invariant: s->light_power[l], when present, lists strictly increasing

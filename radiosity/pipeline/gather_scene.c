@@ -1,4 +1,4 @@
-/* gather.c (pipeline) - what the final gather needs from a solution, and the
+/* gather_scene.c - what the final gather needs from a solution, and the
  * one call that renders a view with it: the plain-data rn_scene the gather
  * renderer (render/gather.c) reads, built here so that the renderer never
  * sees form factors, and Ward's cache file beside the solution.
@@ -116,10 +116,7 @@ static int build_emitters(const rad_solution *s, rad_gather_scene *g, rad_error 
     }
     uint32_t count = 0;
     for (uint32_t i = 0; i < np; i++) {
-        int emits = 0;
-        for (uint32_t b = 0; b < nb; b++)
-            emits |= E[(size_t)i * nb + b] > 0.0;
-        if (!emits || !(A[i] > 0.0))
+        if (!rad_any_positive(E + (size_t)i * nb, nb) || !(A[i] > 0.0))
             continue;
         const rad_polygon *poly = &sc->polygons[i];
         rn_emitter *em = &g->emitters_[count++];

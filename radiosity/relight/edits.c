@@ -1,4 +1,4 @@
-/* relight.c - changing lights and colours of a stored solution without
+/* edits.c - changing lights and colours of a stored solution without
  * touching its geometry: the hemi-cube paper's "lights can be turned on/off
  * and object colors can be changed simply by resolving the matrices".
  *
@@ -13,7 +13,7 @@
  * "unknown"; both errors list the candidates.  A punctual light has no
  * patches: a light or emission edit changes its s->light_intensity.
  */
-#include "solution.h"
+#include "relight.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -188,9 +188,8 @@ static int check_light_edit(const rad_solution *s, const rad_edit *e, const targ
                             sc->source, edit_flag(e->kind), e->name, e->value_count, s->band_count);
         return RAD_OK;
     }
-    for (uint32_t b = 0; b < s->band_count; b++)
-        if (L->intensity[b] > 0)
-            return RAD_OK;
+    if (rad_any_positive(L->intensity, s->band_count))
+        return RAD_OK;
     return rad_fail(err, RAD_ERR_USAGE,
                     "%s: --light '%s': light '%s' has intensity 0; use --emission to set one",
                     sc->source, e->name, L->name);
@@ -216,16 +215,14 @@ static int check_edit(const rad_solution *s, const rad_edit *e, target *t, rad_e
             continue;
         any = 1;
         const rad_material *m = &sc->materials[p->material];
-        for (uint32_t b = 0; b < nb; b++) {
-            emits |= m->emission[b] > 0;
-            if (e->kind == RAD_EDIT_REFLECTANCE) {
-                double rho = e->values[e->value_count == 1 ? 0 : b];
-                if (rho + m->transmit[b] >= 1.0)
-                    return rad_fail(err, RAD_ERR_USAGE,
-                                    "%s: --reflectance '%s': reflectance %g plus transmittance %g "
-                                    "is not below 1",
-                                    sc->source, e->name, rho, m->transmit[b]);
-            }
+        emits |= rad_any_positive(m->emission, nb);
+        for (uint32_t b = 0; e->kind == RAD_EDIT_REFLECTANCE && b < nb; b++) {
+            double rho = e->values[e->value_count == 1 ? 0 : b];
+            if (rho + m->transmit[b] >= 1.0)
+                return rad_fail(err, RAD_ERR_USAGE,
+                                "%s: --reflectance '%s': reflectance %g plus transmittance %g "
+                                "is not below 1",
+                                sc->source, e->name, rho, m->transmit[b]);
         }
     }
     if (!any)
@@ -278,159 +275,5 @@ int rad_solution_apply_edits(rad_solution *s, const rad_edit *edits, uint32_t co
         }
     }
     free(t);
-    return RAD_OK;
-}
-
-/* ------------------------------------------------------- variations file */
-
-void rad_variants_free(rad_variant *v, uint32_t count)
-{
-    if (!v)
-        return;
-    for (uint32_t i = 0; i < count; i++)
-        free(v[i].edits);
-    free(v);
-}
-
-/* Next line of text[0..size) into buf (comments stripped, trimmed); returns
- * 0 at the end. */
-static int next_line(const char *text, size_t size, size_t *pos, char *buf, size_t bufsize,
-                     int *too_long)
-{
-    if (*pos >= size)
-        return 0;
-    size_t start = *pos, end = start;
-    while (end < size && text[end] != '\n')
-        end++;
-    *pos = end + 1;
-    size_t len = end - start;
-    const char *hash = memchr(text + start, '#', len);
-    if (hash)
-        len = (size_t)(hash - (text + start));
-    *too_long = len >= bufsize;
-    if (*too_long)
-        len = bufsize - 1;
-    memcpy(buf, text + start, len);
-    buf[len] = '\0';
-    while (len && isspace((unsigned char)buf[len - 1]))
-        buf[--len] = '\0';
-    size_t lead = 0;
-    while (buf[lead] && isspace((unsigned char)buf[lead]))
-        lead++;
-    memmove(buf, buf + lead, len - lead + 1);
-    return 1;
-}
-
-int rad_variants_parse(const char *text, size_t size, const char *name, rad_variant **out,
-                       uint32_t *count, rad_error *err)
-{
-    *out = NULL;
-    *count = 0;
-    rad_variant *v = NULL;
-    uint32_t nv = 0, cap = 0;
-    int open = 0, rc = RAD_OK;
-    size_t pos = 0;
-    unsigned line = 0;
-    char buf[1024];
-    int too_long;
-    while (!rc && next_line(text, size, &pos, buf, sizeof buf, &too_long)) {
-        line++;
-        if (too_long) {
-            rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: line too long", name, line);
-            break;
-        }
-        if (!buf[0])
-            continue;
-        char word[32], arg[1024];
-        int fields = sscanf(buf, "%31s %1023s", word, arg);
-        char rest[8];
-        if (fields == 2 && sscanf(buf, "%*s %*s %7s", rest) == 1) {
-            rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: unexpected '%s'", name, line, rest);
-            break;
-        }
-        if (strcmp(word, "variant") == 0) {
-            if (open) {
-                rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: 'variant' inside variant '%s' (missing 'end')",
-                              name, line, v[nv - 1].name);
-                break;
-            }
-            if (fields != 2 || strlen(arg) >= sizeof v->name) {
-                rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: expected 'variant NAME'", name, line);
-                break;
-            }
-            for (uint32_t k = 0; k < nv; k++)
-                if (strcmp(v[k].name, arg) == 0)
-                    rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: variant '%s' defined twice", name,
-                                  line, arg);
-            for (const char *c = arg; *c && !rc; c++)
-                if (!isalnum((unsigned char)*c) && *c != '_' && *c != '-' && *c != '.')
-                    rc = rad_fail(err, RAD_ERR_PARSE,
-                                  "%s: line %u: variant name '%s' may hold only letters, digits, '_', '-', '.'",
-                                  name, line, arg);
-            if (rc)
-                break;
-            if (nv == cap) {
-                uint32_t nc = cap ? cap * 2 : 8;
-                rad_variant *nvp = nc > 100000 ? NULL : realloc(v, nc * sizeof *v);
-                if (!nvp) {
-                    rc = rad_fail(err, RAD_ERR_LIMIT, "%s: line %u: too many variants", name, line);
-                    break;
-                }
-                v = nvp;
-                cap = nc;
-            }
-            memset(&v[nv], 0, sizeof v[nv]);
-            memcpy(v[nv].name, arg, strlen(arg) + 1); /* length checked above */
-            nv++;
-            open = 1;
-        } else if (strcmp(word, "end") == 0 && fields == 1) {
-            if (!open) {
-                rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: 'end' without 'variant'", name, line);
-                break;
-            }
-            open = 0;
-        } else if (strcmp(word, "light") == 0 || strcmp(word, "emission") == 0 ||
-                   strcmp(word, "reflectance") == 0) {
-            if (!open || fields != 2) {
-                rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: '%s' must stand inside a variant as '%s NAME=VALUE'",
-                              name, line, word, word);
-                break;
-            }
-            rad_variant *cur = &v[nv - 1];
-            if (cur->edit_count >= 4096) {
-                rc = rad_fail(err, RAD_ERR_LIMIT, "%s: line %u: too many edits", name, line);
-                break;
-            }
-            rad_edit *ne = realloc(cur->edits, (cur->edit_count + 1) * sizeof *ne);
-            if (!ne) {
-                rc = rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", name);
-                break;
-            }
-            cur->edits = ne;
-            rad_edit_kind kind = word[0] == 'l' ? RAD_EDIT_LIGHT
-                                 : word[0] == 'e' ? RAD_EDIT_EMISSION : RAD_EDIT_REFLECTANCE;
-            rad_error e2;
-            if (rad_edit_parse(kind, arg, &cur->edits[cur->edit_count], &e2)) {
-                rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: %s", name, line, e2.message);
-                break;
-            }
-            cur->edit_count++;
-        } else {
-            rc = rad_fail(err, RAD_ERR_PARSE,
-                          "%s: line %u: unknown statement '%s' (expected variant, light, emission, "
-                          "reflectance or end)",
-                          name, line, word);
-        }
-    }
-    if (!rc && open)
-        rc = rad_fail(err, RAD_ERR_PARSE, "%s: variant '%s' has no 'end'", name, v[nv - 1].name);
-    if (!rc && nv == 0)
-        rc = rad_fail(err, RAD_ERR_PARSE, "%s: no variants", name);
-    if (rc) {
-        rad_variants_free(v, nv);
-        return rc;
-    }
-    *out = v;
-    *count = nv;
     return RAD_OK;
 }
