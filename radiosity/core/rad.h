@@ -401,6 +401,32 @@ double rad_point_polygon_factor(rad_vec3 p, rad_vec3 n, const rad_vec3 *poly, ui
  * NAN for non-finite p or n, or n = 0. */
 double rad_point_edges_factor(rad_vec3 p, rad_vec3 n, const double *edges, uint32_t count);
 
+/* -------------------------------------------------------------- text lines */
+
+/* The small text formats (the polygon file, a variations file, a camera
+ * path) are read from memory line by line (lines.c): a line ends at '\n'
+ * or at the text's end (a final '\n' starts no further line), and '#'
+ * starts a comment that runs to the line's end.  Nothing is copied: a line
+ * points into the caller's text, NUL bytes included (each format says what
+ * it makes of them). */
+typedef struct rad_line {
+    const char *text;          /* its first byte, in the caller's text */
+    size_t length;             /* bytes before its '\n' */
+    size_t content;            /* bytes before its comment (its first '#'), <= length */
+    unsigned long long number; /* 1 for the first line */
+} rad_line;
+
+typedef struct rad_lines {
+    const char *p, *end;       /* the text not yet read */
+    unsigned long long number; /* lines returned so far */
+} rad_lines;
+
+/* A reader of text[0..size) (text may be NULL when size is 0). */
+void rad_lines_start(rad_lines *r, const char *text, size_t size);
+
+/* The next line into *line: 1, or 0 at the end of the text. */
+int rad_lines_next(rad_lines *r, rad_line *line);
+
 /* ------------------------------------------------------------------ memory */
 
 /* Physical memory the system reports as available, in bytes (0 if unknown). */

@@ -306,30 +306,25 @@ int rad_camera_path_parse(const char *text, size_t size, const char *name, const
     *out = NULL;
     *count = 0;
     rn_camera *cams = NULL;
-    uint32_t n = 0, cap = 0, lno = 0;
+    uint32_t n = 0, cap = 0;
     char line[1024];
     int rc = RAD_OK;
-    for (size_t at = 0; at < size && !rc;) {
-        size_t end = at;
-        while (end < size && text[end] != '\n')
-            end++;
-        lno++;
-        size_t len = end - at;
-        if (len >= sizeof line) {
+    rad_lines lines;
+    rad_line ln;
+    rad_lines_start(&lines, text, size);
+    while (!rc && rad_lines_next(&lines, &ln)) {
+        const uint32_t lno = (uint32_t)ln.number;
+        if (ln.length >= sizeof line) {
             rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: longer than %zu characters", name, lno,
                           sizeof line - 1);
             break;
         }
-        memcpy(line, text + at, len);
-        line[len] = '\0';
-        at = end + 1;
-        if (memchr(line, '\0', len)) {
+        if (memchr(ln.text, '\0', ln.length)) {
             rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: a NUL byte (not a text file)", name, lno);
             break;
         }
-        char *hash = strchr(line, '#');
-        if (hash)
-            *hash = '\0';
+        memcpy(line, ln.text, ln.content); /* the comment cut off */
+        line[ln.content] = '\0';
         rn_camera cam;
         int got = 0;
         rc = parse_view(line, name, lno, base, &cam, &got, err);

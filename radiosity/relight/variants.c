@@ -1,7 +1,7 @@
 /* variants.c - the variations file of `radiosity relight --variations`
  * (relight.h, rad_variant; README.md): named variants, each a list
  * of edits in the command line's own syntax (rad_edit_parse), read from a
- * text held in memory line by line.
+ * text held in memory line by line (rad_lines).
  *
  * Invariant: a file is taken whole or not at all: every failure is one
  * rad_error "FILE: line N: WHAT" (or "FILE: WHAT" for the whole), with all
@@ -23,25 +23,15 @@ void rad_variants_free(rad_variant *v, uint32_t count)
     free(v);
 }
 
-/* Next line of text[0..size) into buf (comments stripped, trimmed); returns
- * 0 at the end. */
-static int next_line(const char *text, size_t size, size_t *pos, char *buf, size_t bufsize,
-                     int *too_long)
+/* The line's content (comment cut off) into buf, trimmed; 1 when it does
+ * not fit (then cut to bufsize - 1 bytes, before trimming). */
+static int line_text(const rad_line *ln, char *buf, size_t bufsize)
 {
-    if (*pos >= size)
-        return 0;
-    size_t start = *pos, end = start;
-    while (end < size && text[end] != '\n')
-        end++;
-    *pos = end + 1;
-    size_t len = end - start;
-    const char *hash = memchr(text + start, '#', len);
-    if (hash)
-        len = (size_t)(hash - (text + start));
-    *too_long = len >= bufsize;
-    if (*too_long)
+    size_t len = ln->content;
+    const int too_long = len >= bufsize;
+    if (too_long)
         len = bufsize - 1;
-    memcpy(buf, text + start, len);
+    memcpy(buf, ln->text, len);
     buf[len] = '\0';
     while (len && isspace((unsigned char)buf[len - 1]))
         buf[--len] = '\0';
@@ -49,7 +39,7 @@ static int next_line(const char *text, size_t size, size_t *pos, char *buf, size
     while (buf[lead] && isspace((unsigned char)buf[lead]))
         lead++;
     memmove(buf, buf + lead, len - lead + 1);
-    return 1;
+    return too_long;
 }
 
 int rad_variants_parse(const char *text, size_t size, const char *name, rad_variant **out,
@@ -60,13 +50,13 @@ int rad_variants_parse(const char *text, size_t size, const char *name, rad_vari
     rad_variant *v = NULL;
     uint32_t nv = 0, cap = 0;
     int open = 0, rc = RAD_OK;
-    size_t pos = 0;
-    unsigned line = 0;
+    rad_lines lines;
+    rad_line ln;
     char buf[1024];
-    int too_long;
-    while (!rc && next_line(text, size, &pos, buf, sizeof buf, &too_long)) {
-        line++;
-        if (too_long) {
+    rad_lines_start(&lines, text, size);
+    while (!rc && rad_lines_next(&lines, &ln)) {
+        const unsigned line = (unsigned)ln.number;
+        if (line_text(&ln, buf, sizeof buf)) {
             rc = rad_fail(err, RAD_ERR_PARSE, "%s: line %u: line too long", name, line);
             break;
         }

@@ -22,8 +22,9 @@
 #define MAX_SUBDIV 1000000      /* a subdivision parameter; the mesher's limit catches the product */
 
 typedef struct lexer {
-    const char *p, *end;
-    unsigned long long line;     /* line of the next unread byte */
+    rad_lines lines;             /* the text, line by line (comments cut off) */
+    const char *p, *end;         /* the current line's content not yet read */
+    unsigned long long line;     /* the current line */
     char tok[MAX_TOKEN + 1];     /* the current token, NUL-terminated */
     size_t len;
     unsigned long long tok_line; /* line the current token is on (at the end of the file:
@@ -75,28 +76,25 @@ static int lex_fill(parser *P)
     if (L->state != 0)
         return RAD_OK;
     for (;;) {
-        while (L->p < L->end && is_space((unsigned char)*L->p)) {
-            if (*L->p == '\n')
-                L->line++;
+        while (L->p < L->end && is_space((unsigned char)*L->p))
             L->p++;
+        if (L->p < L->end)
+            break;
+        rad_line ln;
+        if (!rad_lines_next(&L->lines, &ln)) {
+            L->state = 2;
+            L->tok[0] = '\0';
+            L->len = 0;
+            L->tok_line = L->last_line;
+            return RAD_OK;
         }
-        if (L->p < L->end && *L->p == '#') {
-            while (L->p < L->end && *L->p != '\n')
-                L->p++;
-            continue;
-        }
-        break;
-    }
-    if (L->p >= L->end) {
-        L->state = 2;
-        L->tok[0] = '\0';
-        L->len = 0;
-        L->tok_line = L->last_line;
-        return RAD_OK;
+        L->p = ln.text;
+        L->end = ln.text + ln.content;
+        L->line = ln.number;
     }
     L->tok_line = L->line;
     size_t n = 0;
-    while (L->p < L->end && !is_space((unsigned char)*L->p) && *L->p != '#') {
+    while (L->p < L->end && !is_space((unsigned char)*L->p)) {
         if (*L->p == '\0')
             return perr(P, L->line, RAD_ERR_PARSE, "NUL byte in the text");
         if (n >= MAX_TOKEN)
@@ -689,8 +687,7 @@ int rad_scene_parse_polyfile(const char *text, size_t size, const char *name,
     parser *P = calloc(1, sizeof *P);
     if (!P)
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", name);
-    P->lx.p = text;
-    P->lx.end = text ? text + size : text;
+    rad_lines_start(&P->lx.lines, text, size);
     P->lx.line = 1;
     P->lx.tok_line = 1;
     P->lx.last_line = 1;
