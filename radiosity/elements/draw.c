@@ -373,6 +373,45 @@ int rad_elements_drawn_radiosity(const rad_solution *s, const rad_elements *el, 
     return el_drawn_field(s, el, rm, cells_of, el ? el->B : s->B, s->B, out, err);
 }
 
+/* The drawing mesh rm's vertex -> the elements using it (CSR: start[nv + 1]
+ * into adj), and element -> its first cell of rm (first[n]; the cells of
+ * one element are consecutive, cells_of[k] the element of cell k, NULL:
+ * cell k is element k).  Caller frees the three; -1 on OOM (none left). */
+static int vertex_elements(const rad_mesh *rm, uint32_t n, const uint32_t *cells_of,
+                           uint64_t **start_out, uint32_t **adj_out, uint32_t **first_out)
+{
+    const uint32_t nv = rm->vertex_count, nc = rm->patch_count;
+    uint64_t *start = calloc((size_t)nv + 1, sizeof *start);
+    uint64_t *fill = malloc(((size_t)nv + 1) * sizeof *fill);
+    uint32_t *first = malloc(((size_t)n + 1) * sizeof *first), *adj = NULL;
+    if (start && fill && first) {
+        for (uint32_t k = 0; k < nc; k++)
+            for (int c = 0; c < rad_patch_corners(&rm->patches[k]); c++)
+                start[rm->patches[k].v[c] + 1]++;
+        for (uint32_t v = 0; v < nv; v++)
+            start[v + 1] += start[v];
+        adj = malloc((size_t)(start[nv] ? start[nv] : 1) * sizeof *adj);
+    }
+    if (!adj) {
+        free(start);
+        free(fill);
+        free(first);
+        return -1;
+    }
+    memcpy(fill, start, ((size_t)nv + 1) * sizeof *fill);
+    for (uint32_t k = nc; k-- > 0;) {
+        uint32_t e = cells_of ? cells_of[k] : k;
+        first[e] = k;
+        for (int c = 0; c < rad_patch_corners(&rm->patches[k]); c++)
+            adj[fill[rm->patches[k].v[c]]++] = e;
+    }
+    free(fill);
+    *start_out = start;
+    *adj_out = adj;
+    *first_out = first;
+    return 0;
+}
+
 int el_drawn_field(const rad_solution *s, const rad_elements *el, const rad_mesh *rm,
                    const uint32_t *cells_of, const double *field, const double *pfield,
                    double *out, rad_error *err)
@@ -380,7 +419,7 @@ int el_drawn_field(const rad_solution *s, const rad_elements *el, const rad_mesh
     const uint32_t bands = s->band_count;
     const rad_mesh *cells = el ? el->mesh : s->mesh;
     const double *B = el ? el->B : s->B;
-    const uint32_t n = cells->patch_count, nv = rm->vertex_count, nc = rm->patch_count;
+    const uint32_t n = cells->patch_count, nc = rm->patch_count;
     memcpy(out, field, (size_t)n * bands * sizeof *out);
     if (el && s->mesh->cell_first) {
         int rc = draw_clusters(s, el, pfield, out, err);
@@ -402,37 +441,13 @@ int el_drawn_field(const rad_solution *s, const rad_elements *el, const rad_mesh
         free(buried);
         return RAD_OK;
     }
-    /* Drawing vertex -> elements using it; element -> its first cell (the
-     * cells of one element are consecutive). */
-    uint64_t *start = calloc((size_t)nv + 1, sizeof *start);
-    uint32_t *first = malloc(((size_t)n + 1) * sizeof *first), *adj = NULL, *stamp = NULL;
+    uint64_t *start = NULL;
+    uint32_t *first = NULL, *adj = NULL, *stamp = calloc(n ? n : 1, sizeof *stamp);
     double *x = NULL, *y = NULL, *w = NULL;
     uint32_t *id = NULL;
     int rc = RAD_ERR_NOMEM;
-    if (!start || !first)
+    if (!stamp || vertex_elements(rm, n, cells_of, &start, &adj, &first) != 0)
         goto done;
-    for (uint32_t k = 0; k < nc; k++)
-        for (int c = 0; c < rad_patch_corners(&rm->patches[k]); c++)
-            start[rm->patches[k].v[c] + 1]++;
-    for (uint32_t v = 0; v < nv; v++)
-        start[v + 1] += start[v];
-    adj = malloc((size_t)(start[nv] ? start[nv] : 1) * sizeof *adj);
-    stamp = calloc(n ? n : 1, sizeof *stamp);
-    if (!adj || !stamp)
-        goto done;
-    {
-        uint64_t *fill = malloc(((size_t)nv + 1) * sizeof *fill);
-        if (!fill)
-            goto done;
-        memcpy(fill, start, ((size_t)nv + 1) * sizeof *fill);
-        for (uint32_t k = nc; k-- > 0;) {
-            uint32_t e = cells_of ? cells_of[k] : k;
-            first[e] = k;
-            for (int c = 0; c < rad_patch_corners(&rm->patches[k]); c++)
-                adj[fill[rm->patches[k].v[c]]++] = e;
-        }
-        free(fill);
-    }
     size_t cap = 64;
     x = malloc(cap * sizeof *x);
     y = malloc(cap * sizeof *y);

@@ -970,6 +970,78 @@ static int outline_masks(builder *b)
     return 0;
 }
 
+/* Interpolated elements (refine_adaptive without element hemi-cubes): the
+ * direct sources into b->src, and unless they need more item buffers than
+ * hemi-cubes would cost (b->cheap), the patches' indirect field as
+ * elements draw it (b->ip) and the patches in contact (b->contact). */
+static int prepare_interpolation(builder *b, const rad_refine_options *opt, rad_error *err)
+{
+    const rad_solution *s = b->s;
+    const uint32_t np = s->mesh->patch_count, bands = b->bands;
+    double *Hi = NULL;
+    int rc = el_sources_make(s, &b->src, err);
+    if (rc != RAD_OK)
+        return rc;
+    b->cheap = b->src.count <= EL_MAX_STRATA;
+    b->direct_R = opt->light_resolution ? opt->light_resolution : EL_DIRECT_RESOLUTION;
+    if (b->cheap) {
+        Hi = malloc(((size_t)np * bands + 1) * sizeof *Hi);
+        if (!Hi)
+            rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    }
+    if (b->cheap && rc == RAD_OK) {
+        el_patch_indirect(s, b->src.direct, Hi);
+        rc = el_interp_make(s, Hi, &b->ip, err);
+    }
+    free(Hi);
+    if (b->cheap && rc == RAD_OK)
+        rc = el_contact_patches(s, &b->contact, err);
+    return rc;
+}
+
+/* Level 0: one element per cell of each patch (the patch itself unless it
+ * is a cluster), on the mesh's own corners: the cells of a surface share
+ * vertices as its patches do.  Each patch's smallest element edge into
+ * min_edge. */
+static int level_zero(builder *b, const rad_refine_options *opt, double *min_edge,
+                      rad_error *err)
+{
+    const rad_mesh *pm = b->s->mesh;
+    uint32_t *label = malloc(((size_t)pm->vertex_count + 1) * sizeof *label);
+    if (!label || outline_masks(b) != 0) {
+        free(label);
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    }
+    el_vertex_surfaces(pm, label);
+    int rc = RAD_OK;
+    for (uint32_t i = 0; i < pm->patch_count && rc == RAD_OK; i++) {
+        const rad_patch *cells;
+        const uint32_t count = rad_patch_cells(pm, i, &cells);
+        double own = 0.0;
+        for (uint32_t q = 0; q < count && rc == RAD_OK; q++) {
+            const rad_patch *p = &cells[q];
+            const uint32_t cell = (uint32_t)(p - (pm->cell_first ? pm->cells : pm->patches));
+            uint32_t v[4] = {RAD_NONE, RAD_NONE, RAD_NONE, RAD_NONE};
+            for (int k = 0; k < rad_patch_corners(p) && rc == RAD_OK; k++) {
+                v[k] = vertex_at(b, label[p->v[k]], pm->vertices[p->v[k]], RAD_NONE);
+                if (v[k] == RAD_NONE)
+                    rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+                else
+                    b->Vb[v[k]] = pm->vertex_boundary[p->v[k]];
+            }
+            if (rc == RAD_OK && add_element(b, v, i, cell, 0, NODE_LEAF) != 0)
+                rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+            if (rc == RAD_OK)
+                own = count == 1 ? longest_edge(b, &b->E[b->ne - 1]) : sqrt(pm->patches[i].area);
+        }
+        /* Default floor: three splits below the patch (1/8 of its size; a
+         * cluster's size is the side of a square of its area). */
+        min_edge[i] = opt->min_element_size > 0.0 ? opt->min_element_size : own / 8.0;
+    }
+    free(label);
+    return rc;
+}
+
 int rad_elements_refine(rad_solution *s, hc_engine *hc, const rad_refine_options *options,
                         rad_error *err)
 {
@@ -1007,29 +1079,8 @@ int rad_elements_refine(rad_solution *s, hc_engine *hc, const rad_refine_options
     if (rc != RAD_OK)
         return rc;
     b.Tr = Tr;
-    if (!uniform && !opt.element_hemicubes) {
-        /* Interpolated elements, unless the direct sources need more item
-         * buffers than hemi-cubes would cost. */
-        double *Hi = NULL;
-        if ((rc = el_sources_make(s, &b.src, err)) != RAD_OK)
-            goto done;
-        b.cheap = b.src.count <= EL_MAX_STRATA;
-        b.direct_R = opt.light_resolution ? opt.light_resolution : EL_DIRECT_RESOLUTION;
-        if (b.cheap) {
-            Hi = malloc(((size_t)np * bands + 1) * sizeof *Hi);
-            if (!Hi)
-                rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
-        }
-        if (b.cheap && rc == RAD_OK) {
-            el_patch_indirect(s, b.src.direct, Hi);
-            rc = el_interp_make(s, Hi, &b.ip, err);
-        }
-        free(Hi);
-        if (b.cheap && rc == RAD_OK)
-            rc = el_contact_patches(s, &b.contact, err);
-        if (rc != RAD_OK)
-            goto done;
-    }
+    if (!uniform && !opt.element_hemicubes && (rc = prepare_interpolation(&b, &opt, err)))
+        goto done;
     if (opt.entries_read)
         opt.entries_read(opt.entries_read_user);
     min_edge = malloc((np ? np : 1) * sizeof *min_edge);
@@ -1037,41 +1088,7 @@ int rad_elements_refine(rad_solution *s, hc_engine *hc, const rad_refine_options
         rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
         goto done;
     }
-    /* Level 0: one element per cell of each patch (the patch itself unless
-     * it is a cluster), on the mesh's own corners: the cells of a surface
-     * share vertices as its patches do. */
-    uint32_t *label = malloc(((size_t)pm->vertex_count + 1) * sizeof *label);
-    if (!label || outline_masks(&b) != 0) {
-        free(label);
-        rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
-        goto done;
-    }
-    el_vertex_surfaces(pm, label);
-    for (uint32_t i = 0; i < np && rc == RAD_OK; i++) {
-        const rad_patch *cells;
-        const uint32_t count = rad_patch_cells(pm, i, &cells);
-        double own = 0.0;
-        for (uint32_t q = 0; q < count && rc == RAD_OK; q++) {
-            const rad_patch *p = &cells[q];
-            uint32_t v[4] = {RAD_NONE, RAD_NONE, RAD_NONE, RAD_NONE};
-            for (int k = 0; k < rad_patch_corners(p) && rc == RAD_OK; k++) {
-                v[k] = vertex_at(&b, label[p->v[k]], pm->vertices[p->v[k]], RAD_NONE);
-                if (v[k] == RAD_NONE)
-                    rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
-                else
-                    b.Vb[v[k]] = pm->vertex_boundary[p->v[k]];
-            }
-            if (rc == RAD_OK && add_element(&b, v, i, (uint32_t)(p - (pm->cell_first ? pm->cells : pm->patches)), 0, NODE_LEAF) != 0)
-                rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
-            if (rc == RAD_OK)
-                own = count == 1 ? longest_edge(&b, &b.E[b.ne - 1]) : sqrt(pm->patches[i].area);
-        }
-        /* Default floor: three splits below the patch (1/8 of its size; a
-         * cluster's size is the side of a square of its area). */
-        min_edge[i] = opt.min_element_size > 0.0 ? opt.min_element_size : own / 8.0;
-    }
-    free(label);
-    if (rc != RAD_OK)
+    if ((rc = level_zero(&b, &opt, min_edge, err)) != RAD_OK)
         goto done;
     /* Errors are relative to the brightest reflecting (non-emitting) patch
      * per band: emitters would make any threshold meaningless. */
