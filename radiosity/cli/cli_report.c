@@ -1,6 +1,8 @@
 /* cli_report.c - the report command: a solution's numbers as text or JSON
  * (per-object radiosity and power balance, punctual lights, what the run
- * computed and skipped, stage times).  Reads only; prints only here.
+ * computed and skipped, stage times, the final gather's cache file beside
+ * the solution).  Reads only; prints only here.  Calls only the shared
+ * files (cli_args.c, cli_print.c).
  */
 #include "cli.h"
 
@@ -8,7 +10,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-void cli_json_string(FILE *f, const char *s)
+/* Writes s as a JSON string (quotes, escapes). */
+static void json_string(FILE *f, const char *s)
 {
     fputc('"', f);
     for (; *s; s++) {
@@ -102,28 +105,75 @@ static int report_gather(report *r, const char *in, const rad_solution *s, rad_e
     return RAD_OK;
 }
 
+/* What report says of the final gather's cache file beside sol_path
+ * (SOLUTION.icache): its numbers and whether it is current for this
+ * solution, as a text line or as a JSON value (null when there is none). */
+static void report_cache(FILE *f, const char *sol_path, const rad_solution *s, int json)
+{
+    char path[4096];
+    rad_gather_cache_path(sol_path, path, sizeof path);
+    rn_icache *c = NULL;
+    rad_error err = {0};
+    if (rn_icache_read(path, 0, &c, &err)) {
+        if (json)
+            fputs("null", f);
+        else if (err.code != RAD_ERR_IO)
+            fprintf(f, "gather cache: %s\n", err.message);
+        return;
+    }
+    rn_icache_info in;
+    rn_icache_info_get(c, &in);
+    rn_icache_destroy(c);
+    /* Current when this solution under the settings it was filled with
+     * gives the key it carries. */
+    const char *state = "unknown";
+    rad_gather_scene *g = NULL;
+    if (rad_gather_scene_create(s, &g, &err) == RAD_OK) {
+        rn_gather_options o = {.epsilon = in.epsilon, .gather_rays = in.gather_rays,
+                               .no_gradients = !in.gradients, .min_radius_px = in.min_radius_px};
+        state = rn_gather_key(&g->scene, &o) == in.key ? "current" : "stale";
+        rad_gather_scene_destroy(g);
+    }
+    if (json) {
+        fputs("{\"file\": ", f);
+        json_string(f, path);
+        fprintf(f, ", \"state\": \"%s\", \"records\": %llu, \"gathers\": %llu, "
+                   "\"runs\": %llu, \"epsilon\": %.6g, \"gather_rays\": %u, \"gradients\": %s, "
+                   "\"min_radius_px\": %.6g, \"mean_radius\": %.6g}",
+                state, (unsigned long long)in.records, (unsigned long long)in.gathers,
+                (unsigned long long)in.runs, in.epsilon, in.gather_rays,
+                in.gradients ? "true" : "false", in.min_radius_px, in.mean_radius);
+        return;
+    }
+    fprintf(f, "gather cache: %s (%s): %llu records, mean valid radius %.4g; %llu gathers over "
+               "%llu renders; epsilon %g, %u rays a gather, gradients %s, minimum radius %g px\n",
+            path, state, (unsigned long long)in.records, in.mean_radius,
+            (unsigned long long)in.gathers, (unsigned long long)in.runs, in.epsilon,
+            in.gather_rays, in.gradients ? "on" : "off", in.min_radius_px);
+}
+
 static void report_json(FILE *f, const report *r)
 {
     const rad_solution *s = r->s;
     const rad_scene *sc = r->sc;
     const char *in = r->in;
     fprintf(f, "{\"solution\": ");
-    cli_json_string(f, in);
+    json_string(f, in);
     fprintf(f, ", \"bands\": %u, \"band_names\": [", r->nb);
     for (uint32_t b = 0; b < r->nb; b++) {
         fputs(b ? ", " : "", f);
         if (sc->band_names[b])
-            cli_json_string(f, sc->band_names[b]);
+            json_string(f, sc->band_names[b]);
         else
             fprintf(f, "\"%u\"", b);
     }
     fprintf(f, "], \"patches\": %u, \"objects\": [", s->mesh->patch_count);
     for (uint32_t o = 0; o < r->no; o++) {
         fprintf(f, "%s\n  {\"name\": ", o ? "," : "");
-        cli_json_string(f, sc->objects[o].name);
+        json_string(f, sc->objects[o].name);
         fprintf(f, ", \"material\": ");
         if (r->st[o].material != RAD_NONE)
-            cli_json_string(f, sc->materials[r->st[o].material].name);
+            json_string(f, sc->materials[r->st[o].material].name);
         else
             fputs("null", f);
         fprintf(f, ", \"patches\": %u, \"area\": %.9g, \"radiosity\": ", r->st[o].patch_count,
@@ -138,7 +188,7 @@ static void report_json(FILE *f, const report *r)
     fprintf(f, "],\n \"lights\": [");
     for (uint32_t l = 0; l < r->nl; l++) {
         fprintf(f, "%s\n  {\"name\": ", l ? "," : "");
-        cli_json_string(f, sc->lights[l].name);
+        json_string(f, sc->lights[l].name);
         fprintf(f, ", \"kind\": \"%s\", \"intensity\": ", kind_name[sc->lights[l].kind]);
         json_bands(f, s->light_intensity + (size_t)l * r->nb, r->nb);
         fputs(", \"emitted\": ", f);
@@ -154,7 +204,7 @@ static void report_json(FILE *f, const report *r)
     fputs(", \"absorbed\": ", f);
     json_bands(f, r->tot_a, r->nb);
     fprintf(f, "},\n \"solver\": {\"name\": ");
-    cli_json_string(f, s->solver);
+    json_string(f, s->solver);
     fprintf(f, ", \"iterations\": %u, \"residual\": %.6g, \"residual_unchecked\": %u, "
                "\"tolerance\": %.6g", s->iterations, s->residual, r->eco.reflecting_without_row,
             s->tolerance);
@@ -193,7 +243,7 @@ static void report_json(FILE *f, const report *r)
         fprintf(f, "%s\"%s\": %s", k ? ", " : "", rad_stage_name(k),
                 s->stages[k].reused ? "true" : "false");
     fprintf(f, "},\n \"gather_cache\": ");
-    cli_report_cache(f, in, s, 1);
+    report_cache(f, in, s, 1);
     fprintf(f, "}\n");
 }
 
@@ -300,7 +350,7 @@ static void report_text(FILE *f, const report *r)
         fprintf(f, "  %s %.3f s%s", rad_stage_name(k), s->stages[k].seconds,
                 s->stages[k].reused ? " (reused)" : "");
     fputc('\n', f);
-    cli_report_cache(f, in, s, 0);
+    report_cache(f, in, s, 0);
 }
 
 int cli_report(int argc, char **argv)

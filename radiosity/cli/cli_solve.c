@@ -1,113 +1,17 @@
-/* cli_solve.c - the solve and render commands: a scene becomes a stored
- * solution, a solution becomes images.  (report is in cli_report.c.)
+/* cli_solve.c - the solve command: a scene becomes a stored solution
+ * (load, mesh, form factors, solve, store), with its progress bars, its
+ * estimate, the progressive solver's previews and its summary lines.
+ *
+ * Invariant: the form-factor rows go to OUT.partial as they are computed
+ * and OUT appears only complete (renamed); a solve that stops (Ctrl-C, a
+ * limit, an error) says how many rows it kept and how to resume.  Calls
+ * only the shared files (cli_args.c, cli_process.c, cli_print.c).
  */
 #include "cli.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
-
-/* ------------------------------------------------------------------ views */
-
-int cli_view_option(int argc, char **argv, int *i, cli_view *v)
-{
-    const char *a = argv[*i];
-    const char *val = *i + 1 < argc ? argv[*i + 1] : NULL;
-    int rc = 0;
-    if (!strcmp(a, "--camera")) {
-        if (!val)
-            return cli_usage_error("--camera needs a name"), -1;
-        if (v->camera_args == CLI_MAX_CAMERA_ARGS)
-            return cli_usage_error("--camera given more than %d times (list cameras as A,B,C)",
-                                   CLI_MAX_CAMERA_ARGS), -1;
-        v->camera = v->cameras[v->camera_args++] = val;
-    } else if (!strcmp(a, "--eye")) {
-        rc = cli_parse_vec3(a, val, &v->eye), v->have_eye = 1;
-    } else if (!strcmp(a, "--target")) {
-        rc = cli_parse_vec3(a, val, &v->target), v->have_target = 1;
-    } else if (!strcmp(a, "--up")) {
-        rc = cli_parse_vec3(a, val, &v->up), v->have_up = 1;
-    } else if (!strcmp(a, "--fov")) {
-        rc = cli_parse_double(a, val, 0.01, 179.99, &v->fov), v->have_fov = 1;
-    } else if (!strcmp(a, "--ortho")) {
-        rc = cli_parse_double(a, val, 1e-12, 1e12, &v->ortho), v->have_ortho = 1;
-    } else if (!strcmp(a, "--size")) {
-        unsigned w, h;
-        char tail;
-        if (!val || sscanf(val, "%ux%u%c", &w, &h, &tail) != 2 || w < 1 || h < 1 || w > 16384 ||
-            h > 16384)
-            return cli_usage_error("--size: '%s' is not WxH (1..16384 each)", val ? val : ""), -1;
-        v->width = w, v->height = h;
-    } else if (!strcmp(a, "--png")) {
-        if (!val)
-            return cli_usage_error("--png needs a file name"), -1;
-        v->png = val;
-    } else if (!strcmp(a, "--exposure")) {
-        rc = cli_parse_double(a, val, -64, 64, &v->exposure);
-    } else if (!strcmp(a, "--exr-compression")) {
-        if (rn_exr_compression_parse(val, &v->exr_compression))
-            return cli_usage_error("--exr-compression: '%s' is not none, zip, rle or piz",
-                                   val ? val : ""), -1;
-    } else {
-        return 0;
-    }
-    if (rc)
-        return -1;
-    (*i)++;
-    return 1;
-}
-
-int cli_view_camera(const rad_solution *s, const cli_view *v, rn_camera *out)
-{
-    rad_error err = {0};
-    rn_camera cam;
-    uint32_t w = v->width ? v->width : 512, h = v->height ? v->height : 512;
-    if (v->have_fov && v->have_ortho)
-        return cli_usage_error("--fov and --ortho exclude each other");
-    if (v->have_eye || v->have_target) {
-        if (!v->have_eye || !v->have_target)
-            return cli_usage_error("--eye and --target go together");
-        if (v->camera)
-            return cli_usage_error("--camera and --eye/--target exclude each other");
-        cam = (rn_camera){.eye = v->eye, .target = v->target,
-                          .up = v->have_up ? v->up : rad_v3(0, 1, 0),
-                          .yfov_deg = v->have_fov ? v->fov : 45.0, .width = w, .height = h};
-    } else {
-        if (rad_camera_from_scene(s->scene, v->camera, w, h, &cam, &err))
-            return cli_error(&err);
-        if (v->have_up)
-            cam.up = v->up;
-        if (v->have_fov) /* a field of view makes any camera perspective */
-            cam.yfov_deg = v->fov, cam.orthographic = 0;
-    }
-    if (v->have_ortho)
-        cam.orthographic = 1, cam.ymag = v->ortho;
-    *out = cam;
-    return 0;
-}
-
-int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *exr_path,
-                        const char *png_path)
-{
-    rad_error err = {0};
-    rn_camera cam;
-    int rc = cli_view_camera(s, v, &cam);
-    if (rc)
-        return rc;
-    if (cli_check_output_dir(exr_path) || (png_path && cli_check_output_dir(png_path)))
-        return 2;
-    rn_image *img = NULL;
-    rc = rad_render_solution(s, &cam, &img, &err);
-    if (!rc)
-        rc = rn_write_exr_with(img, exr_path, v->exr_compression, &err);
-    if (!rc && png_path)
-        rc = rn_write_png(img, png_path, v->exposure, &err);
-    rn_image_destroy(img);
-    return rc ? cli_error(&err) : 0;
-}
-
-/* ------------------------------------------------------------------ solve */
 
 typedef struct preview_state {
     const char *dir;
@@ -314,61 +218,4 @@ int cli_solve(int argc, char **argv)
     solve_summary(out, s, &st, store);
     rad_solution_destroy(s);
     return 0;
-}
-
-/* ----------------------------------------------------------------- render */
-
-int cli_render(int argc, char **argv)
-{
-    const char *in = NULL, *out = NULL;
-    cli_view view = {0};
-    cli_many many = {0};
-    cli_gather gather = {0};
-    int rc;
-    for (int i = 0; i < argc; i++) {
-        int r = cli_view_option(argc, argv, &i, &view);
-        if (!r)
-            r = cli_many_option(argc, argv, &i, &many);
-        if (!r)
-            r = cli_gather_option(argc, argv, &i, &gather);
-        if (r < 0)
-            return 2;
-        if (r > 0)
-            continue;
-        if (!strcmp(argv[i], "-o") && i + 1 < argc)
-            out = argv[++i];
-        else if ((rc = cli_other_arg("render", "solution", argv[i], &in)) != 0)
-            return rc;
-    }
-    if (!in || !out)
-        return cli_usage_error("usage: radiosity render SOLUTION -o IMAGE.exr [options]");
-    if (gather.given && !gather.on)
-        return cli_usage_error("render: %s is a --gather option", gather.given);
-    if (cli_many_views(&view, &many, NULL)) {
-        if (gather.on)
-            return cli_usage_error("render: --gather draws one view (several views: run it per view)");
-        if (cli_need_dir("render", out))
-            return 2;
-    }
-    /* --threads: drawing threads for several views, shading threads for a
-     * gather (default: one per CPU, as for several views). */
-    long cpus = sysconf(_SC_NPROCESSORS_ONLN);
-    gather.opt.threads = many.threads ? many.threads : cpus > 64 ? 64 : cpus > 1 ? (uint32_t)cpus : 1;
-    rad_error err = {0};
-    rad_solution *s = NULL;
-    /* a view needs B, the mesh and the elements: F is neither read nor checked */
-    if (rad_solution_read_parts(in, 0, &s, &err))
-        return cli_error(&err);
-    if (cli_many_views(&view, &many, s->scene))
-        rc = gather.on ? cli_usage_error("render: --gather draws one view (several views: run it "
-                                         "per view)")
-                       : cli_render_many(s, &view, &many, out);
-    else if ((many.threads && !gather.on) || many.no_png)
-        rc = cli_usage_error("render: --threads and --no-png go with several views "
-                             "(--all-cameras, --path or --camera A,B) or, --threads, with --gather");
-    else
-        rc = gather.on ? cli_gather_to_files(s, in, &view, &gather, out)
-                       : cli_render_to_files(s, &view, out, view.png);
-    rad_solution_destroy(s);
-    return rc;
 }

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # hugepages.sh - main runs itself again once with glibc's tunable
-# glibc.malloc.hugetlb=1 added to GLIBC_TUNABLES (radiosity/cli/main.c,
+# glibc.malloc.hugetlb=1 added to GLIBC_TUNABLES (radiosity/cli/cli_process.c,
 # with_huge_pages: transparent huge pages for malloc's memory), and only
 # once:
 #   - without GLIBC_TUNABLES, the running program's environment holds it;

@@ -1,22 +1,40 @@
-/* cli_views.c - `render` with many views: every camera of the scene
- * (--all-cameras), a list of them (--camera A,B or --camera repeated) or a
- * camera path (--path FILE, a fly-through), one image each, from one load
- * of the solution and one preparation of the drawing, on every CPU.
+/* cli_render.c - the render command: a stored solution drawn as images.
+ * Three ways, one command line:
+ *   - one view (a camera of the scene, or --eye/--target), drawn from the
+ *     stored B to IMAGE.exr (and --png), cli_render_to_files in cli_args.c;
+ *   - many views from one load (--all-cameras, --camera A,B or repeated,
+ *     --path FILE, a fly-through), on every CPU, into a directory;
+ *   - the final gather (--gather): one view ray-traced from the solution,
+ *     with its options, its progress bar and its summary line.
  *
- * -o names an existing directory; a view of camera NAME becomes NAME.exr
- * and NAME.png (characters other than letters, digits, '.', '_' and '-'
- * replaced by '_'), view k of a path frame-000k.exr and .png (from 1).
- * Every view and every file name is settled before the first is drawn, so
- * a bad camera or a clash writes nothing; each file is written through a
- * temporary and renamed (rad_output), as any other output.
+ * Many views: -o names an existing directory; a view of camera NAME becomes
+ * NAME.exr and NAME.png (characters other than letters, digits, '.', '_'
+ * and '-' replaced by '_'), view k of a path frame-000k.exr and .png (from
+ * 1).  Every view and every file name is settled before the first is
+ * drawn, so a bad camera or a clash writes nothing; each file is written
+ * through a temporary and renamed (rad_output), as any other output.
+ * Calls only the shared files (cli_args.c, cli_print.c).
  */
 #include "cli.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
-int cli_many_option(int argc, char **argv, int *i, cli_many *m)
+/* ------------------------------------------------------------ many views */
+
+/* Many views in one render: every camera of the scene, a list of them, or
+ * a camera path, drawn on all CPUs from one load. */
+typedef struct many_args {
+    int all_cameras;    /* --all-cameras */
+    const char *path;   /* --path FILE */
+    uint32_t threads;   /* --threads N; 0 = one per CPU */
+    int no_png;         /* --no-png */
+} many_args;
+
+/* 1 consumed, 0 not one of them, -1 bad value (printed). */
+static int many_option(int argc, char **argv, int *i, many_args *m)
 {
     const char *a = argv[*i];
     const char *val = *i + 1 < argc ? argv[*i + 1] : NULL;
@@ -42,7 +60,9 @@ int cli_many_option(int argc, char **argv, int *i, cli_many *m)
     return 1;
 }
 
-int cli_many_views(const cli_view *v, const cli_many *m, const rad_scene *scene)
+/* 1 when the options ask for many views (a --camera value that lists
+ * cameras needs the scene to tell: NULL scene answers for the rest). */
+static int many_views(const cli_view *v, const many_args *m, const rad_scene *scene)
 {
     if (m->all_cameras || m->path || v->camera_args > 1)
         return 1;
@@ -163,7 +183,7 @@ static int named_cameras(view_list *l, const rad_solution *s, const cli_view *v,
 /* Cameras of the scene or the command line: file stems from their names,
  * made distinct (a clash after replacing characters gets "-K", K the
  * view's number). */
-static int camera_views(view_list *l, const rad_solution *s, const cli_view *v, const cli_many *m,
+static int camera_views(view_list *l, const rad_solution *s, const cli_view *v, const many_args *m,
                         rad_error *err)
 {
     int rc;
@@ -200,7 +220,7 @@ static int camera_views(view_list *l, const rad_solution *s, const cli_view *v, 
 }
 
 /* The views of a camera path file: frame-0001, frame-0002, ... */
-static int path_views(view_list *l, const cli_view *v, const cli_many *m, rad_error *err)
+static int path_views(view_list *l, const cli_view *v, const many_args *m, rad_error *err)
 {
     rn_camera base = {.up = v->have_up ? v->up : rad_v3(0, 1, 0),
                       .yfov_deg = v->have_fov ? v->fov : 45.0,
@@ -244,7 +264,9 @@ static int write_view(void *user, uint32_t k, const rn_image *img, rad_error *er
     return rc;
 }
 
-int cli_render_many(const rad_solution *s, const cli_view *v, const cli_many *m, const char *dir)
+/* Draws every view into DIR/NAME.exr (and .png): exit status. */
+static int render_many(const rad_solution *s, const cli_view *v, const many_args *m,
+                       const char *dir)
 {
     if (cli_need_dir("render", dir))
         return 2;
@@ -288,4 +310,191 @@ int cli_render_many(const rad_solution *s, const cli_view *v, const cli_many *m,
     rad_drawing_destroy(d);
     views_free(&l);
     return rc ? cli_error(&err) : 0;
+}
+
+/* ---------------------------------------------------------- final gather */
+
+/* The final gather's options (render --gather). */
+typedef struct gather_args {
+    int on;                    /* --gather */
+    const char *given;         /* the first gather option seen (for "needs --gather") */
+    rn_gather_options opt;
+    const char *cache;         /* --cache FILE; NULL = SOLUTION.icache */
+    int no_cache_file;         /* --no-cache-file */
+} gather_args;
+
+/* 1 consumed, 0 not a gather option, -1 bad value (printed). */
+static int gather_option(int argc, char **argv, int *i, gather_args *g)
+{
+    const char *a = argv[*i];
+    const char *v = *i + 1 < argc ? argv[*i + 1] : NULL;
+    rn_gather_options *o = &g->opt;
+    int rc = 0, takes = 1;
+    if (!strcmp(a, "--gather")) {
+        g->on = 1;
+        return 1;
+    }
+    if (!strcmp(a, "--epsilon"))
+        rc = cli_parse_double(a, v, 1e-4, 1.0, &o->epsilon);
+    else if (!strcmp(a, "--gather-rays"))
+        rc = cli_parse_u32(a, v, 8, 1u << 20, &o->gather_rays);
+    else if (!strcmp(a, "--light-samples"))
+        rc = cli_parse_u32(a, v, 1, 1u << 16, &o->light_samples);
+    else if (!strcmp(a, "--glossy-rays"))
+        rc = cli_parse_u32(a, v, 1, 1u << 16, &o->glossy_rays);
+    else if (!strcmp(a, "--max-depth"))
+        rc = cli_parse_u32(a, v, 1, 64, &o->max_depth);
+    else if (!strcmp(a, "--min-radius"))
+        rc = cli_parse_double(a, v, 1e-3, 1e6, &o->min_radius_px);
+    else if (!strcmp(a, "--cache")) {
+        if (!v)
+            return cli_usage_error("--cache needs a file name"), -1;
+        g->cache = v;
+    } else if (!strcmp(a, "--glossy")) {
+        if (v && !strcmp(v, "auto"))
+            o->glossy = RN_GLOSSY_AUTO;
+        else if (v && !strcmp(v, "sample"))
+            o->glossy = RN_GLOSSY_SAMPLE;
+        else if (v && !strcmp(v, "light-vector"))
+            o->glossy = RN_GLOSSY_LIGHT_VECTOR;
+        else
+            return cli_usage_error("--glossy: '%s' is not auto, sample or light-vector",
+                                   v ? v : ""), -1;
+    } else {
+        takes = 0;
+        if (!strcmp(a, "--no-cache"))
+            o->no_cache = 1;
+        else if (!strcmp(a, "--no-cache-file"))
+            g->no_cache_file = 1;
+        else if (!strcmp(a, "--no-gradients"))
+            o->no_gradients = 1;
+        else
+            return 0;
+    }
+    if (rc)
+        return -1;
+    if (!g->given)
+        g->given = a;
+    *i += takes;
+    return 1;
+}
+
+/* Progress on stderr, only when stderr is a terminal. */
+static void gather_bar(void *user, uint64_t done, uint64_t total)
+{
+    int *last = user;
+    int pct = total ? (int)(100.0 * (double)done / (double)total) : 100;
+    if (pct == *last && done != total)
+        return;
+    *last = pct;
+    int filled = pct * 30 / 100;
+    fprintf(stderr, "\rgather [%.*s%*s] %3d%%", filled, "##############################",
+            30 - filled, "", pct);
+    if (done >= total)
+        fputc('\n', stderr);
+    fflush(stderr);
+}
+
+/* The gather render of s (read from sol_path) with the view, to exr_path
+ * and v->png; prints one line of statistics. */
+static int gather_to_files(const rad_solution *s, const char *sol_path, const cli_view *v,
+                           const gather_args *g, const char *exr_path)
+{
+    rad_error err = {0};
+    rn_camera cam;
+    int rc = cli_view_camera(s, v, &cam);
+    if (rc)
+        return rc;
+    if (cli_check_output_dir(exr_path) || (v->png && cli_check_output_dir(v->png)))
+        return 2;
+    char path[4096];
+    rad_gather_options opt = {.render = g->opt, .warn = cli_warn};
+    if (!g->no_cache_file && !g->opt.no_cache) {
+        if (g->cache)
+            snprintf(path, sizeof path, "%s", g->cache);
+        else
+            rad_gather_cache_path(sol_path, path, sizeof path);
+        opt.cache_path = path;
+    }
+    int last = -1;
+    if (isatty(STDERR_FILENO)) {
+        opt.render.progress = gather_bar;
+        opt.render.progress_user = &last;
+    }
+    rn_image *img = NULL;
+    rn_gather_stats st;
+    rc = rad_render_gather(s, &cam, &opt, &img, &st, &err);
+    if (!rc)
+        rc = rn_write_exr_with(img, exr_path, v->exr_compression, &err);
+    if (!rc && v->png)
+        rc = rn_write_png(img, v->png, v->exposure, &err);
+    rn_image_destroy(img);
+    if (rc)
+        return cli_error(&err);
+    printf("gather: %llu pixels in %.2f s: %llu gathers (%.2f %% of pixels), %llu of %llu "
+           "shading points from the cache, %llu records (%llu loaded)\n",
+           (unsigned long long)st.pixels, st.seconds, (unsigned long long)st.gathers,
+           st.pixels ? 100.0 * (double)st.gathers / (double)st.pixels : 0.0,
+           (unsigned long long)st.cache_hits, (unsigned long long)st.shading_points,
+           (unsigned long long)st.records, (unsigned long long)st.records_loaded);
+    return 0;
+}
+
+/* ---------------------------------------------------------------- render */
+
+/* render SOLUTION -o OUT: one view, many views or a final gather, as the
+ * options say (the solution is read once, without F). */
+int cli_render(int argc, char **argv)
+{
+    const char *in = NULL, *out = NULL;
+    cli_view view = {0};
+    many_args many = {0};
+    gather_args gather = {0};
+    int rc;
+    for (int i = 0; i < argc; i++) {
+        int r = cli_view_option(argc, argv, &i, &view);
+        if (!r)
+            r = many_option(argc, argv, &i, &many);
+        if (!r)
+            r = gather_option(argc, argv, &i, &gather);
+        if (r < 0)
+            return 2;
+        if (r > 0)
+            continue;
+        if (!strcmp(argv[i], "-o") && i + 1 < argc)
+            out = argv[++i];
+        else if ((rc = cli_other_arg("render", "solution", argv[i], &in)) != 0)
+            return rc;
+    }
+    if (!in || !out)
+        return cli_usage_error("usage: radiosity render SOLUTION -o IMAGE.exr [options]");
+    if (gather.given && !gather.on)
+        return cli_usage_error("render: %s is a --gather option", gather.given);
+    if (many_views(&view, &many, NULL)) {
+        if (gather.on)
+            return cli_usage_error("render: --gather draws one view (several views: run it per view)");
+        if (cli_need_dir("render", out))
+            return 2;
+    }
+    /* --threads: drawing threads for several views, shading threads for a
+     * gather (default: one per CPU, as for several views). */
+    long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    gather.opt.threads = many.threads ? many.threads : cpus > 64 ? 64 : cpus > 1 ? (uint32_t)cpus : 1;
+    rad_error err = {0};
+    rad_solution *s = NULL;
+    /* a view needs B, the mesh and the elements: F is neither read nor checked */
+    if (rad_solution_read_parts(in, 0, &s, &err))
+        return cli_error(&err);
+    if (many_views(&view, &many, s->scene))
+        rc = gather.on ? cli_usage_error("render: --gather draws one view (several views: run it "
+                                         "per view)")
+                       : render_many(s, &view, &many, out);
+    else if ((many.threads && !gather.on) || many.no_png)
+        rc = cli_usage_error("render: --threads and --no-png go with several views "
+                             "(--all-cameras, --path or --camera A,B) or, --threads, with --gather");
+    else
+        rc = gather.on ? gather_to_files(s, in, &view, &gather, out)
+                       : cli_render_to_files(s, &view, out, view.png);
+    rad_solution_destroy(s);
+    return rc;
 }
