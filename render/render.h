@@ -12,12 +12,12 @@
  * The renderer never sees form factors, GL or the solver: it reads the mesh
  * and radiosities only.  OpenEXR and PNG output live in their own files here.
  *
- * A second renderer, the final gather (rn_gather, gather.c and icache.c),
- * ray-traces a view from the same data with Embree (embree.c, the only file
- * that sees it): per pixel direct light from the emitters and punctual
- * lights with shadow rays, indirect irradiance gathered over the hemisphere
- * from the stored radiosities (cached by Ward, Rubinstein & Clear 1988),
- * and the glossy lobes the solve ignores.
+ * A second renderer, the final gather (rn_gather, final_gather.c and
+ * icache.c), ray-traces a view from the same data with Embree (embree.c, the
+ * only file that sees it): per pixel direct light from the emitters and
+ * punctual lights with shadow rays, indirect irradiance gathered over the
+ * hemisphere from the stored radiosities (cached by Ward, Rubinstein &
+ * Clear 1988), and the glossy lobes the solve ignores.
  */
 #ifndef RN_RENDER_H
 #define RN_RENDER_H

@@ -1,7 +1,7 @@
 /* rn_internal.h - what the files of render/ share: the image helpers of the
  * two writers, the camera frame and cell interpolation of both renderers,
  * the ray-casting kernel (embree.c) and the irradiance cache's records
- * (icache.c) for the gather (gather.c).
+ * (icache.c) for the gather (final_gather.c).
  *
  * Private to render/: the public contract stays render.h.  Both writers check
  * an image the same way and write through a rad_output (rad.h), so that a

@@ -1,4 +1,4 @@
-/* gather.c - the final gather: a ray-traced view of a stored radiosity
+/* final_gather.c - the final gather: a ray-traced view of a stored radiosity
  * solution (Ward, Rubinstein & Clear 1988), with glossy lobes the solve
  * does not know (Ward's isotropic Gaussian; Zaninetti & Péroche's light
  * vectors).
