@@ -140,9 +140,6 @@ int rn_write_exr_with(const rn_image *img, const char *path, rn_exr_compression 
 int rn_write_exr_later(const rn_image *img, const char *path, rn_exr_compression compression,
                        rad_committer *committer, rad_error *err);
 
-/* Reads an EXR written by rn_write_exr (tests, comparisons). Caller owns *out. */
-int rn_read_exr(const char *path, rn_image **out, rad_error *err);
-
 /* Writes an 8-bit sRGB PNG preview: value = sRGB(L · 2^exposure), through a
  * temporary file renamed into place.  One band is grey; >= 3 use the first three. */
 int rn_write_png(const rn_image *img, const char *path, double exposure, rad_error *err);

@@ -12,7 +12,8 @@
 
 #include "render.h"
 
-/* Largest width or height an image may have (rn_render, the writers, rn_read_exr). */
+/* Largest width or height an image may have (rn_render, the writers, and
+ * the tests' EXR reader, test/exr_read.c). */
 #define RN_MAX_SIDE 16384u
 
 /* RAD_OK when img has 1..RN_MAX_SIDE pixels a side, 1..RAD_MAX_BANDS channels
