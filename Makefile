@@ -78,6 +78,9 @@ $(B)/bench/%: $(B)/obj/bench/%.o $(LIB)
 	@mkdir -p $(dir $@)
 	@$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
+# test_render reads its EXR files back with test/exr_read.c (test-only)
+$(B)/test/test_render: $(B)/obj/test/exr_read.o
+
 # bench_scale writes its scene with bench/hall.c (not a benchmark of its own)
 $(B)/bench/bench_scale: $(B)/obj/bench/hall.o
 

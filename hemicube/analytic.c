@@ -3,7 +3,9 @@
  * Owns the "Analytic form factors" of hemicube.h: the catalog closed forms
  * (Howell C-11, C-14, C-41, B-3), Lambert's contour integral from a
  * differential element to a polygon, and its area average from polygon to
- * polygon.  Pure math: no GL, no allocation, no state, no occlusion.
+ * polygon.  Pure math: no GL, no allocation, no state, no occlusion; the
+ * bottom of the folder's order (patch_factors.c calls it, it calls nothing
+ * of hemicube/).
  *
  * Invariant: every function returns F in [0, 1], or NAN for non-positive or
  * non-finite sizes and coordinates; polygons with fewer than 3 vertices (or

@@ -15,6 +15,10 @@
  * buffers rendered at those points (hc_light_visibility: a cube of views
  * at a point, bilinear in the pixels that show c_j's own surface).
  *
+ * Runs in the caller, at the top of the folder's order: it calls
+ * light_requests.c (the visibility) and patch_factors.c (the integral),
+ * and nothing in hemicube/ calls it.
+ *
  * Invariant of a column: j strictly increasing, j != i, F_ji > 0 and
  * finite, only receivers whose centre lies strictly in front of i's plane
  * and that face it.  What differs from the rows' entries is the visibility

@@ -5,8 +5,8 @@
  * vertex buffer holding every patch (patch j's triangles contiguous,
  * positions relative to the bounding-box centre, each vertex carrying its
  * patch id), the render targets (the hemi-cube's item-buffer atlas, R wide
- * and 3R tall, and an R×R light view) and the calls rows.c and lights.c
- * draw and read with (hc_gl_* in hc_internal.h).  Only a worker process
+ * and 3R tall, and an R×R light view) and the calls rows.c and
+ * light_views.c draw and read with (hc_gl_* in hc_internal.h).  Only a worker process
  * ever makes a context, so the caller can fork freely.
  *
  * libOSMesa is not linked: a worker loads it (dlopen) when it makes its
@@ -14,7 +14,9 @@
  * by OSMesaGetProcAddress.  The process that forks the workers holds F and
  * never draws; linking OSMesa (and the LLVM it pulls in) would cost it
  * ~48 MB resident for nothing, and render, report, relight and export
- * would need the library without using it.
+ * would need the library without using it.  The OSMesa part (loading, the
+ * context) is a section of its own; set-up, views, drawing and readback
+ * below it use only the gl table, whatever made the context.
  *
  * Invariants: depth is reversed Z with an infinite far plane (depth =
  * near/distance, the target cleared to 0, GL_GREATER); the item target
@@ -124,24 +126,13 @@ int hc_gl_check(const char *where, char *msg)
     return -1;
 }
 
-static GLuint compile(GLenum type, const char *src, char *msg)
-{
-    GLuint s = gl.CreateShader(type);
-    gl.ShaderSource(s, 1, &src, NULL);
-    gl.CompileShader(s);
-    GLint ok = 0;
-    gl.GetShaderiv(s, GL_COMPILE_STATUS, &ok);
-    if (!ok) {
-        char log[512] = "";
-        gl.GetShaderInfoLog(s, sizeof log, NULL, log);
-        snprintf(msg, HC_MAX_MSG, "hemi-cube: shader compile failed: %s", log);
-        gl.DeleteShader(s);
-        return 0;
-    }
-    return s;
-}
+/* ------------------------------------------- the OSMesa context (back end) */
 
-/* ----------------------------------------------------------------- set-up */
+/* What creates the context is kept apart from what draws in it: the
+ * library's loading and the entry points (load_gl) and the context
+ * (osmesa_context) are the OSMesa back end; everything below draws with
+ * the gl table alone, so another back end (EGL, issue 38) is another
+ * section like this one. */
 
 static int missing(const char *name, char *msg)
 {
@@ -182,9 +173,9 @@ static int load_gl(char *msg)
     return 0;
 }
 
-/* The context and the atlas FBO (R wide, 3R tall: item buffer and depth),
- * with the fixed state every view uses. */
-static int context_and_atlas(hc_gl *g, uint32_t Ru, char *msg)
+/* A GL 4.5 core context, made current on a 1×1 dummy buffer (every view
+ * draws into a framebuffer object, never into OSMesa's own buffer). */
+static int osmesa_context(hc_gl *g, char *msg)
 {
     const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 0,
                            OSMESA_STENCIL_BITS, 0, OSMESA_ACCUM_BITS, 0,
@@ -199,6 +190,15 @@ static int context_and_atlas(hc_gl *g, uint32_t Ru, char *msg)
         snprintf(msg, HC_MAX_MSG, "hemi-cube: OSMesaMakeCurrent failed");
         return -1;
     }
+    return 0;
+}
+
+/* ------------------------------------------------------------ GL set-up */
+
+/* The atlas FBO (R wide, 3R tall: item buffer and depth), with the fixed
+ * state every view uses, in the current context. */
+static int atlas(hc_gl *g, uint32_t Ru, char *msg)
+{
     GLsizei R = (GLsizei)Ru;
     GLint max_rb = 0;
     gl.GetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
@@ -237,6 +237,23 @@ static int context_and_atlas(hc_gl *g, uint32_t Ru, char *msg)
     gl.Disable(GL_DITHER);
     gl.Disable(GL_BLEND);
     return hc_gl_check("framebuffer set-up", msg);
+}
+
+static GLuint compile(GLenum type, const char *src, char *msg)
+{
+    GLuint s = gl.CreateShader(type);
+    gl.ShaderSource(s, 1, &src, NULL);
+    gl.CompileShader(s);
+    GLint ok = 0;
+    gl.GetShaderiv(s, GL_COMPILE_STATUS, &ok);
+    if (!ok) {
+        char log[512] = "";
+        gl.GetShaderInfoLog(s, sizeof log, NULL, log);
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: shader compile failed: %s", log);
+        gl.DeleteShader(s);
+        return 0;
+    }
+    return s;
 }
 
 /* Compiles, links and binds the item-buffer program, in mode 0. */
@@ -371,7 +388,8 @@ int hc_gl_create(const hc_engine *e, hc_work *w, char *msg)
     if (!(w->vfirst = hc_alloc(e->n, sizeof *w->vfirst, msg)) ||
         !(w->vcount = hc_alloc(e->n, sizeof *w->vcount, msg)))
         return -1;
-    if (load_gl(msg) != 0 || context_and_atlas(g, e->R, msg) != 0 || program(g, msg) != 0)
+    if (load_gl(msg) != 0 || osmesa_context(g, msg) != 0 || atlas(g, e->R, msg) != 0 ||
+        program(g, msg) != 0)
         return -1;
     return upload(e, g, w, msg);
 }

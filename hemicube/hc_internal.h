@@ -1,25 +1,58 @@
 /* hc_internal.h - what the files of hemicube/ share with one another; no
  * file outside hemicube/ includes it (the public header is hemicube.h).
  *
- * The rooms, each owning one concern:
- *   pool.c     the caller's side: the engine, its worker processes, jobs of
- *              rows handed out in chunks and the answers collected;
- *   wire.c     the protocol between the caller and a worker over a byte
- *              stream (today a socketpair): framing, requests, replies;
- *   worker.c   a worker process: its buffers and its request loop;
- *   gl.c       OSMesa/GL, the only file that includes a GL header: loads
- *              libOSMesa (dlopen, in a worker only), the
- *              context, the shaders, the vertex buffer of every patch,
- *              views, drawing into an item buffer, readback;
- *   rows.c     one hemi-cube row F_ij (or a point receiver's F_ej), with
- *              its exact entries, computed in a worker;
- *   lights.c   punctual lights: the public calls and their worker side;
- *   column.c   an emitter's exact column for shooting (through lights.c's
- *              visibility);
- *   analytic.c closed-form factors.
- * Dependencies point one way: pool.c -> wire.c, worker.c; worker.c ->
- * wire.c, rows.c, lights.c, gl.c; rows.c, lights.c -> gl.c (through the
- * hc_gl_* calls below, so no GL type or header appears outside gl.c).
+ * The rooms, each owning one concern, from the caller down:
+ *   column.c          an emitter's exact column for shooting (the caller's
+ *                     side: light_requests.c's visibility times
+ *                     patch_factors.c's integral);
+ *   light_requests.c  punctual lights, the caller's side: hc_light_power,
+ *                     hc_light_visibility, hc_light_direct, the requests of
+ *                     their parts and the reading of the answers;
+ *   pool.c            the caller's side of rows: the engine, its worker
+ *                     processes, jobs of rows handed out in chunks and the
+ *                     answers collected;
+ *   worker.c          a worker process: its buffers and its request loop;
+ *   rows.c            one hemi-cube row F_ij (or a point receiver's F_ej),
+ *                     with its exact entries, computed in a worker;
+ *   light_views.c     punctual lights, the worker's side: a light part's
+ *                     item buffer, its Φ_j and the visibility of points;
+ *   gl.c              OSMesa/GL, the only file that includes a GL header:
+ *                     loads libOSMesa (dlopen, in a worker only), the
+ *                     context, the shaders, the vertex buffer of every
+ *                     patch, views, drawing into an item buffer, readback;
+ *   wire.c            the protocol between the caller and a worker over a
+ *                     byte stream (today a socketpair): framing, requests,
+ *                     replies, both ends' calls (each end calls its own);
+ *   patch_factors.c   unoccluded point-to-patch and patch-to-patch
+ *                     integrals from the engine's geometry (no GL), read by
+ *                     rows.c in a worker and column.c in the caller;
+ *   delta_factors.c   the delta form factors ΔF_q (hc_create's table);
+ *   analytic.c        closed-form factors (public, pure math).
+ * Dependencies point one way (a file calls only files below it, by `nm`):
+ *   column.c -> light_requests.c, patch_factors.c;
+ *   light_requests.c -> pool.c, wire.c;
+ *   pool.c -> worker.c, wire.c, delta_factors.c;
+ *   worker.c -> rows.c, light_views.c, gl.c, wire.c;
+ *   rows.c -> patch_factors.c, gl.c;  light_views.c -> gl.c;
+ *   patch_factors.c -> analytic.c.
+ * A worker runs hc_worker_main and reaches only what lies below worker.c,
+ * so no caller-side function (a request, a pool call) can run inside a
+ * forked worker; GL types and headers stay in gl.c (rows.c and
+ * light_views.c draw through the hc_gl_* calls below).  Helpers several
+ * rooms share are static inline here (hc_alloc, hc_basis, hc_cube_face,
+ * hc_spot_falloff, hc_load_corners, hc_push_range), never a call upwards.
+ *
+ * Where issue 38's row producers would go (not built): the engine's
+ * geometry (hc_create's checks and preparation, pool.c) stays; a
+ * row-producer interface would sit where pool.c hands out chunks and
+ * collects answers (send_chunk, receive_batch, the light and visibility
+ * rounds of light_requests.c), with the local fork pool (the fork, chunk
+ * and poll half of pool.c, and worker.c) as one producer file and MPI
+ * ranks (e.g. mpi_ranks.c) as another, each ending in worker.c's request
+ * loop.  Behind each, gl.c's drawing is shared; its context creation
+ * (load_gl, osmesa_context: the OSMesa back end) is a section of its own,
+ * to move to a gl_osmesa.c beside a gl_egl.c creating an EGL context and a
+ * framebuffer object.
  *
  * Invariant of the shared data: the engine (struct hc_engine) is filled in
  * the caller before the fork and read-only afterwards, so every worker holds
@@ -32,6 +65,8 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <sys/types.h>
 
 #define HC_NO_PATCH 0xFFFFFFFFu /* item-buffer clear value */
@@ -51,6 +86,40 @@ static inline void hc_basis(rad_vec3 n, rad_vec3 *u, rad_vec3 *v)
     rad_vec3 a = ax <= ay && ax <= az ? rad_v3(1, 0, 0) : ay <= az ? rad_v3(0, 1, 0) : rad_v3(0, 0, 1);
     *u = rad_normalize(rad_cross(n, a));
     *v = rad_cross(n, *u);
+}
+
+/* calloc of at least one element; NULL with msg (HC_MAX_MSG bytes) set on
+ * failure: a worker's allocations (worker.c, rows.c, light_views.c, gl.c). */
+static inline void *hc_alloc(size_t count, size_t size, char *msg)
+{
+    void *p = calloc(count ? count : 1, size);
+    if (!p)
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: worker out of memory (%zu × %zu bytes)", count, size);
+    return p;
+}
+
+/* Cube face f (0..5) of a point light: forward ±x, ±y, ±z; right = forward
+ * × up so that front faces stay front faces.  The caller picks the faces a
+ * spot reaches with it (light_requests.c), a worker draws them
+ * (light_views.c). */
+static inline void hc_cube_face(uint32_t f, rad_vec3 *right, rad_vec3 *up, rad_vec3 *fwd)
+{
+    static const double ax[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    *fwd = rad_v3(ax[f][0], ax[f][1], ax[f][2]);
+    *up = f < 4 ? rad_v3(0, 0, 1) : rad_v3(0, 1, 0);
+    *right = rad_cross(*fwd, *up);
+}
+
+/* glTF KHR_lights_punctual spot falloff for a direction whose cosine to the
+ * axis is cos_axis: t² with t = clamp(cos_axis·scale + offset, 0, 1),
+ * scale = 1/max(0.001, cos_inner − cos_outer), offset = −cos_outer·scale.
+ * hc_light_direct (caller) and a spot's Φ_j (worker) weigh with it. */
+static inline double hc_spot_falloff(double cos_axis, double cos_inner, double cos_outer)
+{
+    double scale = 1.0 / fmax(0.001, cos_inner - cos_outer);
+    double t = cos_axis * scale - cos_outer * scale;
+    t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+    return t * t;
 }
 
 /* ------------------------------------------------------------ the engine */
@@ -84,7 +153,7 @@ struct hc_engine {
     double *radius;    /* n: largest distance from patch centre to a corner of its cells */
     /* A cluster's outline: the directed edges of its cells left when every
      * inner edge, run once each way by two cells, is dropped (exact factors
-     * to the cluster sum these alone: rows.c, rad_point_edges_factor).
+     * to the cluster sum these alone: patch_factors.c, rad_point_edges_factor).
      * Patch j's are edges [ofirst[j], ofirst[j + 1]) of oedge (x0 y0 z0 x1
      * y1 z1 each, - origin, the cells' corners bit for bit); none for a
      * one-cell patch or where dropping saves nothing.  NULL without clusters. */
@@ -107,6 +176,15 @@ struct hc_engine {
     uint32_t *rx_col;  /* receive buffers in the caller */
     float *rx_val;
 };
+
+/* The corners of cell `cell` (a patch's cells: e->cfirst), relative to the
+ * origin; a triangle's fourth repeats its first. */
+static inline void hc_load_corners(const hc_engine *e, uint32_t cell, rad_vec3 p[4])
+{
+    const double *q = e->corner + (size_t)cell * 12;
+    for (int k = 0; k < 4; k++)
+        p[k] = rad_v3(q[3 * k], q[3 * k + 1], q[3 * k + 2]);
+}
 
 /* pool.c: worker k's stream is lost (EOF, garbage, a failed send).  Marks
  * the engine broken and fails with its message; err may be NULL. */
@@ -238,7 +316,7 @@ typedef struct hc_work {
     uint32_t *fslot;   /* 2n: a focused view's candidates (indices into cand),
                         * then their pixel counts */
     double *fsum;      /* 3n: a focused view's sums S, S° and visibilities */
-    /* Lights (lights.c): */
+    /* Lights (light_views.c): */
     uint32_t lR;       /* size of lpixels and lweight (0: none yet) */
     hc_light_req lkey; /* the part whose item buffer lpixels holds, when lkey_valid */
     int lkey_valid;
@@ -252,25 +330,6 @@ typedef struct hc_work {
 
 /* worker.c: the worker process's body, from the fork to its _exit. */
 void hc_worker_main(const hc_engine *e, int fd) __attribute__((noreturn));
-/* rows.c: F from point c (normal n, both relative to the origin) to patch
- * j, the point-to-polygon integral summed over j's cells: what an exact
- * entry of a row holds before visibility, and column.c's factor. */
-double hc_point_to_patch(const hc_engine *e, rad_vec3 c, rad_vec3 n, uint32_t j);
-/* rows.c: F from patch i to patch j averaged over i (no visibility): what a
- * row of i holds before visibility for a near j (near: at least 2
- * subdivisions) or an emitter j (issue 18: averaged over the receiving
- * patch, so that Σ_i A_i F_ij = A_j holds for the emitter's column, the
- * one every watt leaves by; at the centre a closed room absorbed 0.3-0.8 %
- * more than its lamp emitted), and column.c's factor for its receivers. */
-double hc_area_factor(const hc_engine *e, uint32_t i, uint32_t j, int near);
-/* analytic.c: hc_ff_polygon_polygon's area average over polygon a of the
- * factor to a surface given as directed edges (rad_point_edges_factor: no
- * clipping, so every end point must lie strictly in front of a's plane and
- * a in front of every cell the edges bound). */
-double hc_ff_polygon_edges(const rad_vec3 *a, uint32_t na, const double *edges, uint32_t ne,
-                           uint32_t subdiv);
-/* worker.c: calloc of at least one element; NULL with msg set on failure. */
-void *hc_alloc(size_t count, size_t size, char *msg);
 
 /* Appends patch j's vertices to a draw list of merged ranges (first[],
  * count[], *nr of them), extending the last range when j follows *last. */
@@ -297,7 +356,7 @@ int hc_rows_init(const hc_engine *e, hc_work *w, char *msg);
  * i's centre to a point of i: an element's row F_ej (hc_compute_points). */
 long hc_row(const hc_engine *e, hc_work *w, uint32_t i, const rad_vec3 *at, char *msg);
 
-/* -------------------------------------------------------------- lights.c */
+/* --------------------------------------------------------- light_views.c */
 
 /* Renders part q->part of a light and leaves Φ_j > 0 in w->col/w->lval;
  * returns the entry count or -1 with msg set. */
@@ -306,6 +365,29 @@ long hc_light_part(const hc_engine *e, hc_work *w, const hc_light_req *q, char *
  * q->part of a light into vis[0..m); 0, or -1 with msg set. */
 int hc_light_points(const hc_engine *e, hc_work *w, const hc_light_req *q,
                     const hc_point_req *pts, uint32_t m, double *vis, char *msg);
+
+/* ------------------------------------------------------- patch_factors.c */
+
+/* F from point c (normal n, both relative to the origin) to patch j, the
+ * point-to-polygon integral summed over j's cells: what an exact entry of
+ * a row holds before visibility, and column.c's factor. */
+double hc_point_to_patch(const hc_engine *e, rad_vec3 c, rad_vec3 n, uint32_t j);
+/* F from patch i to patch j averaged over i (no visibility): what a row of
+ * i holds before visibility for a near j (near: at least 2 subdivisions)
+ * or an emitter j (issue 18: averaged over the receiving patch, so that
+ * Σ_i A_i F_ij = A_j holds for the emitter's column, the one every watt
+ * leaves by; at the centre a closed room absorbed 0.3-0.8 % more than its
+ * lamp emitted), and column.c's factor for its receivers. */
+double hc_area_factor(const hc_engine *e, uint32_t i, uint32_t j, int near);
+
+/* ------------------------------------------------------------ analytic.c */
+
+/* hc_ff_polygon_polygon's area average over polygon a of the factor to a
+ * surface given as directed edges (rad_point_edges_factor: no clipping, so
+ * every end point must lie strictly in front of a's plane and a in front
+ * of every cell the edges bound). */
+double hc_ff_polygon_edges(const rad_vec3 *a, uint32_t na, const double *edges, uint32_t ne,
+                           uint32_t subdiv);
 
 /* ------------------------------------------------------------------ gl.c */
 

@@ -3,9 +3,10 @@
  *
  * Owns the engine and its worker processes.  The caller's process never
  * creates a GL context: hc_create checks the mesh, prepares the geometry
- * (relative to the bounding-box centre, shared copy-on-write), then forks
- * `processes` workers (worker.c), each with its own stream (a socketpair)
- * and its own OSMesa context.  A job of rows is handed out in small chunks,
+ * (relative to the bounding-box centre, shared copy-on-write) and the
+ * delta form factors (delta_factors.c), then forks `processes` workers
+ * (worker.c), each with its own stream (a socketpair) and its own OSMesa
+ * context.  A job of rows is handed out in small chunks,
  * at most about two per worker at a time, so faster workers take more, and
  * the answers are collected as they come (poll).  A worker that stops
  * during a job of rows (killed, crashed: its stream ends or goes out of

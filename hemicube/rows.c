@@ -1,8 +1,10 @@
 /* rows.c - one hemi-cube row F_ij, computed in a worker.
  *
- * Owns the delta form factors, the five faces of a cube at c_i (culling,
- * drawing through gl.c, accumulation into F_ij), the exact entries to
- * emitters and near patches, their focused visibility views and probes.
+ * Owns the five faces of a cube at c_i (culling, drawing through gl.c,
+ * accumulation into F_ij with the delta form factors of delta_factors.c),
+ * the exact entries to emitters and near patches (their unoccluded
+ * integrals from patch_factors.c), their focused visibility views and
+ * probes.
  *
  * Invariants of every row: j strictly increasing, j != i, F_ij > 0, no j
  * lying wholly on or behind i's plane, and Σ_j F_ij <= 1 because the delta
@@ -15,8 +17,8 @@
  * Item-buffer atlas, R wide and 3R tall, GL's bottom-up rows, pixel q at
  * index y·R + x: rows [0, R) are the top face (looking along n_i); then the
  * four half faces (+u, -u, +v, -v), R/2 rows each, their bottom row at the
- * horizon and their top row towards n_i.  hc_delta_form_factors uses the
- * same order.
+ * horizon and their top row towards n_i.  hc_delta_form_factors
+ * (delta_factors.c) uses the same order.
  *
  * Exact entries (hc_options.exact, .exact_near).  For a candidate j of row
  * i the pixel sum S_ij (ΔF over the pixels showing j) is replaced by
@@ -60,9 +62,6 @@
 /* A candidate shows nothing nearer than this relative depth margin: a
  * coplanar neighbour (a light flush with its ceiling) never hides it. */
 #define HC_PROBE_MARGIN 1e-4
-/* Bound of the area-average subdivision of exact_near entries: 16² sub-
- * triangles per fan triangle give ~1e-4 at a gap of 1 % of the size. */
-#define HC_NEAR_MAX_SUBDIV 16u
 /* Focused views (focused_visibility) are for candidates covering fewer
  * hemi-cube pixels than this (1/16 of the view: a quarter of its width),
  * and a candidate covering fewer of its polygon's view gets one of its own. */
@@ -75,40 +74,6 @@
  * covering about ten pixels). */
 #define HC_SMALL_PIXELS 64.0
 #define HC_SMALL_MAX 1024u
-
-/* -------------------------------------------------------- delta form factors */
-
-double hc_delta_form_factors(uint32_t resolution, double *out)
-{
-    uint32_t R = resolution;
-    if (!out || !hc_resolution_ok(R))
-        return 0.0;
-    /* Cube of half-width 1: pixels are 2/R wide, ΔA = (2/R)², sampled at the
-     * pixel centre (paper, Fig. 7). */
-    double d = 2.0 / R, dA = d * d, sum = 0.0;
-    size_t k = 0;
-    for (uint32_t y = 0; y < R; y++)
-        for (uint32_t x = 0; x < R; x++) {
-            double px = -1.0 + (x + 0.5) * d, py = -1.0 + (y + 0.5) * d;
-            double r2 = px * px + py * py + 1.0;
-            out[k] = dA / (M_PI * r2 * r2);
-            sum += out[k++];
-        }
-    for (int f = 0; f < 4; f++)
-        for (uint32_t z = 0; z < R / 2; z++)
-            for (uint32_t x = 0; x < R; x++) {
-                double py = -1.0 + (x + 0.5) * d, pz = (z + 0.5) * d;
-                double r2 = py * py + pz * pz + 1.0;
-                out[k] = pz * dA / (M_PI * r2 * r2);
-                sum += out[k++];
-            }
-    /* The pixel-centre rule misses the exact 1 by O(1/R²); normalising makes
-     * a fully covered cube give Σ_j F_ij = 1 exactly, which the solver's
-     * energy balance relies on. */
-    for (size_t q = 0; q < k; q++)
-        out[q] /= sum;
-    return sum;
-}
 
 /* ------------------------------------------------------------------ faces */
 
@@ -193,116 +158,6 @@ static void draw_face(const hc_faces *fs, hc_work *wk, int f, uint32_t R, const 
     hc_gl_draw(wk->gl, first, count, nr);
 }
 
-/* The corners of cell `cell` (a patch's cells: e->cfirst). */
-static void load_corners(const hc_engine *e, uint32_t cell, rad_vec3 p[4])
-{
-    const double *q = e->corner + (size_t)cell * 12;
-    for (int k = 0; k < 4; k++)
-        p[k] = rad_v3(q[3 * k], q[3 * k + 1], q[3 * k + 2]);
-}
-
-/* The area of cell `cell`: a cluster's cell's own, else its patch's. */
-static double cell_area(const hc_engine *e, uint32_t cell)
-{
-    return e->mesh->cell_first ? e->mesh->cells[cell].area : e->mesh->patches[cell].area;
-}
-
-/* The normal of cell `cell` by its winding (not normalised): a quad's
- * diagonals' cross product, a triangle's edges'. */
-static rad_vec3 cell_winding(const hc_engine *e, uint32_t cell)
-{
-    rad_vec3 p[4];
-    load_corners(e, cell, p);
-    return e->ncorner[cell] == 4 ? rad_cross(rad_sub(p[2], p[0]), rad_sub(p[3], p[1]))
-                                 : rad_cross(rad_sub(p[1], p[0]), rad_sub(p[2], p[0]));
-}
-
-/* May the factor from x[0..nx) (a point, or a convex cell's corners, its
- * normal n) to patch j be summed over j's outline (e->oedge) instead of its
- * cells?  When j has one, no corner of j lies behind x's plane (nothing to
- * clip: a corner in the plane, as where j meets the cell, is what clipping
- * would give), and x sees every cell of j from the same side (the cells'
- * sums share one sign, so |Σ| over the outline is Σ |cell|): a point
- * strictly, a cell's corners on one closed side, one of them strictly, so
- * that its inside, where the area average samples it, is strictly there. */
-static int outline_applies(const hc_engine *e, uint32_t j, const rad_vec3 *x, int nx, rad_vec3 n)
-{
-    if (!e->ofirst || e->ofirst[j] == e->ofirst[j + 1])
-        return 0;
-    double top = -INFINITY;
-    for (int k = 0; k < nx; k++)
-        top = fmax(top, rad_dot(x[k], n));
-    const double margin = e->tol * rad_length(n);
-    int side = 0;
-    for (uint32_t cj = e->cfirst[j]; cj < e->cfirst[j + 1]; cj++) {
-        const double *q = e->corner + (size_t)cj * 12;
-        for (int k = 0; k < e->ncorner[cj]; k++)
-            if (!(q[3 * k] * n.x + q[3 * k + 1] * n.y + q[3 * k + 2] * n.z - top > -margin))
-                return 0;
-        const rad_vec3 g = cell_winding(e, cj), q0 = rad_v3(q[0], q[1], q[2]);
-        const double gm = e->tol * rad_length(g);
-        int strict = 0;
-        for (int k = 0; k < nx; k++) {
-            const double sd = rad_dot(rad_sub(x[k], q0), g);
-            const int sg = sd > gm ? 1 : sd < -gm ? -1 : 0;
-            if (!sg)
-                continue;
-            if (side && sg != side)
-                return 0;
-            side = sg;
-            strict = 1;
-        }
-        if (!strict)
-            return 0;
-    }
-    return 1;
-}
-
-/* F from point c (normal n) to patch j: the contour integral over each of
- * its cells (hc_ff_point_polygon clips what lies behind c's plane), or over
- * a cluster's outline where outline_applies (the same sum without the
- * inner edges, which cancel: a third to a tenth of the terms). */
-double hc_point_to_patch(const hc_engine *e, rad_vec3 c, rad_vec3 n, uint32_t j)
-{
-    if (outline_applies(e, j, &c, 1, n))
-        return rad_point_edges_factor(c, n, e->oedge + 6 * (size_t)e->ofirst[j],
-                                      e->ofirst[j + 1] - e->ofirst[j]);
-    double f = 0.0;
-    for (uint32_t cj = e->cfirst[j]; cj < e->cfirst[j + 1]; cj++) {
-        rad_vec3 pj[4];
-        load_corners(e, cj, pj);
-        f += hc_ff_point_polygon(c, n, pj, e->ncorner[cj]);
-    }
-    return f;
-}
-
-/* F from patch i to patch j, unoccluded, by area averages over i's cells
- * (F_ij = Σ_c (A_c / A_i) Σ_d F_cd) with `sub`² sub-triangles, to j's
- * outline where outline_applies. */
-static double patch_to_patch(const hc_engine *e, uint32_t i, uint32_t j, uint32_t sub)
-{
-    double f = 0.0;
-    for (uint32_t ci = e->cfirst[i]; ci < e->cfirst[i + 1]; ci++) {
-        rad_vec3 pi[4];
-        load_corners(e, ci, pi);
-        const uint32_t np = e->ncorner[ci];
-        double fc = 0.0;
-        if (outline_applies(e, j, pi, (int)np, cell_winding(e, ci))) {
-            fc = hc_ff_polygon_edges(pi, np, e->oedge + 6 * (size_t)e->ofirst[j],
-                                     e->ofirst[j + 1] - e->ofirst[j], sub);
-        } else {
-            for (uint32_t cj = e->cfirst[j]; cj < e->cfirst[j + 1]; cj++) {
-                rad_vec3 pj[4];
-                load_corners(e, cj, pj);
-                fc += hc_ff_polygon_polygon(pi, np, pj, e->ncorner[cj], sub);
-            }
-        }
-        f += e->cfirst[i + 1] - e->cfirst[i] == 1 ? fc
-                                                    : fc * cell_area(e, ci) / e->mesh->patches[i].area;
-    }
-    return f;
-}
-
 /* ---------------------------------------------------------- probes, views */
 
 /* The probe of a candidate without pixels: is c_j hidden at the pixel q
@@ -362,11 +217,11 @@ static int focus_aim(const hc_engine *e, const uint32_t *js, uint32_t nj, rad_ve
     hc_basis(d, &bu, &up);
     const rad_vec3 rt = rad_cross(d, up); /* right = forward × up: unmirrored, as the faces */
     double span = 0.0;
-    load_corners(e, e->cfirst[js[0]], v->p0);
+    hc_load_corners(e, e->cfirst[js[0]], v->p0);
     for (uint32_t k = 0; k < nj; k++)
         for (uint32_t cj = e->cfirst[js[k]]; cj < e->cfirst[js[k] + 1]; cj++) {
             rad_vec3 pj[4];
-            load_corners(e, cj, pj);
+            hc_load_corners(e, cj, pj);
             for (int q = 0; q < e->ncorner[cj]; q++) {
                 rad_vec3 r = rad_sub(pj[q], c);
                 double w = rad_dot(r, d);
@@ -562,24 +417,6 @@ static int focused_visibility(const hc_engine *e, hc_work *wk, const uint32_t *j
 }
 
 /* ---------------------------------------------------------- exact entries */
-
-/* The subdivision of an area average over patch i towards j (seen from
- * i's centre c): sub-triangles about half the distance across, at least
- * `least`, so that the 7-point rule resolves F_{dA→j}, which varies on that
- * scale. */
-static uint32_t average_subdiv(const hc_engine *e, uint32_t i, uint32_t j, rad_vec3 c,
-                               double least)
-{
-    double dist = rad_length(rad_sub(e->center[j], c));
-    double sub = ceil(4.0 * e->radius[i] / fmax(dist, 1e-300));
-    sub = sub < least ? least : sub > HC_NEAR_MAX_SUBDIV ? HC_NEAR_MAX_SUBDIV : sub;
-    return (uint32_t)sub;
-}
-
-double hc_area_factor(const hc_engine *e, uint32_t i, uint32_t j, int near)
-{
-    return patch_to_patch(e, i, j, average_subdiv(e, i, j, e->center[i], near ? 2.0 : 1.0));
-}
 
 /* F_exact of the ncand candidates, their occluded sums S_ij (from wk->acc)
  * and their OR passes; returns the number of OR passes. */

@@ -2,7 +2,7 @@
  *
  * Owns the worker's set-up (signals, allocator and llvmpipe settings, its
  * scratch buffers, its GL context through gl.c) and its request loop: read
- * a request (wire.c), compute (rows.c, lights.c), answer (wire.c).
+ * a request (wire.c), compute (rows.c, light_views.c), answer (wire.c).
  *
  * Invariants: a worker answers every request in the order asked, or sends
  * an error text and exits; any message it cannot take for a request of
@@ -17,14 +17,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-
-void *hc_alloc(size_t count, size_t size, char *msg)
-{
-    void *p = calloc(count ? count : 1, size);
-    if (!p)
-        snprintf(msg, HC_MAX_MSG, "hemi-cube: worker out of memory (%zu × %zu bytes)", count, size);
-    return p;
-}
 
 /* Fault injection for the tests of worker replacement (pool.c): the patch
  * named by RADIOSITY_TEST_CRASH_ROW makes any worker asked for its row (or

@@ -10,8 +10,8 @@
  * ray's (tnear, tfar); faces are two-sided here (which side was hit is the
  * caller's question, answered with the cell's own normal).  Embree works in
  * float: callers keep the distances they pass well above float rounding of
- * the scene's coordinates (gather.c offsets origins by 1e-6 of the scene's
- * size, about 16 float ulps of its largest coordinate).
+ * the scene's coordinates (final_gather.c offsets origins by 1e-6 of the
+ * scene's size, about 16 float ulps of its largest coordinate).
  */
 #include "rn_internal.h"
 

@@ -372,20 +372,14 @@ void rn_vertex_radiosity(const rad_mesh *mesh, uint32_t bands, const double *B, 
     rn_vertex_radiosity_fit(mesh, bands, B, vertex_B, RN_FIT_AFFINE);
 }
 
-void rn_vertex_radiosity_fit(const rad_mesh *mesh, uint32_t bands, const double *B,
-                             double *vertex_B, rn_vertex_fit how)
+/* Vertex -> patches adjacency (compressed rows): the patches using vertex v
+ * are adj[start[v]..start[v + 1]), in patch order; both NULL when memory
+ * runs out. */
+static void vertex_adjacency(const rad_mesh *mesh, uint64_t **start_out, uint32_t **adj_out)
 {
-    if (!mesh || !vertex_B || bands == 0 || bands > RAD_MAX_BANDS)
-        return;
     uint32_t nv = mesh->vertex_count, np = mesh->patch_count;
-    for (size_t k = 0; k < (size_t)nv * bands; k++)
-        vertex_B[k] = 0.0;
-    if (!B || nv == 0 || np == 0 || !mesh->patches || !mesh->vertices)
-        return;
-
-    /* Vertex -> patches adjacency (compressed rows).  Allocation failure
-     * leaves every vertex at 0: the function has no error channel, and 0 is
-     * the one value that cannot be mistaken for light. */
+    *start_out = NULL;
+    *adj_out = NULL;
     uint64_t *start = calloc((size_t)nv + 1, sizeof *start);
     if (!start)
         return;
@@ -414,15 +408,24 @@ void rn_vertex_radiosity_fit(const rad_mesh *mesh, uint32_t bands, const double 
         for (int k = 0; k < rad_patch_corners(pa); k++)
             adj[fill[pa->v[k]]++] = p;
     }
+    free(fill);
+    *start_out = start;
+    *adj_out = adj;
+}
 
-    /* P(v): mean B of the patches using v, kept by an outline vertex until
-     * it is extrapolated below.  An interior vertex takes, at v, the affine
-     * function fitted by least squares to the centres of the patches around
-     * it.  Around a vertex of a regular grid the centres are symmetric and
-     * that is the paper's average; where cells of different sizes meet (the
-     * T-vertices and corners of refined elements) the plain average is off
-     * by about half a cell times the gradient, while the fit reproduces a
-     * linear field exactly. */
+/* P(v): mean B of the patches using v, kept by an outline vertex until it
+ * is extrapolated (outline_vertices).  An interior vertex takes, at v, the
+ * affine function fitted by least squares to the centres of the patches
+ * around it.  Around a vertex of a regular grid the centres are symmetric
+ * and that is the paper's average; where cells of different sizes meet
+ * (the T-vertices and corners of refined elements) the plain average is
+ * off by about half a cell times the gradient, while the fit reproduces a
+ * linear field exactly. */
+static void interior_vertices(const rad_mesh *mesh, uint32_t bands, const double *B,
+                              double *vertex_B, rn_vertex_fit how, const uint64_t *start,
+                              const uint32_t *adj)
+{
+    uint32_t nv = mesh->vertex_count, np = mesh->patch_count;
     uint64_t most = 0;
     for (uint32_t v = 0; v < nv; v++)
         most = start[v + 1] - start[v] > most ? start[v + 1] - start[v] : most;
@@ -465,9 +468,15 @@ void rn_vertex_radiosity_fit(const rad_mesh *mesh, uint32_t bands, const double 
     }
     free(fit);
     free(seen);
+}
 
-    /* Outline vertices read only interior values, which are final already,
-     * so they can be overwritten in place. */
+/* Outline vertices, extrapolated from the interior values next to them
+ * (outline_fit).  They read only interior values, which are final
+ * already, so they can be overwritten in place. */
+static void outline_vertices(const rad_mesh *mesh, uint32_t bands, const double *B,
+                             double *vertex_B, const uint64_t *start, const uint32_t *adj)
+{
+    uint32_t nv = mesh->vertex_count, np = mesh->patch_count;
     const uint8_t *outline = mesh->vertex_boundary;
     gather g = {NULL, NULL, 0, 0, NULL, NULL, 0};
     if (outline) {
@@ -504,9 +513,30 @@ void rn_vertex_radiosity_fit(const rad_mesh *mesh, uint32_t bands, const double 
     free(g.scratch);
     free(g.vstamp);
     free(g.pstamp);
+}
+
+void rn_vertex_radiosity_fit(const rad_mesh *mesh, uint32_t bands, const double *B,
+                             double *vertex_B, rn_vertex_fit how)
+{
+    if (!mesh || !vertex_B || bands == 0 || bands > RAD_MAX_BANDS)
+        return;
+    uint32_t nv = mesh->vertex_count, np = mesh->patch_count;
+    for (size_t k = 0; k < (size_t)nv * bands; k++)
+        vertex_B[k] = 0.0;
+    if (!B || nv == 0 || np == 0 || !mesh->patches || !mesh->vertices)
+        return;
+    /* Allocation failure leaves every vertex at 0: the function has no
+     * error channel, and 0 is the one value that cannot be mistaken for
+     * light. */
+    uint64_t *start;
+    uint32_t *adj;
+    vertex_adjacency(mesh, &start, &adj);
+    if (!start)
+        return;
+    interior_vertices(mesh, bands, B, vertex_B, how, start, adj);
+    outline_vertices(mesh, bands, B, vertex_B, start, adj);
     free(start);
     free(adj);
-    free(fill);
 }
 
 /* ---------------------------------------------------------------- camera */
@@ -1153,6 +1183,155 @@ int rn_render(const rad_mesh *mesh, uint32_t bands, const double *vertex_B, cons
     return rc;
 }
 
+/* The mesh's vertices in camera space (x right, y up, z forward), once
+ * each so shared corners stay identical; returns their largest coordinate,
+ * the scene's extent seen from the eye. */
+static double camera_vertices(const rad_mesh *mesh, const rn_frame *fr, rad_vec3 *cv)
+{
+    double extent = 0.0;
+    for (uint32_t v = 0; v < mesh->vertex_count; v++) {
+        rad_vec3 d = rad_sub(mesh->vertices[v], fr->eye);
+        cv[v] = rad_v3(rad_dot(d, fr->r), rad_dot(d, fr->u), rad_dot(d, fr->f));
+        double a = fmax(fabs(cv[v].x), fmax(fabs(cv[v].y), fabs(cv[v].z)));
+        if (a > extent)
+            extent = a;
+    }
+    return extent;
+}
+
+/* Fills the item buffer ib (depth, patch id): every front-facing patch
+ * clipped (near plane, guard band), projected, snapped and rasterised. */
+static void draw_items(const rad_mesh *mesh, const rn_frame *fr, const rad_vec3 *cv,
+                       double extent, ibuf *ib)
+{
+    double znear = extent * NEAR_FRACTION;
+    if (!(znear > DBL_MIN))
+        znear = DBL_MIN;
+
+    /* Near plane, then a guard band one image size wide around the screen:
+     * it bounds the snapped coordinates (|x| < 3·16384 < 2^16 pixels) so the
+     * edge functions are exact in int64, and the cuts it makes lie off screen.
+     * A perspective band scales with z (sx = cx + k·x/z), an orthographic
+     * one does not (sx = cx + k·x): its constant goes to the z or the 1
+     * coefficient. */
+    double G = fr->w > fr->h ? fr->w : fr->h;
+    double zc = fr->ortho ? 0.0 : 1.0, oc = fr->ortho ? 1.0 : 0.0;
+    plane4 planes[5] = {
+        {0, 0, 1, -znear},
+        {fr->k, 0, zc * (fr->cx + G), oc * (fr->cx + G)},                  /* sx >= -G */
+        {-fr->k, 0, zc * (fr->w + G - fr->cx), oc * (fr->w + G - fr->cx)}, /* sx <= W + G */
+        {0, -fr->k, zc * (fr->cy + G), oc * (fr->cy + G)},                 /* sy >= -G */
+        {0, fr->k, zc * (fr->h + G - fr->cy), oc * (fr->h + G - fr->cy)},  /* sy <= H + G */
+    };
+    /* Orthographic depth: zfar − z, positive for everything in front of
+     * the eye up to the scene's extent, so that "larger is nearer" and "0
+     * is background" hold as for 1/z. */
+    double zfar = 2.0 * extent > DBL_MIN ? 2.0 * extent : 1.0;
+
+    rad_vec3 bufa[CLIP_MAX], bufb[CLIP_MAX];
+    int64_t X[CLIP_MAX], Y[CLIP_MAX];
+    for (uint32_t p = 0; p < mesh->patch_count; p++) {
+        const rad_patch *pa = &mesh->patches[p];
+        rad_vec3 n = pa->normal;
+        /* One-sided patch: seen only from the side its normal points to. */
+        double Dn = rad_dot(n, rad_sub(pa->center, fr->eye));
+        double nf = rad_dot(n, fr->f), nr = rad_dot(n, fr->r), nu = rad_dot(n, fr->u);
+        if (fr->ortho ? !(nf < 0.0) : !(Dn < 0.0))
+            continue;
+        depth_plane dp;
+        if (fr->ortho) { /* zfar − z, z = (Dn − x·nr − y·nu)/nf */
+            double q = 1.0 / (fr->k * nf);
+            dp = (depth_plane){nr * q, -nu * q,
+                               zfar - Dn / nf + (0.5 - fr->cx) * nr * q +
+                                   (fr->cy - 0.5) * nu * q};
+        } else {
+            dp = (depth_plane){nr / (fr->k * Dn), -nu / (fr->k * Dn),
+                               (nf + (0.5 - fr->cx) / fr->k * nr +
+                                (fr->cy - 0.5) / fr->k * nu) / Dn};
+        }
+        int nc = rad_patch_corners(pa);
+        for (int c = 0; c < nc; c++)
+            bufa[c] = cv[pa->v[c]];
+        rad_vec3 *cur = bufa, *nxt = bufb;
+        /* A patch inside all five planes (most are) comes out of clipping
+         * unchanged: then the clipping is skipped. */
+        int inside = 1;
+        for (int k = 0; k < 5 && inside; k++)
+            for (int c = 0; c < nc; c++)
+                if (!(plane_dist(&planes[k], bufa[c]) >= 0.0)) {
+                    inside = 0;
+                    break;
+                }
+        for (int k = 0; k < 5 && nc >= 3 && !inside; k++) {
+            nc = clip_polygon(cur, nc, nxt, &planes[k]);
+            rad_vec3 *t = cur;
+            cur = nxt;
+            nxt = t;
+        }
+        if (nc < 3)
+            continue;
+        int ok = 1;
+        for (int c = 0; c < nc; c++) {
+            double sx = fr->ortho ? fr->cx + fr->k * cur[c].x
+                                  : fr->cx + fr->k * cur[c].x / cur[c].z;
+            double sy = fr->ortho ? fr->cy - fr->k * cur[c].y
+                                  : fr->cy - fr->k * cur[c].y / cur[c].z;
+            if (!(fabs(sx) < 65536.0) || !(fabs(sy) < 65536.0)) { /* unreachable after the guard band */
+                ok = 0;
+                break;
+            }
+            X[c] = round_half_away(sx * (double)SUBPIX);
+            Y[c] = round_half_away(sy * (double)SUBPIX);
+        }
+        if (!ok)
+            continue;
+        for (int c = 1; c + 1 < nc; c++)
+            raster_triangle(ib, X, Y, 0, c, c + 1, p, &dp);
+    }
+}
+
+/* Shades every pixel of the canvas's image: the vertex radiosities
+ * interpolated at the ray-plane point of the patch the item buffer holds,
+ * over π (0 for the background).  Neighbouring pixels mostly see the same
+ * patch, so its setup is kept; the sums run over the corners in order, as
+ * Σ_q w_q B_q. */
+static void shade_pixels(rn_canvas *canvas, const rad_mesh *mesh, const rn_frame *fr,
+                         const double *vertex_B, uint32_t bands)
+{
+    rn_image *img = canvas->img;
+    const double inv_pi = 1.0 / M_PI;
+    const shade_setup *ss = NULL;
+    double *acol = canvas->acol; /* a of each column, computed once a view */
+    for (uint32_t i = 0; i < fr->w; i++)
+        acol[i] = ((double)i + 0.5 - fr->cx) / fr->k;
+    for (uint32_t j = 0; j < fr->h; j++) {
+        double b = (fr->cy - (double)j - 0.5) / fr->k;
+        for (uint32_t i = 0; i < fr->w; i++) {
+            size_t k = (size_t)j * fr->w + i;
+            uint32_t p = img->patch[k];
+            float *px = img->pixels + k * bands;
+            if (p == RAD_NONE) {
+                for (uint32_t c = 0; c < bands; c++)
+                    px[c] = 0.0f;
+                continue;
+            }
+            if (!ss || p != ss->patch) {
+                shade_setup *e = &canvas->setup[p % SHADE_CACHE];
+                if (e->patch != p)
+                    shade_prepare(e, mesh, p, fr, vertex_B, bands);
+                ss = e;
+            }
+            double w[4];
+            shade_weights(ss, acol[i], b, w);
+            const double *cB = ss->cB;
+            if (ss->cell.corners == 4)
+                shade_store(px, w, cB, bands, 4, inv_pi);
+            else
+                shade_store(px, w, cB, bands, 3, inv_pi);
+        }
+    }
+}
+
 int rn_canvas_draw(rn_canvas *canvas, const rad_mesh *mesh, uint32_t bands,
                    const double *vertex_B, const rn_camera *cam, rn_image **out,
                    rad_error *err)
@@ -1180,134 +1359,10 @@ int rn_canvas_draw(rn_canvas *canvas, const rad_mesh *mesh, uint32_t bands,
     if (rc)
         return rc;
     rn_image *img = canvas->img;
-    double *invz = canvas->invz;
-    rad_vec3 *cv = canvas->cv;
-
-    /* Camera-space vertices, once each, so shared corners stay identical. */
-    double extent = 0.0;
-    for (uint32_t v = 0; v < mesh->vertex_count; v++) {
-        rad_vec3 d = rad_sub(mesh->vertices[v], fr.eye);
-        cv[v] = rad_v3(rad_dot(d, fr.r), rad_dot(d, fr.u), rad_dot(d, fr.f));
-        double a = fmax(fabs(cv[v].x), fmax(fabs(cv[v].y), fabs(cv[v].z)));
-        if (a > extent)
-            extent = a;
-    }
-    double znear = extent * NEAR_FRACTION;
-    if (!(znear > DBL_MIN))
-        znear = DBL_MIN;
-
-    /* Near plane, then a guard band one image size wide around the screen:
-     * it bounds the snapped coordinates (|x| < 3·16384 < 2^16 pixels) so the
-     * edge functions are exact in int64, and the cuts it makes lie off screen.
-     * A perspective band scales with z (sx = cx + k·x/z), an orthographic
-     * one does not (sx = cx + k·x): its constant goes to the z or the 1
-     * coefficient. */
-    double G = fr.w > fr.h ? fr.w : fr.h;
-    double zc = fr.ortho ? 0.0 : 1.0, oc = fr.ortho ? 1.0 : 0.0;
-    plane4 planes[5] = {
-        {0, 0, 1, -znear},
-        {fr.k, 0, zc * (fr.cx + G), oc * (fr.cx + G)},                   /* sx >= -G */
-        {-fr.k, 0, zc * (fr.w + G - fr.cx), oc * (fr.w + G - fr.cx)},    /* sx <= W + G */
-        {0, -fr.k, zc * (fr.cy + G), oc * (fr.cy + G)},                  /* sy >= -G */
-        {0, fr.k, zc * (fr.h + G - fr.cy), oc * (fr.h + G - fr.cy)},     /* sy <= H + G */
-    };
-    /* Orthographic depth: zfar − z, positive for everything in front of
-     * the eye up to the scene's extent, so that "larger is nearer" and "0
-     * is background" hold as for 1/z. */
-    double zfar = 2.0 * extent > DBL_MIN ? 2.0 * extent : 1.0;
-
-    ibuf ib = {invz, img->patch, fr.w, fr.h};
-    rad_vec3 bufa[CLIP_MAX], bufb[CLIP_MAX];
-    int64_t X[CLIP_MAX], Y[CLIP_MAX];
-    for (uint32_t p = 0; p < mesh->patch_count; p++) {
-        const rad_patch *pa = &mesh->patches[p];
-        rad_vec3 n = pa->normal;
-        /* One-sided patch: seen only from the side its normal points to. */
-        double Dn = rad_dot(n, rad_sub(pa->center, fr.eye));
-        double nf = rad_dot(n, fr.f), nr = rad_dot(n, fr.r), nu = rad_dot(n, fr.u);
-        if (fr.ortho ? !(nf < 0.0) : !(Dn < 0.0))
-            continue;
-        depth_plane dp;
-        if (fr.ortho) { /* zfar − z, z = (Dn − x·nr − y·nu)/nf */
-            double q = 1.0 / (fr.k * nf);
-            dp = (depth_plane){nr * q, -nu * q,
-                               zfar - Dn / nf + (0.5 - fr.cx) * nr * q + (fr.cy - 0.5) * nu * q};
-        } else {
-            dp = (depth_plane){nr / (fr.k * Dn), -nu / (fr.k * Dn),
-                               (nf + (0.5 - fr.cx) / fr.k * nr + (fr.cy - 0.5) / fr.k * nu) / Dn};
-        }
-        int nc = rad_patch_corners(pa);
-        for (int c = 0; c < nc; c++)
-            bufa[c] = cv[pa->v[c]];
-        rad_vec3 *cur = bufa, *nxt = bufb;
-        /* A patch inside all five planes (most are) comes out of clipping
-         * unchanged: then the clipping is skipped. */
-        int inside = 1;
-        for (int k = 0; k < 5 && inside; k++)
-            for (int c = 0; c < nc; c++)
-                if (!(plane_dist(&planes[k], bufa[c]) >= 0.0)) {
-                    inside = 0;
-                    break;
-                }
-        for (int k = 0; k < 5 && nc >= 3 && !inside; k++) {
-            nc = clip_polygon(cur, nc, nxt, &planes[k]);
-            rad_vec3 *t = cur;
-            cur = nxt;
-            nxt = t;
-        }
-        if (nc < 3)
-            continue;
-        int ok = 1;
-        for (int c = 0; c < nc; c++) {
-            double sx = fr.ortho ? fr.cx + fr.k * cur[c].x : fr.cx + fr.k * cur[c].x / cur[c].z;
-            double sy = fr.ortho ? fr.cy - fr.k * cur[c].y : fr.cy - fr.k * cur[c].y / cur[c].z;
-            if (!(fabs(sx) < 65536.0) || !(fabs(sy) < 65536.0)) { /* unreachable after the guard band */
-                ok = 0;
-                break;
-            }
-            X[c] = round_half_away(sx * (double)SUBPIX);
-            Y[c] = round_half_away(sy * (double)SUBPIX);
-        }
-        if (!ok)
-            continue;
-        for (int c = 1; c + 1 < nc; c++)
-            raster_triangle(&ib, X, Y, 0, c, c + 1, p, &dp);
-    }
-
-    /* Shade: interpolate the vertex radiosities at the ray-plane point.
-     * Neighbouring pixels mostly see the same patch, so its setup is kept;
-     * the sums run over the corners in order, as Σ_q w_q B_q. */
-    const double inv_pi = 1.0 / M_PI;
-    const shade_setup *ss = NULL;
-    double *acol = canvas->acol; /* a of each column, computed once a view */
-    for (uint32_t i = 0; i < fr.w; i++)
-        acol[i] = ((double)i + 0.5 - fr.cx) / fr.k;
-    for (uint32_t j = 0; j < fr.h; j++) {
-        double b = (fr.cy - (double)j - 0.5) / fr.k;
-        for (uint32_t i = 0; i < fr.w; i++) {
-            size_t k = (size_t)j * fr.w + i;
-            uint32_t p = img->patch[k];
-            float *px = img->pixels + k * bands;
-            if (p == RAD_NONE) {
-                for (uint32_t c = 0; c < bands; c++)
-                    px[c] = 0.0f;
-                continue;
-            }
-            if (!ss || p != ss->patch) {
-                shade_setup *e = &canvas->setup[p % SHADE_CACHE];
-                if (e->patch != p)
-                    shade_prepare(e, mesh, p, &fr, vertex_B, bands);
-                ss = e;
-            }
-            double w[4];
-            shade_weights(ss, acol[i], b, w);
-            const double *cB = ss->cB;
-            if (ss->cell.corners == 4)
-                shade_store(px, w, cB, bands, 4, inv_pi);
-            else
-                shade_store(px, w, cB, bands, 3, inv_pi);
-        }
-    }
+    double extent = camera_vertices(mesh, &fr, canvas->cv);
+    ibuf ib = {canvas->invz, img->patch, fr.w, fr.h};
+    draw_items(mesh, &fr, canvas->cv, extent, &ib);
+    shade_pixels(canvas, mesh, &fr, vertex_B, bands);
     *out = img;
     return RAD_OK;
 }

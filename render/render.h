@@ -12,12 +12,12 @@
  * The renderer never sees form factors, GL or the solver: it reads the mesh
  * and radiosities only.  OpenEXR and PNG output live in their own files here.
  *
- * A second renderer, the final gather (rn_gather, gather.c and icache.c),
- * ray-traces a view from the same data with Embree (embree.c, the only file
- * that sees it): per pixel direct light from the emitters and punctual
- * lights with shadow rays, indirect irradiance gathered over the hemisphere
- * from the stored radiosities (cached by Ward, Rubinstein & Clear 1988),
- * and the glossy lobes the solve ignores.
+ * A second renderer, the final gather (rn_gather, final_gather.c and
+ * icache.c), ray-traces a view from the same data with Embree (embree.c, the
+ * only file that sees it): per pixel direct light from the emitters and
+ * punctual lights with shadow rays, indirect irradiance gathered over the
+ * hemisphere from the stored radiosities (cached by Ward, Rubinstein &
+ * Clear 1988), and the glossy lobes the solve ignores.
  */
 #ifndef RN_RENDER_H
 #define RN_RENDER_H
@@ -139,9 +139,6 @@ int rn_write_exr_with(const rn_image *img, const char *path, rn_exr_compression 
  * from rad_committer_finish. */
 int rn_write_exr_later(const rn_image *img, const char *path, rn_exr_compression compression,
                        rad_committer *committer, rad_error *err);
-
-/* Reads an EXR written by rn_write_exr (tests, comparisons). Caller owns *out. */
-int rn_read_exr(const char *path, rn_image **out, rad_error *err);
 
 /* Writes an 8-bit sRGB PNG preview: value = sRGB(L · 2^exposure), through a
  * temporary file renamed into place.  One band is grey; >= 3 use the first three. */

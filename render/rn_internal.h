@@ -1,7 +1,7 @@
 /* rn_internal.h - what the files of render/ share: the image helpers of the
  * two writers, the camera frame and cell interpolation of both renderers,
  * the ray-casting kernel (embree.c) and the irradiance cache's records
- * (icache.c) for the gather (gather.c).
+ * (icache.c) for the gather (final_gather.c).
  *
  * Private to render/: the public contract stays render.h.  Both writers check
  * an image the same way and write through a rad_output (rad.h), so that a
@@ -12,7 +12,8 @@
 
 #include "render.h"
 
-/* Largest width or height an image may have (rn_render, the writers, rn_read_exr). */
+/* Largest width or height an image may have (rn_render, the writers, and
+ * the tests' EXR reader, test/exr_read.c). */
 #define RN_MAX_SIDE 16384u
 
 /* RAD_OK when img has 1..RN_MAX_SIDE pixels a side, 1..RAD_MAX_BANDS channels

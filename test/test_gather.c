@@ -177,7 +177,7 @@ TEST(lambertian_room_matches_vertex_render)
  * (Lambert's point-to-polygon factor, hc_ff_point_polygon) plus the point
  * light's I cosθ/r² and the spot's, times its falloff, as the gather meets
  * no reflecting surface.  The lamp's samples only measure its visible share
- * (render/gather.c), so an unshadowed pixel is exact but for float hit
+ * (render/final_gather.c), so an unshadowed pixel is exact but for float hit
  * points; plain sampling with 16 points erred by 4.5 % here.  Cost ~0.3 s. */
 TEST(direct_light_of_a_lamp_and_punctual_lights)
 {

@@ -1,4 +1,4 @@
-/* gather.c - the final gather: a ray-traced view of a stored radiosity
+/* final_gather.c - the final gather: a ray-traced view of a stored radiosity
  * solution (Ward, Rubinstein & Clear 1988), with glossy lobes the solve
  * does not know (Ward's isotropic Gaussian; Zaninetti & Péroche's light
  * vectors).
@@ -927,6 +927,60 @@ static void add_stats(rn_gather_stats *a, const rn_gather_stats *b)
     a->glossy_rays += b->glossy_rays;
 }
 
+/* Pass 2: shading, rows handed out to `threads` threads, this one among
+ * them.  Thread 0 takes over w0, whose counters carry pass 1's (*w0_ok is
+ * cleared then; until then w0 is the caller's to free); every thread's
+ * counters are added to *st.  Progress counts from `base` of `total`. */
+static int shade_pass(run *g, const rn_frame *fr, rn_image *img, const rn_gather_options *opt,
+                      uint32_t threads, uint64_t base, uint64_t total, worker *w0, int *w0_ok,
+                      rn_gather_stats *st, rad_error *err)
+{
+    thread_arg *ta = calloc(threads, sizeof *ta);
+    if (!ta)
+        return rad_fail(err, RAD_ERR_NOMEM, "render: gather: out of memory");
+    int rc = RAD_OK;
+    pass2 p = {.g = g, .fr = fr, .img = img};
+    atomic_init(&p.next_row, 0);
+    atomic_init(&p.rows_done, 0);
+    atomic_init(&g->stop, 0);
+    pthread_t tid[64];
+    uint32_t started = 0;
+    for (uint32_t t = 0; t < threads && !rc; t++) {
+        ta[t].p = &p;
+        ta[t].id = (int)t;
+        ta[t].progress = opt ? opt->progress : NULL;
+        ta[t].progress_user = opt ? opt->progress_user : NULL;
+        ta[t].base = base;
+        ta[t].total = total;
+        if (t == 0) {
+            ta[t].w = *w0; /* its counters carry pass 1's */
+            *w0_ok = 0;
+        } else if (worker_init(&ta[t].w, g)) {
+            worker_free(&ta[t].w);
+            rc = rad_fail(err, RAD_ERR_NOMEM, "render: gather: out of memory");
+            break;
+        }
+        if (t > 0 && pthread_create(&tid[t], NULL, shade_rows, &ta[t]) != 0) {
+            worker_free(&ta[t].w);
+            rc = rad_fail(err, RAD_ERR_NOMEM, "render: gather: cannot start thread %u", t);
+            break;
+        }
+        started = t + 1;
+    }
+    if (!rc && started)
+        shade_rows(&ta[0]);
+    else
+        atomic_store(&g->stop, 1);
+    for (uint32_t t = 1; t < started; t++)
+        pthread_join(tid[t], NULL);
+    for (uint32_t t = 0; t < started; t++) {
+        add_stats(st, &ta[t].w.st);
+        worker_free(&ta[t].w);
+    }
+    free(ta);
+    return rc;
+}
+
 int rn_gather(const rn_scene *sc, const rn_camera *cam, const rn_gather_options *opt,
               rn_icache *cache, rn_image **out, rn_gather_stats *stats, rad_error *err)
 {
@@ -986,54 +1040,9 @@ int rn_gather(const rn_scene *sc, const rn_camera *cam, const rn_gather_options 
     if (!rc && g.cached)
         rc = fill_cache(&g, &w0, &fr, opt, total);
 
-    /* Pass 2: shading, rows handed out to the threads. */
-    thread_arg *ta = NULL;
-    if (!rc) {
-        ta = calloc(threads, sizeof *ta);
-        if (!ta)
-            rc = rad_fail(err, RAD_ERR_NOMEM, "render: gather: out of memory");
-    }
-    if (!rc) {
-        pass2 p = {.g = &g, .fr = &fr, .img = img};
-        atomic_init(&p.next_row, 0);
-        atomic_init(&p.rows_done, 0);
-        atomic_init(&g.stop, 0);
-        pthread_t tid[64];
-        uint32_t started = 0;
-        for (uint32_t t = 0; t < threads && !rc; t++) {
-            ta[t].p = &p;
-            ta[t].id = (int)t;
-            ta[t].progress = opt ? opt->progress : NULL;
-            ta[t].progress_user = opt ? opt->progress_user : NULL;
-            ta[t].base = g.cached ? st.pixels : 0;
-            ta[t].total = total;
-            if (t == 0) {
-                ta[t].w = w0; /* its counters carry pass 1's */
-                w0_ok = 0;
-            } else if (worker_init(&ta[t].w, &g)) {
-                worker_free(&ta[t].w);
-                rc = rad_fail(err, RAD_ERR_NOMEM, "render: gather: out of memory");
-                break;
-            }
-            if (t > 0 && pthread_create(&tid[t], NULL, shade_rows, &ta[t]) != 0) {
-                worker_free(&ta[t].w);
-                rc = rad_fail(err, RAD_ERR_NOMEM, "render: gather: cannot start thread %u", t);
-                break;
-            }
-            started = t + 1;
-        }
-        if (!rc && started)
-            shade_rows(&ta[0]);
-        else
-            atomic_store(&g.stop, 1);
-        for (uint32_t t = 1; t < started; t++)
-            pthread_join(tid[t], NULL);
-        for (uint32_t t = 0; t < started; t++) {
-            add_stats(&st, &ta[t].w.st);
-            worker_free(&ta[t].w);
-        }
-    }
-    free(ta);
+    if (!rc)
+        rc = shade_pass(&g, &fr, img, opt, threads, g.cached ? st.pixels : 0, total, &w0, &w0_ok,
+                        &st, err);
     if (w0_ok) {
         add_stats(&st, &w0.st);
         worker_free(&w0);

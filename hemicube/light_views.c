@@ -1,0 +1,258 @@
+/* light_views.c - the worker side of the punctual lights: a light part's
+ * view, its item buffer, Φ_j of its patches (hc_light_part) and the
+ * visibility of points in it (hc_light_points), run in a worker only.
+ *
+ * Owns a light's views (a cube of six R×R faces at a point or spot light,
+ * or one orthographic R×R view along a directional light), their item
+ * buffers drawn through gl.c and their pixel solid angles.  The caller's
+ * side (light_requests.c) sends one part per request and adds the answers
+ * in part order, so a result never depends on which worker drew what.  A
+ * worker renders a part's item buffer once for a run of visibility
+ * chunks (light_render keeps the last part drawn: same request, same
+ * pixels) and looks each point up in it (point_visibility).  Invariant:
+ * power and visibility read the one rendering code (light_render), so a
+ * point and the patch power agree on what the light sees.
+ */
+#include "hc_internal.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Makes (or keeps) the R×R light target current, with its table of pixel
+ * solid angles: a cube-face pixel at (x, y) on the face at distance 1
+ * subtends ΔA/(x² + y² + 1)^{3/2}, ΔA = (2/R)², scaled so that six faces
+ * give exactly 4π (the midpoint rule is off by O(1/R²)). */
+static int light_target(hc_work *wk, uint32_t R, char *msg)
+{
+    if (wk->lR == R)
+        return hc_gl_light_target(wk->gl, R, msg);
+    free(wk->lpixels);
+    free(wk->lweight);
+    wk->lR = 0;
+    wk->lpixels = malloc((size_t)R * R * sizeof *wk->lpixels);
+    wk->lweight = malloc((size_t)R * R * sizeof *wk->lweight);
+    if (!wk->lpixels || !wk->lweight) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: worker out of memory for a %u² light view", R);
+        return -1;
+    }
+    if (hc_gl_light_target(wk->gl, R, msg) != 0)
+        return -1;
+    double d = 2.0 / R, sum = 0.0;
+    for (uint32_t y = 0; y < R; y++)
+        for (uint32_t x = 0; x < R; x++) {
+            double px = -1.0 + (x + 0.5) * d, py = -1.0 + (y + 0.5) * d;
+            double r2 = px * px + py * py + 1.0;
+            double w = d * d / (r2 * sqrt(r2));
+            wk->lweight[(size_t)y * R + x] = w;
+            sum += w;
+        }
+    double s = 4.0 * M_PI / (6.0 * sum);
+    for (size_t q = 0; q < (size_t)R * R; q++)
+        wk->lweight[q] *= s;
+    wk->lR = R;
+    return 0;
+}
+
+/* The camera of one light part: a cube face (perspective, x and y in
+ * [-1, 1] at distance 1 along fwd) or the directional light's orthographic
+ * view (x and y in [-rw, rw] around the scene origin). */
+typedef struct hc_view {
+    rad_vec3 pos, right, up, fwd; /* pos relative to the scene origin */
+    double rw;                    /* orthographic half width (directional only) */
+    int ortho;
+} hc_view;
+
+static hc_view light_view(const hc_engine *e, const hc_light_req *q)
+{
+    hc_view v = {.pos = rad_v3(q->pos[0], q->pos[1], q->pos[2])};
+    if (q->kind == HC_LIGHT_DIRECTIONAL) {
+        rad_vec3 u, w;
+        v.fwd = rad_v3(q->dir[0], q->dir[1], q->dir[2]);
+        hc_basis(v.fwd, &u, &w);
+        v.up = w;
+        v.right = rad_cross(v.fwd, v.up);
+        v.rw = e->bradius * (1.0 + 1e-9);
+        v.ortho = 1;
+    } else {
+        hc_cube_face(q->part, &v.right, &v.up, &v.fwd);
+    }
+    return v;
+}
+
+/* Renders part q->part of a light into wk->lpixels (R×R item buffer, pixel
+ * (x, y) at y·R + x), unless the last rendering was of the very same part:
+ * the pixels are then still there (hc_light_visibility sends a part's
+ * points in several chunks).  0, or -1 with msg set. */
+static int light_render(const hc_engine *e, hc_work *wk, const hc_light_req *q, const hc_view *v,
+                        char *msg)
+{
+    const uint32_t n = e->n, R = q->resolution;
+    if (wk->lkey_valid && wk->lR == R && memcmp(&wk->lkey, q, sizeof *q) == 0)
+        return 0;
+    wk->lkey_valid = 0;
+    if (light_target(wk, R, msg) != 0)
+        return -1;
+    const rad_vec3 pos = v->pos, right = v->right, up = v->up, fwd = v->fwd;
+    double m[16];
+    int nr = 0;
+    if (v->ortho) {
+        /* Orthographic along the light, x, y in [-rw, rw] around the origin,
+         * reversed depth (r_z - p·fwd)/(2 r_z) in (0, 1) for every corner. */
+        double rw = v->rw, rz = e->bradius * 1.01 + 1e-300;
+        const double mm[16] = {right.x / rw, right.y / rw, right.z / rw, 0,
+                               up.x / rw, up.y / rw, up.z / rw, 0,
+                               -fwd.x / (2 * rz), -fwd.y / (2 * rz), -fwd.z / (2 * rz), 0.5,
+                               0, 0, 0, 1};
+        memcpy(m, mm, sizeof m);
+        wk->first[0][0] = 0;
+        wk->count[0][0] = (int)wk->nvert;
+        nr = wk->nvert ? 1 : 0;
+    } else {
+        /* Geometry nearer than this to the light is clipped; far below any
+         * real distance, and reversed Z keeps full precision beyond. */
+        double near = 1e-6 * (e->bradius + rad_length(pos)) + 1e-300;
+        hc_gl_projection(m, right, up, fwd, 0, near);
+        /* Draw only the patches that may reach the face's frustum
+         * |p·right| <= p·fwd, |p·up| <= p·fwd; a patch is skipped when all
+         * its corners lie outside one of the four planes. */
+        uint32_t last = 0;
+        for (uint32_t j = 0; j < n; j++) {
+            const double *p = e->corner + (size_t)e->cfirst[j] * 12;
+            const double *end = e->corner + (size_t)e->cfirst[j + 1] * 12;
+            unsigned reach = 0; /* bit: some corner of its cells inside that plane */
+            for (; p < end; p += 3) {
+                rad_vec3 r = rad_v3(p[0] - pos.x, p[1] - pos.y, p[2] - pos.z);
+                double a = rad_dot(r, right), b = rad_dot(r, up), h = rad_dot(r, fwd);
+                double t = -e->tol;
+                reach |= (h - a >= t) | (h + a >= t) << 1 | (h - b >= t) << 2 | (h + b >= t) << 3;
+            }
+            if (reach != 15u)
+                continue;
+            hc_push_range(wk, wk->first[0], wk->count[0], &nr, &last, j);
+        }
+    }
+    hc_gl_square_view(wk->gl, m, R, 0);
+    hc_gl_eye(wk->gl, v->ortho ? rad_v3(0.0, 0.0, 0.0) : pos);
+    if (nr)
+        hc_gl_draw(wk->gl, wk->first[0], wk->count[0], nr);
+    hc_gl_read_items(wk->gl, R, R, wk->lpixels);
+    if (hc_gl_check("rendering a light view", msg))
+        return -1;
+    wk->lkey = *q;
+    wk->lkey_valid = 1;
+    return 0;
+}
+
+/* The lval buffer is made on the first light request: most runs have no
+ * punctual light. */
+long hc_light_part(const hc_engine *e, hc_work *wk, const hc_light_req *q, char *msg)
+{
+    const uint32_t n = e->n, R = q->resolution;
+    if (!wk->lval && !(wk->lval = hc_alloc(n, sizeof *wk->lval, msg)))
+        return -1;
+    const hc_view v = light_view(e, q);
+    if (light_render(e, wk, q, &v, msg) != 0)
+        return -1;
+    const rad_vec3 sd = rad_v3(q->dir[0], q->dir[1], q->dir[2]);
+    double *acc = wk->acc;
+    if (v.ortho) {
+        double pa = 2.0 * v.rw / R;
+        pa *= pa;
+        for (size_t k = 0; k < (size_t)R * R; k++)
+            if (wk->lpixels[k] < n)
+                acc[wk->lpixels[k]] += pa;
+    } else {
+        const int spot = q->kind == HC_LIGHT_SPOT;
+        double d = 2.0 / R;
+        for (uint32_t y = 0; y < R; y++)
+            for (uint32_t x = 0; x < R; x++) {
+                size_t k = (size_t)y * R + x;
+                uint32_t id = wk->lpixels[k];
+                if (id >= n)
+                    continue;
+                double w = wk->lweight[k];
+                if (spot) {
+                    double px = -1.0 + (x + 0.5) * d, py = -1.0 + (y + 0.5) * d;
+                    rad_vec3 dir = rad_add(v.fwd, rad_add(rad_scale(v.right, px), rad_scale(v.up, py)));
+                    w *= hc_spot_falloff(rad_dot(dir, sd) / rad_length(dir), q->cos_inner, q->cos_outer);
+                }
+                acc[id] += w;
+            }
+    }
+    long cnt = 0;
+    for (uint32_t j = 0; j < n; j++)
+        if (acc[j] != 0.0) {
+            if (acc[j] > 0.0) {
+                wk->col[cnt] = j;
+                wk->lval[cnt] = acc[j];
+                cnt++;
+            }
+            acc[j] = 0.0;
+        }
+    return cnt;
+}
+
+/* Does pixel id show the receiving surface of a point on patch p: p itself
+ * or, across a patch seam, a front side in p's plane (a coplanar neighbour
+ * of the same or another polygon)?  Anything else in front of the plane is
+ * an occluder; a back side or nothing is no light reaching the plane. */
+static int shows_plane(const hc_engine *e, uint32_t id, uint32_t p)
+{
+    if (id == p)
+        return 1;
+    if (id >= e->n)
+        return 0;
+    const rad_vec3 np = e->mesh->patches[p].normal, nk = e->mesh->patches[id].normal;
+    return rad_dot(np, nk) > 1.0 - 1e-6 &&
+           fabs(rad_dot(np, rad_sub(e->center[id], e->center[p]))) <= 1e-6 * e->bradius + e->tol;
+}
+
+/* Visibility of point `at` (relative to the origin) on patch p in the item
+ * buffer of view v: the bilinear weight of the four pixel centres around its
+ * projection that show p's plane (clamped at the face's border). */
+static double point_visibility(const hc_engine *e, const hc_work *wk, const hc_view *v, uint32_t R,
+                               rad_vec3 at, uint32_t p)
+{
+    double x, y;
+    if (v->ortho) {
+        x = rad_dot(at, v->right) / v->rw;
+        y = rad_dot(at, v->up) / v->rw;
+    } else {
+        rad_vec3 r = rad_sub(at, v->pos);
+        double w = rad_dot(r, v->fwd);
+        if (!(w > 0.0))
+            return 0.0;
+        x = rad_dot(r, v->right) / w;
+        y = rad_dot(r, v->up) / w;
+    }
+    /* Continuous pixel coordinates: pixel k's centre is at k. */
+    double X = (x + 1.0) * 0.5 * R - 0.5, Y = (y + 1.0) * 0.5 * R - 0.5;
+    if (!(X > -1.0 && X < (double)R && Y > -1.0 && Y < (double)R))
+        return 0.0; /* outside the view (an orthographic view covers the whole scene) */
+    double fx0 = floor(X), fy0 = floor(Y), fx = X - fx0, fy = Y - fy0;
+    long x0 = (long)fx0, y0 = (long)fy0;
+    double vis = 0.0;
+    for (int dy = 0; dy < 2; dy++)
+        for (int dx = 0; dx < 2; dx++) {
+            long px = x0 + dx, py = y0 + dy;
+            px = px < 0 ? 0 : px >= (long)R ? (long)R - 1 : px;
+            py = py < 0 ? 0 : py >= (long)R ? (long)R - 1 : py;
+            double w = (dx ? fx : 1.0 - fx) * (dy ? fy : 1.0 - fy);
+            if (w > 0.0 && shows_plane(e, wk->lpixels[(size_t)py * R + (size_t)px], p))
+                vis += w;
+        }
+    return vis > 1.0 ? 1.0 : vis;
+}
+
+int hc_light_points(const hc_engine *e, hc_work *wk, const hc_light_req *q,
+                    const hc_point_req *pts, uint32_t m, double *vis, char *msg)
+{
+    const hc_view v = light_view(e, q);
+    if (light_render(e, wk, q, &v, msg) != 0)
+        return -1;
+    for (uint32_t k = 0; k < m; k++)
+        vis[k] = point_visibility(e, wk, &v, q->resolution,
+                                  rad_v3(pts[k].at[0], pts[k].at[1], pts[k].at[2]), pts[k].patch);
+    return 0;
+}
