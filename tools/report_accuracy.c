@@ -1326,7 +1326,7 @@ int main(int argc, char **argv)
     sbuf body = md;
     md = head;
     MD("# Accuracy of the hemi-cube: report\n\n"
-       "Written by `make report` (tools/make_report.sh → bench/report_accuracy.c); every "
+       "Written by `make report` (tools/make_report.sh → tools/report_accuracy.c); every "
        "number below was measured by that run on the machine that ran it.  The cases are "
        "those of `radiosity validate` (radiosity/validate/validate.c); references never come from the "
        "hemi-cube: Howell's catalog closed forms, Lambert's contour integral, B = E/(1 − ρ) in "

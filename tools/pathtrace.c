@@ -773,7 +773,7 @@ int main(int argc, char **argv)
         return 1;
     }
     fprintf(f, "{\n \"scene\": \"%s\",\n \"size\": %u,\n \"regions_file\": \"%s\",\n"
-               " \"method\": \"pathtrace (bench/pathtrace.c): next-event estimation, cosine "
+               " \"method\": \"pathtrace (tools/pathtrace.c): next-event estimation, cosine "
                "continuation, Russian roulette after 3 bounces, box-filtered pixels\",\n"
                " \"command\": \"",
             pos[0], size, pos[1]);
