@@ -44,7 +44,7 @@ BENCH_BIN:= $(BENCH_SRC:bench/%.c=$(B)/bench/%)
 # no program: bench_scale's scene generator.
 TOOL_BIN := $(B)/tools/pathtrace
 
-.PHONY: all lib prog tests benches demo test fuzz bench report deps check-deps clean
+.PHONY: all lib prog tests benches demo test fuzz bench report deps check-deps print-objects clean
 
 all: prog
 
@@ -119,6 +119,10 @@ report: check-deps
 
 fuzz: check-deps
 	@bash test/fuzz/run_fuzz.sh $${FUZZ_SECONDS:-60}
+
+# The library's and the program's objects, for tools/check-structure.sh.
+print-objects:
+	@echo $(LIB_OBJ) $(CLI_C:%.c=$(B)/obj/%.o)
 
 clean:
 	rm -rf build out
