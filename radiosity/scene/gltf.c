@@ -195,15 +195,6 @@ typedef struct gltf_ctx {
     warn_list warn[W_COUNT];
 } gltf_ctx;
 
-static char *dup_str(const char *s)
-{
-    size_t n = strlen(s) + 1;
-    char *d = malloc(n);
-    if (d)
-        memcpy(d, s, n);
-    return d;
-}
-
 /* "LINES", or the number of a mode glTF does not define. */
 static const char *mode_name(int mode, char *buf, size_t size)
 {
@@ -237,7 +228,7 @@ static double det3(const double *m)
 static int warn_add(gltf_ctx *c, int kind, const char *subject)
 {
     warn_list *w = &c->warn[kind];
-    if (w->count < WARN_LIST_MAX && !(w->subject[w->count] = dup_str(subject)))
+    if (w->count < WARN_LIST_MAX && !(w->subject[w->count] = strdup(subject)))
         return -1;
     w->count++;
     return 0;
@@ -903,7 +894,7 @@ static char *dir_of(const char *path)
 {
     const char *slash = strrchr(path, '/');
     if (!slash)
-        return dup_str(".");
+        return strdup(".");
     size_t n = slash == path ? 1 : (size_t)(slash - path);
     char *d = malloc(n + 1);
     if (d) {
@@ -1145,7 +1136,7 @@ static int convert(gltf_ctx *c, const rad_gltf_raw *raw)
         return rc;
     static const char *const bands[3] = {"R", "G", "B"};
     for (int b = 0; b < 3; b++)
-        if (!(c->s->band_names[b] = dup_str(bands[b])))
+        if (!(c->s->band_names[b] = strdup(bands[b])))
             return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
 
     plan pl;
