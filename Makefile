@@ -1,5 +1,5 @@
-# Makefile - builds libradiosity.a, the `radiosity` program, the tests and
-# the benchmarks, in a release flavour (build/release) and an
+# Makefile - builds libradiosity.a, the `radiosity` program, the tests, the
+# benchmarks and the tools, in a release flavour (build/release) and an
 # AddressSanitizer + UndefinedBehaviorSanitizer flavour (build/asan).
 #
 #   make deps    install missing Debian packages (apt-get)
@@ -37,11 +37,14 @@ TEST_SRC := $(wildcard test/test_*.c)
 TEST_BIN := $(TEST_SRC:test/%.c=$(B)/test/%)
 BENCH_SRC:= $(wildcard bench/bench_*.c)
 BENCH_BIN:= $(BENCH_SRC:bench/%.c=$(B)/bench/%)
-# The reference path tracer: built with the benchmarks, run by hand (its
-# data is shipped in bench/data/; bench/run_bench.sh runs bench_* only).
-TOOL_BIN := $(B)/bench/pathtrace
+# Programs in tools/: the reference path tracer, built with the benchmarks
+# and run by hand (its output is shipped in bench/data/, which bench_cornell
+# reads; bench/run_bench.sh runs bench_* only), and the accuracy report's
+# generator, built by `make report` (tools/make_report.sh).  tools/hall.c is
+# no program: bench_scale's scene generator.
+TOOL_BIN := $(B)/tools/pathtrace
 
-.PHONY: all lib prog tests benches demo test fuzz bench report deps check-deps clean
+.PHONY: all lib prog tests benches demo test fuzz bench report deps check-deps print-objects clean
 
 all: prog
 
@@ -81,8 +84,12 @@ $(B)/bench/%: $(B)/obj/bench/%.o $(LIB)
 # test_render reads its EXR files back with test/exr_read.c (test-only)
 $(B)/test/test_render: $(B)/obj/test/exr_read.o
 
-# bench_scale writes its scene with bench/hall.c (not a benchmark of its own)
-$(B)/bench/bench_scale: $(B)/obj/bench/hall.o
+# bench_scale writes its scene with tools/hall.c
+$(B)/bench/bench_scale: $(B)/obj/tools/hall.o
+
+$(B)/tools/%: $(B)/obj/tools/%.o $(LIB)
+	@mkdir -p $(dir $@)
+	@$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
 
 # ------------------------------------------------------------------ commands
 
@@ -115,6 +122,10 @@ report: check-deps
 
 fuzz: check-deps
 	@bash test/fuzz/run_fuzz.sh $${FUZZ_SECONDS:-60}
+
+# The library's and the program's objects, for tools/check-structure.sh.
+print-objects:
+	@echo $(LIB_OBJ) $(CLI_C:%.c=$(B)/obj/%.o)
 
 clean:
 	rm -rf build out

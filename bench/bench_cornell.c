@@ -3,7 +3,7 @@
  * The engine solves models/cornell.gltf (render included) at several
  * refinement settings and each image, 256×256 through the scene's camera,
  * is scored against the independent path-traced reference shipped in
- * bench/data/ (made once by bench/pathtrace.c, the command in the JSON):
+ * bench/data/ (made once by tools/pathtrace.c, the command in the JSON):
  * per region, the mean radiance over its pixels, band sum R + G + B,
  * relative to the reference's.  The emitter's region (radiance exact in
  * both) is printed apart and left out of the scores: the worst region and

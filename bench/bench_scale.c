@@ -1,7 +1,7 @@
 /* bench_scale.c - a large scene of small triangles, solved with defaults
  * (issue 15, items 4 and 5).
  *
- * The scene is bench/hall.c's vaulted hall (about 99,000 triangles, lit
+ * The scene is tools/hall.c's vaulted hall (about 99,000 triangles, lit
  * only by a sun through three windows), written as glTF to a temporary
  * directory and loaded as a user's export would be.  It is solved with the
  * program's defaults (R = 128, Gauss-Seidel, every CPU) at three patch
@@ -27,7 +27,7 @@
  * asserts anything.
  */
 #include "../radiosity/pipeline/pipeline.h"
-#include "hall.h"
+#include "../tools/hall.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -188,7 +188,7 @@ int main(int argc, char **argv)
     snprintf(scene, sizeof scene, "%s/hall.gltf", dir);
     snprintf(sol, sizeof sol, "%s/hall.sol", dir);
     long cpus = sysconf(_SC_NPROCESSORS_ONLN);
-    printf("Generated hall (bench/hall.c): %llu triangles in %u objects, one sun through three "
+    printf("Generated hall (tools/hall.c): %llu triangles in %u objects, one sun through three "
            "windows; defaults: R = %u, Gauss-Seidel, %ld worker processes\n",
            (unsigned long long)hs.triangles, hs.objects, HC_DEFAULT_RESOLUTION, cpus);
     load_average("before");

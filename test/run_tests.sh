@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # run_tests.sh - runs every test binary of both flavours, the command-line
-# tests and the fuzz smoke runs, and prints one closing line
-# "N passed, N failed" (the sum over everything).
+# tests, the structure check and the fuzz smoke runs, and prints one closing
+# line "N passed, N failed" (the sum over everything).
 #
 # Jobs run TEST_JOBS at a time (default: the processor count), each into a
 # log of its own; the results are tallied afterwards in a fixed order, so the
@@ -53,6 +53,9 @@ for s in test/cli/*.sh; do
     [ -f "$s" ] || continue
     add "cli/$(basename "$s")" "RADIOSITY_BIN=build/release/radiosity bash $s"
 done
+# The tree's shape (issue 35, tools/check-structure.sh): no circle among the
+# release objects, no two source files of one name, few long functions.
+add structure "bash tools/check-structure.sh"
 
 # Start job k in the background; its exit status lands in $logs/k.rc.
 start() {
@@ -65,9 +68,9 @@ for k in "${!cmds[@]}"; do
 done
 wait
 
-# Tallied in a fixed order: release, asan, command line, fuzz.
+# Tallied in a fixed order: release, asan, command line, structure, fuzz.
 order=()
-for prefix in release/ asan/ cli/ fuzz; do
+for prefix in release/ asan/ cli/ structure fuzz; do
     for k in "${!names[@]}"; do
         case "${names[$k]}" in "$prefix"*) order+=("$k") ;; esac
     done

@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # make_report.sh - writes report/accuracy.md and report/*.svg (issue 4,
-# `make report`): builds the report generator bench/report_accuracy.c
+# `make report`): builds the report generator tools/report_accuracy.c
 # against the release library and runs it.  Takes a few minutes on 2 cores;
 # every number in the report is measured by that run.
 set -eu
 cd "$(dirname "$0")/.."
 B=${B:-build/release}
-make --no-print-directory MODE=release B="$B" "$B/bench/report_accuracy"
+make --no-print-directory MODE=release B="$B" "$B/tools/report_accuracy"
 mkdir -p report
-"$B/bench/report_accuracy" report
+"$B/tools/report_accuracy" report

@@ -195,15 +195,6 @@ typedef struct gltf_ctx {
     warn_list warn[W_COUNT];
 } gltf_ctx;
 
-static char *dup_str(const char *s)
-{
-    size_t n = strlen(s) + 1;
-    char *d = malloc(n);
-    if (d)
-        memcpy(d, s, n);
-    return d;
-}
-
 /* "LINES", or the number of a mode glTF does not define. */
 static const char *mode_name(int mode, char *buf, size_t size)
 {
@@ -237,7 +228,7 @@ static double det3(const double *m)
 static int warn_add(gltf_ctx *c, int kind, const char *subject)
 {
     warn_list *w = &c->warn[kind];
-    if (w->count < WARN_LIST_MAX && !(w->subject[w->count] = dup_str(subject)))
+    if (w->count < WARN_LIST_MAX && !(w->subject[w->count] = strdup(subject)))
         return -1;
     w->count++;
     return 0;
@@ -489,53 +480,59 @@ static int emit_colored(gltf_ctx *c, const char *pname, uint32_t object, mat_inf
     return rc;
 }
 
-/* Converts one primitive of one node: transform, drop slivers, merge
- * parallelogram pairs, add (with each polygon's mean vertex colour when
- * the primitive has COLOR_0).  *object is created on the first polygon. */
-static int convert_primitive(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_t pi,
-                             const double *world, const char *object_name, uint32_t *object,
-                             mat_info *mi)
+/* One primitive on its way through convert_primitive's phases: weld_vertices
+ * fills W, canon and keys; keep_triangles tri and edges (and kept, ne);
+ * pair_triangles partner and pslot; emit_primitive reads them all. */
+typedef struct prim_work {
+    rad_vec3 *W;       /* [nv] the vertices in world space */
+    uint32_t *canon;   /* [nv] vertex -> id of its welded position */
+    weld_key *keys;    /* [nv] the vertices sorted by position */
+    uint32_t *tri;     /* [4 kept] the kept triangles: 3 corners + original index */
+    dir_edge *edges;   /* [ne] their edges, sorted by (from, to) */
+    uint32_t *partner; /* [kept] the triangle paired with, or RAD_NONE */
+    uint32_t *pslot;   /* [kept] the corner slot where the shared edge starts */
+    uint32_t kept;
+    size_t ne;
+} prim_work;
+
+/* Transforms the vertices to world space (a non-finite one is an error)
+ * and welds equal positions, so that triangles exported with split
+ * vertices (per-face normals or UVs) or without indices still find their
+ * neighbours. */
+static int weld_vertices(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_t pi,
+                         const double *world, prim_work *pw)
 {
     const rad_gltf_raw_primitive *pr = &mesh->primitives[pi];
-    uint32_t nv = pr->vertex_count, nt = pr->index_count / 3;
-    if (nt == 0)
-        return RAD_OK;
-    int rc = RAD_OK;
-    rad_vec3 *W = malloc((size_t)(nv ? nv : 1) * sizeof *W);
-    uint32_t *canon = malloc((size_t)(nv ? nv : 1) * sizeof *canon);
-    weld_key *keys = malloc((size_t)(nv ? nv : 1) * sizeof *keys);
-    uint32_t *tri = malloc((size_t)nt * 4 * sizeof *tri); /* 3 corners + original index */
-    dir_edge *edges = malloc((size_t)nt * 3 * sizeof *edges);
-    uint32_t *partner = malloc((size_t)nt * sizeof *partner);
-    uint32_t *pslot = malloc((size_t)nt * sizeof *pslot);
-    if (!W || !canon || !keys || !tri || !edges || !partner || !pslot) {
-        rc = rad_fail(c->err, RAD_ERR_NOMEM, "%s: mesh '%s' primitive %u: out of memory", c->src,
-                      mesh->name, pi);
-        goto done;
-    }
-
+    uint32_t nv = pr->vertex_count;
     for (uint32_t v = 0; v < nv; v++) {
-        W[v] = xform_point(world, pr->positions + 3 * (size_t)v);
-        if (!rad_finite3(W[v])) { /* a huge scale overflowed; the sort below needs order */
-            rc = rad_fail(c->err, RAD_ERR_INVALID,
-                          "%s: mesh '%s' primitive %u: vertex %u is too large in world space",
-                          c->src, mesh->name, pi, v);
-            goto done;
-        }
-        keys[v].p = W[v];
-        keys[v].v = v;
+        pw->W[v] = xform_point(world, pr->positions + 3 * (size_t)v);
+        if (!rad_finite3(pw->W[v])) /* a huge scale overflowed; the sort below needs order */
+            return rad_fail(c->err, RAD_ERR_INVALID,
+                            "%s: mesh '%s' primitive %u: vertex %u is too large in world space",
+                            c->src, mesh->name, pi, v);
+        pw->keys[v].p = pw->W[v];
+        pw->keys[v].v = v;
     }
-    /* Weld equal positions, so that triangles exported with split vertices
-     * (per-face normals or UVs) or without indices still find their
-     * neighbours. */
-    qsort(keys, nv, sizeof *keys, cmp_weld);
+    qsort(pw->keys, nv, sizeof *pw->keys, cmp_weld);
     for (uint32_t k = 0, id = 0; k < nv; k++) {
-        rad_vec3 a = keys[k].p, b = k ? keys[k - 1].p : a;
+        rad_vec3 a = pw->keys[k].p, b = k ? pw->keys[k - 1].p : a;
         if (a.x != b.x || a.y != b.y || a.z != b.z)
             id++;
-        canon[keys[k].v] = id;
+        pw->canon[pw->keys[k].v] = id;
     }
+    return RAD_OK;
+}
 
+/* Keeps the triangles that are no slivers (area below the scene's floor or
+ * tiny for their size) and have three distinct welded corners, wound
+ * counter-clockwise in world space (a mirroring transform flips them), and
+ * lists their directed edges sorted; the others count as dropped. */
+static void keep_triangles(gltf_ctx *c, const rad_gltf_raw_primitive *pr, const double *world,
+                           prim_work *pw)
+{
+    const rad_vec3 *W = pw->W;
+    const uint32_t *canon = pw->canon;
+    uint32_t nt = pr->index_count / 3;
     int flip = det3(world) < 0.0;
     uint32_t kept = 0;
     for (uint32_t t = 0; t < nt; t++) {
@@ -559,35 +556,45 @@ static int convert_primitive(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_
             c->triangles_dropped++;
             continue;
         }
-        tri[4 * (size_t)kept] = a;
-        tri[4 * (size_t)kept + 1] = b;
-        tri[4 * (size_t)kept + 2] = d;
-        tri[4 * (size_t)kept + 3] = t;
+        uint32_t *T = &pw->tri[4 * (size_t)kept];
+        T[0] = a;
+        T[1] = b;
+        T[2] = d;
+        T[3] = t;
         for (uint32_t s = 0; s < 3; s++) {
-            dir_edge *e = &edges[3 * (size_t)kept + s];
-            e->from = canon[tri[4 * (size_t)kept + s]];
-            e->to = canon[tri[4 * (size_t)kept + (s + 1) % 3]];
+            dir_edge *e = &pw->edges[3 * (size_t)kept + s];
+            e->from = canon[T[s]];
+            e->to = canon[T[(s + 1) % 3]];
             e->tri = kept;
             e->slot = s;
         }
-        partner[kept] = RAD_NONE;
+        pw->partner[kept] = RAD_NONE;
         kept++;
     }
-    size_t ne = 3 * (size_t)kept;
-    qsort(edges, ne, sizeof *edges, cmp_edge);
+    pw->kept = kept;
+    pw->ne = 3 * (size_t)kept;
+    qsort(pw->edges, pw->ne, sizeof *pw->edges, cmp_edge);
+}
 
-    /* Greedy pairing: triangle t, corner slot s: edge q1 -> q2 with q0
-     * opposite; a neighbour u holding q2 -> q1 with r opposite makes the
-     * quad q0 q1 r q2, counter-clockwise like t.  The first pass pairs only
-     * across an edge that is the longest of both triangles -- the diagonal
-     * an exporter cut a quad along -- so that a grid of squares is not
-     * paired into slanted parallelograms across its cells; the second pass
-     * pairs what is left across any edge, longest first. */
+/* Greedy pairing: triangle t, corner slot s: edge q1 -> q2 with q0
+ * opposite; a neighbour u holding q2 -> q1 with r opposite makes the quad
+ * q0 q1 r q2, counter-clockwise like t.  The first pass pairs only across
+ * an edge that is the longest of both triangles -- the diagonal an
+ * exporter cut a quad along -- so that a grid of squares is not paired
+ * into slanted parallelograms across its cells; the second pass pairs what
+ * is left across any edge, longest first. */
+static void pair_triangles(prim_work *pw)
+{
+    const rad_vec3 *W = pw->W;
+    const uint32_t *canon = pw->canon;
+    const dir_edge *edges = pw->edges;
+    uint32_t *partner = pw->partner;
+    size_t ne = pw->ne;
     for (int pass = 0; pass < 2; pass++) {
-        for (uint32_t t = 0; t < kept; t++) {
+        for (uint32_t t = 0; t < pw->kept; t++) {
             if (partner[t] != RAD_NONE)
                 continue;
-            const uint32_t *T = &tri[4 * (size_t)t];
+            const uint32_t *T = &pw->tri[4 * (size_t)t];
             uint32_t order[3];
             edge_order(W, T, order);
             for (uint32_t o = 0; o < (pass ? 3u : 1u) && partner[t] == RAD_NONE; o++) {
@@ -598,7 +605,7 @@ static int convert_primitive(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_
                     uint32_t u = edges[k].tri;
                     if (u == t || partner[u] != RAD_NONE)
                         continue;
-                    const uint32_t *U = &tri[4 * (size_t)u];
+                    const uint32_t *U = &pw->tri[4 * (size_t)u];
                     if (pass == 0) {
                         uint32_t uo[3];
                         edge_order(W, U, uo);
@@ -610,41 +617,51 @@ static int convert_primitive(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_
                         continue;
                     partner[t] = u;
                     partner[u] = t;
-                    pslot[t] = s;
-                    pslot[u] = edges[k].slot;
+                    pw->pslot[t] = s;
+                    pw->pslot[u] = edges[k].slot;
                     break;
                 }
             }
         }
     }
+}
 
+/* Adds the kept triangles, each pair as one quad where scene.c takes it,
+ * with each polygon's mean vertex colour when the primitive has COLOR_0.
+ * *object is created on the first polygon. */
+static int emit_primitive(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_t pi,
+                          const char *object_name, uint32_t *object, mat_info *mi,
+                          const prim_work *pw)
+{
+    const rad_vec3 *W = pw->W;
+    const double *col = mesh->primitives[pi].colors;
     char where[300], pname[300];
     snprintf(where, sizeof where, "object '%.200s'", object_name);
-    for (uint32_t t = 0; t < kept && rc == RAD_OK; t++) {
-        uint32_t u = partner[t];
+    for (uint32_t t = 0; t < pw->kept; t++) {
+        uint32_t u = pw->partner[t];
         if (u != RAD_NONE && u < t)
             continue; /* emitted with its partner */
+        int rc;
         if (*object == RAD_NONE) {
             rc = rad_scene_add_object(c->s, object_name, where, object, c->err);
             if (rc)
-                break;
+                return rc;
         }
-        const uint32_t *T = &tri[4 * (size_t)t];
+        const uint32_t *T = &pw->tri[4 * (size_t)t];
         snprintf(pname, sizeof pname, "%.200s/%u/%u", mesh->name, pi, T[3]);
         /* Vertex colours: a triangle's mean is the mean of its corners'
          * (exact for the linear interpolation glTF draws); a quad's, of
          * its two triangles of equal area. */
         double Ct[3], Cu[3], Cq[3];
-        const double *col = pr->colors;
         if (col)
             triangle_color(col, T, Ct);
         if (u != RAD_NONE) {
-            uint32_t s = pslot[t];
+            uint32_t s = pw->pslot[t];
             uint32_t i1 = T[s], i2 = T[(s + 1) % 3], i0 = T[(s + 2) % 3];
-            uint32_t r = tri[4 * (size_t)u + (pslot[u] + 2) % 3];
+            uint32_t r = pw->tri[4 * (size_t)u + (pw->pslot[u] + 2) % 3];
             rad_vec3 quad[4] = {W[i0], W[i1], W[r], W[i2]};
             if (col) {
-                triangle_color(col, &tri[4 * (size_t)u], Cu);
+                triangle_color(col, &pw->tri[4 * (size_t)u], Cu);
                 for (int b = 0; b < 3; b++)
                     Cq[b] = 0.5 * (Ct[b] + Cu[b]);
             }
@@ -663,28 +680,62 @@ static int convert_primitive(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_
             if (rc != RAD_ERR_INVALID || c->s->polygon_count != before) {
                 if (c->err)
                     *c->err = scratch;
-                break;
+                return rc;
             }
-            rc = RAD_OK;
         }
         rad_vec3 p3[3] = {W[T[0]], W[T[1]], W[T[2]]};
         rc = emit_colored(c, pname, *object, mi, p3, 3, where, col ? Ct : NULL);
         if (rc == RAD_OK && u != RAD_NONE) {
-            const uint32_t *U = &tri[4 * (size_t)u];
+            const uint32_t *U = &pw->tri[4 * (size_t)u];
             rad_vec3 q3[3] = {W[U[0]], W[U[1]], W[U[2]]};
             snprintf(pname, sizeof pname, "%.200s/%u/%u", mesh->name, pi, U[3]);
             rc = emit_colored(c, pname, *object, mi, q3, 3, where, col ? Cu : NULL);
         }
+        if (rc)
+            return rc;
     }
+    return RAD_OK;
+}
 
-done:
-    free(W);
-    free(canon);
-    free(keys);
-    free(tri);
-    free(edges);
-    free(partner);
-    free(pslot);
+/* Converts one primitive of one node: transform and weld, drop slivers,
+ * merge parallelogram pairs, add (with each polygon's mean vertex colour
+ * when the primitive has COLOR_0).  *object is created on the first
+ * polygon. */
+static int convert_primitive(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_t pi,
+                             const double *world, const char *object_name, uint32_t *object,
+                             mat_info *mi)
+{
+    const rad_gltf_raw_primitive *pr = &mesh->primitives[pi];
+    uint32_t nv = pr->vertex_count, nt = pr->index_count / 3;
+    if (nt == 0)
+        return RAD_OK;
+    int rc = RAD_OK;
+    prim_work pw = {
+        .W = malloc((size_t)(nv ? nv : 1) * sizeof *pw.W),
+        .canon = malloc((size_t)(nv ? nv : 1) * sizeof *pw.canon),
+        .keys = malloc((size_t)(nv ? nv : 1) * sizeof *pw.keys),
+        .tri = malloc((size_t)nt * 4 * sizeof *pw.tri),
+        .edges = malloc((size_t)nt * 3 * sizeof *pw.edges),
+        .partner = malloc((size_t)nt * sizeof *pw.partner),
+        .pslot = malloc((size_t)nt * sizeof *pw.pslot),
+    };
+    if (!pw.W || !pw.canon || !pw.keys || !pw.tri || !pw.edges || !pw.partner || !pw.pslot)
+        rc = rad_fail(c->err, RAD_ERR_NOMEM, "%s: mesh '%s' primitive %u: out of memory", c->src,
+                      mesh->name, pi);
+    if (rc == RAD_OK)
+        rc = weld_vertices(c, mesh, pi, world, &pw);
+    if (rc == RAD_OK) {
+        keep_triangles(c, pr, world, &pw);
+        pair_triangles(&pw);
+        rc = emit_primitive(c, mesh, pi, object_name, object, mi, &pw);
+    }
+    free(pw.W);
+    free(pw.canon);
+    free(pw.keys);
+    free(pw.tri);
+    free(pw.edges);
+    free(pw.partner);
+    free(pw.pslot);
     return rc;
 }
 
@@ -843,7 +894,7 @@ static char *dir_of(const char *path)
 {
     const char *slash = strrchr(path, '/');
     if (!slash)
-        return dup_str(".");
+        return strdup(".");
     size_t n = slash == path ? 1 : (size_t)(slash - path);
     char *d = malloc(n + 1);
     if (d) {
@@ -1085,7 +1136,7 @@ static int convert(gltf_ctx *c, const rad_gltf_raw *raw)
         return rc;
     static const char *const bands[3] = {"R", "G", "B"};
     for (int b = 0; b < 3; b++)
-        if (!(c->s->band_names[b] = dup_str(bands[b])))
+        if (!(c->s->band_names[b] = strdup(bands[b])))
             return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
 
     plan pl;

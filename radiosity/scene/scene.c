@@ -252,15 +252,6 @@ static int grow(void **arr, uint32_t *cap, uint64_t need, size_t elem)
     return 0;
 }
 
-static char *dup_string(const char *s)
-{
-    size_t n = strlen(s) + 1;
-    char *d = malloc(n);
-    if (d)
-        memcpy(d, s, n);
-    return d;
-}
-
 /* -------------------------------------------------------------- lifecycle */
 
 rad_scene *rad_scene_create(uint32_t band_count, const char *source)
@@ -271,7 +262,7 @@ rad_scene *rad_scene_create(uint32_t band_count, const char *source)
     if (!s)
         return NULL;
     s->band_count = band_count;
-    s->source = dup_string(source ? source : "<memory>");
+    s->source = strdup(source ? source : "<memory>");
     if (!s->source) {
         free(s);
         return NULL;
@@ -365,7 +356,7 @@ int rad_scene_add_material(rad_scene *s, const char *name, const double *rho,
     if (grow((void **)&s->materials, &s->material_cap_, (uint64_t)s->material_count + 1,
              sizeof *s->materials) != 0)
         return failf(err, s, RAD_ERR_NOMEM, where, "%stoo many materials", el);
-    m.name = dup_string(name);
+    m.name = strdup(name);
     if (!m.name || rad_names_insert(&nm->material, m.name, s->material_count) != 0) {
         free(m.name);
         return failf(err, s, RAD_ERR_NOMEM, where, "%sout of memory", el);
@@ -461,7 +452,7 @@ int rad_scene_add_object(rad_scene *s, const char *name, const char *where, uint
     if (grow((void **)&s->objects, &s->object_cap_, (uint64_t)s->object_count + 1,
              sizeof *s->objects) != 0)
         return failf(err, s, RAD_ERR_NOMEM, where, "%stoo many objects", el);
-    char *copy = dup_string(name);
+    char *copy = strdup(name);
     if (!copy || rad_names_insert(&nm->object, copy, s->object_count) != 0) {
         free(copy);
         return failf(err, s, RAD_ERR_NOMEM, where, "%sout of memory", el);
@@ -629,7 +620,7 @@ int rad_scene_add_polygon(rad_scene *s, const char *name, uint32_t object, uint3
     if (s->polygon_rho && polygon_rho_room(s, (uint64_t)s->polygon_count + 1) != 0)
         return failf(err, s, RAD_ERR_NOMEM, where, "%sout of memory", el);
     rad_polygon *pg = &s->polygons[s->polygon_count];
-    pg->name = dup_string(pname);
+    pg->name = strdup(pname);
     if (!pg->name)
         return failf(err, s, RAD_ERR_NOMEM, where, "%sout of memory", el);
     if (s->polygon_rho) /* until told otherwise, its material's */
@@ -729,7 +720,7 @@ static int add_camera(rad_scene *s, const char *name, rad_vec3 eye, rad_vec3 tar
     if (grow((void **)&s->cameras, &s->camera_cap_, (uint64_t)s->camera_count + 1,
              sizeof *s->cameras) != 0)
         return failf(err, s, RAD_ERR_NOMEM, where, "%stoo many cameras", el);
-    char *copy = dup_string(name);
+    char *copy = strdup(name);
     if (!copy || rad_names_insert(&nm->camera, copy, s->camera_count) != 0) {
         free(copy);
         return failf(err, s, RAD_ERR_NOMEM, where, "%sout of memory", el);
@@ -861,7 +852,7 @@ int rad_scene_add_light(rad_scene *s, const char *name, rad_light_kind kind,
     if (grow((void **)&s->lights, &s->light_cap_, (uint64_t)s->light_count + 1,
              sizeof *s->lights) != 0)
         return failf(err, s, RAD_ERR_NOMEM, where, "%stoo many lights", el);
-    L.name = dup_string(name);
+    L.name = strdup(name);
     if (!L.name || rad_names_insert(&nm->light, L.name, s->light_count) != 0) {
         free(L.name);
         return failf(err, s, RAD_ERR_NOMEM, where, "%sout of memory", el);

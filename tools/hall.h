@@ -1,12 +1,12 @@
 /* hall.h - a generated glTF scene of many small triangles for the
- * large-scene benchmark (bench_scale.c): a vaulted hall with two arcades
- * of columns and round arches, tables and benches, every surface
+ * large-scene benchmark (bench/bench_scale.c): a vaulted hall with two
+ * arcades of columns and round arches, tables and benches, every surface
  * tessellated finely as a modeller's export would be, lit only by a sun
  * (KHR_lights_punctual directional light) through three tall windows.
  * Its output is written to a temporary directory and never committed.
  */
-#ifndef BENCH_HALL_H
-#define BENCH_HALL_H
+#ifndef TOOLS_HALL_H
+#define TOOLS_HALL_H
 
 #include <stdint.h>
 
@@ -20,4 +20,4 @@ typedef struct hall_stats {
  * that).  0 on success, -1 with a message on stderr. */
 int hall_write(const char *dir, const char *name, double fine, hall_stats *stats);
 
-#endif /* BENCH_HALL_H */
+#endif /* TOOLS_HALL_H */

@@ -686,6 +686,149 @@ static int trace_image(const char *scene, const char *out, uint32_t size, uint64
     return fclose(f) ? 1 : 0;
 }
 
+/* ------------------------------------------------------- the reference */
+
+/* Every pixel's region (classify) into region[size²], counted per region
+ * into count[], and written to `path` as an 8-bit PGM.  0, or 1 when the
+ * file cannot be written (named on stderr). */
+static int write_regions(const world *w, const rad_scene *s, const cam *k, uint32_t size,
+                         const char *path, uint8_t *region, uint64_t *count)
+{
+    for (uint32_t j = 0; j < size; j++)
+        for (uint32_t i = 0; i < size; i++) {
+            uint8_t g = classify(w, s, k, i, j);
+            region[(size_t)j * size + i] = g;
+            if (g != RG_NONE)
+                count[g]++;
+        }
+    FILE *f = fopen(path, "wb");
+    if (!f || fprintf(f, "P5\n%u %u\n255\n", size, size) < 0 ||
+        fwrite(region, 1, (size_t)size * size, f) != (size_t)size * size || fclose(f)) {
+        fprintf(stderr, "pathtrace: cannot write %s\n", path);
+        return 1;
+    }
+    return 0;
+}
+
+/* Region g (count pixels) traced into *a: a pilot of about 1e5 paths
+ * measures the spread of one path's band sum; the region then gets enough
+ * paths for its mean's relative standard error to reach `target`, and at
+ * least `paths`.  0, or 1 when a job failed (named on stderr). */
+static int trace_to_target(const world *w, const cam *k, const uint8_t *region, uint8_t g,
+                           uint64_t count, double paths, double target, uint64_t seed, int jobs,
+                           acc *a)
+{
+    uint64_t pilot = (uint64_t)ceil(1e5 / count);
+    acc more;
+    if (trace_parallel(w, k, region, g, pilot, seed, jobs, a)) {
+        fprintf(stderr, "pathtrace: a job failed\n");
+        return 1;
+    }
+    double m = a->sum[MAXB] / a->paths, var = fmax(0.0, a->sum2[MAXB] / a->paths - m * m);
+    double need = fmax(paths, m > 0.0 ? var / (m * m * target * target) : 0.0);
+    uint64_t passes = (uint64_t)ceil(need / count);
+    if (passes > pilot) {
+        if (trace_parallel(w, k, region, g, passes - pilot, seed + 500u, jobs, &more)) {
+            fprintf(stderr, "pathtrace: a job failed\n");
+            return 1;
+        }
+        for (uint32_t b = 0; b <= MAXB; b++) {
+            a->sum[b] += more.sum[b];
+            a->sum2[b] += more.sum2[b];
+        }
+        a->paths += more.paths;
+    }
+    return 0;
+}
+
+/* Region g's JSON object (its means and their standard errors per band and
+ * of the band sum) into f, after a comma unless it is the first, and its
+ * line on stdout with the seconds since t0. */
+static void put_region(FILE *f, int first, uint8_t g, uint64_t count, const acc *a,
+                       uint32_t bands, time_t t0)
+{
+    fprintf(f, "%s  {\"id\": %u, \"name\": \"%s\", \"pixels\": %llu, \"paths\": %llu, \"mean\": [",
+            first ? "" : ",\n", g, region_name[g], (unsigned long long)count,
+            (unsigned long long)a->paths);
+    printf("%-32s %6llu px %10llu paths", region_name[g], (unsigned long long)count,
+           (unsigned long long)a->paths);
+    for (uint32_t b = 0; b < bands; b++) {
+        double m = a->sum[b] / a->paths;
+        fprintf(f, "%s%.9g", b ? ", " : "", m);
+        printf(" %.5f", m);
+    }
+    fprintf(f, "], \"stderr\": [");
+    for (uint32_t b = 0; b < bands; b++) {
+        double m = a->sum[b] / a->paths;
+        double se = sqrt(fmax(0.0, a->sum2[b] / a->paths - m * m) / (double)(a->paths - 1));
+        fprintf(f, "%s%.3g", b ? ", " : "", se);
+        printf(" (%.2g%%)", m > 0 ? 100 * se / m : 0.0);
+    }
+    double ms = a->sum[MAXB] / a->paths;
+    double ses = sqrt(fmax(0.0, a->sum2[MAXB] / a->paths - ms * ms) / (double)(a->paths - 1));
+    fprintf(f, "], \"sum_relative_stderr\": %.3g}", ms > 0.0 ? ses / ms : 0.0);
+    printf("  band sum %.3g%%, %.0f s\n", ms > 0.0 ? 100.0 * ses / ms : 0.0,
+           difftime(time(NULL), t0));
+    fflush(stdout);
+}
+
+/* The reference of scene pos[0]: its regions to pos[1] (PGM), their means
+ * to pos[2] (JSON, with the command line argv that made it).  0, 1 when a
+ * file cannot be written or a job failed, 2 for a scene it cannot use. */
+static int trace_reference(const char *const pos[3], uint32_t size, double paths, double target,
+                           uint64_t seed, int jobs, int argc, char **argv)
+{
+    rad_scene *s = NULL;
+    rad_error err;
+    if (rad_scene_load(pos[0], NULL, &s, &err)) {
+        fprintf(stderr, "pathtrace: %s\n", err.message);
+        return 2;
+    }
+    world w;
+    if (world_from_scene(s, &w) || w.ne != 1 || !s->camera_count) {
+        fprintf(stderr, "pathtrace: %s: one emitter polygon and a camera expected\n", pos[0]);
+        return 2;
+    }
+    cam k;
+    cam_make(&s->cameras[0], size, size, &k);
+    uint8_t *region = malloc((size_t)size * size);
+    uint64_t count[RG_COUNT] = {0};
+    if (write_regions(&w, s, &k, size, pos[1], region, count))
+        return 1;
+    FILE *f = fopen(pos[2], "w");
+    if (!f) {
+        fprintf(stderr, "pathtrace: cannot write %s\n", pos[2]);
+        return 1;
+    }
+    fprintf(f, "{\n \"scene\": \"%s\",\n \"size\": %u,\n \"regions_file\": \"%s\",\n"
+               " \"method\": \"pathtrace (tools/pathtrace.c): next-event estimation, cosine "
+               "continuation, Russian roulette after 3 bounces, box-filtered pixels\",\n"
+               " \"command\": \"",
+            pos[0], size, pos[1]);
+    for (int a = 0; a < argc; a++)
+        fprintf(f, "%s%s", a ? " " : "", argv[a]);
+    fprintf(f, "\",\n \"units\": \"radiance per band (the engine's B/pi)\",\n \"regions\": [\n");
+    int first = 1;
+    for (uint8_t g = 0; g < RG_COUNT; g++) {
+        if (!count[g])
+            continue;
+        time_t t0 = time(NULL);
+        acc a;
+        if (trace_to_target(&w, &k, region, g, count[g], paths, target, seed, jobs, &a))
+            return 1;
+        put_region(f, first, g, count[g], &a, w.bands, t0);
+        first = 0;
+    }
+    fprintf(f, "\n ]\n}\n");
+    if (fclose(f)) {
+        fprintf(stderr, "pathtrace: cannot write %s\n", pos[2]);
+        return 1;
+    }
+    free(region);
+    rad_scene_destroy(s);
+    return 0;
+}
+
 /* ------------------------------------------------------------ main */
 
 static int usage(void)
@@ -739,105 +882,5 @@ int main(int argc, char **argv)
         return trace_image(pos[0], image, size, spp, seed, jobs);
     if (npos != 3)
         return usage();
-    rad_scene *s = NULL;
-    rad_error err;
-    if (rad_scene_load(pos[0], NULL, &s, &err)) {
-        fprintf(stderr, "pathtrace: %s\n", err.message);
-        return 2;
-    }
-    world w;
-    if (world_from_scene(s, &w) || w.ne != 1 || !s->camera_count) {
-        fprintf(stderr, "pathtrace: %s: one emitter polygon and a camera expected\n", pos[0]);
-        return 2;
-    }
-    cam k;
-    cam_make(&s->cameras[0], size, size, &k);
-    uint8_t *region = malloc((size_t)size * size);
-    uint64_t count[RG_COUNT] = {0};
-    for (uint32_t j = 0; j < size; j++)
-        for (uint32_t i = 0; i < size; i++) {
-            uint8_t g = classify(&w, s, &k, i, j);
-            region[(size_t)j * size + i] = g;
-            if (g != RG_NONE)
-                count[g]++;
-        }
-    FILE *f = fopen(pos[1], "wb");
-    if (!f || fprintf(f, "P5\n%u %u\n255\n", size, size) < 0 ||
-        fwrite(region, 1, (size_t)size * size, f) != (size_t)size * size || fclose(f)) {
-        fprintf(stderr, "pathtrace: cannot write %s\n", pos[1]);
-        return 1;
-    }
-    f = fopen(pos[2], "w");
-    if (!f) {
-        fprintf(stderr, "pathtrace: cannot write %s\n", pos[2]);
-        return 1;
-    }
-    fprintf(f, "{\n \"scene\": \"%s\",\n \"size\": %u,\n \"regions_file\": \"%s\",\n"
-               " \"method\": \"pathtrace (bench/pathtrace.c): next-event estimation, cosine "
-               "continuation, Russian roulette after 3 bounces, box-filtered pixels\",\n"
-               " \"command\": \"",
-            pos[0], size, pos[1]);
-    for (int a = 0; a < argc; a++)
-        fprintf(f, "%s%s", a ? " " : "", argv[a]);
-    fprintf(f, "\",\n \"units\": \"radiance per band (the engine's B/pi)\",\n \"regions\": [\n");
-    int first = 1;
-    for (uint8_t g = 0; g < RG_COUNT; g++) {
-        if (!count[g])
-            continue;
-        time_t t0 = time(NULL);
-        /* A pilot of about 1e5 paths measures the spread of one path's band
-         * sum; the region then gets enough paths for its mean's relative
-         * standard error to reach `target`, and at least `paths`. */
-        uint64_t pilot = (uint64_t)ceil(1e5 / count[g]);
-        acc a, more;
-        if (trace_parallel(&w, &k, region, g, pilot, seed, jobs, &a)) {
-            fprintf(stderr, "pathtrace: a job failed\n");
-            return 1;
-        }
-        double m = a.sum[MAXB] / a.paths, var = fmax(0.0, a.sum2[MAXB] / a.paths - m * m);
-        double need = fmax(paths, m > 0.0 ? var / (m * m * target * target) : 0.0);
-        uint64_t passes = (uint64_t)ceil(need / count[g]);
-        if (passes > pilot) {
-            if (trace_parallel(&w, &k, region, g, passes - pilot, seed + 500u, jobs, &more)) {
-                fprintf(stderr, "pathtrace: a job failed\n");
-                return 1;
-            }
-            for (uint32_t b = 0; b <= MAXB; b++) {
-                a.sum[b] += more.sum[b];
-                a.sum2[b] += more.sum2[b];
-            }
-            a.paths += more.paths;
-        }
-        fprintf(f, "%s  {\"id\": %u, \"name\": \"%s\", \"pixels\": %llu, \"paths\": %llu, \"mean\": [",
-                first ? "" : ",\n", g, region_name[g], (unsigned long long)count[g],
-                (unsigned long long)a.paths);
-        first = 0;
-        printf("%-32s %6llu px %10llu paths", region_name[g], (unsigned long long)count[g],
-               (unsigned long long)a.paths);
-        for (uint32_t b = 0; b < w.bands; b++) {
-            double m = a.sum[b] / a.paths;
-            fprintf(f, "%s%.9g", b ? ", " : "", m);
-            printf(" %.5f", m);
-        }
-        fprintf(f, "], \"stderr\": [");
-        for (uint32_t b = 0; b < w.bands; b++) {
-            double m = a.sum[b] / a.paths;
-            double se = sqrt(fmax(0.0, a.sum2[b] / a.paths - m * m) / (double)(a.paths - 1));
-            fprintf(f, "%s%.3g", b ? ", " : "", se);
-            printf(" (%.2g%%)", m > 0 ? 100 * se / m : 0.0);
-        }
-        double ms = a.sum[MAXB] / a.paths;
-        double ses = sqrt(fmax(0.0, a.sum2[MAXB] / a.paths - ms * ms) / (double)(a.paths - 1));
-        fprintf(f, "], \"sum_relative_stderr\": %.3g}", ms > 0.0 ? ses / ms : 0.0);
-        printf("  band sum %.3g%%, %.0f s\n", ms > 0.0 ? 100.0 * ses / ms : 0.0, difftime(time(NULL), t0));
-        fflush(stdout);
-    }
-    fprintf(f, "\n ]\n}\n");
-    if (fclose(f)) {
-        fprintf(stderr, "pathtrace: cannot write %s\n", pos[2]);
-        return 1;
-    }
-    free(region);
-    rad_scene_destroy(s);
-    return 0;
+    return trace_reference(pos, size, paths, target, seed, jobs, argc, argv);
 }

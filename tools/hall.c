@@ -1,4 +1,4 @@
-/* hall.c - the benchmark hall (hall.h): geometry made in code, written as
+/* hall.c - bench_scale's hall (hall.h): geometry made in code, written as
  * glTF 2.0 (JSON and one external binary buffer).
  *
  * The hall is 24 × 14 m and 8 m high (metres, y up).  Two arcades run
@@ -457,7 +457,7 @@ static int write_files(const hall *h, const char *dir, const char *name)
     d = scl(d, 1.0 / sqrt(dot(d, d)));
     v3 ax = cross(a, d);
     double qw = 1.0 + dot(a, d), ql = sqrt(dot(ax, ax) + qw * qw);
-    fprintf(f, "{\"asset\":{\"version\":\"2.0\",\"generator\":\"radiosity bench/hall.c\"},\n");
+    fprintf(f, "{\"asset\":{\"version\":\"2.0\",\"generator\":\"radiosity tools/hall.c\"},\n");
     fprintf(f, "\"extensionsUsed\":[\"KHR_lights_punctual\"],\n");
     fprintf(f, "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"name\":\"sun\","
                "\"type\":\"directional\",\"color\":[1.0,0.95,0.85],\"intensity\":100000}]}},\n");

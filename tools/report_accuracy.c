@@ -1149,7 +1149,9 @@ static double lamp_visible(const lamp_scene *ls, const rad_patch *p, double *hid
     return nh >= 3 ? f - hc_ff_point_polygon(c, p->normal, h, (uint32_t)nh) : f;
 }
 
-static void section_exact_emitters(void)
+/* 6.4, first half: the lamp of 6.3 with nothing in the way, pixels against
+ * the exact factor, and its plot. */
+static void exact_unoccluded(void)
 {
     progress("exact form factors to emitters");
     static const double sizes[] = {0.025, 0.05, 0.1, 0.4};
@@ -1201,7 +1203,12 @@ static void section_exact_emitters(void)
     svg_plot("exact_emitters.svg", "Exact factor to the lamp: worst patch vs lamp size in pixels",
              "lamp width in top-face pixels (s·R/2)", "worst |relative error| of F to the lamp", 1,
              1, plot.s, plot.ns);
+}
 
+/* 6.4, second half: an occluder between the floor and the lamp, each patch
+ * against the exact factor of the part of the lamp it sees (lamp_visible). */
+static void exact_occluded(void)
+{
     progress("exact form factors to an occluded emitter");
     /* A pixel shows the lamp when its centre lies in the lamp's image and
      * not in the occluder's, so a patch whose shadow misses the lamp (or
@@ -1302,6 +1309,13 @@ static void section_exact_emitters(void)
     lamp_scene_free(&ls);
 }
 
+/* 6.4: the exact point-to-polygon factor to emitters, then behind an occluder. */
+static void section_exact_emitters(void)
+{
+    exact_unoccluded();
+    exact_occluded();
+}
+
 /* ------------------------------------------------------------------ main */
 
 int main(int argc, char **argv)
@@ -1326,7 +1340,7 @@ int main(int argc, char **argv)
     sbuf body = md;
     md = head;
     MD("# Accuracy of the hemi-cube: report\n\n"
-       "Written by `make report` (tools/make_report.sh → bench/report_accuracy.c); every "
+       "Written by `make report` (tools/make_report.sh → tools/report_accuracy.c); every "
        "number below was measured by that run on the machine that ran it.  The cases are "
        "those of `radiosity validate` (radiosity/validate/validate.c); references never come from the "
        "hemi-cube: Howell's catalog closed forms, Lambert's contour integral, B = E/(1 − ρ) in "
