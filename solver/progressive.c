@@ -381,7 +381,7 @@ static int prog_init(prog *p, const sv_system *s, const sv_options *o, double to
     memcpy(p->R, s->emission, p->len * sizeof *p->R);
     for (uint32_t i = 0; i < n; i++) {
         const double a = s->area[i];
-        p->refl[i] = (uint8_t)sv_any_positive(s->rho + (size_t)i * nb, nb);
+        p->refl[i] = (uint8_t)rad_any_positive(s->rho + (size_t)i * nb, nb);
         p->inv_area[i] = 1.0 / a;
         p->area_sum += a;
         p->pending += gathers(p, i);
@@ -410,7 +410,7 @@ static int prog_init(prog *p, const sv_system *s, const sv_options *o, double to
 static uint32_t rows_for(const prog *p, uint32_t j, int column, uint32_t r[2])
 {
     uint32_t k = 0;
-    const int reflects = sv_any_positive(p->s->rho + (size_t)j * p->nb, p->nb);
+    const int reflects = rad_any_positive(p->s->rho + (size_t)j * p->nb, p->nb);
     if (reflects || (!p->have_T && !column))
         r[k++] = j;
     const uint32_t t = sv_transmits_from(p->s, j);
@@ -424,7 +424,7 @@ static uint32_t rows_for(const prog *p, uint32_t j, int column, uint32_t r[2])
 static int expects_column(const prog *p, uint32_t j)
 {
     return p->col && !(p->state[j] & ST_COLUMN) &&
-           sv_any_positive(p->s->emission + (size_t)j * p->nb, p->nb);
+           rad_any_positive(p->s->emission + (size_t)j * p->nb, p->nb);
 }
 
 /* Adds the missing rows of j to the batch (no duplicates), while there is
@@ -922,7 +922,7 @@ static int sweep_present(prog *p, const double *src, double *dst, uint8_t *swept
     const uint32_t nb = p->nb;
     for (uint32_t i = 0; i < p->n; i++) {
         const uint32_t t = sv_transmits_from(s, i);
-        const int reflects = sv_any_positive(s->rho + (size_t)i * nb, nb);
+        const int reflects = rad_any_positive(s->rho + (size_t)i * nb, nb);
         const int ok = !((reflects && !sv_row_present(s->F, i)) ||
                          (t != RAD_NONE && !sv_row_present(s->F, t)));
         if (swept)
@@ -1040,7 +1040,7 @@ static void first_bounce(prog *p, double *loose)
     }
     for (uint32_t k = 0; k < p->n; k++) {
         const double *Wk = W + (size_t)k * nb;
-        if (!sv_row_present(F, k) || !sv_any_positive(Wk, nb))
+        if (!sv_row_present(F, k) || !rad_any_positive(Wk, nb))
             continue;
         const rad_row row = rad_matrix_row(F, k);
         const uint8_t *at = row.col;

@@ -1,10 +1,14 @@
 /* sv_internal.h - what the files of solver/ share; no file outside solver/
  * includes it (the public header is solver.h).
  *
- *   solver.c       validation, the gather of one patch, the residual, the
- *                  sweeping methods (Gauss-Seidel, Jacobi) and sv_solve;
+ *   system.c       the system every method reads: validation, the gather
+ *                  of one patch, the update, the residual;
+ *   solver.c       the sweeping methods (Gauss-Seidel, Jacobi) and sv_solve,
+ *                  which hands a system to its method;
  *   progressive.c  the progressive method: shooting, its row store, the
  *                  ambient term and previews.
+ * Dependencies point one way: solver.c -> progressive.c -> system.c (and
+ * solver.c -> system.c).
  *
  * Invariant of the shared functions: they read F only through rows that
  * check_row has accepted (or, for sv_residual_of with check_rows, check
@@ -15,27 +19,23 @@
 
 #include "solver.h"
 
+/* The scalar parts of the system: counts, arrays, A_i, ρ_i, E_i.  Cheap
+ * (n × bands) and done before anything is allocated.  RAD_OK or
+ * RAD_ERR_USAGE (err may be NULL). */
+int sv_check_system(const sv_system *s, rad_error *err);
+
 /* One present row against rad.h's invariants; *sum (when not NULL)
  * receives Σ_j F_ij.  RAD_OK or RAD_ERR_USAGE naming the row. */
 int sv_check_row(const rad_matrix *F, uint32_t i, double *sum, rad_error *err);
 
 static inline int sv_row_present(const rad_matrix *F, uint32_t i) { return F->row_done[i] != 0; }
 
-/* 1 when some band of the n_bands values at v is > 0. */
-static inline int sv_any_positive(const double *v, uint32_t n_bands)
-{
-    for (uint32_t b = 0; b < n_bands; b++)
-        if (v[b] > 0.0)
-            return 1;
-    return 0;
-}
-
 /* The other side of patch i when light passes through it to i, else RAD_NONE. */
 static inline uint32_t sv_transmits_from(const sv_system *s, uint32_t i)
 {
     if (!s->tau || s->twin[i] == RAD_NONE)
         return RAD_NONE;
-    return sv_any_positive(s->tau + (size_t)i * s->bands, s->bands) ? s->twin[i] : RAD_NONE;
+    return rad_any_positive(s->tau + (size_t)i * s->bands, s->bands) ? s->twin[i] : RAD_NONE;
 }
 
 /* Does patch i gather anything (reflect, or pass its twin's light on)?
@@ -45,7 +45,7 @@ static inline uint32_t sv_transmits_from(const sv_system *s, uint32_t i)
  * not loosen the tolerance on the walls 50 times. */
 static inline int sv_gathers(const sv_system *s, uint32_t i)
 {
-    return sv_any_positive(s->rho + (size_t)i * s->bands, s->bands) ||
+    return rad_any_positive(s->rho + (size_t)i * s->bands, s->bands) ||
            sv_transmits_from(s, i) != RAD_NONE;
 }
 

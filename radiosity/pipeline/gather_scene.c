@@ -1,6 +1,6 @@
 /* gather_scene.c - what the final gather needs from a solution, and the
  * one call that renders a view with it: the plain-data rn_scene the gather
- * renderer (render/gather.c) reads, built here so that the renderer never
+ * renderer (render/final_gather.c) reads, built here so that the renderer never
  * sees form factors, and Ward's cache file beside the solution.
  *
  * Invariant of a rad_gather_scene: its cells and vertex radiosities are

@@ -890,9 +890,8 @@ int rad_scene_check(const rad_scene *s, int need_emitter, rad_error *err)
         return RAD_OK;
     /* A punctual light of some strength is an emitter on its own. */
     for (uint32_t l = 0; l < s->light_count; l++)
-        for (uint32_t b = 0; b < s->band_count; b++)
-            if (s->lights[l].intensity[b] > 0.0)
-                return RAD_OK;
+        if (rad_any_positive(s->lights[l].intensity, s->band_count))
+            return RAD_OK;
     /* E_i > 0 only matters where a patch carries it: an emitting material
      * that no polygon uses lights nothing. */
     uint32_t unused_emitter = RAD_NONE;
@@ -902,11 +901,7 @@ int rad_scene_check(const rad_scene *s, int need_emitter, rad_error *err)
     for (uint32_t k = 0; k < s->polygon_count; k++)
         used[s->polygons[k].material] = 1;
     for (uint32_t m = 0; m < s->material_count; m++) {
-        int emits = 0;
-        for (uint32_t b = 0; b < s->band_count; b++)
-            if (s->materials[m].emission[b] > 0.0)
-                emits = 1;
-        if (!emits)
+        if (!rad_any_positive(s->materials[m].emission, s->band_count))
             continue;
         if (used[m]) {
             free(used);
