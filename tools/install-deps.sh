@@ -5,12 +5,23 @@
 # `make deps` and `make demo` install; `make test`, `make bench` and
 # `make report` only check, so they never run apt-get.
 set -euo pipefail
+# openmpi: `mpirun` spreads rows over ranks (docs/cluster.md); libegl + the
+# Mesa drivers: the EGL back end (loaded at run time, like OSMesa);
+# pkg-config: the installed library's test; chromium + nodejs: the baked
+# glTF's browser test (test/browser).
 pkgs=(build-essential libosmesa6-dev libopenexr-dev libtinygltf-dev nlohmann-json3-dev
-      libpng-dev libstb-dev libembree-dev clang libclang-rt-14-dev)
+      libpng-dev libstb-dev libembree-dev clang libclang-rt-14-dev
+      openmpi-bin libopenmpi-dev libegl-dev libegl-mesa0 libgl1-mesa-dri
+      pkg-config chromium)
 missing=()
 for p in "${pkgs[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || missing+=("$p")
 done
+# Node.js may come from Debian (nodejs + npm) or from NodeSource (one
+# package holding both, which conflicts with Debian's npm): ask for the
+# commands, not the packages.
+command -v node >/dev/null 2>&1 || missing+=(nodejs)
+command -v npm >/dev/null 2>&1 || missing+=(npm)
 [ ${#missing[@]} -eq 0 ] && exit 0
 if [ "${1:-}" = "--check" ]; then
     echo "missing Debian packages: ${missing[*]}; run 'make deps' (it installs them)" >&2
