@@ -1,45 +1,41 @@
-/* gl.c - OSMesa/GL for the hemi-cube workers: the only file of the project
- * that includes a GL header, and the only one that knows libOSMesa.
+/* gl.c - GL for the hemi-cube workers, whatever made the context: the
+ * only file that draws.
  *
- * Owns a worker's GL context (OSMesa, llvmpipe), the shaders, the one
- * vertex buffer holding every patch (patch j's triangles contiguous,
- * positions relative to the bounding-box centre, each vertex carrying its
- * patch id), the render targets (the hemi-cube's item-buffer atlas, R wide
- * and 3R tall, and an R×R light view) and the calls rows.c and
- * light_views.c draw and read with (hc_gl_* in hc_internal.h).  Only a worker process
- * ever makes a context, so the caller can fork freely.
+ * Owns the shaders, the one vertex buffer holding every patch (patch j's
+ * triangles contiguous, positions relative to the bounding-box centre,
+ * each vertex carrying its patch id), the render targets (the hemi-cube's
+ * item-buffer atlas, R wide and 3R tall, and an R×R light view, framebuffer
+ * objects both) and the calls rows.c and light_views.c draw and read with
+ * (hc_gl_* in hc_internal.h).  Only a worker process (or the chooser's
+ * short-lived probe) ever makes a context, so the caller can fork freely.
  *
- * libOSMesa is not linked: a worker loads it (dlopen) when it makes its
- * context, and calls GL through a table of entry points (gl.Name) filled
- * by OSMesaGetProcAddress.  The process that forks the workers holds F and
- * never draws; linking OSMesa (and the LLVM it pulls in) would cost it
- * ~48 MB resident for nothing, and render, report, relight and export
- * would need the library without using it.  The OSMesa part (loading, the
- * context) is a section of its own; set-up, views, drawing and readback
- * below it use only the gl table, whatever made the context.
+ * The context comes from a back end (hc_gl_context): gl_osmesa.c
+ * (libOSMesa, the default) or gl_egl.c (libEGL: a GPU, or Mesa's
+ * surfaceless llvmpipe), each loaded at run time, never linked: the process
+ * that forks the workers holds F and never draws, and linking a GL library
+ * (and the LLVM llvmpipe pulls in) would cost it ~48 MB resident for
+ * nothing.  GL is called through a table of entry points (gl.Name) the
+ * back end's proc fills; since every view draws into this file's
+ * framebuffer objects, never into a window or the back end's buffer, the
+ * same drawing gives the same item buffers through either back end on the
+ * same renderer.
  *
  * Invariants: depth is reversed Z with an infinite far plane (depth =
  * near/distance, the target cleared to 0, GL_GREATER); the item target
  * holds patch ids, HC_NO_PATCH where nothing or only a back side shows;
  * between calls the program is in item mode (mode 0) with the depth test on.
- * No function of this file but hc_gl_create and hc_gl_projection runs
- * before hc_gl_create has filled the table.
+ * No function of this file but hc_gl_create, hc_gl_probe and
+ * hc_gl_projection runs before the table is filled.
  */
 #define GL_GLEXT_PROTOTYPES 1 /* the prototypes give the table its types (__typeof__) */
 #include "hc_internal.h"
 
-#include <GL/osmesa.h>
 #include <GL/gl.h>
 #include <GL/glext.h>
 
-#include <dlfcn.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-/* The library a worker loads, and the Debian package that ships it. */
-#define HC_OSMESA_LIB "libOSMesa.so.8"
-#define HC_OSMESA_PACKAGE "libosmesa6"
 
 /* Every GL entry point this file calls, each named once (without its "gl").
  * A call is gl.Name(...); the header's prototype of glName gives the
@@ -58,28 +54,18 @@
     X(Uniform1ui) X(Uniform3f) X(UniformMatrix4fv) X(UseProgram) X(VertexAttribIPointer)        \
     X(VertexAttribPointer) X(Viewport)
 
-/* The OSMesa calls, found by dlsym (OSMesaName); the context is never
- * destroyed (it lives until the worker's _exit), so OSMesaDestroyContext
- * is not among them. */
-#define HC_OSMESA_ENTRY_POINTS(X) X(CreateContextAttribs) X(MakeCurrent) X(GetProcAddress)
-
 #define HC_GL_POINTER(name) __typeof__(gl##name) *name;
-#define HC_OSMESA_POINTER(name) __typeof__(OSMesa##name) *name;
 /* Per process: filled in a worker by load_gl, all NULL in the caller. */
 static struct {
     HC_GL_ENTRY_POINTS(HC_GL_POINTER)
+    __typeof__(glGetString) *GetString; /* the chooser's probe only */
 } gl;
-static struct {
-    HC_OSMESA_ENTRY_POINTS(HC_OSMESA_POINTER)
-} osmesa;
 
 /* hc_internal.h keeps GL types out: draw lists are int, as GLint and GLsizei. */
 _Static_assert(_Generic((GLint)0, int: 1, default: 0) && _Generic((GLsizei)0, int: 1, default: 0),
                "GLint and GLsizei must be int");
 
 struct hc_gl {
-    OSMesaContext ctx;
-    unsigned char dummy[16];
     GLuint fbo, rb[2], prog, vao, vbo, ibo;
     const void **offsets; /* a draw list's byte offsets into the index buffer */
     GLint loc_m, loc_eye, loc_mode;
@@ -126,70 +112,35 @@ int hc_gl_check(const char *where, char *msg)
     return -1;
 }
 
-/* ------------------------------------------- the OSMesa context (back end) */
+/* --------------------------------------------------- the context (back end) */
 
-/* What creates the context is kept apart from what draws in it: the
- * library's loading and the entry points (load_gl) and the context
- * (osmesa_context) are the OSMesa back end; everything below draws with
- * the gl table alone, so another back end (EGL, issue 38) is another
- * section like this one. */
-
-static int missing(const char *name, char *msg)
+/* Loads back end c's library and fills the gl table from it, then makes
+ * its context current; 0, or -1 with msg set.  The entry points are looked
+ * up before the context is made, so a library without them fails by name
+ * before any of its context calls runs.  The answer is a generic
+ * void (*)(void), which -Wcast-function-type lets convert to the entry
+ * point's own type. */
+static int load_gl(const hc_gl_context *c, int gpu_only, char *msg)
 {
-    snprintf(msg, HC_MAX_MSG, "hemi-cube: %s has no %s", HC_OSMESA_LIB, name);
-    return -1;
-}
-
-/* Loads libOSMesa and fills osmesa and gl; 0, or -1 with msg set.
- * RTLD_NOW: a library that cannot bind its symbols fails here, as an error
- * value, rather than at a first call, as a crash.  The library stays
- * loaded until the worker's _exit (no dlclose: the context and llvmpipe's
- * threads live as long; _exit runs no leak checker).  Mesa's
- * OSMesaGetProcAddress answers for core entry points as well as
- * extensions, and is the only way to glClipControl, which the library
- * does not export. */
-static int load_gl(char *msg)
-{
-    void *lib = dlopen(HC_OSMESA_LIB, RTLD_NOW | RTLD_LOCAL);
-    if (!lib) {
-        snprintf(msg, HC_MAX_MSG, "hemi-cube: cannot load %s (Debian package %s): %s",
-                 HC_OSMESA_LIB, HC_OSMESA_PACKAGE, dlerror());
+    if (c->load(msg) != 0)
         return -1;
-    }
-    /* dlsym's void * to a function pointer: POSIX guarantees it works. */
-#define HC_OSMESA_LOAD(name)                                                                   \
-    if (!(osmesa.name = (__typeof__(osmesa.name))dlsym(lib, "OSMesa" #name)))                  \
-        return missing("OSMesa" #name, msg);
-    HC_OSMESA_ENTRY_POINTS(HC_OSMESA_LOAD)
-#undef HC_OSMESA_LOAD
-    /* The answer is a generic void (*)(); through void (*)(void), which
-     * -Wcast-function-type lets convert to any function type, it becomes
-     * the entry point's own type. */
 #define HC_GL_LOAD(name)                                                                       \
-    if (!(gl.name = (__typeof__(gl.name))(void (*)(void))osmesa.GetProcAddress("gl" #name)))   \
-        return missing("gl" #name, msg);
+    if (!(gl.name = (__typeof__(gl.name))c->proc("gl" #name))) {                               \
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: %s has no gl%s", c->library(), #name);          \
+        return -1;                                                                             \
+    }
     HC_GL_ENTRY_POINTS(HC_GL_LOAD)
+    HC_GL_LOAD(GetString)
 #undef HC_GL_LOAD
-    return 0;
+    return c->context(gpu_only, msg);
 }
 
-/* A GL 4.5 core context, made current on a 1×1 dummy buffer (every view
- * draws into a framebuffer object, never into OSMesa's own buffer). */
-static int osmesa_context(hc_gl *g, char *msg)
+int hc_gl_probe(const hc_gl_context *c, int gpu_only, char *renderer, size_t size, char *msg)
 {
-    const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 0,
-                           OSMESA_STENCIL_BITS, 0, OSMESA_ACCUM_BITS, 0,
-                           OSMESA_PROFILE, OSMESA_CORE_PROFILE,
-                           OSMESA_CONTEXT_MAJOR_VERSION, 4, OSMESA_CONTEXT_MINOR_VERSION, 5, 0};
-    g->ctx = osmesa.CreateContextAttribs(attribs, NULL);
-    if (!g->ctx) {
-        snprintf(msg, HC_MAX_MSG, "hemi-cube: OSMesa could not create a GL 4.5 core context");
+    if (load_gl(c, gpu_only, msg) != 0)
         return -1;
-    }
-    if (!osmesa.MakeCurrent(g->ctx, g->dummy, GL_UNSIGNED_BYTE, 1, 1)) {
-        snprintf(msg, HC_MAX_MSG, "hemi-cube: OSMesaMakeCurrent failed");
-        return -1;
-    }
+    const GLubyte *name = gl.GetString(GL_RENDERER);
+    snprintf(renderer, size, "%s", name ? (const char *)name : "(unnamed)");
     return 0;
 }
 
@@ -388,8 +339,8 @@ int hc_gl_create(const hc_engine *e, hc_work *w, char *msg)
     if (!(w->vfirst = hc_alloc(e->n, sizeof *w->vfirst, msg)) ||
         !(w->vcount = hc_alloc(e->n, sizeof *w->vcount, msg)))
         return -1;
-    if (load_gl(msg) != 0 || osmesa_context(g, msg) != 0 || atlas(g, e->R, msg) != 0 ||
-        program(g, msg) != 0)
+    const hc_gl_context *c = e->opt.gl == HC_GL_EGL ? &hc_gl_egl : &hc_gl_osmesa;
+    if (load_gl(c, 0, msg) != 0 || atlas(g, e->R, msg) != 0 || program(g, msg) != 0)
         return -1;
     return upload(e, g, w, msg);
 }

@@ -389,13 +389,49 @@ double hc_area_factor(const hc_engine *e, uint32_t i, uint32_t j, int near);
 double hc_ff_polygon_edges(const rad_vec3 *a, uint32_t na, const double *edges, uint32_t ne,
                            uint32_t subdiv);
 
+/* ------------------------------------- GL back ends (gl_osmesa.c, gl_egl.c) */
+
+/* What makes a GL context for gl.c's drawing: one per third-party library,
+ * each in a file of its own that alone knows it.  gl.c calls load, then
+ * proc for every entry point it draws with, then context; after that it
+ * draws with the entry points alone, whichever back end made the context.
+ * Nothing is ever torn down: the context lives until the process's _exit. */
+typedef void (*hc_gl_proc)(void);
+typedef struct hc_gl_context {
+    /* The file name of the library (for messages). */
+    const char *(*library)(void);
+    /* Loads the library (dlopen: never linked); 0, or -1 with msg set. */
+    int (*load)(char *msg);
+    /* A GL entry point by name ("glEnable"), or NULL; after load. */
+    hc_gl_proc (*proc)(const char *name);
+    /* Makes a desktop GL 4.5 core context current in this process, drawing
+     * into framebuffer objects only; gpu_only: a GPU or fail (EGL; OSMesa
+     * ignores it, the chooser never asks it); 0, or -1 with msg set. */
+    int (*context)(int gpu_only, char *msg);
+} hc_gl_context;
+
+extern const hc_gl_context hc_gl_osmesa; /* gl_osmesa.c: libOSMesa, llvmpipe */
+extern const hc_gl_context hc_gl_egl;    /* gl_egl.c: libEGL, a GPU or surfaceless */
+
+/* ------------------------------------------------------------ gl_choice.c */
+
+/* hc_create's: settles o->gl (HC_GL_AUTO as hc_gl_choose settles it, the
+ * probe forked before the workers are); RAD_OK, or RAD_ERR_USAGE for a
+ * value that is no hc_gl_kind. */
+int hc_gl_settle(hc_options *o, rad_error *err);
+
 /* ------------------------------------------------------------------ gl.c */
 
-/* Loads libOSMesa.so.8 (the library is never linked: only a worker loads
- * it, here) and makes the worker's OSMesa context, the 3R×R item-buffer
- * atlas, the shaders and the vertex buffer of every patch (filling w->gl,
- * w->vfirst, w->vcount, w->nvert); 0, or -1 with msg set. */
+/* Loads the GL back end e->opt.gl names (HC_GL_EGL, else OSMesa; the
+ * library is never linked: only a worker loads it, here) and makes the
+ * worker's context, the 3R×R item-buffer atlas, the shaders and the vertex
+ * buffer of every patch (filling w->gl, w->vfirst, w->vcount, w->nvert);
+ * 0, or -1 with msg set. */
 int hc_gl_create(const hc_engine *e, hc_work *w, char *msg);
+/* In a process of its own (gl_choice.c's probe, which then exits): starts
+ * back end c (gpu_only as hc_gl_context.context) and copies its GL_RENDERER
+ * into renderer[size]; 0, or -1 with msg set. */
+int hc_gl_probe(const hc_gl_context *c, int gpu_only, char *renderer, size_t size, char *msg);
 /* 0, or -1 with msg "hemi-cube: WHERE: GL error ..." when GL flagged one. */
 int hc_gl_check(const char *where, char *msg);
 

@@ -14,10 +14,10 @@
  * receives) and hc_light_visibility (whether a point sees the light), from
  * the same item buffers.
  *
- * This is the only module that sees OSMesa/GL.  Rows are computed by worker
- * processes, each with its own OSMesa context, so a caller never holds a GL
- * context and can fork freely; only the workers load libOSMesa (at run
- * time), so the caller's memory holds none of it.
+ * This is the only module that sees GL (OSMesa or EGL).  Rows are computed
+ * by worker processes, each with its own GL context, so a caller never
+ * holds a GL context and can fork freely; only the workers load libOSMesa
+ * or libEGL (at run time), so the caller's memory holds none of it.
  */
 #ifndef HC_HEMICUBE_H
 #define HC_HEMICUBE_H
@@ -29,6 +29,13 @@
 /* The default hemi-cube resolution R (hc_options.resolution 0), the one
  * place it is written. */
 #define HC_DEFAULT_RESOLUTION 128
+
+/* What makes the workers' GL contexts (hc_options.gl). */
+typedef enum hc_gl_kind {
+    HC_GL_OSMESA = 0, /* libOSMesa (llvmpipe on the CPU): the default */
+    HC_GL_EGL,        /* libEGL: a GPU (EGL device platform), else Mesa's surfaceless llvmpipe */
+    HC_GL_AUTO        /* EGL where it finds a GPU, else OSMesa (hc_gl_choose) */
+} hc_gl_kind;
 
 /* {0} means defaults. */
 typedef struct hc_options {
@@ -55,7 +62,32 @@ typedef struct hc_options {
      * hold are still received and stored, and the call then fails with
      * RAD_ERR_INTERRUPTED.  Read in the caller's process only. */
     const volatile sig_atomic_t *stop;
+    /* The workers' GL (0 = HC_GL_OSMESA).  HC_GL_AUTO is settled by
+     * hc_create as hc_gl_choose settles it; HC_GL_EGL where EGL cannot
+     * start fails hc_create with the reason. */
+    hc_gl_kind gl;
 } hc_options;
+
+/* The GL back end hc_gl_choose settled on. */
+typedef struct hc_gl_choice {
+    hc_gl_kind kind;    /* HC_GL_OSMESA or HC_GL_EGL */
+    char renderer[128]; /* EGL: its GL_RENDERER ("llvmpipe (LLVM ...)", a GPU's name); else "" */
+    char reason[1024];  /* HC_GL_AUTO settled on OSMesa: why no GPU was taken; else "" */
+} hc_gl_choice;
+
+/* Settles `want` (HC_GL_OSMESA, HC_GL_EGL or HC_GL_AUTO) into out, trying
+ * EGL in a short-lived child process (the caller never loads a GL library):
+ *   OSMesa: taken as is, nothing tried;
+ *   EGL: a GL 4.5 context made through EGL (a GPU, else surfaceless), or
+ *     RAD_ERR_GL with the reason in err;
+ *   auto: EGL when it finds a GPU device whose GL_RENDERER is not Mesa's
+ *     software (llvmpipe, softpipe), else OSMesa with the reason.
+ * The caller says what it chose, if anything (the library prints nothing). */
+int hc_gl_choose(hc_gl_kind want, hc_gl_choice *out, rad_error *err);
+/* "osmesa", "egl" or "auto"; NULL for any other value. */
+const char *hc_gl_name(hc_gl_kind kind);
+/* The kind a name ("osmesa", "egl", "auto") names: 0, or -1 for any other. */
+int hc_gl_parse(const char *name, hc_gl_kind *out);
 
 typedef struct hc_engine hc_engine;
 

@@ -519,6 +519,8 @@ int hc_create(const rad_mesh *mesh, const hc_options *opt, hc_engine **out, rad_
     hc_engine *e = NULL;
     int rc = check_options(opt, &o, &cpus, err);
     if (rc == RAD_OK)
+        rc = hc_gl_settle(&o, err); /* GL back end: gl_choice.c (issue 38) */
+    if (rc == RAD_OK)
         rc = check_mesh(mesh, &lo, &hi, err);
     if (rc == RAD_OK)
         rc = engine_alloc(mesh, &o, cpus, &e, err);

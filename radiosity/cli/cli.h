@@ -82,6 +82,10 @@ int cli_other_arg(const char *cmd, const char *what, const char *arg, const char
 /* Meshing, hemi-cube and solver options shared by solve, relight and ff:
  * 1 consumed, 0 not one of them, -1 bad value (printed). */
 int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt);
+/* --gl osmesa|egl|auto (v its value), settled at once by hc_gl_choose:
+ * auto that finds no GPU says so in one line and takes OSMesa; egl that
+ * cannot start is an error (printed).  0, or the exit status. */
+int cli_gl_option(const char *opt, const char *v, hc_gl_kind *out);
 /* Turns on the progress bar when stderr is a terminal. */
 void cli_enable_progress(rad_solve_options *opt);
 /* Prints the form factors' estimate (rad_estimate) on stdout before they

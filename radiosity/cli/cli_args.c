@@ -140,6 +140,23 @@ void cli_enable_estimate(rad_solve_options *opt)
     opt->estimate_user = NULL;
 }
 
+int cli_gl_option(const char *opt, const char *v, hc_gl_kind *out)
+{
+    hc_gl_kind want;
+    if (hc_gl_parse(v, &want) != 0)
+        return cli_usage_error("%s: '%s' is not osmesa, egl or auto", opt, v ? v : "");
+    rad_error err = {0};
+    hc_gl_choice c;
+    if (hc_gl_choose(want, &c, &err) != RAD_OK) {
+        fprintf(stderr, "radiosity: error: %s %s: %s\n", opt, v, err.message);
+        return cli_error_status(&err);
+    }
+    if (want == HC_GL_AUTO && c.kind == HC_GL_OSMESA)
+        fprintf(stderr, "radiosity: %s auto: no GPU (%s); drawing with OSMesa\n", opt, c.reason);
+    *out = c.kind;
+    return 0;
+}
+
 /* Shared by solve, relight and ff: meshing, hemi-cube and solver options.
  * Returns 1 if argv[*i] was one of them (consuming its value), 0 if not, -1
  * on a bad value (message printed). */
@@ -157,6 +174,8 @@ int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt)
         TAKE(cli_parse_u32(a, v, 8, 4096, &opt->hemicube.resolution));
     if (!strcmp(a, "--processes"))
         TAKE(cli_parse_u32(a, v, 1, 256, &opt->hemicube.processes));
+    if (!strcmp(a, "--gl"))
+        TAKE(cli_gl_option(a, v, &opt->hemicube.gl));
     if (!strcmp(a, "--tolerance"))
         TAKE(cli_parse_double(a, v, 1e-15, 0.5, &opt->solver.tolerance));
     if (!strcmp(a, "--max-iterations"))

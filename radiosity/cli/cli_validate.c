@@ -139,6 +139,11 @@ int cli_validate(int argc, char **argv)
             if (rc)
                 return rc;
             i++;
+        } else if (!strcmp(a, "--gl")) {
+            int rc = cli_gl_option(a, i + 1 < argc ? argv[i + 1] : NULL, &opt.gl);
+            if (rc)
+                return rc;
+            i++;
         } else if (!strcmp(a, "--processes")) {
             int rc = cli_parse_u32(a, i + 1 < argc ? argv[i + 1] : NULL, 1, 256, &opt.processes);
             if (rc)
@@ -146,7 +151,7 @@ int cli_validate(int argc, char **argv)
             i++;
         } else {
             return cli_usage_error("validate: unknown argument '%s' (options: --json, --quick, "
-                                   "--resolution R[,R...], --processes P)", a);
+                                   "--resolution R[,R...], --processes P, --gl G)", a);
         }
     }
     if (nres) {

@@ -709,7 +709,7 @@ int rad_validate_case(const rad_val_case *cin, rad_val_result *out, rad_error *e
     for (uint32_t i = 0; i < n; i++)
         if (solve || c.config == RAD_VAL_ENCLOSURE || m->patches[i].object == A)
             rows[nrows++] = i;
-    hc_options ho = {.resolution = c.resolution, .processes = c.processes};
+    hc_options ho = {.resolution = c.resolution, .processes = c.processes, .gl = c.gl};
     rc = hc_create(m, &ho, &hc, err);
     if (!rc)
         rc = hc_compute_rows(hc, rows, nrows, F, err);
@@ -848,6 +848,7 @@ int rad_validate_run(const rad_validate_options *opt, rad_val_result **out, uint
     for (uint32_t k = 0; k < ns; k++) {
         rad_val_case c = std[k];
         c.processes = o.processes;
+        c.gl = o.gl;
         prom[nt] = promised[k];
         todo[nt++] = c;
         if (o.quick)

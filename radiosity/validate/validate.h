@@ -15,6 +15,7 @@
 
 #include "../core/rad.h"
 #include "../scene/scene.h"
+#include "../../hemicube/hemicube.h"
 
 typedef enum rad_val_config {
     /* F_AB of directly opposed parallel rectangles a×b, gap c (Howell C-11). */
@@ -70,6 +71,7 @@ typedef struct rad_val_case {
     double rho_a;          /* plates: reflectance of the emitter (0 = black, exact) */
     double tolerance;      /* solver tolerance; 0 = 1e-7 */
     uint32_t processes;    /* hemi-cube worker processes; 0 = all CPUs */
+    hc_gl_kind gl;         /* the workers' GL (hc_options.gl); 0 = OSMesa */
 } rad_val_case;
 
 typedef struct rad_val_result {
@@ -129,6 +131,7 @@ typedef struct rad_validate_options {
     const uint32_t *resolutions; /* R values of the resolution sweep; NULL = 32, 64, 256 */
     uint32_t resolution_count;
     uint32_t processes;          /* hemi-cube worker processes; 0 = all CPUs */
+    hc_gl_kind gl;               /* the workers' GL (hc_options.gl); 0 = OSMesa */
     /* Called after each case (may be NULL): done of total. */
     void (*progress)(void *user, uint32_t done, uint32_t total, const rad_val_result *last);
     void *progress_user;
