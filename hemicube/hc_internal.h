@@ -16,10 +16,14 @@
  *                     with its exact entries, computed in a worker;
  *   light_views.c     punctual lights, the worker's side: a light part's
  *                     item buffer, its Φ_j and the visibility of points;
- *   gl.c              OSMesa/GL, the only file that includes a GL header:
- *                     loads libOSMesa (dlopen, in a worker only), the
- *                     context, the shaders, the vertex buffer of every
+ *   gl_choice.c       which GL back end (hc_options.gl: osmesa, egl,
+ *                     auto), EGL tried in a short-lived probe process;
+ *   gl.c              GL, the only file that draws: the entry points from
+ *                     a back end, the shaders, the vertex buffer of every
  *                     patch, views, drawing into an item buffer, readback;
+ *   gl_osmesa.c       the OSMesa back end (libOSMesa, dlopen, in a worker);
+ *   gl_egl.c          the EGL back end (libEGL, dlopen: a GPU device, or
+ *                     Mesa's surfaceless platform);
  *   wire.c            the protocol between the caller and a worker over a
  *                     byte stream (today a socketpair): framing, requests,
  *                     replies, both ends' calls (each end calls its own);
@@ -31,13 +35,14 @@
  * Dependencies point one way (a file calls only files below it, by `nm`):
  *   column.c -> light_requests.c, patch_factors.c;
  *   light_requests.c -> pool.c, wire.c;
- *   pool.c -> worker.c, wire.c, delta_factors.c;
+ *   pool.c -> worker.c, wire.c, delta_factors.c, gl_choice.c;
  *   worker.c -> rows.c, light_views.c, gl.c, wire.c;
  *   rows.c -> patch_factors.c, gl.c;  light_views.c -> gl.c;
+ *   gl_choice.c -> gl.c;  gl.c -> gl_osmesa.c, gl_egl.c;
  *   patch_factors.c -> analytic.c.
  * A worker runs hc_worker_main and reaches only what lies below worker.c,
  * so no caller-side function (a request, a pool call) can run inside a
- * forked worker; GL types and headers stay in gl.c (rows.c and
+ * forked worker; GL types and headers stay in gl.c and its back ends (rows.c and
  * light_views.c draw through the hc_gl_* calls below).  Helpers several
  * rooms share are static inline here (hc_alloc, hc_basis, hc_cube_face,
  * hc_spot_falloff, hc_load_corners, hc_push_range), never a call upwards.
@@ -49,10 +54,8 @@
  * rounds of light_requests.c), with the local fork pool (the fork, chunk
  * and poll half of pool.c, and worker.c) as one producer file and MPI
  * ranks (e.g. mpi_ranks.c) as another, each ending in worker.c's request
- * loop.  Behind each, gl.c's drawing is shared; its context creation
- * (load_gl, osmesa_context: the OSMesa back end) is a section of its own,
- * to move to a gl_osmesa.c beside a gl_egl.c creating an EGL context and a
- * framebuffer object.
+ * loop.  Behind each, gl.c's drawing is shared, over whichever GL back end
+ * (hc_gl_context: gl_osmesa.c, gl_egl.c) hc_options.gl names.
  *
  * Invariant of the shared data: the engine (struct hc_engine) is filled in
  * the caller before the fork and read-only afterwards, so every worker holds

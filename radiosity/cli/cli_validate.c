@@ -2,6 +2,7 @@
  * (validate.h) and prints it as a table or as JSON.
  *
  *   radiosity validate [--json] [--quick] [--resolution R[,R...]] [--processes P]
+ *                      [--gl osmesa|egl|auto]
  *
  * Exit status 0 when every case at the default settings is within the error
  * the report promises for it, 1 when one is not (the line says which), 2 for
