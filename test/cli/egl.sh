@@ -2,7 +2,9 @@
 # egl.sh - `--gl osmesa|egl|auto` (issue 38) on the command line:
 #   - solve --gl egl gives the solution --gl osmesa gives: the exported
 #     patches.csv, F.mtx, elements.csv and elements-F.mtx are byte for byte
-#     the same (models/cornell.rad, patch size 0.25);
+#     the same (models/cornell.rad, patch size 0.25; EGL held to Mesa's
+#     surfaceless llvmpipe by RADIOSITY_EGL_PLATFORM, as OSMesa, even
+#     beside a GPU);
 #   - with RADIOSITY_EGL_LIBRARY naming a missing file (the test hook that
 #     makes EGL fail to start), solve, ff, relight and validate --gl egl
 #     each fail with one line naming the library, a status below 128 and no
@@ -16,6 +18,8 @@ set -u
 model=models/cornell.rad
 solve() { "$BIN" solve "$model" --patch-size 0.25 --resolution 64 "$@"; }
 
+# EGL held to the surfaceless platform (llvmpipe, as OSMesa) beside a GPU too
+export RADIOSITY_EGL_PLATFORM=surfaceless
 for gl in osmesa egl; do
     mkdir -p "$dir/$gl"
     if solve --gl "$gl" -o "$dir/$gl.sol" > /dev/null 2> "$dir/err" &&
@@ -33,6 +37,7 @@ for f in patches.csv F.mtx elements.csv elements-F.mtx; do
     fi
 done
 
+unset RADIOSITY_EGL_PLATFORM
 export RADIOSITY_EGL_LIBRARY=$dir/no-such-libEGL.so.1
 # refused NAME COMMAND...: one stderr line naming the missing library, a
 # non-zero status below 128, nothing written to $dir/out.*
