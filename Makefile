@@ -9,6 +9,9 @@
 #   make bench   print the benchmark tables
 #   make report  write report/accuracy.md (issue 4)
 #   make fuzz    run each fuzz target for FUZZ_SECONDS (default 60)
+#   make install PREFIX=/usr/local DESTDIR=   the program, libradiosity.a and .so,
+#                the headers (include/radiosity/), radiosity.pc and radiosity(1)
+#   make uninstall   removes exactly what install put there (tools/install.sh)
 
 NPROC   := $(shell nproc 2>/dev/null || echo 2)
 CC      ?= cc
@@ -20,9 +23,13 @@ WARN     := -Wall -Wextra -Werror
 CPPFLAGS := -D_DEFAULT_SOURCE -D_POSIX_C_SOURCE=200809L -I/usr/include/OpenEXR -I/usr/include/Imath -MMD -MP
 CFLAGS_release := -O2 -g
 CFLAGS_asan    := -O1 -g -fno-omit-frame-pointer -fsanitize=address,undefined -fno-sanitize-recover=all
-CFLAGS   := -std=c11 $(WARN) $(CFLAGS_$(MODE))
+# Every object is position-independent, so that one set of objects makes
+# both libradiosity.a and libradiosity.so; no semantic interposition keeps
+# the optimiser free to inline the library's own global functions.
+PIC      := -fPIC -fno-semantic-interposition
+CFLAGS   := -std=c11 $(WARN) $(PIC) $(CFLAGS_$(MODE))
 # tinygltf is header-only C++; its own code draws warnings we do not own.
-CXXFLAGS := -std=c++17 -Wall -Wextra -Werror -Wno-unused-parameter $(CFLAGS_$(MODE))
+CXXFLAGS := -std=c++17 -Wall -Wextra -Werror -Wno-unused-parameter $(PIC) $(CFLAGS_$(MODE))
 LDFLAGS  := $(CFLAGS_$(MODE))
 LDLIBS   := -lOpenEXRCore-3_1 -lpng -lembree3 -lstdc++ -lm -lpthread
 
@@ -32,6 +39,19 @@ LIB_CXX  := $(wildcard radiosity/*/*.cpp)
 LIB_OBJ  := $(LIB_C:%.c=$(B)/obj/%.o) $(LIB_CXX:%.cpp=$(B)/obj/%.o)
 LIB      := $(B)/libradiosity.a
 PROG     := $(B)/radiosity
+# The shared library: soname libradiosity.so.MAJOR, the file named by the
+# full version (RAD_VERSION_STRING in radiosity/core/rad.h).
+VERSION  := $(shell sed -n 's/^\#define RAD_VERSION_STRING "\(.*\)"/\1/p' radiosity/core/rad.h)
+SONAME   := libradiosity.so.$(firstword $(subst ., ,$(VERSION)))
+SHLIB    := $(B)/libradiosity.so.$(VERSION)
+# The public headers as installed: include/radiosity/NAME.h, each including
+# the others as <radiosity/NAME.h> (tools/install.sh headers).
+# (each module's one public header; the folders' other headers are private)
+PUB_H    := $(filter-out %_internal.h radiosity/cli/% radiosity/scene/gltf_% radiosity/scene/tinygltf_%,\
+              $(wildcard radiosity/*/*.h)) hemicube/hemicube.h solver/solver.h render/render.h
+INC_DIR  := $(B)/include/radiosity
+PREFIX   ?= /usr/local
+DESTDIR  ?=
 
 TEST_SRC := $(wildcard test/test_*.c)
 TEST_BIN := $(TEST_SRC:test/%.c=$(B)/test/%)
@@ -44,11 +64,14 @@ BENCH_BIN:= $(BENCH_SRC:bench/%.c=$(B)/bench/%)
 # no program: bench_scale's scene generator.
 TOOL_BIN := $(B)/tools/pathtrace
 
-.PHONY: all lib prog tests benches demo test fuzz bench report deps check-deps print-objects clean
+.PHONY: all lib shlib headers prog tests benches demo test fuzz bench report deps check-deps print-objects print-headers clean \
+        install uninstall
 
 all: prog
 
-lib: $(LIB)
+lib: $(LIB) $(SHLIB)
+shlib: $(SHLIB)
+headers: $(INC_DIR)/.stamp
 prog: $(PROG)
 tests: $(TEST_BIN)
 benches: $(BENCH_BIN) $(TOOL_BIN)
@@ -68,6 +91,17 @@ $(LIB): $(LIB_OBJ)
 	@rm -f $@
 	@echo "AR  $(MODE) $@"
 	@ar rcs $@ $^
+
+$(SHLIB): $(LIB_OBJ)
+	@mkdir -p $(dir $@)
+	@echo "LD  $(MODE) $@"
+	@$(CC) -shared -Wl,-soname,$(SONAME) $(LDFLAGS) $^ $(LDLIBS) -o $@
+	@ln -sf $(notdir $@) $(B)/$(SONAME)
+	@ln -sf $(notdir $@) $(B)/libradiosity.so
+
+$(INC_DIR)/.stamp: $(PUB_H) tools/install.sh
+	@bash tools/install.sh headers $(INC_DIR) $(PUB_H)
+	@touch $@
 
 $(PROG): $(CLI_C:%.c=$(B)/obj/%.o) $(LIB)
 	@echo "LD  $(MODE) $@"
@@ -108,7 +142,7 @@ demo: deps
 	@echo "demo: wrote out/cornell.exr and out/cornell.png"
 
 test: check-deps
-	@$(MAKE) --no-print-directory -j$(NPROC) MODE=release prog tests
+	@$(MAKE) --no-print-directory -j$(NPROC) MODE=release prog tests lib headers
 	@$(MAKE) --no-print-directory -j$(NPROC) MODE=asan prog tests
 	@bash test/run_tests.sh
 
@@ -123,9 +157,22 @@ report: check-deps
 fuzz: check-deps
 	@bash test/fuzz/run_fuzz.sh $${FUZZ_SECONDS:-60}
 
+# The program, both libraries, the headers, radiosity.pc and the man page
+# under $(DESTDIR)$(PREFIX); uninstall removes exactly those files.
+INSTALL_ENV = PUB_HEADERS="$(notdir $(PUB_H))" LIBS_PRIVATE="$(LDLIBS)"
+install: prog lib headers
+	@$(INSTALL_ENV) bash tools/install.sh install "$(DESTDIR)" "$(PREFIX)" $(B) $(VERSION)
+
+uninstall:
+	@$(INSTALL_ENV) bash tools/install.sh uninstall "$(DESTDIR)" "$(PREFIX)" $(B) $(VERSION)
+
 # The library's and the program's objects, for tools/check-structure.sh.
 print-objects:
 	@echo $(LIB_OBJ) $(CLI_C:%.c=$(B)/obj/%.o)
+
+# The public headers, for test/cli/install.sh.
+print-headers:
+	@echo $(PUB_H)
 
 clean:
 	rm -rf build out

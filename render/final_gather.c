@@ -201,6 +201,10 @@ static void resolve_settings(const rn_gather_options *opt, settings *s)
     s->min_radius_px = opt->min_radius_px > 0.0 ? opt->min_radius_px : RN_DEFAULT_MIN_RADIUS_PX;
 }
 
+/* How a record's R is set, in the key: a cache file filled under another
+ * rule is made anew (2: R_i bounded by the gradient, limit_radius). */
+#define RN_RECORD_RULE 2u
+
 uint64_t rn_gather_key(const rn_scene *sc, const rn_gather_options *opt)
 {
     settings st;
@@ -224,7 +228,7 @@ uint64_t rn_gather_key(const rn_scene *sc, const rn_gather_options *opt)
         h = rn_fnv(h, &sc->materials[i].roughness, sizeof(double));
     }
     double d[2] = {st.eps, st.min_radius_px};
-    uint32_t u[3] = {st.M, st.N, (uint32_t)st.gradients};
+    uint32_t u[4] = {st.M, st.N, (uint32_t)st.gradients, RN_RECORD_RULE};
     h = rn_fnv(h, d, sizeof d);
     h = rn_fnv(h, u, sizeof u);
     return h ? h : 1; /* 0 means "any key" to rn_icache_read */
@@ -561,6 +565,81 @@ static void direct_light(worker *w, rng *r, rad_vec3 X, rad_vec3 n, rad_vec3 wo,
 
 /* ----------------------------------------------- the hemisphere gather */
 
+/* Ward & Heckbert's gradients of the gather just made into rec. */
+static void gradients(worker *w, rn_record *rec, rad_vec3 t1, rad_vec3 t2)
+{
+    const run *g = w->g;
+    uint32_t nb = g->nb, M = g->M, N = g->N;
+    double scale = M_PI / ((double)M * N);
+    /* Rotational gradient: turning n by the small rotation vector ω changes
+     * each sample's cosθ by (ω × n)·wi; with cosine-weighted samples that is
+     * a relative change tanθ along v(φ) = (−sinφ, cosφ) in the tangent plane:
+     *   gr = π/(MN) Σ L tanθ v(φ),   H(N') ≈ H + (N × N')·gr. */
+    for (size_t q = 0; q < (size_t)M * N; q++) {
+        double tn = tan(w->theta[q]);
+        rad_vec3 v = rad_add(rad_scale(t1, -sin(w->phi[q])), rad_scale(t2, cos(w->phi[q])));
+        for (uint32_t b = 0; b < nb; b++)
+            rec->gr[b] = rad_add(rec->gr[b], rad_scale(v, scale * tn * w->L[q * nb + b]));
+    }
+    /* Translational gradient (Ward & Heckbert 1992): the boundaries between
+     * strata move as X moves; across a θ boundary (j−1 | j) along the
+     * stratum's azimuth u_k, and across a φ boundary (k−1 | k) along its
+     * normal v_k−, each weighted by the change of projected solid angle per
+     * unit move, with the nearer of the two distances:
+     *   gt = Σ_k [ u_k 2π/N Σ_{j>=1} sinθ_j− cos²θ_j− (L_jk − L_j−1,k) / min(r)
+     *            + v_k− Σ_j (sinθ_j+ − sinθ_j−) (L_jk − L_j,k−1) / min(r) ]. */
+    for (uint32_t k = 0; k < N; k++) {
+        double pc = 2.0 * M_PI * (k + 0.5) / N, pb = 2.0 * M_PI * k / N;
+        rad_vec3 uk = rad_add(rad_scale(t1, cos(pc)), rad_scale(t2, sin(pc)));
+        rad_vec3 vk = rad_add(rad_scale(t1, -sin(pb)), rad_scale(t2, cos(pb)));
+        uint32_t km = (k + N - 1) % N;
+        for (uint32_t j = 0; j < M; j++) {
+            size_t q = (size_t)j * N + k;
+            double sm = sqrt((double)j / M), sp = sqrt((double)(j + 1) / M);
+            if (j > 0) {
+                size_t q2 = (size_t)(j - 1) * N + k;
+                double rm = fmin(w->dist[q], w->dist[q2]);
+                if (isfinite(rm) && rm > 0.0) {
+                    double f = 2.0 * M_PI / N * sm * (1.0 - (double)j / M) / rm;
+                    for (uint32_t b = 0; b < nb; b++)
+                        rec->gt[b] = rad_add(rec->gt[b],
+                                             rad_scale(uk, f * (w->L[q * nb + b] - w->L[q2 * nb + b])));
+                }
+            }
+            size_t q3 = (size_t)j * N + km;
+            double rm = fmin(w->dist[q], w->dist[q3]);
+            if (isfinite(rm) && rm > 0.0) {
+                double f = (sp - sm) / rm;
+                for (uint32_t b = 0; b < nb; b++)
+                    rec->gt[b] = rad_add(rec->gt[b],
+                                         rad_scale(vk, f * (w->L[q * nb + b] - w->L[q3 * nb + b])));
+            }
+        }
+    }
+}
+
+/* R_i, the harmonic mean distance, is the split sphere's guess of how fast
+ * H changes: it sees geometry, not light.  Where the light the gather sees
+ * changes across the surface faster than the distances say (a face looking
+ * at a floor half in shadow, through an open side that sends most rays to
+ * nothing and makes R_i large), a record would be used far beyond where its
+ * H holds: on the Cornell box at 512 × 512 the short block's front was
+ * 4.3 % below a gather at every pixel.  So R_i is also bounded by the
+ * measured translational gradient, R_i <= H_i / |∇_t H_i| in every band:
+ * across its valid radius ε R_i a record's H then changes by at most ε H_i,
+ * which is what ε bounds (report/gather.md).  Then kept between the
+ * smallest radius in pixels and the scene's size. */
+static void limit_radius(const run *g, rn_record *rec, double footprint)
+{
+    for (uint32_t b = 0; b < g->nb; b++) {
+        double grad = rad_length(rec->gt[b]);
+        if (grad > 0.0 && rec->H[b] > 0.0)
+            rec->R = fmin(rec->R, rec->H[b] / grad);
+    }
+    double Rmin = g->min_radius_px * footprint / g->eps;
+    rec->R = fmin(fmax(rec->R, Rmin), fmax(g->diag, Rmin));
+}
+
 /* Ward's primary method at X (normal n): the record of indirect
  * irradiance, with the harmonic mean distance, Ward & Heckbert's gradients
  * and the light vector.  footprint: a pixel's size at X (scene units). */
@@ -619,56 +698,14 @@ static void gather(worker *w, rng *r, rad_vec3 X, rad_vec3 n, double footprint, 
     /* R: harmonic mean distance (nothing met counts as infinitely far),
      * kept between the minimum radius in pixels and the scene's size. */
     double R = inv_sum > 0.0 ? (double)M * N / inv_sum : g->diag;
-    double Rmin = g->min_radius_px * footprint / g->eps;
-    R = fmin(fmax(R, Rmin), fmax(g->diag, Rmin));
-    rec->R = R;
+    rec->R = fmin(R, g->diag);
+    /* The gradients are computed even when they are not interpolated: they
+     * bound R (limit_radius). */
+    gradients(w, rec, t1, t2);
+    limit_radius(g, rec, footprint);
     if (!g->gradients)
-        return;
-    /* Rotational gradient: turning n by the small rotation vector ω changes
-     * each sample's cosθ by (ω × n)·wi; with cosine-weighted samples that is
-     * a relative change tanθ along v(φ) = (−sinφ, cosφ) in the tangent plane:
-     *   gr = π/(MN) Σ L tanθ v(φ),   H(N') ≈ H + (N × N')·gr. */
-    for (size_t q = 0; q < (size_t)M * N; q++) {
-        double tn = tan(w->theta[q]);
-        rad_vec3 v = rad_add(rad_scale(t1, -sin(w->phi[q])), rad_scale(t2, cos(w->phi[q])));
         for (uint32_t b = 0; b < nb; b++)
-            rec->gr[b] = rad_add(rec->gr[b], rad_scale(v, scale * tn * w->L[q * nb + b]));
-    }
-    /* Translational gradient (Ward & Heckbert 1992): the boundaries between
-     * strata move as X moves; across a θ boundary (j−1 | j) along the
-     * stratum's azimuth u_k, and across a φ boundary (k−1 | k) along its
-     * normal v_k−, each weighted by the change of projected solid angle per
-     * unit move, with the nearer of the two distances:
-     *   gt = Σ_k [ u_k 2π/N Σ_{j>=1} sinθ_j− cos²θ_j− (L_jk − L_j−1,k) / min(r)
-     *            + v_k− Σ_j (sinθ_j+ − sinθ_j−) (L_jk − L_j,k−1) / min(r) ]. */
-    for (uint32_t k = 0; k < N; k++) {
-        double pc = 2.0 * M_PI * (k + 0.5) / N, pb = 2.0 * M_PI * k / N;
-        rad_vec3 uk = rad_add(rad_scale(t1, cos(pc)), rad_scale(t2, sin(pc)));
-        rad_vec3 vk = rad_add(rad_scale(t1, -sin(pb)), rad_scale(t2, cos(pb)));
-        uint32_t km = (k + N - 1) % N;
-        for (uint32_t j = 0; j < M; j++) {
-            size_t q = (size_t)j * N + k;
-            double sm = sqrt((double)j / M), sp = sqrt((double)(j + 1) / M);
-            if (j > 0) {
-                size_t q2 = (size_t)(j - 1) * N + k;
-                double rm = fmin(w->dist[q], w->dist[q2]);
-                if (isfinite(rm) && rm > 0.0) {
-                    double f = 2.0 * M_PI / N * sm * (1.0 - (double)j / M) / rm;
-                    for (uint32_t b = 0; b < nb; b++)
-                        rec->gt[b] = rad_add(rec->gt[b],
-                                             rad_scale(uk, f * (w->L[q * nb + b] - w->L[q2 * nb + b])));
-                }
-            }
-            size_t q3 = (size_t)j * N + km;
-            double rm = fmin(w->dist[q], w->dist[q3]);
-            if (isfinite(rm) && rm > 0.0) {
-                double f = (sp - sm) / rm;
-                for (uint32_t b = 0; b < nb; b++)
-                    rec->gt[b] = rad_add(rec->gt[b],
-                                         rad_scale(vk, f * (w->L[q * nb + b] - w->L[q3 * nb + b])));
-            }
-        }
-    }
+            rec->gt[b] = rec->gr[b] = rad_v3(0, 0, 0);
 }
 
 /* Indirect irradiance at X into H and its light vector into *D: from the

@@ -273,7 +273,8 @@ TEST(cache_against_uncached_gather)
         double d = mean_difference(a, ref);
         printf("  cached vs uncached: %.4f mean, %llu gathers for %llu pixels\n", d,
                (unsigned long long)st.gathers, (unsigned long long)st.pixels);
-        /* Measured: 0.46 % (the acceptance asks for 2 %). */
+        /* Measured: 0.44 % (0.46 % before R_i was bounded by the
+         * gradient; the acceptance asks for 2 %). */
         CHECK_MSG(d < 0.02, "mean difference %.4f", d);
         CHECK(st.cache_hits == st.shading_points); /* pass 2 found every point cached */
         /* Two shading threads draw the same image: each pixel has its own
@@ -293,7 +294,8 @@ TEST(cache_against_uncached_gather)
     CHECK(a != NULL);
     double share = (double)st.gathers / (double)st.pixels;
     printf("  512x512: %llu gathers, %.4f of the pixels\n", (unsigned long long)st.gathers, share);
-    /* Measured: 0.048 (the acceptance asks for 0.10). */
+    /* Measured: 0.059 (0.048 before R_i was bounded by the gradient; the
+     * acceptance asks for 0.10). */
     CHECK_MSG(share <= 0.10, "gathers / pixels = %.4f", share);
     rn_image_destroy(a);
     rad_gather_scene_destroy(g);
@@ -342,7 +344,8 @@ TEST(cache_file_serves_a_second_view)
     printf("  view 1: %llu gathers; again: %llu; view 2 with the file: %llu, alone: %llu\n",
            (unsigned long long)s1.gathers, (unsigned long long)s2.gathers,
            (unsigned long long)s3.gathers, (unsigned long long)s4.gathers);
-    /* Measured: 547 with the file, 1188 alone. */
+    /* Measured: 732 with the file, 1694 alone (547, 1188 before R_i was
+     * bounded by the gradient). */
     CHECK(s3.gathers < 0.7 * s4.gathers);
     CHECK(warnings == 0);
 

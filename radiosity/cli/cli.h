@@ -73,6 +73,8 @@ int cli_check_output_dir(const char *path);
 /* 0 when path is an existing directory, else a usage error naming `what`
  * (the command and option whose -o it is). */
 int cli_need_dir(const char *what, const char *path);
+/* Makes directory path and its missing parents (mkdir -p): 0 or an error. */
+int cli_make_dir(const char *path, rad_error *err);
 /* Reads a whole text file (at most 64 MiB) into *text (caller frees). */
 int cli_read_text(const char *path, char **text, size_t *size, rad_error *err);
 /* What every command does with an argument none of its options took: an

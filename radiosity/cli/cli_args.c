@@ -125,7 +125,7 @@ static void print_estimate(void *user, const rad_estimate *e)
     (void)user;
     char f[32], p[32], s[32], l[32];
     printf("estimate: %u patches (%u cells), %u rows of about %.0f entries (measured on %u): "
-           "form factors %s, peak memory %s, solution file %s (form factors may take %s)\n",
+           "form factors %s, peak memory %s, solution file %s (memory limit for form factors %s)\n",
            e->patches, e->cells, e->rows, e->entries_per_row, e->sample_rows,
            rad_human_bytes((double)e->matrix_bytes, f, sizeof f),
            rad_human_bytes((double)e->peak_bytes, p, sizeof p),
@@ -302,6 +302,34 @@ int cli_need_dir(const char *what, const char *path)
     if (stat(path, &st) != 0 || !S_ISDIR(st.st_mode))
         return cli_usage_error("%s: -o '%s' must be an existing directory", what, path);
     return 0;
+}
+
+/* Makes directory `path` and its missing parents, as `mkdir -p` does (the
+ * -o DIR of export and of a many-view render): 0, or an error naming the
+ * part that could not be made. */
+int cli_make_dir(const char *path, rad_error *err)
+{
+    char p[4096];
+    size_t n = strlen(path);
+    if (n == 0 || n >= sizeof p)
+        return rad_fail(err, RAD_ERR_USAGE, "-o '%s': not a usable directory name", path);
+    memcpy(p, path, n + 1);
+    for (char *c = p + 1;; c++) {
+        if (*c != '/' && *c != '\0')
+            continue;
+        char keep = *c;
+        *c = '\0';
+        if (mkdir(p, 0777) != 0 && errno != EEXIST)
+            return rad_fail(err, RAD_ERR_IO, "%s: cannot create directory '%s': %s", path, p,
+                            strerror(errno));
+        *c = keep;
+        if (!keep)
+            break;
+    }
+    struct stat st;
+    if (stat(path, &st) != 0 || !S_ISDIR(st.st_mode))
+        return rad_fail(err, RAD_ERR_IO, "%s: exists and is not a directory", path);
+    return RAD_OK;
 }
 
 /* ------------------------------------------------------------------ views */

@@ -1,6 +1,7 @@
 /* cli_export.c - the export command: a solution as open data (CSV and
  * Matrix Market files in a directory, rad_solution_export; the files are
- * described in docs/export.md).  Prints what it wrote, one line.
+ * described in docs/export.md; DIR is made when missing).  Prints what it
+ * wrote, one line.
  */
 #include "cli.h"
 
@@ -19,13 +20,15 @@ int cli_export(int argc, char **argv)
     }
     if (!in || !out)
         return cli_usage_error("usage: radiosity export SOLUTION -o DIR");
-    if (cli_need_dir("export", out))
-        return 2;
     rad_error err = {0};
     rad_solution *s = NULL;
     if (rad_solution_read(in, &s, &err))
         return cli_error(&err);
-    rc = rad_solution_export(s, out, &err);
+    /* DIR is made (mkdir -p) once the solution has been read, so that a
+     * bad solution leaves no empty directory behind. */
+    rc = cli_make_dir(out, &err);
+    if (!rc)
+        rc = rad_solution_export(s, out, &err);
     if (!rc) {
         printf("%s: patches.csv (%u patches, %u bands), F.mtx (%u of %u rows)", out,
                s->mesh->patch_count, s->band_count, s->F->rows_done, s->F->n);

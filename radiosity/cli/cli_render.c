@@ -268,8 +268,6 @@ static int write_view(void *user, uint32_t k, const rn_image *img, rad_error *er
 static int render_many(const rad_solution *s, const cli_view *v, const many_args *m,
                        const char *dir)
 {
-    if (cli_need_dir("render", dir))
-        return 2;
     if (v->have_eye || v->have_target)
         return cli_usage_error("render: --eye/--target draw one view; a path of them is --path FILE");
     if (v->have_fov && v->have_ortho)
@@ -284,6 +282,8 @@ static int render_many(const rad_solution *s, const cli_view *v, const many_args
     rad_error err = {0};
     view_list l = {0};
     int rc = m->path ? path_views(&l, v, m, &err) : camera_views(&l, s, v, m, &err);
+    if (!rc) /* DIR once the views are known good (mkdir -p) */
+        rc = cli_make_dir(dir, &err);
     rad_drawing *d = NULL;
     double t0 = rad_seconds();
     if (!rc)
@@ -470,12 +470,8 @@ int cli_render(int argc, char **argv)
         return cli_usage_error("usage: radiosity render SOLUTION -o IMAGE.exr [options]");
     if (gather.given && !gather.on)
         return cli_usage_error("render: %s is a --gather option", gather.given);
-    if (many_views(&view, &many, NULL)) {
-        if (gather.on)
-            return cli_usage_error("render: --gather draws one view (several views: run it per view)");
-        if (cli_need_dir("render", out))
-            return 2;
-    }
+    if (many_views(&view, &many, NULL) && gather.on)
+        return cli_usage_error("render: --gather draws one view (several views: run it per view)");
     /* --threads: drawing threads for several views, shading threads for a
      * gather (default: one per CPU, as for several views). */
     long cpus = sysconf(_SC_NPROCESSORS_ONLN);

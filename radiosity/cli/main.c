@@ -72,7 +72,7 @@ static const char usage[] =
     "      --ortho H                orthographic, a view 2H high (scene units)\n"
     "      --size WxH               image size (default 512x512)\n"
     "  render SOLUTION -o DIR VIEWS many views from one load, on every CPU: DIR/NAME.exr\n"
-    "                               and DIR/NAME.png for each (DIR must exist)\n"
+    "                               and DIR/NAME.png for each (DIR made if missing)\n"
     "      --all-cameras            every camera of the scene (NAME: the camera's)\n"
     "      --camera A,B,C           these cameras (or --camera repeated)\n"
     "      --path FILE              a fly-through, one view per line (NAME: frame-0001..):\n"
@@ -106,9 +106,11 @@ static const char usage[] =
     "  validate [--json] [--quick]  form factors against analytic catalog values\n"
     "  export SOLUTION -o DIR       open data: DIR/patches.csv (ρ, E, B per patch), F.mtx\n"
     "                               (Matrix Market), elements.csv and elements-F.mtx\n"
-    "                               (docs/export.md; DIR must exist)\n"
+    "                               (docs/export.md; DIR made if missing)\n"
     "\n"
-    "  --help, --version\n";
+    "  --help                       this text (man radiosity: the manual)\n"
+    "  --version                    the program's version and the solution-file\n"
+    "                               versions it writes and reads\n";
 
 int main(int argc, char **argv)
 {
@@ -122,6 +124,8 @@ int main(int argc, char **argv)
     }
     if (!strcmp(cmd, "--version")) {
         printf("radiosity %s\n", RAD_VERSION_STRING);
+        printf("solution files: writes version %u, reads versions %u to %u\n",
+               RAD_SOLFILE_VERSION, RAD_SOLFILE_OLDEST_VERSION, RAD_SOLFILE_VERSION);
         return 0;
     }
     if (!strcmp(cmd, "solve"))

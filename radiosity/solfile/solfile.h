@@ -26,6 +26,12 @@
 #include "../mesh/mesh.h"
 #include "../solution/solution.h"
 
+/* The solution file's format versions (docs/solution-format.md): every file
+ * is written as RAD_SOLFILE_VERSION; files of RAD_SOLFILE_OLDEST_VERSION
+ * up to RAD_SOLFILE_VERSION are read. */
+#define RAD_SOLFILE_VERSION 7u
+#define RAD_SOLFILE_OLDEST_VERSION 1u
+
 /* Where a solution's F was read from: the MATRIX section of a version 6
  * file (the solution's own file, or the one its MATRIXREF names).  A
  * relight that computed no row writes a reference to it instead of the rows

@@ -25,7 +25,7 @@
  * without a word, which for the last would relight the elements from their
  * patches' direct light, or taking a sheet's two sides for two unrelated
  * opaque surfaces - carries a version they refuse. */
-#define SOL_VERSION 7u
+#define SOL_VERSION RAD_SOLFILE_VERSION /* 7 (solfile.h) */
 #define SOL_VERSION_SHEETS 5u
 /* Version 6: the sections' table and checksums in an index at the end of
  * the file (any command reads only the sections it needs, each checked on

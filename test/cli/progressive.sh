@@ -76,7 +76,7 @@ fi
 if [ $? -eq 2 ] && grep -q 'more than the 24.0 KiB allowed; use --patch-size .*, or --solver progressive' "$dir/err" &&
    "$BIN" solve models/cornell.rad -o "$dir/small.sol" --patch-size 0.15 --processes 1 \
       --solver progressive --max-memory 24K > "$dir/out" 2> "$dir/err" &&
-   head -n 1 "$dir/out" | grep -q '^estimate: .*(form factors may take 24.0 KiB)' &&
+   head -n 1 "$dir/out" | grep -q '^estimate: .*(memory limit for form factors 24.0 KiB)' &&
    "$BIN" report "$dir/small.sol" | grep -Eq '^row store: [1-9][0-9]* rows dropped to stay within --max-memory, [1-9][0-9]* computed again'; then
     ok "row store within 24 KiB: $(grep '^row store' <("$BIN" report "$dir/small.sol"))"
 else

@@ -2,7 +2,8 @@
 # views.sh - issue 21 from the command line: `render` with many views writes
 # one image per camera or path line, each the very file a single-view render
 # of that camera writes; bad views and clashes are refused before anything
-# is written; `export` writes its files and refuses a missing directory.
+# is written; `export` writes its files; both make a missing -o DIR as
+# `mkdir -p` does (issue 37), and only once their input is known good.
 # Cost: one solve of the small room (~0.2 s) and a dozen 64×64 renders.
 set -u
 . "$(dirname "$0")/lib.bash"
@@ -97,7 +98,16 @@ refuse "path: eye = target" "bad.txt: line 2: eye and target coincide" render "$
 refuse "path: missing file" "nofile.txt: cannot open" render "$dir/room.sol" -o "$dir/out" --path "$dir/nofile.txt"
 refuse "unknown camera in a list" "camera 'back' not found" render "$dir/room.sol" -o "$dir/out" --camera front,back
 refuse "a camera twice" "camera 'front' named twice" render "$dir/room.sol" -o "$dir/out" --camera front,side --camera front
-refuse "no such directory" "must be an existing directory" render "$dir/room.sol" -o "$dir/out/none" --all-cameras
+# A missing -o DIR is made with its parents; a refused view makes none, and
+# a file in the way is an error naming it.
+if "$BIN" render "$dir/room.sol" -o "$dir/new/a/b" --all-cameras --size 64x64 > /dev/null 2>&1 &&
+   cmp -s "$dir/new/a/b/front.exr" "$dir/all/front.exr" && [ "$(ls "$dir/new/a/b" | wc -l)" -eq 6 ]; then
+    ok "render -o DIR: a missing DIR made with its parents (mkdir -p)"
+else
+    bad "render -o DIR missing: $(ls -R "$dir/new" 2>&1)"
+fi
+refuse "no directory made for a refused view" "camera 'back' not found" render "$dir/room.sol" -o "$dir/out/none" --camera front,back
+refuse "a file in the way of -o DIR" "room.rad/sub: cannot create directory '.*/room.rad/sub': Not a directory" render "$dir/room.sol" -o "$dir/room.rad/sub" --all-cameras
 refuse "--png with many views" "PNG goes beside its EXR" render "$dir/room.sol" -o "$dir/out" --all-cameras --png "$dir/out/x.png"
 refuse "--path and --all-cameras" "not both" render "$dir/room.sol" -o "$dir/out" --all-cameras --path "$dir/fly.txt"
 refuse "--no-png with one view" "go with several views" render "$dir/room.sol" -o "$dir/out/x.exr" --camera front --no-png
@@ -113,7 +123,14 @@ if "$BIN" export "$dir/room.sol" -o "$dir/data" > "$dir/stdout" 2>&1 &&
 else
     bad "export: $(cat "$dir/stdout"); $(ls "$dir/data")"
 fi
-refuse "export: no such directory" "export: -o .* must be an existing directory" export "$dir/room.sol" -o "$dir/out/none"
+if "$BIN" export "$dir/room.sol" -o "$dir/new/data" > /dev/null 2>&1 &&
+   cmp -s "$dir/new/data/patches.csv" "$dir/data/patches.csv" && cmp -s "$dir/new/data/F.mtx" "$dir/data/F.mtx"; then
+    ok "export -o DIR: a missing DIR made, the same files"
+else
+    bad "export -o DIR missing: $(ls -R "$dir/new" 2>&1)"
+fi
+printf 'not a solution' > "$dir/bad.sol"
+refuse "export: no directory made for a bad solution" "bad.sol: not a radiosity solution file" export "$dir/bad.sol" -o "$dir/out/none"
 refuse "export: no solution" "usage: radiosity export" export -o "$dir/out"
 
 echo "views.sh: $passed passed, $failed failed"
