@@ -1,0 +1,50 @@
+/* cli_view3d.c - `ff FILE.vs3`: View3D's reported surfaces from a .vs3
+ * file, printed as a CSV matrix (--matrix; F_ij, or script-F_ij when the
+ * file sets emit=1, the first header cell says which) and/or written as
+ * View3D 4.0's text view-factor file (--view3d OUT).
+ *
+ * Invariant: the scene is solved with every row computed and no elements,
+ * as cli_ff.c does for any scene; only this file's caller parses options.
+ */
+#include "cli.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+
+static void print_matrix(const rad_vs3 *m, const rad_vs3_factors *f)
+{
+    uint32_t n = f->n;
+    printf("%s from\\to", f->script ? "script-F" : "F");
+    for (uint32_t j = 0; j < n; j++)
+        printf(",%s", m->surfaces[f->surface[j]].name);
+    printf(",row_sum\n");
+    for (uint32_t i = 0; i < n; i++) {
+        double sum = 0.0;
+        printf("%s", m->surfaces[f->surface[i]].name);
+        for (uint32_t j = 0; j < n; j++) {
+            printf(",%.8f", f->F[(size_t)i * n + j]);
+            sum += f->F[(size_t)i * n + j];
+        }
+        printf(",%.8f\n", sum);
+    }
+}
+
+int cli_ff_view3d(const char *in, const rad_solve_options *opt, int matrix, const char *out)
+{
+    rad_error err = {0};
+    rad_scene *sc = NULL;
+    rad_vs3 *m = NULL;
+    rad_solution *s = NULL;
+    rad_vs3_factors *f = NULL;
+    int rc = 0;
+    if (rad_vs3_load(in, &opt->load, &sc, &m, &err) || rad_solve_scene(sc, opt, &s, &err) ||
+        rad_vs3_factors_compute(s, m, &f, &err) ||
+        (out && rad_view3d_write(out, m, f, &err)))
+        rc = cli_error(&err);
+    else if (matrix)
+        print_matrix(m, f);
+    rad_vs3_factors_destroy(f);
+    rad_solution_destroy(s);
+    rad_vs3_destroy(m);
+    return rc;
+}
