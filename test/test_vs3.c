@@ -187,6 +187,8 @@ TEST(errors)
         {"S 1 1 2 2 4 0 0 0.5 a\n", "t.vs3: line 11: surface 1: vertex 2 used twice"},
         {"S 1 1 2 3 4 0 0 0.5 a b\n", "t.vs3: line 11: a surface is"},
         {"S 1 1 2 3 4 0 0 1e999 a\n", "t.vs3: line 11: emittance: '1e999' is not a finite"},
+        {"S 1 1 2 3 4 0 0 0.5 a\nS 2 1 2 3 4 1 0 0.5 b\n",
+         "t.vs3: line 12: surface 2 covers all that is left of its base surface 1"},
     };
     for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
         char t[2048];
@@ -198,6 +200,11 @@ TEST(errors)
         CHECK_MSG(rc != RAD_OK && !s && !m && strstr(err.message, cases[k].want) == err.message,
                   "case %zu: got '%s'", k, err.message);
     }
+    rad_scene *e = NULL;
+    rad_vs3 *em = NULL;
+    rad_error eerr = {0};
+    CHECK(rad_vs3_parse("", 0, "t.vs3", NULL, &e, &em, &eerr) == RAD_ERR_INVALID && !e && !em);
+    CHECK(strstr(eerr.message, "t.vs3: line 1: no surface") == eerr.message);
     char nul[] = "T x\nV 1 0 0\0 0\n";
     rad_scene *s = NULL;
     rad_error err = {0};

@@ -5,8 +5,8 @@
  *
  * Invariant: the scene is solved with every row computed and no elements,
  * as cli_ff.c does for any scene; only this file's caller parses options.
- * Without --patch-size, patches are VS3_PATCH_SCALE times the mesher's
- * default edge.
+ * With exact factors and without --patch-size, patches are
+ * VS3_PATCH_SCALE times the mesher's default edge.
  */
 #include "cli.h"
 
@@ -48,7 +48,8 @@ int cli_ff_view3d(const char *in, const rad_solve_options *opt, int matrix, cons
     rad_vs3_factors *f = NULL;
     int rc = 0;
     rad_solve_options o = *opt;
-    if (rad_vs3_load(in, &opt->load, &sc, &m, &err) == RAD_OK && o.mesh.patch_size <= 0)
+    if (rad_vs3_load(in, &opt->load, &sc, &m, &err) == RAD_OK && o.exact_all &&
+        o.mesh.patch_size <= 0)
         o.mesh.patch_size = VS3_PATCH_SCALE * rad_mesh_default_patch_size(sc);
     if (err.code || rad_solve_scene(sc, &o, &s, &err) ||
         rad_vs3_factors_compute(s, m, &f, &err) ||

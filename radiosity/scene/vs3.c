@@ -457,6 +457,9 @@ static int shape_surfaces(vs3_parser *P)
                         MAX_PIECE);
         if (rc)
             return rad_fail(P->err, RAD_ERR_NOMEM, "%s: out of memory", P->name);
+        if (B->piece_count == 0)
+            return verr(P, RAD_ERR_INVALID, "surface %u covers all that is left of its base "
+                        "surface %u (a surface of no area)", S->s.number, B->s.number);
     }
     return RAD_OK;
 }
@@ -578,8 +581,16 @@ static int parse_all(vs3_parser *P, const char *text, size_t size, rad_scene *sc
         if (parse_line(P, &ln, &done))
             return P->err->code;
     }
-    if (P->surf_count == 0)
+    if (P->surf_count == 0) {
+        P->line = P->line ? P->line : 1; /* an empty file: its first line */
         return verr(P, RAD_ERR_INVALID, "no surface (S, O, M or N line) before the end");
+    }
+    uint32_t radiating = 0;
+    for (uint32_t i = 0; i < P->surf_count; i++)
+        radiating += P->surf[i].s.kind == RAD_VS3_SURFACE || P->surf[i].s.kind == RAD_VS3_MASK;
+    if (radiating == 0)
+        return verr(P, RAD_ERR_INVALID, "no radiating surface (S or M line) before the end: "
+                    "nothing to report");
     uint64_t max = P->opt && P->opt->max_polygons ? P->opt->max_polygons : 10000000u;
     if ((uint64_t)P->surf_count * 5 > max)
         return verr(P, RAD_ERR_LIMIT, "%u surfaces: more than the %llu polygons allowed",

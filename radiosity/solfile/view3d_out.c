@@ -20,6 +20,8 @@ static int put(rad_output *o, const char *fmt, double v)
 {
     char b[64];
     int len = snprintf(b, sizeof b, fmt, v);
+    if (len < 0 || (size_t)len >= sizeof b) /* no value here needs 64 bytes; never overrun */
+        len = len < 0 ? 0 : (int)sizeof b - 1;
     return rad_output_write(o, b, (size_t)len);
 }
 

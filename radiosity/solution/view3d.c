@@ -187,8 +187,8 @@ static int script_f(const double *F, const double *a, const double *eps, uint32_
 }
 
 /* Steps 4 to 6 on the surface-level AF (ns×ns) and areas a. */
-static int report(const rad_vs3 *m, const double *AF, const double *a, rad_vs3_factors *f,
-                  uint32_t *to, rad_error *err)
+static int report(const char *src, const rad_vs3 *m, const double *AF, const double *a,
+                  rad_vs3_factors *f, uint32_t *to, rad_error *err)
 {
     uint32_t ns = m->surface_count, n = f->n;
     for (uint32_t i = 0; i < ns; i++) {
@@ -200,8 +200,12 @@ static int report(const rad_vs3 *m, const double *AF, const double *a, rad_vs3_f
             if (to[j] != RAD_NONE)
                 f->F[(size_t)to[i] * n + to[j]] += AF[(size_t)i * ns + j];
     }
-    for (uint32_t i = 0; i < n; i++)
+    for (uint32_t i = 0; i < n; i++) {
+        if (!(f->area[i] > 0.0))
+            return rad_fail(err, RAD_ERR_INVALID, "%s: line %llu: surface '%s' has no area left",
+                            src, m->surfaces[f->surface[i]].line, m->surfaces[f->surface[i]].name);
         f->emittance[i] /= f->area[i];
+    }
     if (m->encl && (f->row_error = normalise_enclosure(f->F, f->area, n)) < 0)
         return rad_fail(err, RAD_ERR_NOMEM, "view3d: out of memory");
     for (uint32_t i = 0; i < n; i++)
@@ -250,7 +254,7 @@ int rad_vs3_factors_compute(const rad_solution *s, const rad_vs3 *m, rad_vs3_fac
             memcpy(f->surface, to + ns, n * sizeof *f->surface);
     }
     if (!rc)
-        rc = report(m, AF, a, f, to, err);
+        rc = report(s->scene->source, m, AF, a, f, to, err);
     free(AF);
     free(a);
     free(to);
