@@ -61,8 +61,8 @@ int cli_ff(int argc, char **argv)
         else if ((rc = cli_other_arg("ff", "input", argv[i], &in)) != 0)
             return rc;
     }
-    if (in && view3d && !has_suffix(in, ".vs3"))
-        return cli_usage_error("ff: --view3d needs a .vs3 input");
+    if (in && (view3d || pixel_factors) && !has_suffix(in, ".vs3"))
+        return cli_usage_error("ff: --view3d and --pixel-factors need a .vs3 input");
     if (!in || (!matrix && !view3d && (!from || !to)))
         return cli_usage_error("usage: radiosity ff SCENE_OR_SOLUTION --from A --to B [--json] | "
                                "--matrix | FILE.vs3 [--matrix] [--view3d OUT] [--pixel-factors]");

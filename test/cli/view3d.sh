@@ -217,6 +217,16 @@ else ok "the obstruction (O) blocks but is not reported"; fi
 if head -1 "$dir/lroom.csv" | grep -q "floor-b"; then bad "combined surfaces reported apart"
 else ok "combined surfaces reported as one"; fi
 
+# A .vs3 file is a scene like any other: ff --from/--to names its surfaces
+# (pixels at the defaults: 0.19868, 0.6 % low, bounded at 1 %).
+"$BIN" ff "$dir/cube.vs3" --from bottom --to top --json > "$dir/pair.json" 2> /dev/null
+if python3 -c 'import json,sys; d=json.load(open(sys.argv[1])); sys.exit(abs(d["F_AB"]/0.199824896-1) > 0.01)' "$dir/pair.json"
+then ok "ff cube.vs3 --from bottom --to top: $(cut -c1-60 "$dir/pair.json")"
+else bad "ff cube.vs3 --from bottom --to top: $(cat "$dir/pair.json")"; fi
+if "$BIN" ff "$dir/cube.ref" --view3d "$dir/x.out" 2> "$dir/usage.err" || [ -e "$dir/x.out" ] ||
+   ! grep -q "need a .vs3 input" "$dir/usage.err"; then bad "--view3d on a non-.vs3 input: $(cat "$dir/usage.err")"
+else ok "--view3d on a non-.vs3 input is a usage error"; fi
+
 # Malformed inputs: each one line "radiosity: error: FILE: line N: WHAT",
 # a failing exit status, and no output file.
 refuse() { # NAME LINE FRAGMENT SED
