@@ -63,6 +63,9 @@ BENCH_BIN:= $(BENCH_SRC:bench/%.c=$(B)/bench/%)
 # generator, built by `make report` (tools/make_report.sh).  tools/hall.c is
 # no program: bench_scale's scene generator.
 TOOL_BIN := $(B)/tools/pathtrace
+# tools/mc_vs3.c: the Monte Carlo references of test/data/view3d/ (issue 39),
+# run by hand like the path tracer.
+TOOL_BIN += $(B)/tools/mc_vs3
 
 .PHONY: all lib shlib headers prog tests benches demo test fuzz bench report deps check-deps print-objects print-headers clean \
         install uninstall

@@ -32,6 +32,9 @@ int cli_render(int argc, char **argv);
 int cli_report(int argc, char **argv);
 int cli_relight(int argc, char **argv);
 int cli_ff(int argc, char **argv);
+/* ff on a .vs3 file (cli_view3d.c): --matrix prints, out (may be NULL) gets
+ * View3D's text output; opt as cli_ff prepared it. */
+int cli_ff_view3d(const char *in, const rad_solve_options *opt, int matrix, const char *out);
 int cli_validate(int argc, char **argv);
 int cli_export(int argc, char **argv);
 

@@ -37,8 +37,8 @@ static int find_object(const rad_scene *sc, const char *name, uint32_t *out)
 
 int cli_ff(int argc, char **argv)
 {
-    const char *in = NULL, *from = NULL, *to = NULL;
-    int json = 0, matrix = 0, rc = 0;
+    const char *in = NULL, *from = NULL, *to = NULL, *view3d = NULL;
+    int json = 0, matrix = 0, rc = 0, pixel_factors = 0;
     rad_solve_options opt = {0};
     for (int i = 0; i < argc; i++) {
         int r = cli_solve_option(argc, argv, &i, &opt);
@@ -54,11 +54,18 @@ int cli_ff(int argc, char **argv)
             json = 1;
         else if (!strcmp(argv[i], "--matrix"))
             matrix = 1;
+        else if (!strcmp(argv[i], "--view3d") && i + 1 < argc)
+            view3d = argv[++i];
+        else if (!strcmp(argv[i], "--pixel-factors"))
+            pixel_factors = 1;
         else if ((rc = cli_other_arg("ff", "input", argv[i], &in)) != 0)
             return rc;
     }
-    if (!in || (!matrix && (!from || !to)))
-        return cli_usage_error("usage: radiosity ff SCENE_OR_SOLUTION --from A --to B [--json] | --matrix");
+    if (in && (view3d || pixel_factors) && !has_suffix(in, ".vs3"))
+        return cli_usage_error("ff: --view3d and --pixel-factors need a .vs3 input");
+    if (!in || (!matrix && !view3d && (!from || !to)))
+        return cli_usage_error("usage: radiosity ff SCENE_OR_SOLUTION --from A --to B [--json] | "
+                               "--matrix | FILE.vs3 [--matrix] [--view3d OUT] [--pixel-factors]");
     rad_error err = {0};
     rad_solution *s = NULL;
     opt.all_rows = 1; /* every row: F_BA needs B's rows even where B is black */
@@ -67,6 +74,10 @@ int cli_ff(int argc, char **argv)
     opt.load.allow_no_emitter = 1;
     opt.load.warn = cli_warn;
     cli_enable_progress(&opt);
+    if (has_suffix(in, ".vs3") && (matrix || view3d)) {
+        opt.exact_all = !pixel_factors; /* View3D's few large surfaces: exact is cheap */
+        return cli_ff_view3d(in, &opt, matrix, view3d);
+    }
     if (has_suffix(in, ".sol")) {
         if (rad_solution_read(in, &s, &err) || rad_resolve(s, &opt, &err)) {
             rad_solution_destroy(s);

@@ -96,15 +96,16 @@ static void row_progress(void *user, uint32_t done, uint32_t total)
  * pixels are where aliasing hurts. */
 static int mark_exact(run *c, rad_error *err)
 {
-    if (c->exact || c->opt->pixel_emitters || c->opt->hemicube.exact)
+    if (c->exact || (c->opt->pixel_emitters && !c->opt->exact_all) || c->opt->hemicube.exact)
         return RAD_OK;
     uint32_t n = c->s->mesh->patch_count;
     c->exact = calloc((size_t)n + 1, 1);
     if (!c->exact)
         return rad_fail(err, RAD_ERR_NOMEM, "%s: out of memory", c->s->scene->source);
     for (uint32_t i = 0; i < n; i++)
-        c->exact[i] = (uint8_t)rad_any_positive(c->s->emission + (size_t)i * c->s->band_count,
-                                                c->s->band_count);
+        c->exact[i] = (uint8_t)(c->opt->exact_all ||
+                                rad_any_positive(c->s->emission + (size_t)i * c->s->band_count,
+                                                 c->s->band_count));
     return RAD_OK;
 }
 

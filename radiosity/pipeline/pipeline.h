@@ -126,6 +126,11 @@ typedef struct rad_solve_options {
      * element rows never in memory together.  0 keeps F (a relight of
      * several variants reads it once for all). */
     int release_matrix;
+    /* 1 = every patch is a target whose F_ij is computed exactly (the
+     * point-to-polygon integral times the visible fraction, as for
+     * emitters), not by counting pixels: what `ff FILE.vs3` does by
+     * default, where a few large surfaces make it cheap (issue 39). */
+    int exact_all;
 } rad_solve_options;
 
 /* The whole computation for a scene file: load, mesh, form factors, solve.

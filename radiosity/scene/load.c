@@ -1,8 +1,8 @@
 /* load.c - rad_scene_load: a scene file on disk -> a checked scene.
  *
  * Reads the whole file into memory (refusing more than 1 GiB before
- * allocating it), picks the parser by extension (.gltf/.glb -> glTF, anything
- * else -> the polygon file), then runs the whole-scene checks.  Invariant: on
+ * allocating it), picks the parser by extension (.gltf/.glb -> glTF, .vs3 ->
+ * View3D's input, anything else -> the polygon file), then runs the whole-scene checks.  Invariant: on
  * success the scene has passed rad_scene_validate; on failure *out is NULL
  * and nothing is leaked.
  */
@@ -113,6 +113,8 @@ int rad_scene_load(const char *path, const rad_load_options *opt, rad_scene **ou
     rad_scene *s = NULL;
     if (has_extension(path, ".gltf") || has_extension(path, ".glb"))
         rc = rad_scene_parse_gltf(data, size, path, opt, &s, err);
+    else if (has_extension(path, ".vs3"))
+        rc = rad_scene_parse_vs3(data, size, path, opt, &s, err);
     else
         rc = rad_scene_parse_polyfile(data, size, path, opt, &s, err);
     free(data);
@@ -126,4 +128,25 @@ int rad_scene_load(const char *path, const rad_load_options *opt, rad_scene **ou
     }
     *out = s;
     return RAD_OK;
+}
+
+int rad_vs3_load(const char *path, const rad_load_options *opt, rad_scene **scene,
+                 rad_vs3 **model, rad_error *err)
+{
+    *scene = NULL;
+    *model = NULL;
+    char *data;
+    size_t size;
+    int rc = read_file(path, &data, &size, err);
+    if (rc)
+        return rc;
+    rc = rad_vs3_parse(data, size, path, opt, scene, model, err);
+    free(data);
+    if (!rc && (rc = rad_scene_check(*scene, 0, err)) != 0) {
+        rad_scene_destroy(*scene);
+        rad_vs3_destroy(*model);
+        *scene = NULL;
+        *model = NULL;
+    }
+    return rc;
 }

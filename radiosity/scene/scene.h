@@ -179,6 +179,52 @@ int rad_scene_parse_polyfile(const char *text, size_t size, const char *name,
 int rad_scene_parse_gltf(const void *data, size_t size, const char *name,
                          const rad_load_options *opt, rad_scene **out, rad_error *err);
 
+/* ---- View3D's input file (vs3.c, docs/view3d.md) ---- */
+
+/* The four kinds of View3D surface. */
+typedef enum rad_vs3_kind {
+    RAD_VS3_SURFACE = 0, /* S: radiating */
+    RAD_VS3_OBSTRUCTION, /* O: blocks views, not reported */
+    RAD_VS3_MASK,        /* M: faces its base, covering part of it; F_mask,base = 1 */
+    RAD_VS3_NULL         /* N: takes its area out of its base, not reported */
+} rad_vs3_kind;
+
+typedef struct rad_vs3_surface {
+    char *name;               /* as in the file; also its object's and material's name */
+    uint32_t number;          /* the file's number (surface i has number i + 1) */
+    rad_vs3_kind kind;
+    uint32_t base;            /* index of its base surface, RAD_NONE */
+    uint32_t combine;         /* index of the surface it is reported with, RAD_NONE */
+    double emittance;         /* ε in (0, 1]; its material has ρ = 1 − ε */
+    double area;              /* the whole polygon's, before subsurfaces are cut out */
+    uint32_t object;          /* its object in the scene */
+    unsigned long long line;  /* where it was read */
+} rad_vs3_surface;
+
+/* What a .vs3 file says beyond its geometry.  Owned by the caller of
+ * rad_vs3_parse / rad_vs3_load; free with rad_vs3_destroy. */
+typedef struct rad_vs3 {
+    char *title;              /* the last T line ("" when none) */
+    int encl;                 /* control encl: 1 = the surfaces form an enclosure */
+    int emit;                 /* control emit: 1 = report Hottel's script-F */
+    rad_vs3_surface *surfaces;
+    uint32_t surface_count;
+} rad_vs3;
+
+/* Parses a .vs3 file held in memory into a scene (one object per surface)
+ * and, when model is not NULL, its surface records.  Ignored controls are
+ * reported through opt->warn.  Errors: "FILE: line N: WHAT". */
+int rad_vs3_parse(const char *text, size_t size, const char *name, const rad_load_options *opt,
+                  rad_scene **scene, rad_vs3 **model, rad_error *err);
+/* rad_vs3_parse without the model (what rad_scene_load calls for .vs3). */
+int rad_scene_parse_vs3(const char *text, size_t size, const char *name,
+                        const rad_load_options *opt, rad_scene **out, rad_error *err);
+/* Reads and parses a .vs3 file, then runs the whole-scene checks (an
+ * emitter is never required: the file has none).  Caller owns both. */
+int rad_vs3_load(const char *path, const rad_load_options *opt, rad_scene **scene,
+                 rad_vs3 **model, rad_error *err);
+void rad_vs3_destroy(rad_vs3 *m); /* NULL does nothing */
+
 /* ---- building a scene in code (loaders and tests use these) ---- */
 
 /* New empty scene with band_count bands; NULL on bad band count or OOM.

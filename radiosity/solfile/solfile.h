@@ -248,4 +248,9 @@ void rad_journal_close(rad_journal *j);
  * place only once all are written: a failure before that replaces none. */
 int rad_solution_export(const rad_solution *s, const char *dir, rad_error *err);
 
+/* Writes View3D 4.0's text view-factor file (view3d_out.c) for the factors
+ * f of the .vs3 model m: through a temporary file and rename. */
+int rad_view3d_write(const char *path, const rad_vs3 *m, const rad_vs3_factors *f,
+                     rad_error *err);
+
 #endif /* RAD_SOLFILE_H */

@@ -379,4 +379,24 @@ int rad_solution_object_stats(const rad_solution *s, rad_object_stats *out, rad_
  * patches missing from F are taken by reciprocity from the rows present. */
 int rad_object_form_factors(const rad_solution *s, double *M, rad_error *err);
 
+/* ---- View3D's surface factors (view3d.c, docs/view3d.md) ---- */
+
+/* The surfaces View3D reports for a .vs3 file (radiating and mask
+ * surfaces, combined ones as one) with their factors. */
+typedef struct rad_vs3_factors {
+    uint32_t n;          /* reported surfaces */
+    uint32_t *surface;   /* n: the model's index of each one's (primary) surface */
+    double *area;        /* n: A_i, combined members summed, subsurfaces cut out */
+    double *emittance;   /* n: ε_i, area-weighted over combined members */
+    double *F;           /* n×n row-major: F_ij, or script-F_ij when script = 1 */
+    int script;          /* 1 = Hottel's script-F (emit = 1) */
+    double row_error;    /* encl = 1: largest |Σ_j F_ij − 1| before normalising */
+} rad_vs3_factors;
+
+/* The reported surfaces' factors from a solution of the scene that
+ * rad_vs3_load built with model m (every row computed).  Caller owns *out. */
+int rad_vs3_factors_compute(const rad_solution *s, const rad_vs3 *m, rad_vs3_factors **out,
+                            rad_error *err);
+void rad_vs3_factors_destroy(rad_vs3_factors *f); /* NULL does nothing */
+
 #endif /* RAD_SOLUTION_H */
