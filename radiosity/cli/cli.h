@@ -34,6 +34,7 @@ int cli_relight(int argc, char **argv);
 int cli_ff(int argc, char **argv);
 int cli_validate(int argc, char **argv);
 int cli_export(int argc, char **argv);
+int cli_bake(int argc, char **argv);
 
 /* ----------------------------------------------- the process (cli_process.c) */
 

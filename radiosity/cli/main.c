@@ -104,6 +104,8 @@ static const char usage[] =
     "  export SOLUTION -o DIR       open data: DIR/patches.csv (ρ, E, B per patch), F.mtx\n"
     "                               (Matrix Market), elements.csv and elements-F.mtx\n"
     "                               (docs/export.md; DIR must exist)\n"
+    "  bake SOLUTION -o OUT.glb     the solved light as glTF 2.0 (.glb, or .gltf + .bin) for\n"
+    "                               any viewer (docs/bake.md); --exposure EV (default: auto)\n"
     "\n"
     "  --help, --version\n";
 
@@ -135,5 +137,7 @@ int main(int argc, char **argv)
         return cli_validate(argc - 2, argv + 2);
     if (!strcmp(cmd, "export"))
         return cli_export(argc - 2, argv + 2);
+    if (!strcmp(cmd, "bake"))
+        return cli_bake(argc - 2, argv + 2);
     return cli_usage_error("unknown command '%s'", cmd);
 }
