@@ -107,6 +107,7 @@ typedef struct cli_view {
     const char *png;
     double exposure;
     rn_exr_compression exr_compression; /* --exr-compression */
+    const char *ids;    /* --ids FILE: the item buffer's objects, one view only */
 } cli_view;
 /* 1 consumed, 0 not a view option, -1 bad value (printed). */
 int cli_view_option(int argc, char **argv, int *i, cli_view *v);

@@ -62,6 +62,7 @@ static const char usage[] =
     "  render SOLUTION -o IMAGE.exr draw a view (radiance, linear OpenEXR)\n"
     "      --png FILE               also write an sRGB PNG preview\n"
     "      --exposure EV            PNG exposure in stops (default 0)\n"
+    "      --ids FILE               the objects of the item buffer as a 16-bit PGM (0: none)\n"
     "      --exr-compression C      none (default), zip, rle or piz: zip: files\n"
     "                               15 % smaller, a 1024x1024 view 5x the CPU\n"
     "      --camera NAME            a camera of the scene (default: the first)\n"
