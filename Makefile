@@ -87,6 +87,9 @@ $(B)/test/test_render: $(B)/obj/test/exr_read.o
 # bench_scale writes its scene with tools/hall.c
 $(B)/bench/bench_scale: $(B)/obj/tools/hall.o
 
+# bench_bake bakes the same hall
+$(B)/bench/bench_bake: $(B)/obj/tools/hall.o
+
 $(B)/tools/%: $(B)/obj/tools/%.o $(LIB)
 	@mkdir -p $(dir $@)
 	@$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
