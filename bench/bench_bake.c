@@ -2,9 +2,11 @@
  * a solved scene as glTF and the file's size, for the Cornell box
  * (models/cornell.gltf, the program's defaults) and for the largest bench
  * scene, tools/hall.c's vaulted hall (about 99,000 triangles) solved as
- * bench_scale's coarsest row (patch size 0.6, defaults otherwise).
+ * bench_scale's coarsest row (patch size 0.6, defaults otherwise; a
+ * smaller hemi-cube resolution R may be given to spare a shared machine:
+ * it changes the light, hardly the count of elements baked).
  *
- *   bench_bake [hall patch size]   (default 0.6)
+ *   bench_bake [hall patch size [R]]   (default 0.6, R 128)
  *   BENCH_BAKE_FINE=f              the hall's tessellation factor (default 1)
  *
  * Each scene is solved once (its time is given, not the subject), then
@@ -52,10 +54,12 @@ static int best_bake(const rad_solution *s, const char *path, double *best, rad_
 }
 
 /* Solves scene, bakes it into dir, prints one row; 0 or -1. */
-static int row(const char *name, const char *scene, double patch_size, const char *dir)
+static int row(const char *name, const char *scene, double patch_size, uint32_t R,
+               const char *dir)
 {
     rad_solve_options opt = {0};
     opt.mesh.patch_size = patch_size;
+    opt.hemicube.resolution = R;
     rad_solution *s = NULL;
     rad_error err = {0};
     double t0 = rad_seconds();
@@ -87,6 +91,7 @@ static int row(const char *name, const char *scene, double patch_size, const cha
 int main(int argc, char **argv)
 {
     double size = argc > 1 ? atof(argv[1]) : 0.6;
+    uint32_t R = argc > 2 ? (uint32_t)atoi(argv[2]) : 0;
     const char *fine_env = getenv("BENCH_BAKE_FINE");
     char dir[] = "/tmp/bench_bake.XXXXXX";
     if (!mkdtemp(dir)) {
@@ -102,13 +107,13 @@ int main(int argc, char **argv)
     const char *cornell = access("models/cornell.gltf", R_OK) ? "../models/cornell.gltf"
                                                               : "models/cornell.gltf";
     if (!rc)
-        rc = row("cornell", cornell, 0.0, dir);
+        rc = row("cornell", cornell, 0.0, 0, dir);
     char scene[4200];
     snprintf(scene, sizeof scene, "%s/hall.gltf", dir);
     if (!rc)
-        rc = row("hall", scene, size, dir);
-    printf("\nhall: %llu triangles in %u objects, patch size %.3g\n",
-           (unsigned long long)hs.triangles, hs.objects, size);
+        rc = row("hall", scene, size, R, dir);
+    printf("\nhall: %llu triangles in %u objects, patch size %.3g, R = %u\n",
+           (unsigned long long)hs.triangles, hs.objects, size, R ? R : HC_DEFAULT_RESOLUTION);
     load_average("after");
     snprintf(scene, sizeof scene, "%s/hall.gltf", dir);
     unlink(scene);

@@ -109,7 +109,10 @@ TEST(crack_free_one_sided)
     CHECK_MSG(t_junctions > 0, "no T-junction among the floor's elements");
     bk_geometry g;
     rad_error err = {0};
-    CHECK(bk_geometry_build(s, 0.0, &g, &err) == RAD_OK);
+    rad_drawing *d = NULL;
+    CHECK(rad_drawing_create(s, &d, &err) == RAD_OK);
+    CHECK(bk_geometry_build(s, d, 0.0, &g, &err) == RAD_OK);
+    rad_drawing_destroy(d);
     CHECK(g.prim_count == 3);
     for (uint32_t k = 0; k < g.prim_count; k++) {
         const bk_prim *p = &g.prims[k];

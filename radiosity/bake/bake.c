@@ -175,13 +175,11 @@ static int geometry_alloc(bk_geometry *g)
     return g->position && g->radiance && g->color && g->index && g->prims ? 0 : -1;
 }
 
-int bk_geometry_build(const rad_solution *s, double ev, bk_geometry *g, rad_error *err)
+int bk_geometry_build(const rad_solution *s, const rad_drawing *d, double ev, bk_geometry *g,
+                      rad_error *err)
 {
     memset(g, 0, sizeof *g);
-    rad_drawing *d = NULL;
-    int rc = rad_drawing_create(s, &d, err);
-    if (rc)
-        return rc;
+    int rc = RAD_OK;
     walk w = {.s = s, .g = g, .scale = exp2(ev)};
     rad_drawing_parts(d, &w.rm, &w.vB, &w.patch_of);
     const uint32_t nc = w.rm->patch_count, nv = w.rm->vertex_count;
@@ -213,7 +211,6 @@ done:
     free(ord);
     free(w.stamp);
     free(w.local);
-    rad_drawing_destroy(d);
     if (rc)
         bk_geometry_free(g);
     return rc;
@@ -249,23 +246,18 @@ static int emits(const rad_solution *s, uint32_t p)
     return 0;
 }
 
-int rad_bake_auto_exposure(const rad_solution *s, double *ev, rad_error *err)
+/* rad_bake_auto_exposure on a drawing of s. */
+static int drawing_exposure(const rad_solution *s, const rad_drawing *d, double *ev, rad_error *err)
 {
     *ev = 0.0;
-    rad_drawing *d = NULL;
-    int rc = rad_drawing_create(s, &d, err);
-    if (rc)
-        return rc;
     const rad_mesh *rm;
     const double *vB;
     const uint32_t *patch_of;
     rad_drawing_parts(d, &rm, &vB, &patch_of);
     const uint32_t bands = s->band_count, nc = rm->patch_count;
     lit *cells = malloc(((size_t)nc + 1) * sizeof *cells);
-    if (!cells) {
-        rad_drawing_destroy(d);
+    if (!cells)
         return rad_fail(err, RAD_ERR_NOMEM, "bake: out of memory for %u cells", nc);
-    }
     uint32_t n = 0;
     double total = 0.0;
     for (uint32_t c = 0; c < nc; c++) {
@@ -293,8 +285,18 @@ int rad_bake_auto_exposure(const rad_solution *s, double *ev, rad_error *err)
         }
     }
     free(cells);
-    rad_drawing_destroy(d);
     return RAD_OK;
+}
+
+int rad_bake_auto_exposure(const rad_solution *s, double *ev, rad_error *err)
+{
+    *ev = 0.0;
+    rad_drawing *d = NULL;
+    int rc = rad_drawing_create(s, &d, err);
+    if (!rc)
+        rc = drawing_exposure(s, d, ev, err);
+    rad_drawing_destroy(d);
+    return rc;
 }
 
 int rad_bake_write(const rad_solution *s, const char *path, const rad_bake_options *opt,
@@ -303,13 +305,17 @@ int rad_bake_write(const rad_solution *s, const char *path, const rad_bake_optio
     rad_bake_options none = {0};
     opt = opt ? opt : &none;
     double ev = opt->exposure;
-    int rc = opt->exposure_given ? RAD_OK : rad_bake_auto_exposure(s, &ev, err);
-    if (rc)
-        return rc;
     if (!isfinite(ev) || fabs(ev) > 64)
         return rad_fail(err, RAD_ERR_USAGE, "bake: exposure %g is not in [-64, 64]", ev);
-    bk_geometry g;
-    rc = bk_geometry_build(s, ev, &g, err);
+    /* One drawing for the exposure and the geometry. */
+    rad_drawing *d = NULL;
+    int rc = rad_drawing_create(s, &d, err);
+    if (!rc && !opt->exposure_given)
+        rc = drawing_exposure(s, d, &ev, err);
+    bk_geometry g = {0};
+    if (!rc)
+        rc = bk_geometry_build(s, d, ev, &g, err);
+    rad_drawing_destroy(d);
     uint64_t bytes = 0;
     if (!rc)
         rc = bk_write_files(s, &g, path, &bytes, err);

@@ -25,8 +25,10 @@ typedef struct bk_geometry {
     uint32_t prim_count;
 } bk_geometry;
 
-/* Builds g from s's drawing at exposure ev (caller frees with bk_geometry_free). */
-int bk_geometry_build(const rad_solution *s, double ev, bk_geometry *g, rad_error *err);
+/* Builds g from d, a drawing of s, at exposure ev (caller frees with
+ * bk_geometry_free; g is zeroed on failure). */
+int bk_geometry_build(const rad_solution *s, const rad_drawing *d, double ev, bk_geometry *g,
+                      rad_error *err);
 void bk_geometry_free(bk_geometry *g);
 
 /* Writes g with s's names, materials and cameras to path (.glb or .gltf +
