@@ -5,7 +5,7 @@
  * (checked on the objects with nm: no file calls one that calls it):
  *   main.c            usage text and dispatch: COMMAND -> cli_COMMAND
  *   cli_<command>.c   one command each (solve, render, report, relight,
- *                     ff, validate, export); a command prints its own
+ *                     ff, validate, export, bake); a command prints its own
  *                     results and calls no other command
  *   cli_args.c        argument parsers and options shared by commands:
  *                     solve options, view options, a view drawn to files

@@ -12,6 +12,7 @@
  *   radiosity ff       SCENE_OR_SOLUTION --from A --to B [--json] [--matrix]
  *   radiosity validate [--json] [--quick]
  *   radiosity export   SOLUTION -o DIR
+ *   radiosity bake     SOLUTION -o OUT.glb|OUT.gltf [--exposure EV]
  *
  * Errors print one line "radiosity: error: FILE: WHERE: WHAT" and exit 2 for
  * bad input or usage, 1 for failures of the machine (memory, GL).  Outputs
