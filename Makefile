@@ -2,7 +2,7 @@
 # benchmarks and the tools, in a release flavour (build/release) and an
 # AddressSanitizer + UndefinedBehaviorSanitizer flavour (build/asan).
 #
-#   make deps    install missing Debian packages (apt-get)
+#   make deps    install missing Debian packages (apt-get) and test/browser's npm packages (npm ci)
 #   make demo    install missing packages, build, solve and render the Cornell box
 #   make test    build and run every test (release and sanitizer builds, CLI, fuzz);
 #                checks the packages but never installs them
@@ -123,6 +123,9 @@ $(B)/test/test_render: $(B)/obj/test/exr_read.o
 
 # bench_scale writes its scene with tools/hall.c
 $(B)/bench/bench_scale: $(B)/obj/tools/hall.o
+
+# bench_bake bakes the same hall
+$(B)/bench/bench_bake: $(B)/obj/tools/hall.o
 
 $(B)/tools/%: $(B)/obj/tools/%.o $(LIB)
 	@mkdir -p $(dir $@)

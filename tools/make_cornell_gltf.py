@@ -240,7 +240,8 @@ def build(ref):
         'cameras': cameras,
         'accessors': b.accessors,
         'bufferViews': [
-            {'buffer': 0, 'byteOffset': 0, 'byteLength': len(b.positions), 'target': 34962},
+            {'buffer': 0, 'byteOffset': 0, 'byteLength': len(b.positions),
+             'byteStride': 12, 'target': 34962},
             {'buffer': 0, 'byteOffset': len(b.positions), 'byteLength': len(b.indices),
              'target': 34963}],
         'buffers': [{'byteLength': len(data), 'uri': uri}],

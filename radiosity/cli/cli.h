@@ -5,7 +5,7 @@
  * (checked on the objects with nm: no file calls one that calls it):
  *   main.c            usage text and dispatch: COMMAND -> cli_COMMAND
  *   cli_<command>.c   one command each (solve, render, report, relight,
- *                     ff, validate, export); a command prints its own
+ *                     ff, validate, export, bake); a command prints its own
  *                     results and calls no other command
  *   cli_args.c        argument parsers and options shared by commands:
  *                     solve options, view options, a view drawn to files
@@ -37,6 +37,7 @@ int cli_ff(int argc, char **argv);
 int cli_ff_view3d(const char *in, const rad_solve_options *opt, int matrix, const char *out);
 int cli_validate(int argc, char **argv);
 int cli_export(int argc, char **argv);
+int cli_bake(int argc, char **argv);
 
 /* ----------------------------------------------- the process (cli_process.c) */
 
@@ -115,6 +116,7 @@ typedef struct cli_view {
     const char *png;
     double exposure;
     rn_exr_compression exr_compression; /* --exr-compression */
+    const char *ids;    /* --ids FILE: the item buffer's objects, one view only */
 } cli_view;
 /* 1 consumed, 0 not a view option, -1 bad value (printed). */
 int cli_view_option(int argc, char **argv, int *i, cli_view *v);

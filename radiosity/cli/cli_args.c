@@ -369,6 +369,10 @@ int cli_view_option(int argc, char **argv, int *i, cli_view *v)
         v->png = val;
     } else if (!strcmp(a, "--exposure")) {
         rc = cli_parse_double(a, val, -64, 64, &v->exposure);
+    } else if (!strcmp(a, "--ids")) {
+        if (!val)
+            return cli_usage_error("--ids needs a file name"), -1;
+        v->ids = val;
     } else if (!strcmp(a, "--exr-compression")) {
         if (rn_exr_compression_parse(val, &v->exr_compression))
             return cli_usage_error("--exr-compression: '%s' is not none, zip, rle or piz",
@@ -411,6 +415,28 @@ int cli_view_camera(const rad_solution *s, const cli_view *v, rn_camera *out)
     return 0;
 }
 
+/* The item buffer as the objects each pixel sees: a 16-bit binary PGM
+ * (big-endian), 0 = background, k + 1 = object k (65535 for any beyond),
+ * for tests that compare another renderer's image away from edges. */
+static int write_ids(const rad_solution *s, const rn_image *img, const char *path, rad_error *err)
+{
+    rad_output *o = NULL;
+    int rc = rad_output_open(path, &o, err);
+    if (rc)
+        return rc;
+    char head[64];
+    int n = snprintf(head, sizeof head, "P5\n%u %u\n65535\n", img->width, img->height);
+    rad_output_write(o, head, (size_t)n);
+    for (size_t q = 0; q < (size_t)img->width * img->height; q++) {
+        uint32_t p = img->patch[q];
+        uint32_t id = p == RAD_NONE || p >= s->mesh->patch_count ? 0 : s->mesh->patches[p].object + 1;
+        id = id > 65535 ? 65535 : id;
+        unsigned char b[2] = {(unsigned char)(id >> 8), (unsigned char)id};
+        rad_output_write(o, b, 2);
+    }
+    return rad_output_commit(o, err);
+}
+
 int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *exr_path,
                         const char *png_path)
 {
@@ -427,6 +453,8 @@ int cli_render_to_files(const rad_solution *s, const cli_view *v, const char *ex
         rc = rn_write_exr_with(img, exr_path, v->exr_compression, &err);
     if (!rc && png_path)
         rc = rn_write_png(img, png_path, v->exposure, &err);
+    if (!rc && v->ids)
+        rc = write_ids(s, img, v->ids, &err);
     rn_image_destroy(img);
     return rc ? cli_error(&err) : 0;
 }

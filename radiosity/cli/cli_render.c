@@ -272,6 +272,8 @@ static int render_many(const rad_solution *s, const cli_view *v, const many_args
         return cli_usage_error("render: --eye/--target draw one view; a path of them is --path FILE");
     if (v->have_fov && v->have_ortho)
         return cli_usage_error("--fov and --ortho exclude each other");
+    if (v->ids)
+        return cli_usage_error("render: --ids goes with one view");
     if (v->png)
         return cli_usage_error("render: with several views each PNG goes beside its EXR in '%s' "
                                "(--no-png: none)", dir);

@@ -12,6 +12,7 @@
  *   radiosity ff       SCENE_OR_SOLUTION --from A --to B [--json] [--matrix]
  *   radiosity validate [--json] [--quick]
  *   radiosity export   SOLUTION -o DIR
+ *   radiosity bake     SOLUTION -o OUT.glb|OUT.gltf [--exposure EV]
  *
  * Errors print one line "radiosity: error: FILE: WHERE: WHAT" and exit 2 for
  * bad input or usage, 1 for failures of the machine (memory, GL).  Outputs
@@ -65,6 +66,7 @@ static const char usage[] =
     "  render SOLUTION -o IMAGE.exr draw a view (radiance, linear OpenEXR)\n"
     "      --png FILE               also write an sRGB PNG preview\n"
     "      --exposure EV            PNG exposure in stops (default 0)\n"
+    "      --ids FILE               the objects of the item buffer as a 16-bit PGM (0: none)\n"
     "      --exr-compression C      none (default), zip, rle or piz: zip: files\n"
     "                               15 % smaller, a 1024x1024 view 5x the CPU\n"
     "      --camera NAME            a camera of the scene (default: the first)\n"
@@ -107,6 +109,8 @@ static const char usage[] =
     "  export SOLUTION -o DIR       open data: DIR/patches.csv (ρ, E, B per patch), F.mtx\n"
     "                               (Matrix Market), elements.csv and elements-F.mtx\n"
     "                               (docs/export.md; DIR made if missing)\n"
+    "  bake SOLUTION -o OUT.glb     the solved light as glTF 2.0 (.glb, or .gltf + .bin) for\n"
+    "                               any viewer (docs/bake.md); --exposure EV (default: auto)\n"
     "\n"
     "  --help                       this text (man radiosity: the manual)\n"
     "  --version                    the program's version and the solution-file\n"
@@ -142,5 +146,7 @@ int main(int argc, char **argv)
         return cli_validate(argc - 2, argv + 2);
     if (!strcmp(cmd, "export"))
         return cli_export(argc - 2, argv + 2);
+    if (!strcmp(cmd, "bake"))
+        return cli_bake(argc - 2, argv + 2);
     return cli_usage_error("unknown command '%s'", cmd);
 }

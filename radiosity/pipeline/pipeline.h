@@ -186,6 +186,12 @@ typedef struct rad_drawing rad_drawing;
 int rad_drawing_create(const rad_solution *s, rad_drawing **out, rad_error *err);
 void rad_drawing_destroy(rad_drawing *d); /* NULL does nothing */
 
+/* What a drawing draws, for writers of other formats (bake.h): the mesh
+ * (cells), its vertex radiosities (vertex_count × bands) and each cell's
+ * patch (NULL: cell k is patch k).  Owned by d. */
+void rad_drawing_parts(const rad_drawing *d, const rad_mesh **mesh, const double **vertex_B,
+                       const uint32_t **patch_of);
+
 /* One view into canvas c (rn_canvas_draw: *out is c's image until its next
  * draw); pixel ids name patches, elements or not. */
 int rad_drawing_draw(const rad_drawing *d, rn_canvas *c, const rn_camera *cam, rn_image **out,

@@ -96,6 +96,14 @@ void rad_drawing_destroy(rad_drawing *d)
     free(d);
 }
 
+void rad_drawing_parts(const rad_drawing *d, const rad_mesh **mesh, const double **vertex_B,
+                       const uint32_t **patch_of)
+{
+    *mesh = d->mesh;
+    *vertex_B = d->vertex_B;
+    *patch_of = d->patch_of;
+}
+
 /* The image names patches, whatever was drawn. */
 static void name_patches(const rad_drawing *d, rn_image *img)
 {
