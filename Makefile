@@ -44,9 +44,9 @@ PROG     := $(B)/radiosity
 VERSION  := $(shell sed -n 's/^\#define RAD_VERSION_STRING "\(.*\)"/\1/p' radiosity/core/rad.h)
 SONAME   := libradiosity.so.$(firstword $(subst ., ,$(VERSION)))
 SHLIB    := $(B)/libradiosity.so.$(VERSION)
-# The public headers as installed: include/radiosity/NAME.h, each including
-# the others as <radiosity/NAME.h> (tools/install.sh headers).
-# (each module's one public header; the folders' other headers are private)
+# The public headers (each module's one; the folders' other headers are
+# private), installed as include/radiosity/NAME.h, each including the
+# others as <radiosity/NAME.h> (tools/install.sh headers).
 PUB_H    := $(filter-out %_internal.h radiosity/cli/% radiosity/scene/gltf_% radiosity/scene/tinygltf_%,\
               $(wildcard radiosity/*/*.h)) hemicube/hemicube.h solver/solver.h render/render.h
 INC_DIR  := $(B)/include/radiosity
