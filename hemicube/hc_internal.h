@@ -41,7 +41,8 @@
  *   light_requests.c -> the producer (e->prod);
  *   producer.c -> the producer (e->prod);
  *   mpi_ranks.c -> producer.c, pool.c (its local pool);
- *   pool.c, pool_lights.c -> worker.c, wire.c, delta_factors.c;
+ *   pool.c -> pool_lights.c, worker.c, wire.c, delta_factors.c;
+ *   pool_lights.c -> wire.c;
  *   worker.c -> rows.c, light_views.c, gl.c, wire.c;
  *   rows.c -> patch_factors.c, gl.c;  light_views.c -> gl.c;
  *   patch_factors.c -> analytic.c.
@@ -196,14 +197,17 @@ static inline void hc_load_corners(const hc_engine *e, uint32_t cell, rad_vec3 p
         p[k] = rad_v3(q[3 * k], q[3 * k + 1], q[3 * k + 2]);
 }
 
-/* pool.c: worker k's stream is lost (EOF, garbage, a failed send).  Marks
+/* pool_lights.c: reads the len bytes of worker k's error text (the worker
+ * has exited), marks the engine broken and fails with that text. */
+int hc_pool_error(hc_engine *e, uint32_t k, uint32_t len, rad_error *err);
+/* pool_lights.c: worker k's stream is lost (EOF, garbage, a failed send).  Marks
  * the engine broken and fails with its message; err may be NULL. */
 int hc_pool_gone(hc_engine *e, uint32_t k, rad_error *err);
-/* pool.c: reads the header (two words) of worker k's next reply: RAD_OK,
+/* pool_lights.c: reads the header (two words) of worker k's next reply: RAD_OK,
  * or the engine is broken (the stream is lost, or the worker sent its error
  * text in place of the reply and has exited). */
 int hc_pool_header(hc_engine *e, uint32_t k, uint32_t hdr[2], rad_error *err);
-/* pool.c: closes worker k's stream after a reply that could not be read:
+/* pool_lights.c: closes worker k's stream after a reply that could not be read:
  * nothing more is read from it (the engine is broken already). */
 void hc_pool_drop(hc_engine *e, uint32_t k);
 

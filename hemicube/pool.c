@@ -632,42 +632,6 @@ static void top_up(hc_engine *e, hc_run *run, uint32_t k, rad_error *err)
     }
 }
 
-int hc_pool_gone(hc_engine *e, uint32_t k, rad_error *err)
-{
-    e->broken = 1;
-    snprintf(e->broken_msg, sizeof e->broken_msg, "hemi-cube worker %u stopped", k);
-    e->w[k].in_flight = 0;
-    return rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
-}
-
-/* Reads the len bytes of worker k's error text (the worker has exited),
- * marks the engine broken and fails with that text. */
-static int worker_error(hc_engine *e, uint32_t k, uint32_t len, rad_error *err)
-{
-    char text[HC_MAX_MSG + 1] = "";
-    if (hc_wire_recv_text(e->w[k].fd, len, text) != 0)
-        return hc_pool_gone(e, k, err);
-    e->broken = 1;
-    snprintf(e->broken_msg, sizeof e->broken_msg, "%s (worker %u)", text, k);
-    e->w[k].in_flight = 0;
-    return rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
-}
-
-int hc_pool_header(hc_engine *e, uint32_t k, uint32_t hdr[2], rad_error *err)
-{
-    if (hc_wire_recv(e->w[k].fd, hdr, 2 * sizeof *hdr) != 0)
-        return hc_pool_gone(e, k, err);
-    if (hdr[0] == HC_MSG_ERROR)
-        return worker_error(e, k, hdr[1], err);
-    return RAD_OK;
-}
-
-void hc_pool_drop(hc_engine *e, uint32_t k)
-{
-    close(e->w[k].fd);
-    e->w[k].fd = -1;
-}
-
 /* Reads two words, or says the stream ended (-1) or the worker sent its
  * error text and exited (-2, the engine is then broken, err filled). */
 static int batch_word(hc_engine *e, uint32_t k, uint32_t w[2], rad_error *err)
@@ -675,7 +639,7 @@ static int batch_word(hc_engine *e, uint32_t k, uint32_t w[2], rad_error *err)
     if (hc_wire_recv(e->w[k].fd, w, 2 * sizeof *w) != 0)
         return -1;
     if (w[0] == HC_MSG_ERROR) {
-        worker_error(e, k, w[1], err);
+        hc_pool_error(e, k, w[1], err);
         return -2;
     }
     return 0;

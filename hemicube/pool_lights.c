@@ -1,7 +1,9 @@
 /* pool_lights.c - the local fork pool's side of the punctual lights: the
  * light parts and visibility chunks of light_requests.c sent to the
  * workers, and their answers read (the hc_producer's light_power and
- * light_vis of pool.c's producer).
+ * light_vis of pool.c's producer); and what both pool files do when a
+ * worker's stream is lost or carries its error text (hc_pool_gone,
+ * hc_pool_error), so that pool.c calls this file and never the reverse.
  *
  * Part k of a light goes to worker k mod nproc; each worker answers in the
  * order asked, so reading the parts in order reads every stream in order,
@@ -14,6 +16,48 @@
 
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
+
+/* ------------------------------------------- a worker's stream, lost */
+
+
+int hc_pool_gone(hc_engine *e, uint32_t k, rad_error *err)
+{
+    e->broken = 1;
+    snprintf(e->broken_msg, sizeof e->broken_msg, "hemi-cube worker %u stopped", k);
+    e->w[k].in_flight = 0;
+    return rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
+}
+
+/* Reads the len bytes of worker k's error text (the worker has exited),
+ * marks the engine broken and fails with that text. */
+int hc_pool_error(hc_engine *e, uint32_t k, uint32_t len, rad_error *err)
+{
+    char text[HC_MAX_MSG + 1] = "";
+    if (hc_wire_recv_text(e->w[k].fd, len, text) != 0)
+        return hc_pool_gone(e, k, err);
+    e->broken = 1;
+    snprintf(e->broken_msg, sizeof e->broken_msg, "%s (worker %u)", text, k);
+    e->w[k].in_flight = 0;
+    return rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
+}
+
+int hc_pool_header(hc_engine *e, uint32_t k, uint32_t hdr[2], rad_error *err)
+{
+    if (hc_wire_recv(e->w[k].fd, hdr, 2 * sizeof *hdr) != 0)
+        return hc_pool_gone(e, k, err);
+    if (hdr[0] == HC_MSG_ERROR)
+        return hc_pool_error(e, k, hdr[1], err);
+    return RAD_OK;
+}
+
+void hc_pool_drop(hc_engine *e, uint32_t k)
+{
+    close(e->w[k].fd);
+    e->w[k].fd = -1;
+}
+
+/* ---------------------------------------------------- light requests */
 
 /* Reads the header of worker k's answer to a light request: RAD_OK with
  * its count in *m when the header is `tag`; else the engine is broken (a
