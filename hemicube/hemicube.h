@@ -234,7 +234,8 @@ int hc_mpi_serve(rad_error *err);
  * computed, and what stopped them if something did (returns 1 then). */
 int hc_mpi_summary(char *line, size_t size);
 /* Every rank, last: releases the ranks (rank 0) and ends MPI; after a rank
- * was lost, rank 0 aborts the job instead (MPI's finish would wait for it). */
-void hc_mpi_finish(void);
+ * was lost (rank 0), or when a serving rank failed (failed = 1), the job is
+ * aborted instead (MPI's finish would wait for the lost rank). */
+void hc_mpi_finish(int failed);
 
 #endif /* HC_HEMICUBE_H */

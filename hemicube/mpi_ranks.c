@@ -13,11 +13,14 @@
  * which journals it through F's hook).  The lights' item buffers are drawn
  * by rank 0's pool: a few views per light.
  *
- * Faults: OpenMPI ends the whole job when a rank dies.  Rank 0 learns of
- * it as the stop flag (mpirun's SIGTERM) while blocks are out; it then
- * waits no longer for them, names the ranks whose process is gone (those on
- * its own host: kill(pid, 0)) or that held blocks, and the rows stored so
- * far stay in the journal for the next run.  RADIOSITY_TEST_RANK_EXIT=k:n
+ * Faults: by default mpirun ends the whole job when a rank dies, naming
+ * it; the rows rank 0 stored are in its journal already (each written as
+ * it comes), so the same command run again computes only the others.
+ * Under `mpirun --enable-recovery` the job outlives the rank: rank 0 finds
+ * a rank holding blocks whose process is gone (kill(pid, 0), for ranks on
+ * its host) and ends the run naming it; serving ranks find rank 0 gone the
+ * same way.  After the stop flag (Ctrl-C, or mpirun's SIGTERM) rank 0 waits
+ * a moment for the blocks out, then gives them up.  RADIOSITY_TEST_RANK_EXIT=k:n
  * makes rank k exit after n blocks (sent, or for rank 0 received).
  *
  * Invariant: a rank serves one engine at a time, and answers its blocks
@@ -48,7 +51,7 @@ enum {
 #define MAX_BLOCK 256u        /* items per block */
 #define OPT_BYTES 256u        /* the options' room in an engine header */
 #define PIECE (1u << 30)      /* largest single message of an array */
-#define GIVE_UP_SECONDS 1.0   /* after the stop flag, how long blocks out are waited for */
+#define GIVE_UP_SECONDS 0.2   /* after the stop flag, how long blocks out are waited for */
 #define TEXT_BYTES 1200       /* a status word and an error text */
 
 /* hc_options travels as its bytes, with its pointer fields (progress,
@@ -123,6 +126,20 @@ static int recv_big(void *p, size_t len)
     return 0;
 }
 
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* Rank r's process is gone: known for a rank on this host (kill(pid, 0));
+ * one on another host is reported by mpirun. */
+static int rank_gone(int r)
+{
+    return !strcmp(hosts[r], hosts[world_rank]) && kill(pids[r], 0) != 0 && errno == ESRCH;
+}
+
 static void nap(long us)
 {
     struct timespec ts = {0, us * 1000};
@@ -130,6 +147,15 @@ static void nap(long us)
 }
 
 /* =================================================== ranks 1..: serving */
+
+/* mpirun's SIGTERM when another rank died: the block in hand stops, and
+ * the rank says whether rank 0 is gone. */
+static volatile sig_atomic_t term;
+static void on_term(int sig)
+{
+    (void)sig;
+    term = 1;
+}
 
 typedef struct served {
     rad_mesh mesh;
@@ -197,6 +223,7 @@ static void serve_engine(served *s)
     memcpy(&o, h.opt, sizeof o);
     wire_options(&o);
     o.exact = s->exact;
+    o.stop = &term;
     if (!rc)
         rc = hc_create(m, &o, &s->e, &err);
     send_text(TAG_READY, rc, rc ? err.message : "");
@@ -262,20 +289,54 @@ static void serve_block(served *s, int bytes)
         served_free(s);
         return;
     }
-    MPI_Send(s->out, (int)s->len, MPI_BYTE, 0, TAG_RESULT, MPI_COMM_WORLD);
+    /* an answer larger than MPI's eager size waits for rank 0 to take it */
+    MPI_Request req;
+    int done = 0;
+    MPI_Isend(s->out, (int)s->len, MPI_BYTE, 0, TAG_RESULT, MPI_COMM_WORLD, &req);
+    for (int t = 1; MPI_Test(&req, &done, MPI_STATUS_IGNORE) == MPI_SUCCESS && !done; t++) {
+        nap(200);
+        if (t % 1000 == 0 && rank_gone(0)) {
+            term = 1;
+            return;
+        }
+    }
     count_block();
+}
+
+/* Ended by mpirun: names rank 0 when its process is gone (on this host). */
+static int terminated(served *s, rad_error *err)
+{
+    served_free(s);
+    if (rank_gone(0))
+        return rad_fail(err, RAD_ERR_INTERRUPTED, "MPI rank 0 (pid %d on %s), the assembling "
+                        "rank, stopped; the rows it received are kept in its journal (the "
+                        "solution's .partial file): run the same command again to resume",
+                        pids[0], hosts[0]);
+    return rad_fail(err, RAD_ERR_INTERRUPTED, "MPI rank %d was stopped", world_rank);
 }
 
 int hc_mpi_serve(rad_error *err)
 {
     served s;
     memset(&s, 0, sizeof s);
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_term;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGTERM, &sa, NULL);
+    sigaction(SIGINT, &sa, NULL);
     for (;;) {
         int flag = 0;
         MPI_Status st;
         /* a nap between probes: a waiting rank leaves its cores to the workers */
-        while (MPI_Iprobe(0, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st) == MPI_SUCCESS && !flag)
+        for (int t = 1; !term && MPI_Iprobe(0, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st) ==
+                            MPI_SUCCESS && !flag; t++) {
             nap(1000);
+            if (t % 250 == 0 && rank_gone(0)) /* under mpirun --enable-recovery */
+                term = 1;
+        }
+        if (term)
+            return terminated(&s, err);
         if (!flag)
             return rad_fail(err, RAD_ERR_GL, "MPI rank %d: lost rank 0", world_rank);
         int bytes = 0;
@@ -318,6 +379,7 @@ typedef struct remote {
     size_t rx_cap;
     uint32_t local_done; /* the run's items stored by rank 0's pool */
     double stop_seen;    /* when the stop flag was first seen with blocks out */
+    double checked;      /* when the ranks holding blocks were last seen alive */
 } remote;
 
 static uint32_t remote_held(const remote *m)
@@ -535,19 +597,16 @@ static void intake(hc_engine *e, remote *m, hc_run *run, MPI_Status *st, rad_err
  * process is gone are named. */
 static void give_up(hc_engine *e, remote *m, hc_run *run, rad_error *err)
 {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    double now = (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+    double t = now();
     if (m->stop_seen == 0)
-        m->stop_seen = now;
-    if (now - m->stop_seen < GIVE_UP_SECONDS)
+        m->stop_seen = t;
+    if (t - m->stop_seen < GIVE_UP_SECONDS)
         return;
     char gone[256] = "", held[256] = "";
     for (int r = 1; r < world_size; r++) {
         if (!m->nq[r])
             continue;
-        int dead = !strcmp(hosts[r], hosts[0]) && kill(pids[r], 0) != 0 && errno == ESRCH;
-        char *to = dead ? gone : held;
+        char *to = rank_gone(r) ? gone : held;
         size_t at = strlen(to);
         snprintf(to + at, 256 - at, "%s%d (pid %d on %s)", at ? ", " : "", r, pids[r], hosts[r]);
         lose_rank(m, r);
@@ -558,6 +617,20 @@ static void give_up(hc_engine *e, remote *m, hc_run *run, rad_error *err)
         snprintf(fault, sizeof fault, "the job was stopped while MPI rank %s held rows", held);
     hc_run_fail(run, rad_fail(err, RAD_ERR_INTERRUPTED, "%s", fault));
     (void)e;
+}
+
+/* Under mpirun --enable-recovery the job outlives a rank: one holding
+ * blocks whose process is gone ends the run, named. */
+static void check_ranks(remote *m, hc_run *run, rad_error *err)
+{
+    m->checked = now();
+    for (int r = 1; r < world_size; r++)
+        if (m->nq[r] && rank_gone(r)) {
+            snprintf(fault, sizeof fault, "MPI rank %d (pid %d on %s) stopped while computing "
+                     "rows", r, pids[r], hosts[r]);
+            hc_run_fail(run, rad_fail(err, RAD_ERR_GL, "%s", fault));
+            lose_rank(m, r);
+        }
 }
 
 static uint32_t mpi_collect(hc_engine *e, hc_run *run, int timeout_ms, rad_error *err)
@@ -578,6 +651,8 @@ static uint32_t mpi_collect(hc_engine *e, hc_run *run, int timeout_ms, rad_error
     }
     if (e->opt.stop && *e->opt.stop && remote_held(m))
         give_up(e, m, run, err);
+    else if (now() - m->checked > 0.25)
+        check_ranks(m, run, err);
     else if (!got && !local)
         nap(200);
     return local + remote_held(m);
@@ -641,9 +716,9 @@ int hc_mpi_summary(char *line, size_t size)
     return fault[0] != 0;
 }
 
-void hc_mpi_finish(void)
+void hc_mpi_finish(int failed)
 {
-    if (world_rank == 0 && fault[0])
+    if (fault[0] || (failed && world_rank))
         MPI_Abort(MPI_COMM_WORLD, 1); /* a rank is gone: Finalize would wait for it */
     if (world_rank == 0)
         for (int r = 1; r < world_size; r++)

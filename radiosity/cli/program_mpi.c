@@ -24,10 +24,12 @@ int main(int argc, char **argv)
         hc_mpi_summary(line, sizeof line);
         fflush(stdout);
         fprintf(stderr, "%s\n", line);
-    } else {
-        rc = hc_mpi_serve(&err) == RAD_OK ? 0 : cli_error(&err);
+    } else if (hc_mpi_serve(&err) == RAD_OK) {
+        rc = 0;
+    } else { /* the first serving rank speaks for them */
+        rc = err.code == RAD_ERR_INTERRUPTED && rank != 1 ? 1 : cli_error(&err);
     }
     fflush(NULL);
-    hc_mpi_finish();
+    hc_mpi_finish(rank != 0 && rc != 0);
     return rc;
 }
