@@ -90,6 +90,12 @@ $(PROG_MPI): $(filter-out $(B)/obj/radiosity/cli/program.o,$(CLI_C:%.c=$(B)/obj/
 	@echo "LD  $(MODE) $@"
 	@$(CC) $(LDFLAGS) $^ $(LDLIBS) $(MPI_LIBS) -o $@
 
+# bench_mpi measures MPI itself (report/mpi.md)
+$(B)/obj/bench/bench_mpi.o: CPPFLAGS += $(MPI_INC)
+$(B)/bench/bench_mpi: $(B)/obj/bench/bench_mpi.o $(LIB)
+	@mkdir -p $(dir $@)
+	@$(CC) $(LDFLAGS) $^ $(LDLIBS) $(MPI_LIBS) -o $@
+
 $(B)/test/%: $(B)/obj/test/%.o $(LIB)
 	@mkdir -p $(dir $@)
 	@$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
