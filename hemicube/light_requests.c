@@ -2,17 +2,18 @@
  * KHR_lights_punctual): hc_light_power, hc_light_visibility and
  * hc_light_direct.
  *
- * Owns the checks of a light, the requests that spread its parts over the
- * engine's workers and the reading of their answers; the worker side
+ * Owns the checks of a light and the requests that split it into parts;
+ * the engine's producer (e->prod: the local pool's side in pool_lights.c)
+ * sends them to workers and reads the answers, and the worker side
  * (light_views.c) draws the parts.  Lights are a second request type served
  * by the same workers as rows: one request per cube face (the directional
  * light's single view is part 0), answered with Φ_j of that part; the
- * caller adds the parts in part order, so the result never depends on which
+ * parts are added in part order, so the result never depends on which
  * worker drew what.  Visibility of points is a third: points are grouped by
  * the part their direction falls in (sort_by_part), sent in chunks, and
  * each worker answers a chunk from the part's item buffer.  Invariant: a
- * function of this file runs in the caller only (it talks to workers
- * through pool.c and wire.c); nothing here is reachable from worker.c.
+ * function of this file runs in the caller only (it reaches workers only
+ * through the producer); nothing here is reachable from worker.c.
  */
 #include "hc_internal.h"
 

@@ -1,5 +1,8 @@
-/* pool.c - the caller's side of the hemi-cube engine: hc_create,
- * hc_destroy, hc_compute_rows, hc_compute_points.
+/* pool.c - the caller's side of the hemi-cube engine: hc_create and
+ * hc_destroy, and the local fork pool, the engine's first row producer
+ * (hc_pool_producer: producer.c runs a job of rows or element hemi-cubes
+ * through its give and collect; radiosity-mpi's MPI producer runs it
+ * beside its ranks).
  *
  * Owns the engine and its worker processes.  The caller's process never
  * creates a GL context: hc_create checks the mesh, prepares the geometry
