@@ -720,10 +720,11 @@ void hc_mpi_finish(int failed)
 {
     if (fault[0] || (failed && world_rank))
         MPI_Abort(MPI_COMM_WORLD, 1); /* a rank is gone: Finalize would wait for it */
+    /* every rank is alive here, those that failed a block too (they hold
+     * nothing larger than a failure's text) */
     if (world_rank == 0)
         for (int r = 1; r < world_size; r++)
-            if (!lost[r])
-                MPI_Send(NULL, 0, MPI_BYTE, r, TAG_QUIT, MPI_COMM_WORLD);
+            MPI_Send(NULL, 0, MPI_BYTE, r, TAG_QUIT, MPI_COMM_WORLD);
     free(hosts), free(pids), free(items_by), free(lost);
     hosts = NULL, pids = NULL, items_by = NULL, lost = NULL;
     MPI_Finalize();
