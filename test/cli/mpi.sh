@@ -9,7 +9,7 @@
 # assembling rank had not stored, to the same solution.  The plain program
 # loads no MPI library.  As root in a container OpenMPI needs the
 # OMPI_ALLOW_RUN_AS_ROOT pair, and shared memory without single copy.
-# Cost: ~20 s (a Cornell box of 133 patches, solved six times).
+# Cost: ~25 s (a Cornell box of 133 patches, solved seven times).
 set -u
 . "$(dirname "$0")/lib.bash"
 MPI_BIN=$(dirname "$BIN")/radiosity-mpi
@@ -105,6 +105,14 @@ n=$(computed "$dir/f0b.log")
     ok "after rank 0: the rerun computes the $n rows not kept ($kept kept)" || bad "rerun after rank 0: kept '$kept', computed '$n'"
 s=$(same_solution "$dir/one.sol" "$dir/f0.sol")
 [ "$s" = same ] && ok "resumed after rank 0: the same solution" || bad "resumed after rank 0 differs in: $s"
+
+# A row that stops two workers, wherever it is drawn, ends the job with
+# its message and no rank left waiting (the timeout would say 124).
+RADIOSITY_TEST_CRASH_ROW=100 mpi "$BIN" solve "${args[@]}" -o "$dir/c.sol" > "$dir/c.log" 2>&1
+rc=$?
+[ $rc -ne 0 ] && [ $rc -ne 124 ] && grep -q "the row of patch 100 stopped two workers" "$dir/c.log" &&
+    ok "a row that cannot be computed ends the job (status $rc)" ||
+    bad "crash row: status $rc: $(grep -v '^$' "$dir/c.log" | head -3)"
 
 echo "mpi.sh: $passed passed, $failed failed"
 [ "$failed" -eq 0 ]
