@@ -33,8 +33,18 @@ CXXFLAGS := -std=c++17 -Wall -Wextra -Werror -Wno-unused-parameter $(PIC) $(CFLA
 LDFLAGS  := $(CFLAGS_$(MODE))
 LDLIBS   := -lOpenEXRCore-3_1 -lpng -lembree3 -lstdc++ -lm -lpthread
 
-CLI_C    := $(wildcard radiosity/cli/*.c)
-LIB_C    := $(filter-out $(CLI_C),$(wildcard radiosity/*/*.c hemicube/*.c solver/*.c render/*.c))
+# radiosity-mpi (issue 38): the program again, with the MPI row producer
+# (hemicube/mpi_ranks.c, the one file that includes mpi.h) and its own main
+# (program_mpi.c), built with mpicc's flags; `radiosity` runs it when mpirun
+# started it, so neither the plain program nor the library needs MPI's
+# libraries at run time.
+MPI_C    := hemicube/mpi_ranks.c
+MPI_MAIN := radiosity/cli/program_mpi.c
+MPI_INC  := $(patsubst -I%,-isystem %,$(shell mpicc --showme:compile 2>/dev/null || pkg-config --cflags ompi-c))
+MPI_LIBS := $(shell mpicc --showme:link 2>/dev/null || pkg-config --libs ompi-c)
+PROG_MPI := $(B)/radiosity-mpi
+CLI_C    := $(filter-out $(MPI_MAIN),$(wildcard radiosity/cli/*.c))
+LIB_C    := $(filter-out $(CLI_C) $(MPI_C),$(wildcard radiosity/*/*.c hemicube/*.c solver/*.c render/*.c))
 LIB_CXX  := $(wildcard radiosity/*/*.cpp)
 LIB_OBJ  := $(LIB_C:%.c=$(B)/obj/%.o) $(LIB_CXX:%.cpp=$(B)/obj/%.o)
 LIB      := $(B)/libradiosity.a
@@ -75,7 +85,7 @@ all: prog
 lib: $(LIB) $(SHLIB)
 shlib: $(SHLIB)
 headers: $(INC_DIR)/.stamp
-prog: $(PROG)
+prog: $(PROG) $(PROG_MPI)
 tests: $(TEST_BIN)
 benches: $(BENCH_BIN) $(TOOL_BIN)
 
@@ -109,6 +119,19 @@ $(INC_DIR)/.stamp: $(PUB_H) tools/install.sh
 $(PROG): $(CLI_C:%.c=$(B)/obj/%.o) $(LIB)
 	@echo "LD  $(MODE) $@"
 	@$(CC) $(LDFLAGS) $^ $(LDLIBS) -o $@
+
+$(B)/obj/$(MPI_C:.c=.o): CPPFLAGS += $(MPI_INC)
+
+$(PROG_MPI): $(filter-out $(B)/obj/radiosity/cli/program.o,$(CLI_C:%.c=$(B)/obj/%.o)) \
+             $(B)/obj/$(MPI_MAIN:.c=.o) $(B)/obj/$(MPI_C:.c=.o) $(LIB)
+	@echo "LD  $(MODE) $@"
+	@$(CC) $(LDFLAGS) $^ $(LDLIBS) $(MPI_LIBS) -o $@
+
+# bench_mpi measures MPI itself (report/mpi.md)
+$(B)/obj/bench/bench_mpi.o: CPPFLAGS += $(MPI_INC)
+$(B)/bench/bench_mpi: $(B)/obj/bench/bench_mpi.o $(LIB)
+	@mkdir -p $(dir $@)
+	@$(CC) $(LDFLAGS) $^ $(LDLIBS) $(MPI_LIBS) -o $@
 
 $(B)/test/%: $(B)/obj/test/%.o $(LIB)
 	@mkdir -p $(dir $@)
@@ -174,7 +197,7 @@ uninstall:
 
 # The library's and the program's objects, for tools/check-structure.sh.
 print-objects:
-	@echo $(LIB_OBJ) $(CLI_C:%.c=$(B)/obj/%.o)
+	@echo $(LIB_OBJ) $(CLI_C:%.c=$(B)/obj/%.o) $(B)/obj/$(MPI_C:.c=.o)
 
 # The public headers, for test/cli/install.sh.
 print-headers:

@@ -8,9 +8,17 @@
  *   light_requests.c  punctual lights, the caller's side: hc_light_power,
  *                     hc_light_visibility, hc_light_direct, the requests of
  *                     their parts and the reading of the answers;
- *   pool.c            the caller's side of rows: the engine, its worker
- *                     processes, jobs of rows handed out in chunks and the
- *                     answers collected;
+ *   producer.c        a job of rows or element hemi-cubes (hc_compute_rows,
+ *                     hc_compute_points) run on the engine's row producer
+ *                     (struct hc_producer below): what is handed out next,
+ *                     strikes, and the checking and storing of answers;
+ *   pool.c            the engine (hc_create, hc_destroy) and the local fork
+ *                     pool, the first producer: its worker processes, chunks
+ *                     of items handed out and the answers collected (poll);
+ *   pool_lights.c     the pool's light parts and visibility chunks;
+ *   mpi_ranks.c       (radiosity-mpi only, not in the library) the MPI
+ *                     producer: blocks of items to other ranks, each with
+ *                     its own local pool, beside rank 0's pool;
  *   worker.c          a worker process: its buffers and its request loop;
  *   rows.c            one hemi-cube row F_ij (or a point receiver's F_ej),
  *                     with its exact entries, computed in a worker;
@@ -34,8 +42,11 @@
  *   analytic.c        closed-form factors (public, pure math).
  * Dependencies point one way (a file calls only files below it, by `nm`):
  *   column.c -> light_requests.c, patch_factors.c;
- *   light_requests.c -> pool.c, wire.c;
- *   pool.c -> worker.c, wire.c, delta_factors.c, gl_choice.c;
+ *   light_requests.c -> the producer (e->prod);
+ *   producer.c -> the producer (e->prod);
+ *   mpi_ranks.c -> producer.c, pool.c (its local pool);
+ *   pool.c -> pool_lights.c, worker.c, wire.c, delta_factors.c, gl_choice.c;
+ *   pool_lights.c -> wire.c;
  *   worker.c -> rows.c, light_views.c, gl.c, wire.c;
  *   rows.c -> patch_factors.c, gl.c;  light_views.c -> gl.c;
  *   gl_choice.c -> gl.c;  gl.c -> gl_osmesa.c, gl_egl.c;
@@ -47,14 +58,13 @@
  * rooms share are static inline here (hc_alloc, hc_basis, hc_cube_face,
  * hc_spot_falloff, hc_load_corners, hc_push_range), never a call upwards.
  *
- * Where issue 38's row producers would go (not built): the engine's
- * geometry (hc_create's checks and preparation, pool.c) stays; a
- * row-producer interface would sit where pool.c hands out chunks and
- * collects answers (send_chunk, receive_batch, the light and visibility
- * rounds of light_requests.c), with the local fork pool (the fork, chunk
- * and poll half of pool.c, and worker.c) as one producer file and MPI
- * ranks (e.g. mpi_ranks.c) as another, each ending in worker.c's request
- * loop.  Behind each, gl.c's drawing is shared, over whichever GL back end
+ * Row producers (issue 38): the engine's geometry (hc_create's checks and
+ * preparation, pool.c) is shared; everything that draws item buffers (patch
+ * rows, element hemi-cubes, the lights' parts and visibility) goes through
+ * e->prod, a struct hc_producer.  The local fork pool (pool.c,
+ * pool_lights.c, ending in worker.c's request loop) is one producer; MPI
+ * ranks (mpi_ranks.c) another, which runs the local pool beside its ranks.
+ * Behind each, gl.c's drawing is shared, over whichever GL back end
  * (hc_gl_context: gl_osmesa.c, gl_egl.c) hc_options.gl names.
  *
  * Invariant of the shared data: the engine (struct hc_engine) is filled in
@@ -174,6 +184,9 @@ struct hc_engine {
     double *poly_area;
     rad_vec3 *poly_center;
     hc_worker *w;
+    uint32_t processes_asked; /* hc_options.processes as given (0: each machine's CPUs) */
+    const struct hc_producer *prod; /* where items are computed (producer.c) */
+    void *remote;      /* the remote producer's state (mpi_ranks.c), or NULL */
     int broken;        /* a worker is gone: every later call fails */
     char broken_msg[HC_MAX_MSG + 64];
     uint32_t *rx_col;  /* receive buffers in the caller */
@@ -189,14 +202,17 @@ static inline void hc_load_corners(const hc_engine *e, uint32_t cell, rad_vec3 p
         p[k] = rad_v3(q[3 * k], q[3 * k + 1], q[3 * k + 2]);
 }
 
-/* pool.c: worker k's stream is lost (EOF, garbage, a failed send).  Marks
+/* pool_lights.c: reads the len bytes of worker k's error text (the worker
+ * has exited), marks the engine broken and fails with that text. */
+int hc_pool_error(hc_engine *e, uint32_t k, uint32_t len, rad_error *err);
+/* pool_lights.c: worker k's stream is lost (EOF, garbage, a failed send).  Marks
  * the engine broken and fails with its message; err may be NULL. */
 int hc_pool_gone(hc_engine *e, uint32_t k, rad_error *err);
-/* pool.c: reads the header (two words) of worker k's next reply: RAD_OK,
+/* pool_lights.c: reads the header (two words) of worker k's next reply: RAD_OK,
  * or the engine is broken (the stream is lost, or the worker sent its error
  * text in place of the reply and has exited). */
 int hc_pool_header(hc_engine *e, uint32_t k, uint32_t hdr[2], rad_error *err);
-/* pool.c: closes worker k's stream after a reply that could not be read:
+/* pool_lights.c: closes worker k's stream after a reply that could not be read:
  * nothing more is read from it (the engine is broken already). */
 void hc_pool_drop(hc_engine *e, uint32_t k);
 
@@ -290,6 +306,112 @@ void hc_wire_reply_fail(int fd, hc_reply *r, const char *text);
 /* Replies to one light part (m entries j, Φ_j) and to one visibility chunk. */
 int hc_wire_send_light_reply(int fd, uint32_t m, const uint32_t *col, const double *val);
 int hc_wire_send_vis_reply(int fd, uint32_t m, const double *vis);
+
+/* ------------------------------------------------------- the producers */
+
+/* One call's work and where its answers go: rows of patches into F (or,
+ * with F NULL, to store), or rows of point receivers handed to store.  Its
+ * items are numbered 0..count (rows[k] or recv[k]); store gets the item
+ * number. */
+typedef struct hc_job {
+    const uint32_t *rows;       /* rows: patch indices */
+    rad_matrix *F;
+    const hc_receiver *recv;    /* points */
+    hc_row_store store;
+    void *user;
+    uint32_t count;
+} hc_job;
+
+/* Items [first, first + count) handed out in one request, of which `done`
+ * are answered. */
+typedef struct hc_range {
+    uint32_t first, count, done;
+} hc_range;
+
+/* One run of a job (producer.c): which items are handed out, which come
+ * back to be handed out again (retry), and the strikes of items whose
+ * worker stopped while computing them.  `local` and `remote` are the
+ * producers' own bookkeeping of the run. */
+typedef struct hc_run {
+    const hc_job *job;
+    uint32_t chunk;      /* items per request to one local worker */
+    uint32_t next;       /* items from here on are not handed out yet */
+    uint32_t done;       /* items stored */
+    hc_range *retry;     /* ranges to hand out again, before `next` */
+    uint32_t retry_head, retry_len, retry_cap;
+    uint8_t *strikes;    /* per item: workers that stopped while computing it */
+    int rc;              /* the first failure; then answers are only drained */
+    void *local;         /* pool.c's */
+    void *remote;        /* mpi_ranks.c's */
+} hc_run;
+
+/* A row producer: what computes the items of a job and draws the lights'
+ * item buffers.  The engine calls only these (producer.c, light_requests.c),
+ * so another transport or machine is a new table, not a rewrite.  A job
+ * runs as begin, then give and collect in turn until collect reports
+ * nothing held, then end:
+ *   start        the engine's geometry is ready: start the workers (or
+ *                ranks) and have them set up; RAD_OK or an error;
+ *   begin/end    a run's own bookkeeping (run->local, run->remote);
+ *   give         hand blocks of items (hc_run_take) to whoever has room;
+ *   collect      receive answers (hc_run_store), waiting at most timeout_ms
+ *                (-1: until one comes); returns the items still held;
+ *   light_power  Φ of the light parts parts[0..np) added into power;
+ *   light_vis    visibility of points, grouped by part (light_requests.c's
+ *                order and start);
+ *   stop         stop the workers (hc_destroy).
+ * The local fork pool (pool.c, pool_lights.c) is the producer of every
+ * engine; radiosity-mpi installs hc_remote_producer (mpi_ranks.c), which
+ * spreads the items over MPI ranks and runs the local pool beside them. */
+typedef struct hc_producer {
+    const char *name;
+    int (*start)(hc_engine *e, rad_error *err);
+    int (*begin)(hc_engine *e, hc_run *run, rad_error *err);
+    void (*give)(hc_engine *e, hc_run *run, rad_error *err);
+    uint32_t (*collect)(hc_engine *e, hc_run *run, int timeout_ms, rad_error *err);
+    void (*end)(hc_engine *e, hc_run *run);
+    int (*light_power)(hc_engine *e, hc_light_req *q, const uint32_t *parts, uint32_t np,
+                       double *power, rad_error *err);
+    int (*light_vis)(hc_engine *e, hc_light_req *q, const hc_receiver *points,
+                     const uint32_t *order, const uint32_t start[8], double *vis, rad_error *err);
+    void (*stop)(hc_engine *e);
+} hc_producer;
+
+/* pool.c: the local fork pool. */
+extern const hc_producer hc_pool_producer;
+/* pool_lights.c: its light_power and light_vis. */
+int hc_pool_light_power(hc_engine *e, hc_light_req *q, const uint32_t *parts, uint32_t np,
+                        double *power, rad_error *err);
+int hc_pool_light_vis(hc_engine *e, hc_light_req *q, const hc_receiver *points,
+                      const uint32_t *order, const uint32_t start[8], double *vis, rad_error *err);
+/* producer.c: the producer of new engines when set (radiosity-mpi sets it
+ * once, before any engine: process-wide), else hc_pool_producer. */
+extern const hc_producer *hc_remote_producer;
+
+/* producer.c: the next block of at most max items to hand out (items
+ * handed out again first); 0 when none is left or the caller asked to stop. */
+int hc_run_take(hc_engine *e, hc_run *run, uint32_t max, hc_range *r);
+/* producer.c: items [first, first + count) go back to be handed out again. */
+void hc_run_retry(hc_run *run, uint32_t first, uint32_t count);
+/* producer.c: the answer for item `item` (i: the patch of a row, or the
+ * item number of a point, as the worker echoes it): checked (i, columns
+ * in range and increasing, not i's own, values > 0 and finite) and stored
+ * unless the run has failed.  0, or -1 when malformed (nothing stored). */
+int hc_run_store(hc_engine *e, hc_run *run, uint32_t item, uint32_t i, uint32_t cnt,
+                 const uint32_t *col, const float *val, rad_error *err);
+/* producer.c: the first failure of a run is the one kept. */
+static inline void hc_run_fail(hc_run *run, int code)
+{
+    if (run->rc == RAD_OK)
+        run->rc = code;
+}
+/* producer.c: the patch an item is of, for messages. */
+static inline uint32_t hc_item_patch(const hc_job *job, uint32_t item)
+{
+    return job->recv ? job->recv[item].patch : job->rows[item];
+}
+/* producer.c: runs a job on e's producer. */
+int hc_run_job(hc_engine *e, const hc_job *job, rad_error *err);
 
 /* ------------------------------------------------------------ the worker */
 

@@ -250,4 +250,24 @@ double hc_ff_point_polygon(rad_vec3 p, rad_vec3 n, const rad_vec3 *poly, uint32_
 double hc_ff_polygon_polygon(const rad_vec3 *a, uint32_t na, const rad_vec3 *b, uint32_t nb,
                              uint32_t subdiv);
 
+/* ---------------------------------------------------------------------------
+ * MPI ranks (hemicube/mpi_ranks.c): linked into the radiosity-mpi program
+ * only, never into libradiosity.a, so nothing else needs MPI's libraries.
+ * ------------------------------------------------------------------------- */
+
+/* Starts MPI and says which rank this process is of how many.  On rank 0,
+ * every engine created afterwards spreads its rows and element hemi-cubes
+ * over the ranks (each with its own worker processes) beside its own
+ * workers.  Call once, first thing in main. */
+int hc_mpi_start(int *argc, char ***argv, int *rank, int *size, rad_error *err);
+/* Ranks 1..size-1: serves rank 0's engines until rank 0 finishes. */
+int hc_mpi_serve(rad_error *err);
+/* Rank 0: one line naming the ranks, their hosts and the hemi-cubes each
+ * computed, and what stopped them if something did (returns 1 then). */
+int hc_mpi_summary(char *line, size_t size);
+/* Every rank, last: releases the ranks (rank 0) and ends MPI; after a rank
+ * was lost (rank 0), or when a serving rank failed (failed = 1), the job is
+ * aborted instead (MPI's finish would wait for the lost rank). */
+void hc_mpi_finish(int failed);
+
 #endif /* HC_HEMICUBE_H */

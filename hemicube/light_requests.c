@@ -2,62 +2,23 @@
  * KHR_lights_punctual): hc_light_power, hc_light_visibility and
  * hc_light_direct.
  *
- * Owns the checks of a light, the requests that spread its parts over the
- * engine's workers and the reading of their answers; the worker side
+ * Owns the checks of a light and the requests that split it into parts;
+ * the engine's producer (e->prod: the local pool's side in pool_lights.c)
+ * sends them to workers and reads the answers, and the worker side
  * (light_views.c) draws the parts.  Lights are a second request type served
  * by the same workers as rows: one request per cube face (the directional
  * light's single view is part 0), answered with Φ_j of that part; the
- * caller adds the parts in part order, so the result never depends on which
+ * parts are added in part order, so the result never depends on which
  * worker drew what.  Visibility of points is a third: points are grouped by
  * the part their direction falls in (sort_by_part), sent in chunks, and
  * each worker answers a chunk from the part's item buffer.  Invariant: a
- * function of this file runs in the caller only (it talks to workers
- * through pool.c and wire.c); nothing here is reachable from worker.c.
+ * function of this file runs in the caller only (it reaches workers only
+ * through the producer); nothing here is reachable from worker.c.
  */
 #include "hc_internal.h"
 
 #include <stdlib.h>
 #include <string.h>
-
-/* Reads the header of worker k's answer to a light request: RAD_OK with
- * its count in *m when the header is `tag`; else the engine is broken (a
- * worker's error message, or a stream out of step). */
-static int receive_light_header(hc_engine *e, uint32_t k, uint32_t tag, uint32_t *m,
-                                rad_error *err)
-{
-    uint32_t hdr[2];
-    int rc = hc_pool_header(e, k, hdr, err);
-    if (rc != RAD_OK)
-        return rc;
-    if (hdr[0] != tag)
-        return hc_pool_gone(e, k, err);
-    *m = hdr[1];
-    return RAD_OK;
-}
-
-/* Reads worker k's answer to one light part and adds it to power (when
- * add); RAD_OK, or the engine is broken and the error is in err. */
-static int receive_light(hc_engine *e, uint32_t k, double *power, double *rx, int add,
-                         rad_error *err)
-{
-    int fd = e->w[k].fd;
-    uint32_t m = 0;
-    int rc = receive_light_header(e, k, HC_MSG_LIGHT, &m, err);
-    if (rc != RAD_OK)
-        return rc;
-    if (m > e->n ||
-        hc_wire_recv(fd, e->rx_col, (size_t)m * sizeof *e->rx_col) != 0 ||
-        hc_wire_recv(fd, rx, (size_t)m * sizeof *rx) != 0)
-        return hc_pool_gone(e, k, err);
-    for (uint32_t q = 0; q < m; q++)
-        if (e->rx_col[q] >= e->n || (q && e->rx_col[q] <= e->rx_col[q - 1]) || !(rx[q] > 0.0) ||
-            !isfinite(rx[q]))
-            return hc_pool_gone(e, k, err);
-    if (add)
-        for (uint32_t q = 0; q < m; q++)
-            power[e->rx_col[q]] += rx[q];
-    return RAD_OK;
-}
 
 /* Checks a light and fills the request of its parts (all but q->part);
  * fn names the public function in messages. */
@@ -136,35 +97,7 @@ int hc_light_power(hc_engine *e, const hc_light *light, uint32_t resolution, dou
             parts[np++] = f;
         }
     }
-    double *rx = malloc((size_t)e->n * sizeof *rx);
-    if (!rx)
-        return rad_fail(err, RAD_ERR_NOMEM, "hc_light_power: out of memory for %u patches", e->n);
-    /* Part k goes to worker k mod nproc; each worker answers in the order
-     * asked, so reading the parts in order reads every stream in order. */
-    uint32_t sent = 0;
-    for (; sent < np; sent++) {
-        uint32_t k = sent % e->nproc;
-        q.part = parts[sent];
-        if (hc_wire_send_light(e->w[k].fd, &q) != 0) {
-            rc = hc_pool_gone(e, k, err);
-            break;
-        }
-    }
-    /* Answers of parts already sent are read even after a failure, while
-     * their workers live, so a later call finds the streams in step. */
-    for (uint32_t p = 0; p < sent; p++) {
-        uint32_t k = p % e->nproc;
-        if (e->w[k].fd < 0)
-            continue;
-        int s = receive_light(e, k, power, rx, rc == RAD_OK, rc == RAD_OK ? err : NULL);
-        if (s != RAD_OK && rc == RAD_OK)
-            rc = s;
-        if (s != RAD_OK) {
-            /* That stream is lost: no more reads from it. */
-            hc_pool_drop(e, k);
-        }
-    }
-    free(rx);
+    rc = e->prod->light_power(e, &q, parts, np, power, err);
     if (rc != RAD_OK)
         for (uint32_t j = 0; j < e->n; j++)
             power[j] = 0.0;
@@ -208,26 +141,6 @@ static int vis_part(const hc_light_req *q, rad_vec3 at)
     return 2 * axis + (r[axis] < 0.0); /* hc_cube_face's order: +x, -x, +y, -y, +z, -z */
 }
 
-/* Reads worker k's answer to one visibility chunk of m points into
- * vis[idx[0..m)] (when store).  RAD_OK, or the engine is broken. */
-static int receive_vis(hc_engine *e, uint32_t k, const uint32_t *idx, uint32_t m, double *vis,
-                       double *rx, int store, rad_error *err)
-{
-    uint32_t got = 0;
-    int rc = receive_light_header(e, k, HC_MSG_VIS, &got, err);
-    if (rc != RAD_OK)
-        return rc;
-    if (got != m || hc_wire_recv(e->w[k].fd, rx, (size_t)m * sizeof *rx) != 0)
-        return hc_pool_gone(e, k, err);
-    for (uint32_t q = 0; q < m; q++)
-        if (!(rx[q] >= 0.0 && rx[q] <= 1.0))
-            return hc_pool_gone(e, k, err);
-    if (store)
-        for (uint32_t q = 0; q < m; q++)
-            vis[idx[q]] = rx[q];
-    return RAD_OK;
-}
-
 /* The points by part (a counting sort, stable: each part's points in their
  * given order), so a worker renders a part once for all of its chunks
  * (light_views.c keeps the last part's pixels): part f's points are
@@ -246,75 +159,6 @@ static void sort_by_part(const hc_engine *e, const hc_light_req *q, const hc_rec
     memcpy(fill, start, sizeof fill);
     for (uint32_t k = 0; k < count; k++)
         order[fill[part[k]]++] = k;
-}
-
-/* Worker k takes the parts k, k + nproc, ... in turn; per round each worker
- * has one chunk in flight, and every answer of a round is read before the
- * next round is sent, so no socket fills in both directions.  Results
- * depend only on the part's pixels and the point, never on which worker
- * drew them.  rx and buf hold HC_VIS_CHUNK values each. */
-static int vis_rounds(hc_engine *e, hc_light_req *q, const hc_receiver *points,
-                      const uint32_t *order, const uint32_t start[8], double *vis, double *rx,
-                      hc_point_req *buf, rad_error *err)
-{
-    int rc = RAD_OK;
-    uint32_t *wpart = calloc(e->nproc, sizeof *wpart), *wnext = calloc(e->nproc, sizeof *wnext);
-    uint32_t *wsent = calloc(e->nproc, sizeof *wsent), *wcnt = calloc(e->nproc, sizeof *wcnt);
-    if (!wpart || !wnext || !wsent || !wcnt) {
-        rc = rad_fail(err, RAD_ERR_NOMEM, "hc_light_visibility: out of memory");
-        goto done;
-    }
-    for (uint32_t k = 0; k < e->nproc; k++) {
-        wpart[k] = k;
-        wnext[k] = k < 6 ? start[k] : 0;
-    }
-    for (;;) {
-        int any = 0;
-        memset(wcnt, 0, e->nproc * sizeof *wcnt);
-        for (uint32_t k = 0; k < e->nproc; k++) {
-            while (rc == RAD_OK && wpart[k] < 6 && wnext[k] >= start[wpart[k] + 1]) {
-                wpart[k] += e->nproc;
-                if (wpart[k] < 6)
-                    wnext[k] = start[wpart[k]];
-            }
-            if (rc != RAD_OK || wpart[k] >= 6 || e->w[k].fd < 0)
-                continue;
-            uint32_t f = wpart[k], m = start[f + 1] - wnext[k];
-            m = m > HC_VIS_CHUNK ? HC_VIS_CHUNK : m;
-            for (uint32_t i = 0; i < m; i++) {
-                const hc_receiver *pt = &points[order[wnext[k] + i]];
-                rad_vec3 at = rad_sub(pt->center, e->origin);
-                buf[i] = (hc_point_req){order[wnext[k] + i], pt->patch, {at.x, at.y, at.z}};
-            }
-            q->part = f;
-            if (hc_wire_send_vis(e->w[k].fd, q, buf, m) != 0) {
-                rc = hc_pool_gone(e, k, err);
-                break;
-            }
-            wsent[k] = wnext[k];
-            wcnt[k] = m;
-            wnext[k] += m;
-            any = 1;
-        }
-        /* Answers already asked for are read even after a failure, while
-         * their workers live, so a later call finds the streams in step. */
-        for (uint32_t k = 0; k < e->nproc; k++) {
-            if (!wcnt[k] || e->w[k].fd < 0)
-                continue;
-            int s = receive_vis(e, k, order + wsent[k], wcnt[k], vis, rx, rc == RAD_OK,
-                                rc == RAD_OK ? err : NULL);
-            if (s != RAD_OK) {
-                if (rc == RAD_OK)
-                    rc = s;
-                hc_pool_drop(e, k);
-            }
-        }
-        if (!any || rc != RAD_OK)
-            break;
-    }
-done:
-    free(wpart), free(wnext), free(wsent), free(wcnt);
-    return rc;
 }
 
 int hc_light_visibility(hc_engine *e, const hc_light *light, uint32_t resolution,
@@ -336,18 +180,16 @@ int hc_light_visibility(hc_engine *e, const hc_light *light, uint32_t resolution
     if (count == 0)
         return RAD_OK;
     uint32_t *part = malloc((size_t)count * sizeof *part), *order = malloc((size_t)count * sizeof *order);
-    double *rx = malloc(HC_VIS_CHUNK * sizeof *rx);
-    hc_point_req *buf = malloc(HC_VIS_CHUNK * sizeof *buf);
     uint32_t start[8] = {0};
-    if (!part || !order || !rx || !buf) {
-        free(part), free(order), free(rx), free(buf);
+    if (!part || !order) {
+        free(part), free(order);
         return rad_fail(err, RAD_ERR_NOMEM, "hc_light_visibility: out of memory for %u points", count);
     }
     sort_by_part(e, &q, points, count, part, order, start);
-    rc = vis_rounds(e, &q, points, order, start, vis, rx, buf, err);
+    rc = e->prod->light_vis(e, &q, points, order, start, vis, err);
     if (rc != RAD_OK)
         for (uint32_t k = 0; k < count; k++)
             vis[k] = 0.0;
-    free(part), free(order), free(rx), free(buf);
+    free(part), free(order);
     return rc;
 }

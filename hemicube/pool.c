@@ -1,5 +1,8 @@
-/* pool.c - the caller's side of the hemi-cube engine: hc_create,
- * hc_destroy, hc_compute_rows, hc_compute_points.
+/* pool.c - the caller's side of the hemi-cube engine: hc_create and
+ * hc_destroy, and the local fork pool, the engine's first row producer
+ * (hc_pool_producer: producer.c runs a job of rows or element hemi-cubes
+ * through its give and collect; radiosity-mpi's MPI producer runs it
+ * beside its ranks).
  *
  * Owns the engine and its worker processes.  The caller's process never
  * creates a GL context: hc_create checks the mesh, prepares the geometry
@@ -78,6 +81,8 @@ void hc_destroy(hc_engine *e)
 {
     if (!e)
         return;
+    if (e->prod)
+        e->prod->stop(e);
     stop_workers(e);
     free(e->w);
     free(e->dff);
@@ -530,8 +535,10 @@ int hc_create(const rad_mesh *mesh, const hc_options *opt, hc_engine **out, rad_
     prepare_geometry(e, lo, hi);
     block_spheres(e);
     rc = cluster_outlines(e, err);
+    e->processes_asked = opt ? opt->processes : 0;
+    e->prod = hc_remote_producer ? hc_remote_producer : &hc_pool_producer;
     if (rc == RAD_OK)
-        rc = start_workers(e, err);
+        rc = e->prod->start(e, err);
     if (rc != RAD_OK) {
         hc_destroy(e);
         return rc;
@@ -540,97 +547,55 @@ int hc_create(const rad_mesh *mesh, const hc_options *opt, hc_engine **out, rad_
     return RAD_OK;
 }
 
-/* ------------------------------------------------------------------- jobs */
-
-/* One call's work and where its answers go: rows of patches into F, or
- * rows of point receivers handed to the caller's store.  Its items are
- * numbered 0..count (rows[k] or recv[k]). */
-typedef struct hc_job {
-    const uint32_t *rows;       /* rows: patch indices */
-    rad_matrix *F;
-    const hc_receiver *recv;    /* points */
-    hc_row_store store;
-    void *user;
-    uint32_t count;
-} hc_job;
-
-/* Items [first, first + count) handed to a worker in one request, of which
- * it has answered `done` (answers come in the order asked). */
-typedef struct hc_range {
-    uint32_t first, count, done;
-} hc_range;
+/* ------------------------------------------------- the pool as a producer */
 
 /* A worker is topped up while it holds at most `chunk` items, so it holds
  * at most 2 × HC_MAX_CHUNK of them, in at most that many ranges. */
 #define HC_MAX_HELD (2u * HC_MAX_CHUNK + 1u)
 
-/* One run of a job.  A worker that stops (killed, crashed: its stream
- * ends) is replaced, and what it held is handed out again: the item it was
- * computing alone, so that an item that stops a second worker is known
- * for certain and ends the job with an error naming it, never a loop. */
-typedef struct hc_run {
-    const hc_job *job;
-    uint32_t chunk;      /* items per request */
-    uint32_t next;       /* items from here on are not handed out yet */
-    uint32_t done;       /* items stored */
-    hc_range *held;      /* nproc × HC_MAX_HELD: each worker's ranges in the order sent */
+/* The pool's bookkeeping of one run: each worker's ranges in the order
+ * sent (answers come in the order asked), and poll's arrays. */
+typedef struct pool_run {
+    hc_range *held;      /* nproc × HC_MAX_HELD */
     uint32_t *nheld;     /* per worker */
-    hc_range *retry;     /* ranges to hand out again, before `next` */
-    uint32_t retry_head, retry_len, retry_cap;
-    uint8_t *strikes;    /* per item: workers that stopped while computing it */
-    int rc;              /* the first failure; then answers are only drained */
-} hc_run;
-
-static void keep_first(int *rc, int code)
-{
-    if (*rc == RAD_OK)
-        *rc = code;
-}
-
-/* The patch an item is of, for messages. */
-static uint32_t item_patch(const hc_job *job, uint32_t item)
-{
-    return job->recv ? job->recv[item].patch : job->rows[item];
-}
-
-static void push_retry(hc_run *run, uint32_t first, uint32_t count)
-{
-    if (count && run->retry_head + run->retry_len < run->retry_cap)
-        run->retry[run->retry_head + run->retry_len++] = (hc_range){first, count, 0};
-}
+    struct pollfd *pf;
+    uint32_t *who;
+} pool_run;
 
 /* Worker k stopped.  The item it was computing (the first unanswered one it
- * holds) takes a strike: a second strike is the error.  What it held goes
- * back to be handed out again (the struck item alone), and a new worker
- * takes its place. */
+ * holds) takes a strike: a second strike is the error, so that an item that
+ * stops a second worker is known for certain and ends the job with an error
+ * naming it, never a loop.  What it held goes back to be handed out again
+ * (the struck item alone), and a new worker takes its place. */
 static void worker_lost(hc_engine *e, hc_run *run, uint32_t k, rad_error *err)
 {
     const hc_job *job = run->job;
-    hc_range *held = run->held + (size_t)k * HC_MAX_HELD;
+    pool_run *pr = run->local;
+    hc_range *held = pr->held + (size_t)k * HC_MAX_HELD;
     char why[96];
     rad_error sub;
     int rc = replace_worker(e, k, why, sizeof why, &sub);
-    if (run->nheld[k] && run->rc == RAD_OK) {
+    if (pr->nheld[k] && run->rc == RAD_OK) {
         uint32_t item = held[0].first + held[0].done;
         if (++run->strikes[item] >= 2)
-            keep_first(&run->rc,
-                       rad_fail(err, RAD_ERR_GL,
-                                "hemi-cube: the %s of patch %u stopped two workers (the last %s); "
-                                "it cannot be computed", job->recv ? "element hemi-cube" : "row",
-                                item_patch(job, item), why));
+            hc_run_fail(run,
+                        rad_fail(err, RAD_ERR_GL,
+                                 "hemi-cube: the %s of patch %u stopped two workers (the last %s); "
+                                 "it cannot be computed", job->recv ? "element hemi-cube" : "row",
+                                 hc_item_patch(job, item), why));
     }
-    for (uint32_t q = 0; q < run->nheld[k] && run->rc == RAD_OK; q++) {
+    for (uint32_t q = 0; q < pr->nheld[k] && run->rc == RAD_OK; q++) {
         uint32_t first = held[q].first + held[q].done, left = held[q].count - held[q].done;
         if (q == 0) { /* the one it was computing goes alone */
-            push_retry(run, first, 1);
+            hc_run_retry(run, first, 1);
             first++;
             left--;
         }
-        push_retry(run, first, left);
+        hc_run_retry(run, first, left);
     }
-    run->nheld[k] = 0;
+    pr->nheld[k] = 0;
     if (rc)
-        keep_first(&run->rc, rad_fail(err, rc, "%s", sub.message));
+        hc_run_fail(run, rad_fail(err, rc, "%s", sub.message));
 }
 
 static int send_chunk(hc_engine *e, uint32_t k, const hc_job *job, uint32_t first, uint32_t count)
@@ -657,72 +622,19 @@ static int send_chunk(hc_engine *e, uint32_t k, const hc_job *job, uint32_t firs
  * then new ones.  A worker that cannot be sent to is replaced. */
 static void top_up(hc_engine *e, hc_run *run, uint32_t k, rad_error *err)
 {
-    const hc_job *job = run->job;
-    hc_range *held = run->held + (size_t)k * HC_MAX_HELD;
-    if (e->opt.stop && *e->opt.stop)
-        return; /* asked to stop: what is held is still collected */
-    while (run->rc == RAD_OK && e->w[k].in_flight <= run->chunk && run->nheld[k] < HC_MAX_HELD) {
-        hc_range r;
-        if (run->retry_len) {
-            hc_range *q = &run->retry[run->retry_head];
-            r = (hc_range){q->first, q->count < run->chunk ? q->count : run->chunk, 0};
-            q->first += r.count;
-            q->count -= r.count;
-            if (q->count == 0) {
-                run->retry_head++;
-                run->retry_len--;
-            }
-        } else if (run->next < job->count) {
-            uint32_t left = job->count - run->next;
-            r = (hc_range){run->next, left < run->chunk ? left : run->chunk, 0};
-            run->next += r.count;
-        } else {
-            return;
-        }
-        if (send_chunk(e, k, job, r.first, r.count) != 0) {
+    pool_run *pr = run->local;
+    hc_range *held = pr->held + (size_t)k * HC_MAX_HELD;
+    hc_range r;
+    while (run->rc == RAD_OK && e->w[k].in_flight <= run->chunk && pr->nheld[k] < HC_MAX_HELD &&
+           hc_run_take(e, run, run->chunk, &r)) {
+        if (send_chunk(e, k, run->job, r.first, r.count) != 0) {
             /* it never got these: they go back without a strike */
-            push_retry(run, r.first, r.count);
+            hc_run_retry(run, r.first, r.count);
             worker_lost(e, run, k, err);
             return;
         }
-        held[run->nheld[k]++] = r;
+        held[pr->nheld[k]++] = r;
     }
-}
-
-int hc_pool_gone(hc_engine *e, uint32_t k, rad_error *err)
-{
-    e->broken = 1;
-    snprintf(e->broken_msg, sizeof e->broken_msg, "hemi-cube worker %u stopped", k);
-    e->w[k].in_flight = 0;
-    return rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
-}
-
-/* Reads the len bytes of worker k's error text (the worker has exited),
- * marks the engine broken and fails with that text. */
-static int worker_error(hc_engine *e, uint32_t k, uint32_t len, rad_error *err)
-{
-    char text[HC_MAX_MSG + 1] = "";
-    if (hc_wire_recv_text(e->w[k].fd, len, text) != 0)
-        return hc_pool_gone(e, k, err);
-    e->broken = 1;
-    snprintf(e->broken_msg, sizeof e->broken_msg, "%s (worker %u)", text, k);
-    e->w[k].in_flight = 0;
-    return rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
-}
-
-int hc_pool_header(hc_engine *e, uint32_t k, uint32_t hdr[2], rad_error *err)
-{
-    if (hc_wire_recv(e->w[k].fd, hdr, 2 * sizeof *hdr) != 0)
-        return hc_pool_gone(e, k, err);
-    if (hdr[0] == HC_MSG_ERROR)
-        return worker_error(e, k, hdr[1], err);
-    return RAD_OK;
-}
-
-void hc_pool_drop(hc_engine *e, uint32_t k)
-{
-    close(e->w[k].fd);
-    e->w[k].fd = -1;
 }
 
 /* Reads two words, or says the stream ended (-1) or the worker sent its
@@ -732,48 +644,30 @@ static int batch_word(hc_engine *e, uint32_t k, uint32_t w[2], rad_error *err)
     if (hc_wire_recv(e->w[k].fd, w, 2 * sizeof *w) != 0)
         return -1;
     if (w[0] == HC_MSG_ERROR) {
-        worker_error(e, k, w[1], err);
+        hc_pool_error(e, k, w[1], err);
         return -2;
     }
     return 0;
 }
 
-/* One answered row: in order, well formed, then stored (unless the run has
- * failed, when it is only read).  0, or -1 when the stream is out of step. */
+/* One answered row: in order, well formed, then stored (hc_run_store).
+ * 0, or -1 when the stream is out of step. */
 static int receive_row(hc_engine *e, hc_run *run, uint32_t k, hc_range *r, rad_error *err)
 {
-    const hc_job *job = run->job;
     uint32_t rh[2];
     int s = batch_word(e, k, rh, err);
     if (s == -2)
-        keep_first(&run->rc, RAD_ERR_GL);
+        hc_run_fail(run, RAD_ERR_GL);
     if (s != 0)
         return -1;
-    /* i: the patch of a row, or the receiver number of a point */
-    uint32_t item = r->first + r->done, i = rh[0], cnt = rh[1];
-    if (i != (job->recv ? item : job->rows[item]) || cnt > e->n ||
+    uint32_t cnt = rh[1];
+    if (cnt > e->n ||
         hc_wire_recv(e->w[k].fd, e->rx_col, (size_t)cnt * sizeof *e->rx_col) != 0 ||
-        hc_wire_recv(e->w[k].fd, e->rx_val, (size_t)cnt * sizeof *e->rx_val) != 0)
+        hc_wire_recv(e->w[k].fd, e->rx_val, (size_t)cnt * sizeof *e->rx_val) != 0 ||
+        hc_run_store(e, run, r->first + r->done, rh[0], cnt, e->rx_col, e->rx_val, err) != 0)
         return -1;
-    uint32_t self = item_patch(job, item);
-    for (uint32_t q = 0; q < cnt; q++)
-        if (e->rx_col[q] >= e->n || e->rx_col[q] == self ||
-            (q && e->rx_col[q] <= e->rx_col[q - 1]) || !(e->rx_val[q] > 0.0f) ||
-            !isfinite(e->rx_val[q]))
-            return -1;
     r->done++;
     e->w[k].in_flight--;
-    if (run->rc != RAD_OK)
-        return 0;
-    s = job->recv ? job->store(job->user, i, cnt, e->rx_col, e->rx_val, err)
-                  : rad_matrix_set_row(job->F, i, cnt, e->rx_col, e->rx_val, err);
-    if (s != RAD_OK) {
-        keep_first(&run->rc, s);
-        return 0;
-    }
-    run->done++;
-    if (e->opt.progress)
-        e->opt.progress(e->opt.progress_user, run->done, job->count);
     return 0;
 }
 
@@ -781,11 +675,12 @@ static int receive_row(hc_engine *e, hc_run *run, uint32_t k, hc_range *r, rad_e
  * that ends or goes out of step is a worker lost. */
 static void receive_batch(hc_engine *e, hc_run *run, uint32_t k, rad_error *err)
 {
-    hc_range *held = run->held + (size_t)k * HC_MAX_HELD;
+    pool_run *pr = run->local;
+    hc_range *held = pr->held + (size_t)k * HC_MAX_HELD;
     uint32_t hdr[2];
-    int s = run->nheld[k] ? batch_word(e, k, hdr, err) : -1;
+    int s = pr->nheld[k] ? batch_word(e, k, hdr, err) : -1;
     if (s == -2) {
-        keep_first(&run->rc, RAD_ERR_GL);
+        hc_run_fail(run, RAD_ERR_GL);
         return;
     }
     if (s == 0 && (hdr[0] != HC_MSG_BATCH || hdr[1] != held[0].count - held[0].done))
@@ -793,117 +688,98 @@ static void receive_batch(hc_engine *e, hc_run *run, uint32_t k, rad_error *err)
     for (uint32_t q = 0; s == 0 && q < hdr[1]; q++)
         s = receive_row(e, run, k, &held[0], err);
     if (s == -2 || (s != 0 && e->broken)) {
-        keep_first(&run->rc, RAD_ERR_GL);
+        hc_run_fail(run, RAD_ERR_GL);
         return;
     }
     if (s != 0) {
         worker_lost(e, run, k, err);
         return;
     }
-    memmove(held, held + 1, (run->nheld[k] - 1) * sizeof *held);
-    run->nheld[k]--;
+    memmove(held, held + 1, (pr->nheld[k] - 1) * sizeof *held);
+    pr->nheld[k]--;
 }
 
-static int run_job(hc_engine *e, const hc_job *job, rad_error *err);
-
-int hc_compute_rows(hc_engine *e, const uint32_t *rows, uint32_t count, rad_matrix *F,
-                    rad_error *err)
+static void pool_end(hc_engine *e, hc_run *run)
 {
-    if (!e || !F || (count && !rows))
-        return rad_fail(err, RAD_ERR_USAGE, "hc_compute_rows: engine, matrix and rows must be given");
-    if (F->n != e->n)
-        return rad_fail(err, RAD_ERR_USAGE, "hc_compute_rows: matrix has %u rows, the mesh %u patches",
-                        F->n, e->n);
-    for (uint32_t k = 0; k < count; k++)
-        if (rows[k] >= e->n)
-            return rad_fail(err, RAD_ERR_USAGE, "hc_compute_rows: row %u: no such patch (%u patches)",
-                            rows[k], e->n);
-    hc_job job = {.rows = rows, .F = F, .count = count};
-    return run_job(e, &job, err);
+    (void)e;
+    pool_run *pr = run->local;
+    if (!pr)
+        return;
+    free(pr->held);
+    free(pr->nheld);
+    free(pr->pf);
+    free(pr->who);
+    free(pr);
+    run->local = NULL;
 }
 
-int hc_compute_points(hc_engine *e, const hc_receiver *recv, uint32_t count, hc_row_store store,
-                      void *user, rad_error *err)
+static int pool_begin(hc_engine *e, hc_run *run, rad_error *err)
 {
-    if (!e || !store || (count && !recv))
-        return rad_fail(err, RAD_ERR_USAGE, "hc_compute_points: engine, receivers and store must be given");
-    for (uint32_t k = 0; k < count; k++)
-        if (recv[k].patch >= e->n || !rad_finite3(recv[k].center))
-            return rad_fail(err, RAD_ERR_USAGE, "hc_compute_points: receiver %u: patch %u of %u, or a "
-                            "non-finite point", k, recv[k].patch, e->n);
-    hc_job job = {.recv = recv, .store = store, .user = user, .count = count};
-    return run_job(e, &job, err);
-}
-
-static void run_free(hc_run *run)
-{
-    free(run->held);
-    free(run->nheld);
-    free(run->retry);
-    free(run->strikes);
-}
-
-/* Hands the job out in chunks and collects every answer. */
-static int run_job(hc_engine *e, const hc_job *job, rad_error *err)
-{
-    const uint32_t count = job->count;
-    if (e->broken)
-        return rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
-    if (count == 0)
-        return RAD_OK;
-
-    /* Modest chunks, at most two in flight per worker: a fast worker comes
-     * back for more, and the tail stays short. */
-    uint32_t chunk = count / (e->nproc * 8);
-    hc_run run = {.job = job, .chunk = chunk < 1 ? 1 : chunk > HC_MAX_CHUNK ? HC_MAX_CHUNK : chunk};
-    /* every loss puts back at most two ranges and strikes an item: at most
-     * two losses an item before the job fails */
-    run.retry_cap = 4 * count + 2;
-    run.held = malloc((size_t)e->nproc * HC_MAX_HELD * sizeof *run.held);
-    run.nheld = calloc(e->nproc, sizeof *run.nheld);
-    run.retry = malloc(run.retry_cap * sizeof *run.retry);
-    run.strikes = calloc(count, 1);
-    struct pollfd *pf = malloc(e->nproc * sizeof *pf);
-    uint32_t *who = malloc(e->nproc * sizeof *who);
-    if (!pf || !who || !run.held || !run.nheld || !run.retry || !run.strikes) {
-        free(pf);
-        free(who);
-        run_free(&run);
+    pool_run *pr = calloc(1, sizeof *pr);
+    run->local = pr;
+    if (pr) {
+        pr->held = malloc((size_t)e->nproc * HC_MAX_HELD * sizeof *pr->held);
+        pr->nheld = calloc(e->nproc, sizeof *pr->nheld);
+        pr->pf = malloc(e->nproc * sizeof *pr->pf);
+        pr->who = malloc(e->nproc * sizeof *pr->who);
+    }
+    if (!pr || !pr->held || !pr->nheld || !pr->pf || !pr->who) {
+        pool_end(e, run);
         return rad_fail(err, RAD_ERR_NOMEM, "hemi-cube: out of memory");
     }
-    for (;;) {
-        for (uint32_t k = 0; k < e->nproc && !e->broken; k++)
-            top_up(e, &run, k, err);
-        nfds_t np = 0;
-        for (uint32_t k = 0; k < e->nproc && !e->broken; k++)
-            if (e->w[k].in_flight) {
-                pf[np] = (struct pollfd){.fd = e->w[k].fd, .events = POLLIN};
-                who[np++] = k;
-            }
-        if (np == 0)
-            break;
-        if (poll(pf, np, -1) < 0) {
-            if (errno == EINTR)
-                continue;
-            keep_first(&run.rc, rad_fail(err, RAD_ERR_GL, "hemi-cube: poll: %s", strerror(errno)));
-            /* Replies cannot be drained: the protocol is out of step. */
-            e->broken = 1;
-            snprintf(e->broken_msg, sizeof e->broken_msg, "hemi-cube: workers out of step");
-            break;
-        }
-        /* After a failure the remaining answers are read and dropped, so the
-         * workers stay in step for the next call. */
-        for (nfds_t q = 0; q < np && !e->broken; q++)
-            if (pf[q].revents)
-                receive_batch(e, &run, who[q], err);
-    }
-    if (e->broken && run.rc == RAD_OK)
-        run.rc = rad_fail(err, RAD_ERR_GL, "%s", e->broken_msg);
-    if (run.rc == RAD_OK && run.done < count)
-        run.rc = rad_fail(err, RAD_ERR_INTERRUPTED, "hemi-cube: stopped after %u of %u rows",
-                          run.done, count);
-    free(pf);
-    free(who);
-    run_free(&run);
-    return run.rc;
+    return RAD_OK;
 }
+
+static void pool_give(hc_engine *e, hc_run *run, rad_error *err)
+{
+    for (uint32_t k = 0; k < e->nproc && !e->broken; k++)
+        top_up(e, run, k, err);
+}
+
+/* Waits for the workers' answers (poll) and reads those that came.  After
+ * a failure the remaining answers are read and dropped, so the workers
+ * stay in step for the next call. */
+static uint32_t pool_collect(hc_engine *e, hc_run *run, int timeout_ms, rad_error *err)
+{
+    pool_run *pr = run->local;
+    nfds_t np = 0;
+    for (uint32_t k = 0; k < e->nproc && !e->broken; k++)
+        if (e->w[k].in_flight) {
+            pr->pf[np] = (struct pollfd){.fd = e->w[k].fd, .events = POLLIN};
+            pr->who[np++] = k;
+        }
+    if (np == 0)
+        return 0;
+    int got = poll(pr->pf, np, timeout_ms);
+    if (got < 0 && errno != EINTR) {
+        hc_run_fail(run, rad_fail(err, RAD_ERR_GL, "hemi-cube: poll: %s", strerror(errno)));
+        /* Replies cannot be drained: the protocol is out of step. */
+        e->broken = 1;
+        snprintf(e->broken_msg, sizeof e->broken_msg, "hemi-cube: workers out of step");
+        return 0;
+    }
+    for (nfds_t q = 0; got > 0 && q < np && !e->broken; q++)
+        if (pr->pf[q].revents)
+            receive_batch(e, run, pr->who[q], err);
+    uint32_t held = 0;
+    for (uint32_t k = 0; k < e->nproc && !e->broken; k++)
+        held += e->w[k].in_flight;
+    return held;
+}
+
+static void pool_stop(hc_engine *e)
+{
+    stop_workers(e);
+}
+
+const hc_producer hc_pool_producer = {
+    .name = "local worker processes",
+    .start = start_workers,
+    .begin = pool_begin,
+    .give = pool_give,
+    .collect = pool_collect,
+    .end = pool_end,
+    .light_power = hc_pool_light_power,
+    .light_vis = hc_pool_light_vis,
+    .stop = pool_stop,
+};

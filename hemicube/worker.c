@@ -35,6 +35,9 @@ static void worker_settings(const hc_engine *e)
      * workers stop (by closing the socket). */
     signal(SIGINT, SIG_IGN);
     signal(SIGQUIT, SIG_IGN);
+    /* So is a SIGTERM to the group (mpirun's, when a rank died): the
+     * caller stops at it and keeps its rows; its workers go when it does. */
+    signal(SIGTERM, SIG_IGN);
     /* llvmpipe allocates and frees large scene bins every frame; keeping them
      * on the heap spares an mmap/munmap pair each time (reported to save up
      * to 17 % with llvmpipe threads; within noise when this thread

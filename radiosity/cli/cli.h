@@ -44,6 +44,13 @@ int cli_bake(int argc, char **argv);
 /* The first thing main does: may run the program again with huge pages
  * (nothing else has happened yet), then sets malloc's mmap threshold. */
 void cli_process_start(char **argv);
+/* main.c: the command named by argv[1], run; its exit status. */
+int cli_main(int argc, char **argv);
+/* cli_process.c: when mpirun started this program (OMPI_COMM_WORLD_SIZE is
+ * set), runs radiosity-mpi from the program's own directory in its place;
+ * returns only when it is not so started, or with the status of an error
+ * it printed (the program could not be run). */
+int cli_exec_mpi(char **argv);
 /* Set by SIGINT or SIGTERM once cli_catch_stop has run: the work in
  * progress should stop, keeping what is done. */
 extern volatile sig_atomic_t cli_stop;

@@ -6,11 +6,14 @@
  * In a file of its own, not in cli_args.c: none of it is about arguments,
  * and all of it is process-wide state that must be set once, by main
  * before any command (cli_process_start) or by the command that can stop
- * early (cli_catch_stop).  It calls no other file of radiosity/cli/.
+ * early (cli_catch_stop), and the hand-over to radiosity-mpi under mpirun
+ * (cli_exec_mpi).  It calls no other file of radiosity/cli/.
  */
 #include "cli.h"
 
+#include <errno.h>
 #include <malloc.h>
+#include <stdio.h>
 #include <signal.h>
 #include <stdlib.h>
 #include <string.h>
@@ -90,4 +93,28 @@ void cli_process_start(char **argv)
      * beside F, cost the 8k-patch solve 23 MB more peak (report/store.md).
      * (The hemi-cube workers set their own, after the fork.) */
     mallopt(M_MMAP_THRESHOLD, 1 << 20);
+}
+
+/* Under mpirun the work goes to radiosity-mpi, a program of its own (the
+ * Makefile's PROG_MPI) linked with MPI, beside this one: so this program
+ * never loads MPI's libraries, and runs where none are installed.  Ranks
+ * started by mpirun carry OMPI_COMM_WORLD_SIZE. */
+int cli_exec_mpi(char **argv)
+{
+    if (!getenv("OMPI_COMM_WORLD_SIZE"))
+        return 0;
+    char path[4096];
+    ssize_t n = readlink("/proc/self/exe", path, sizeof path - 32);
+    if (n <= 0) {
+        fprintf(stderr, "radiosity: error: /proc/self/exe: started by mpirun, but the program's "
+                        "own path cannot be read\n");
+        return 1;
+    }
+    path[n] = '\0';
+    char *slash = strrchr(path, '/');
+    strcpy(slash ? slash + 1 : path, "radiosity-mpi");
+    execv(path, argv);
+    fprintf(stderr, "radiosity: error: %s: started by mpirun (OMPI_COMM_WORLD_SIZE is set), but "
+                    "the MPI program cannot be run: %s\n", path, strerror(errno));
+    return 1;
 }

@@ -119,9 +119,9 @@ static const char usage[] =
     "  --version                    the program's version and the solution-file\n"
     "                               versions it writes and reads\n";
 
-int main(int argc, char **argv)
+/* main itself is program.c's (radiosity) or program_mpi.c's (radiosity-mpi). */
+int cli_main(int argc, char **argv)
 {
-    cli_process_start(argv);
     if (argc < 2)
         return cli_usage_error("no command given");
     const char *cmd = argv[1];
