@@ -44,7 +44,7 @@ MPI_INC  := $(patsubst -I%,-isystem %,$(shell mpicc --showme:compile 2>/dev/null
 MPI_LIBS := $(shell mpicc --showme:link 2>/dev/null || pkg-config --libs ompi-c)
 PROG_MPI := $(B)/radiosity-mpi
 CLI_C    := $(filter-out $(MPI_MAIN),$(wildcard radiosity/cli/*.c))
-LIB_C    := $(filter-out $(CLI_C) $(MPI_C),$(wildcard radiosity/*/*.c hemicube/*.c solver/*.c render/*.c))
+LIB_C    := $(filter-out $(CLI_C) $(MPI_C) $(MPI_MAIN),$(wildcard radiosity/*/*.c hemicube/*.c solver/*.c render/*.c))
 LIB_CXX  := $(wildcard radiosity/*/*.cpp)
 LIB_OBJ  := $(LIB_C:%.c=$(B)/obj/%.o) $(LIB_CXX:%.cpp=$(B)/obj/%.o)
 LIB      := $(B)/libradiosity.a

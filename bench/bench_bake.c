@@ -6,7 +6,7 @@
  * smaller hemi-cube resolution R may be given to spare a shared machine:
  * it changes the light, hardly the count of elements baked).
  *
- *   bench_bake [hall patch size [R]]   (default 0.6, R 128)
+ *   bench_bake [hall patch size [R]]   (default 0.6, R 64: the report's row)
  *   BENCH_BAKE_FINE=f              the hall's tessellation factor (default 1)
  *
  * Each scene is solved once (its time is given, not the subject), then
@@ -91,7 +91,7 @@ static int row(const char *name, const char *scene, double patch_size, uint32_t 
 int main(int argc, char **argv)
 {
     double size = argc > 1 ? atof(argv[1]) : 0.6;
-    uint32_t R = argc > 2 ? (uint32_t)atoi(argv[2]) : 0;
+    uint32_t R = argc > 2 ? (uint32_t)atoi(argv[2]) : 64;
     const char *fine_env = getenv("BENCH_BAKE_FINE");
     char dir[] = "/tmp/bench_bake.XXXXXX";
     if (!mkdtemp(dir)) {

@@ -38,7 +38,7 @@ typedef struct rad_bake_stats {
  * is clipped whatever the scene's units; 0 when nothing reflects light. */
 int rad_bake_auto_exposure(const rad_solution *s, double *ev, rad_error *err);
 
-/* Writes s as glTF to path: binary when path ends in ".glb", else JSON
+/* Writes s as glTF to path: binary when path ends in ".glb" (any case), else JSON
  * (.gltf) with its buffer in PATH-without-extension.bin beside it.  Each
  * file through a temporary renamed into place: on failure nothing new is
  * left behind.  stats may be NULL. */

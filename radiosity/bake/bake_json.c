@@ -19,6 +19,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <unistd.h>
 
 /* A growing text. */
@@ -396,7 +397,7 @@ int bk_write_files(const rad_solution *s, const bk_geometry *g, const char *path
                    rad_error *err)
 {
     size_t n = strlen(path);
-    if (n >= 4 && !strcmp(path + n - 4, ".glb")) {
+    if (n >= 4 && !strcasecmp(path + n - 4, ".glb")) {
         jbuf j = {0};
         int rc = make_json(s, g, NULL, &j, err);
         if (!rc)
