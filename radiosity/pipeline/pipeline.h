@@ -126,6 +126,11 @@ typedef struct rad_solve_options {
      * element rows never in memory together.  0 keeps F (a relight of
      * several variants reads it once for all). */
     int release_matrix;
+    /* May be NULL: called with hemicube.progress_user as a stage whose
+     * hemi-cubes report progress (hemicube.progress) begins: "form factors"
+     * (the patches' rows) or "elements" (the elements' hemi-cubes), so
+     * that a progress line can say which it counts. */
+    void (*progress_stage)(void *user, const char *stage);
 } rad_solve_options;
 
 /* The whole computation for a scene file: load, mesh, form factors, solve.
