@@ -85,7 +85,7 @@ $(B)/bench/%: $(B)/obj/bench/%.o $(LIB)
 $(B)/test/test_render: $(B)/obj/test/exr_read.o
 
 # bench_scale writes its scene with tools/hall.c
-$(B)/bench/bench_scale: $(B)/obj/tools/hall.o
+$(B)/bench/bench_scale: $(B)/obj/tools/hall.o $(B)/obj/tools/scene_gltf.o
 
 $(B)/tools/%: $(B)/obj/tools/%.o $(LIB)
 	@mkdir -p $(dir $@)
