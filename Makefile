@@ -86,6 +86,8 @@ $(B)/test/test_render: $(B)/obj/test/exr_read.o
 
 # bench_scale writes its scene with tools/hall.c
 $(B)/bench/bench_scale: $(B)/obj/tools/hall.o $(B)/obj/tools/scene_gltf.o
+# bench_atrium writes the atrium (tools/atrium.c) and the hall
+$(B)/bench/bench_atrium: $(B)/obj/tools/atrium.o $(B)/obj/tools/hall.o $(B)/obj/tools/scene_gltf.o
 
 $(B)/tools/%: $(B)/obj/tools/%.o $(LIB)
 	@mkdir -p $(dir $@)

@@ -9,7 +9,9 @@
  * outline vertices that two clusters A and B share (vertices on the outline
  * of A and B and of no other patch) keeps, by Douglas-Peucker, only the
  * vertices needed to stay within HC_DRAW_TOLERANCE × min(√A_A, √A_B) of the
- * chain.  The choice depends only on the chain's vertices, not on which
+ * chain (HC_DRAW_SLIDE along a plane shared by coplanar patches); a planar
+ * cluster whose outline no fan covers is drawn by the outline's ear
+ * clipping.  The choice depends only on the chain's vertices, not on which
  * side asks, so A and B are drawn with one and the same boundary: no crack
  * opens between simplified neighbours and no light leaks through.  Every
  * other outline vertex (where three patches meet, along a one-cell patch, on
@@ -37,6 +39,16 @@
 
 /* The simplification's tolerance, as a fraction of the patch's size √A_i. */
 #define HC_DRAW_TOLERANCE 0.03
+/* How far a shared outline between coplanar patches may move along their
+ * plane (it changes which patch owns a sliver, not the geometry), as a
+ * fraction of √A_i.  Measured (test_draw_geometry, bench_atrium): 0.25
+ * makes the hall's drawn triangles independent of its tessellation (47,000
+ * at 1× and 4×) but moves object means by up to 0.46 %: rows.c's small
+ * polygons then look covered by their slid neighbour.  So no more than
+ * across the surface until rows.c tells a coplanar neighbour apart. */
+#define HC_DRAW_SLIDE 0.03
+/* cos of the angle within which two patches count as coplanar for that. */
+#define HC_DRAW_COPLANAR 0.9999
 
 /* The builder's scratch, all indexed by a global vertex g (equal double
  * positions of any cells are one vertex) or by patch. */
@@ -54,6 +66,8 @@ typedef struct dg {
     uint32_t *lfirst;     /* n + 1: patch j's loop is loop[lfirst[j] .. ) */
     uint32_t *llen;       /* n: its length (0: no single loop) */
     rad_vec3 *apex;       /* n: the fan's centre of a patch drawn by its fan */
+    rad_vec3 *T;          /* scratch: a shape's triangles, 3 × (ne + 1) */
+    uint32_t *left;       /* scratch: ear clipping's outline, ne + 1 */
 } dg;
 
 static uint64_t mix(uint64_t h, uint64_t w)
@@ -252,8 +266,9 @@ static double patch_tol(const dg *d, uint32_t j)
 /* Which outline vertices may go: those on the outlines of exactly two
  * patches, both drawn by fans, every outline edge there running between
  * the two.  keep[g] = 1 for every other vertex; tol_of[g] = the chain's
- * tolerance (the smaller patch's) for the others. */
-static void fixed_vertices(dg *d, uint32_t *p1, uint32_t *p2, double *tol_of)
+ * tolerance (the smaller patch's) for the others, n_of[g] the mean of the
+ * two patches' normals (the same whichever side asks). */
+static void fixed_vertices(dg *d, uint32_t *p1, uint32_t *p2, double *tol_of, rad_vec3 *n_of)
 {
     for (uint32_t g = 0; g < d->nv; g++)
         p1[g] = p2[g] = RAD_NONE, d->keep[g] = 0;
@@ -288,17 +303,35 @@ static void fixed_vertices(dg *d, uint32_t *p1, uint32_t *p2, double *tol_of)
         if (!d->keep[g]) {
             double a = patch_tol(d, p1[g]), b = patch_tol(d, p2[g]);
             tol_of[g] = a < b ? a : b;
+            rad_vec3 na = d->e->mesh->patches[p1[g]].normal, nb = d->e->mesh->patches[p2[g]].normal;
+            /* Coplanar: the outline may slide in the plane; else not at all. */
+            n_of[g] = rad_dot(na, nb) >= HC_DRAW_COPLANAR ? rad_normalize(rad_add(na, nb))
+                                                          : rad_v3(0, 0, 0);
         }
     }
 }
 
-/* Distance from p to segment ab. */
-static double seg_dist(rad_vec3 p, rad_vec3 a, rad_vec3 b)
+/* The point of segment ab nearest to p. */
+static rad_vec3 seg_nearest(rad_vec3 p, rad_vec3 a, rad_vec3 b)
 {
     rad_vec3 ab = rad_sub(b, a), ap = rad_sub(p, a);
     double l2 = rad_dot(ab, ab), t = l2 > 0.0 ? rad_dot(ap, ab) / l2 : 0.0;
     t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
-    return rad_length(rad_sub(ap, rad_scale(ab, t)));
+    return rad_add(a, rad_scale(ab, t));
+}
+
+/* An offset v measured against the tolerances: across the surface (unit
+ * normal n) against tol, along it against tol × SLIDE / TOLERANCE; > 1 is
+ * out of tolerance.  n = 0 (an outline between surfaces that are not
+ * coplanar): tol in every direction. */
+static double off_ratio(rad_vec3 v, rad_vec3 n, double tol)
+{
+    if (rad_dot(n, n) == 0.0)
+        return rad_length(v) / tol;
+    double across = fabs(rad_dot(v, n));
+    double along = rad_length(rad_sub(v, rad_scale(n, rad_dot(v, n))));
+    double a = across / tol, b = along / (tol * HC_DRAW_SLIDE / HC_DRAW_TOLERANCE);
+    return a > b ? a : b;
 }
 
 /* Douglas-Peucker on the loop's vertices strictly between positions s and
@@ -307,7 +340,7 @@ static double seg_dist(rad_vec3 p, rad_vec3 a, rad_vec3 b)
  * outcome is the same whichever way the chain is walked: both patches of a
  * chain keep the same vertices. */
 static void simplify_chain(dg *d, const uint32_t *L, uint32_t len, uint32_t s, uint32_t t,
-                           const double *tol_of)
+                           const double *tol_of, const rad_vec3 *n_of)
 {
     uint32_t span = (t + len - s) % len;
     if (span < 2)
@@ -317,8 +350,9 @@ static void simplify_chain(dg *d, const uint32_t *L, uint32_t len, uint32_t s, u
     uint32_t at = RAD_NONE;
     for (uint32_t k = 1; k < span; k++) {
         uint32_t i = (s + k) % len;
-        double dist = seg_dist(vpos(d, L[i]), a, b);
-        if (dist > tol_of[L[i]] &&
+        rad_vec3 p = vpos(d, L[i]);
+        double dist = off_ratio(rad_sub(p, seg_nearest(p, a, b)), n_of[L[i]], tol_of[L[i]]);
+        if (dist > 1.0 &&
             (dist > best || (dist == best && L[i] < L[at]))) {
             best = dist;
             at = i;
@@ -327,14 +361,14 @@ static void simplify_chain(dg *d, const uint32_t *L, uint32_t len, uint32_t s, u
     if (at == RAD_NONE)
         return;
     d->keep[L[at]] = 1;
-    simplify_chain(d, L, len, s, at, tol_of);
-    simplify_chain(d, L, len, at, t, tol_of);
+    simplify_chain(d, L, len, s, at, tol_of, n_of);
+    simplify_chain(d, L, len, at, t, tol_of, n_of);
 }
 
 /* Simplifies every chain of patch j's loop between its kept vertices.  A
  * loop with none kept (a closed surface cut in two) first keeps its
  * smallest vertex and the one farthest from it: the same two on both sides. */
-static void simplify_loop(dg *d, uint32_t j, const double *tol_of)
+static void simplify_loop(dg *d, uint32_t j, const double *tol_of, const rad_vec3 *n_of)
 {
     const uint32_t *L = d->loop + d->lfirst[j], len = d->llen[j];
     uint32_t first = RAD_NONE;
@@ -358,29 +392,29 @@ static void simplify_loop(dg *d, uint32_t j, const double *tol_of)
     for (uint32_t k = 1; k <= len; k++) {
         uint32_t i = (first + k) % len;
         if (d->keep[L[i]]) {
-            simplify_chain(d, L, len, s, i, tol_of);
+            simplify_chain(d, L, len, s, i, tol_of, n_of);
             s = i;
         }
     }
 }
 
-/* Distance from p to triangle abc. */
-static double tri_dist(rad_vec3 p, rad_vec3 a, rad_vec3 b, rad_vec3 c)
+/* The point of triangle abc nearest to p. */
+static rad_vec3 tri_nearest(rad_vec3 p, rad_vec3 a, rad_vec3 b, rad_vec3 c)
 {
     rad_vec3 n = rad_cross(rad_sub(b, a), rad_sub(c, a));
     double nn = rad_dot(n, n);
     if (nn > 0.0) {
-        rad_vec3 ap = rad_sub(p, a);
-        double h = rad_dot(ap, n) / nn;
-        rad_vec3 q = rad_sub(p, rad_scale(n, h)); /* p projected on the plane */
+        rad_vec3 q = rad_sub(p, rad_scale(n, rad_dot(rad_sub(p, a), n) / nn)); /* on the plane */
         double u = rad_dot(rad_cross(rad_sub(b, q), rad_sub(c, q)), n);
         double v = rad_dot(rad_cross(rad_sub(c, q), rad_sub(a, q)), n);
         double w = rad_dot(rad_cross(rad_sub(a, q), rad_sub(b, q)), n);
         if (u >= 0.0 && v >= 0.0 && w >= 0.0)
-            return fabs(h) * sqrt(nn);
+            return q;
     }
-    double d0 = seg_dist(p, a, b), d1 = seg_dist(p, b, c), d2 = seg_dist(p, c, a);
-    return d0 < d1 ? (d0 < d2 ? d0 : d2) : (d1 < d2 ? d1 : d2);
+    rad_vec3 q0 = seg_nearest(p, a, b), q1 = seg_nearest(p, b, c), q2 = seg_nearest(p, c, a);
+    double d0 = rad_length(rad_sub(p, q0)), d1 = rad_length(rad_sub(p, q1)),
+           d2 = rad_length(rad_sub(p, q2));
+    return d0 <= d1 && d0 <= d2 ? q0 : d1 <= d2 ? q1 : q2;
 }
 
 /* Patch j's kept outline vertices into K; their number. */
@@ -394,19 +428,23 @@ static uint32_t kept_loop(const dg *d, uint32_t j, uint32_t *K)
     return k;
 }
 
-/* 1 when the fan from o (a point of patch j) to its kept outline K[0..k) meets
- * the file's invariant: every triangle facing n_j, the projection covered
- * once, every cell vertex within the tolerance. */
-static int fan_ok(const dg *d, uint32_t j, const uint32_t *K, uint32_t k, rad_vec3 o)
+/* 1 when the triangles T[0..3nt) drawn for patch j meet the file's
+ * invariant: every triangle facing n_j, the projection covered once, every
+ * cell vertex within the tolerance. */
+static int shape_ok(const dg *d, uint32_t j, const rad_vec3 *T, uint32_t nt)
 {
     const hc_engine *e = d->e;
-    const rad_vec3 n = e->mesh->patches[j].normal;
-    double fan = 0.0, cells = 0.0, tol = patch_tol(d, j);
-    for (uint32_t q = 0; q < k; q++) {
-        double a = rad_dot(rad_cross(rad_sub(vpos(d, K[q]), o), rad_sub(vpos(d, K[(q + 1) % k]), o)), n);
+    rad_vec3 n = e->mesh->patches[j].normal, slide = n;
+    for (uint32_t c = e->cfirst[j]; c < e->cfirst[j + 1]; c++)
+        if (rad_dot(e->mesh->cells[c].normal, n) < HC_DRAW_COPLANAR)
+            slide = rad_v3(0, 0, 0); /* curved: the shape may not slide along it */
+    double drawn = 0.0, cells = 0.0, tol = patch_tol(d, j);
+    for (uint32_t q = 0; q < nt; q++) {
+        const rad_vec3 *t = T + 3 * (size_t)q;
+        double a = rad_dot(rad_cross(rad_sub(t[1], t[0]), rad_sub(t[2], t[0])), n);
         if (!(a >= -1e-9 * e->mesh->patches[j].area))
-            return 0; /* faces away (0: an apex on the outline, a triangle of no area) */
-        fan += 0.5 * a;
+            return 0; /* faces away (0: a triangle of no area, harmless) */
+        drawn += 0.5 * a;
     }
     for (uint32_t c = e->cfirst[j]; c < e->cfirst[j + 1]; c++) {
         rad_vec3 p[4];
@@ -417,30 +455,98 @@ static int fan_ok(const dg *d, uint32_t j, const uint32_t *K, uint32_t k, rad_ve
     }
     /* Covered once: an outline wound twice would double the area; the
      * simplified outline itself moves the area by a few per cent at most. */
-    if (k < 3 || !(fabs(fan - cells) <= 0.25 * fabs(cells)))
+    if (nt < 1 || !(fabs(drawn - cells) <= 0.25 * fabs(cells)))
         return 0;
     for (size_t c = e->cfirst[j]; c < e->cfirst[j + 1]; c++)
         for (int s = 0; s < e->ncorner[c]; s++) {
             rad_vec3 p = vpos(d, d->cv[c * 4 + (size_t)s]);
             double best = 1e300;
-            for (uint32_t q = 0; q < k && best > tol; q++) {
-                double t = tri_dist(p, o, vpos(d, K[q]), vpos(d, K[(q + 1) % k]));
-                best = t < best ? t : best;
+            for (uint32_t q = 0; q < nt && best > 1.0; q++) {
+                const rad_vec3 *t = T + 3 * (size_t)q;
+                double r = off_ratio(rad_sub(p, tri_nearest(p, t[0], t[1], t[2])), slide, tol);
+                best = r < best ? r : best;
             }
-            if (best > tol)
+            if (best > 1.0)
                 return 0;
         }
     return 1;
 }
 
-/* A point of patch j from which the fan to its kept outline K[0..k) meets
- * the invariant, into d->apex[j]: the patch's centre, else one of the
- * cells' corners nearest the cells' area centroid; 0 when none does. */
+/* The fan from o to K[0..k) into T; its triangle count. */
+static uint32_t fan_shape(const dg *d, const uint32_t *K, uint32_t k, rad_vec3 o, rad_vec3 *T)
+{
+    for (uint32_t q = 0; q < k; q++) {
+        T[3 * q] = o;
+        T[3 * q + 1] = vpos(d, K[q]);
+        T[3 * q + 2] = vpos(d, K[(q + 1) % k]);
+    }
+    return k;
+}
+
+static int fan_ok(dg *d, uint32_t j, const uint32_t *K, uint32_t k, rad_vec3 o)
+{
+    return k >= 3 && shape_ok(d, j, d->T, fan_shape(d, K, k, o, d->T));
+}
+
+/* Ear clipping of the outline K[0..k) seen along n (counter-clockwise about
+ * it): the triangles into T (k - 2 of them), or 0 when some step finds no
+ * ear (the outline crosses itself in that view). */
+static uint32_t ear_shape(const dg *d, const uint32_t *K, uint32_t k, rad_vec3 n, rad_vec3 *T,
+                          uint32_t *left)
+{
+    rad_vec3 u = rad_normalize(rad_cross(fabs(n.x) < 0.9 ? rad_v3(1, 0, 0) : rad_v3(0, 1, 0), n));
+    rad_vec3 v = rad_cross(n, u);
+    uint32_t m = k, nt = 0;
+    for (uint32_t q = 0; q < k; q++)
+        left[q] = q;
+#define EAR_X(q) rad_dot(vpos(d, K[left[q]]), u)
+#define EAR_Y(q) rad_dot(vpos(d, K[left[q]]), v)
+    while (m > 3) {
+        uint32_t q = 0;
+        for (; q < m; q++) {
+            uint32_t a = (q + m - 1) % m, c = (q + 1) % m;
+            double ax = EAR_X(a), ay = EAR_Y(a), bx = EAR_X(q), by = EAR_Y(q), cx = EAR_X(c), cy = EAR_Y(c);
+            if ((bx - ax) * (cy - ay) - (by - ay) * (cx - ax) < 0.0)
+                continue; /* a reflex corner */
+            int inside = 0;
+            for (uint32_t r = 0; r < m && !inside; r++) {
+                if (r == a || r == q || r == c || K[left[r]] == K[left[a]] || K[left[r]] == K[left[c]])
+                    continue;
+                double px = EAR_X(r), py = EAR_Y(r);
+                inside = (bx - ax) * (py - ay) - (by - ay) * (px - ax) >= 0.0 &&
+                         (cx - bx) * (py - by) - (cy - by) * (px - bx) >= 0.0 &&
+                         (ax - cx) * (py - cy) - (ay - cy) * (px - cx) >= 0.0;
+            }
+            if (!inside)
+                break;
+        }
+        if (q == m)
+            return 0;
+        T[3 * nt] = vpos(d, K[left[(q + m - 1) % m]]);
+        T[3 * nt + 1] = vpos(d, K[left[q]]);
+        T[3 * nt + 2] = vpos(d, K[left[(q + 1) % m]]);
+        nt++;
+        memmove(left + q, left + q + 1, (size_t)(m - q - 1) * sizeof *left);
+        m--;
+    }
+#undef EAR_X
+#undef EAR_Y
+    T[3 * nt] = vpos(d, K[left[0]]);
+    T[3 * nt + 1] = vpos(d, K[left[1]]);
+    T[3 * nt + 2] = vpos(d, K[left[2]]);
+    return nt + 1;
+}
+
+/* A shape for patch j's kept outline K[0..k) that meets the invariant: a
+ * fan (simple[j] = 1) from d->apex[j], the patch's centre or else one of
+ * the cells' corners nearest the cells' area centroid; else the outline's
+ * ear clipping (simple[j] = 2); 0 when none does. */
 static int choose_apex(dg *d, uint32_t j, const uint32_t *K, uint32_t k)
 {
     const hc_engine *e = d->e;
     if (fan_ok(d, j, K, k, e->center[j])) {
         d->apex[j] = e->center[j];
+        d->simple[j] = 1;
         return 1;
     }
     rad_vec3 mid = {0, 0, 0};
@@ -451,7 +557,7 @@ static int choose_apex(dg *d, uint32_t j, const uint32_t *K, uint32_t k)
         area += cell->area;
     }
     mid = rad_scale(mid, 1.0 / area);
-    enum { TRIES = 12 };
+    enum { TRIES = 48 };
     uint32_t best[TRIES];
     double bd[TRIES];
     int nb = 0;
@@ -474,8 +580,18 @@ static int choose_apex(dg *d, uint32_t j, const uint32_t *K, uint32_t k)
     for (int t = 0; t < nb; t++)
         if (fan_ok(d, j, K, k, vpos(d, best[t]))) {
             d->apex[j] = vpos(d, best[t]);
+            d->simple[j] = 1;
             return 1;
         }
+    /* No fan: a planar patch by its outline's own triangulation. */
+    int planar = 1;
+    for (uint32_t c = e->cfirst[j]; c < e->cfirst[j + 1]; c++)
+        planar &= rad_dot(e->mesh->cells[c].normal, e->mesh->patches[j].normal) >= HC_DRAW_COPLANAR;
+    uint32_t nt = planar && k >= 3 ? ear_shape(d, K, k, e->mesh->patches[j].normal, d->T, d->left) : 0;
+    if (nt && shape_ok(d, j, d->T, nt)) {
+        d->simple[j] = 2;
+        return 1;
+    }
     return 0;
 }
 
@@ -487,25 +603,26 @@ static int decide(dg *d, char *msg)
     const hc_engine *e = d->e;
     uint32_t *p1 = malloc((size_t)d->nv * sizeof *p1), *p2 = malloc((size_t)d->nv * sizeof *p2);
     double *tol_of = malloc((size_t)d->nv * sizeof *tol_of);
+    rad_vec3 *n_of = malloc((size_t)d->nv * sizeof *n_of);
     uint32_t *K = malloc(((size_t)d->ne + 1) * sizeof *K);
-    if (!p1 || !p2 || !tol_of || !K) {
-        free(p1), free(p2), free(tol_of), free(K);
+    if (!p1 || !p2 || !tol_of || !n_of || !K) {
+        free(p1), free(p2), free(tol_of), free(n_of), free(K);
         snprintf(msg, HC_MAX_MSG, "hemi-cube: out of memory for the draw geometry");
         return -1;
     }
     for (int round = 0, changed = 1; changed; round++) {
         changed = 0;
-        fixed_vertices(d, p1, p2, tol_of);
+        fixed_vertices(d, p1, p2, tol_of, n_of);
         for (uint32_t j = 0; j < e->n; j++)
             if (d->simple[j])
-                simplify_loop(d, j, tol_of);
+                simplify_loop(d, j, tol_of, n_of);
         for (uint32_t j = 0; j < e->n; j++)
             if (d->simple[j] && (round >= 32 || !choose_apex(d, j, K, kept_loop(d, j, K)))) {
                 d->simple[j] = 0; /* cell by cell, and its outline kept whole */
                 changed = 1;
             }
     }
-    free(p1), free(p2), free(tol_of), free(K);
+    free(p1), free(p2), free(tol_of), free(n_of), free(K);
     return 0;
 }
 
@@ -538,11 +655,11 @@ static void emit_patch(const dg *d, emit *m, uint32_t j, uint32_t *K)
     const hc_engine *e = d->e;
     if (d->simple && d->simple[j]) {
         uint32_t k = kept_loop(d, j, K);
-        const double o[3] = {d->apex[j].x, d->apex[j].y, d->apex[j].z};
-        for (uint32_t q = 0; q < k; q++) {
-            put(m, o, j);
-            put(m, d->pos + 3 * (size_t)K[q], j);
-            put(m, d->pos + 3 * (size_t)K[(q + 1) % k], j);
+        uint32_t nt = d->simple[j] == 1 ? fan_shape(d, K, k, d->apex[j], d->T)
+                                        : ear_shape(d, K, k, e->mesh->patches[j].normal, d->T, d->left);
+        for (size_t q = 0; q < 3 * (size_t)nt; q++) {
+            const double p[3] = {d->T[q].x, d->T[q].y, d->T[q].z};
+            put(m, p, j);
         }
         m->out->simplified++;
         return;
@@ -566,7 +683,7 @@ static int emit_all(const dg *d, hc_draw *out, int *vfirst, int *vcount, char *m
             uint32_t *K = d->loop + d->lfirst[j], k = 0; /* counted in place: loop is scratch */
             for (uint32_t q = 0; q < d->llen[j]; q++)
                 k += d->keep[K[q]];
-            c = 3 * (size_t)k;
+            c = 3 * (size_t)(d->simple[j] == 1 ? k : k - 2);
         } else {
             for (uint32_t q = e->cfirst[j]; q < e->cfirst[j + 1]; q++)
                 c += e->ncorner[q] == 4 ? 6 : 3;
@@ -596,6 +713,7 @@ static void dg_free(dg *d)
 {
     free(d->cv), free(d->pos), free(d->efirst), free(d->ea), free(d->eb), free(d->epartner);
     free(d->simple), free(d->keep), free(d->loop), free(d->lfirst), free(d->llen), free(d->apex);
+    free(d->T), free(d->left);
 }
 
 /* The outlines, loops and decisions of d (its e set). */
@@ -618,7 +736,9 @@ static int prepare(dg *d, char *msg)
     uint32_t *next = rc ? NULL : malloc(((size_t)d->nv + 1) * sizeof *next);
     d->keep = rc ? NULL : malloc((size_t)d->nv + 1);
     d->loop = rc ? NULL : malloc(((size_t)d->ne + 1) * sizeof *d->loop);
-    if (!rc && (!next || !d->keep || !d->loop)) {
+    d->T = rc ? NULL : malloc(3 * ((size_t)d->ne + 1) * sizeof *d->T);
+    d->left = rc ? NULL : malloc(((size_t)d->ne + 1) * sizeof *d->left);
+    if (!rc && (!next || !d->keep || !d->loop || !d->T || !d->left)) {
         snprintf(msg, HC_MAX_MSG, "hemi-cube: out of memory for the draw geometry");
         rc = -1;
     }

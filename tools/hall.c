@@ -320,11 +320,7 @@ int hall_write(const char *dir, const char *name, double fine, hall_stats *stats
                   .material_count = sizeof materials / sizeof materials[0],
                   .sun = mk(0.3, -0.55, 1.0),
                   .generator = "tools/hall.c"};
-    int rc = build(&h, fine > 0 ? fine : 1.0);
-    if (rc != 0)
-        fprintf(stderr, "hall: out of memory\n");
-    if (rc == 0)
-        rc = gs_write(&h, dir, name);
+    int rc = gs_make(&h, build, fine, dir, name);
     if (stats) {
         stats->triangles = gs_triangles(&h);
         stats->objects = h.n;

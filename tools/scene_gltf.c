@@ -175,6 +175,15 @@ int gs_write(const gs_scene *h, const char *dir, const char *name)
 }
 
 
+int gs_make(gs_scene *h, int (*build)(gs_scene *, double), double fine, const char *dir,
+            const char *name)
+{
+    int rc = build(h, fine > 0 ? fine : 1.0);
+    if (rc != 0)
+        fprintf(stderr, "%s: out of memory\n", h->generator);
+    return rc == 0 ? gs_write(h, dir, name) : rc;
+}
+
 uint64_t gs_triangles(const gs_scene *h)
 {
     uint64_t t = 0;

@@ -63,6 +63,11 @@ v3 gs_vat(const obj *o, uint32_t k);
 void gs_tri(obj *o, uint32_t a, uint32_t b, uint32_t c, v3 facing);
 /* Writes DIR/NAME.gltf and DIR/NAME.bin; 0, or -1 with a message on stderr. */
 int gs_write(const gs_scene *h, const char *dir, const char *name);
+/* Builds h with build(h, fine) (fine <= 0: 1) and writes DIR/NAME.gltf
+ * and .bin; 0, or -1 with a message on stderr.  h keeps the objects for
+ * the caller's figures; free them with gs_free. */
+int gs_make(gs_scene *h, int (*build)(gs_scene *, double), double fine, const char *dir,
+            const char *name);
 /* Triangles of every object. */
 uint64_t gs_triangles(const gs_scene *h);
 /* 1 when some object ran out of memory. */
