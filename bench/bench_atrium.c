@@ -4,13 +4,14 @@
  * tools/hall.c's hall, loaded from glTF as a user's export would be.
  *
  * Parts (BENCH_ATRIUM_PARTS, a comma list; default all of them):
- *   atrium   the whole solve at defaults, as `radiosity solve` runs it:
- *            wall time, this process's peak memory (VmHWM) and the largest
- *            worker's, N against area / size² at the default size, N at 2×
- *            and 4× that size, triangles drawn per item buffer (every cell
- *            against the simplified clusters), and the elements' time
- *            against the form factors' (the patches are solved with
- *            refinement off, then refined: the two stages timed apart);
+ *   atrium   N against area / size² at the default size and at 2× and 4×
+ *            it (rad_mesh_count), the time per row over BENCH_ATRIUM_ROWS
+ *            rows and the triangles each item buffer draws (every cell
+ *            against the simplified clusters), then (unless
+ *            BENCH_ATRIUM_SOLVE=0) the whole solve at defaults: wall time,
+ *            this process's peak memory (VmHWM) and the largest worker's,
+ *            and the elements' time against the form factors' (the patches
+ *            solved with refinement off, then refined: the stages apart);
  *   hall     the same element / form-factor ratio on the hall at the sizes
  *            BENCH_ATRIUM_HALL_SIZES (default "0.36 0.6");
  *   retess   the hall and the hall tessellated 4× as finely (fine 2) at one
@@ -57,22 +58,6 @@ static double env_double(const char *name, double dflt)
     return v && atof(v) > 0 ? atof(v) : dflt;
 }
 
-/* Triangles one item buffer draws for s's mesh: every cell, and simplified. */
-static void drawn(const rad_solution *s, uint64_t *all, uint64_t *few, uint32_t *fans)
-{
-    hc_options ho = {.processes = 1};
-    hc_engine *e = NULL;
-    rad_error err = {0};
-    uint32_t none;
-    *all = *few = 0;
-    *fans = 0;
-    if (hc_create(s->mesh, &ho, &e, &err) != RAD_OK ||
-        hc_draw_triangles(e, 1, all, &none, &err) != RAD_OK ||
-        hc_draw_triangles(e, 0, few, fans, &err) != RAD_OK)
-        printf("  draw geometry: %s\n", err.message);
-    hc_destroy(e);
-}
-
 /* Solves scene at patch size `size` (0: default) with refinement off, then
  * refines: the form-factor and element times apart.  NULL on failure. */
 static rad_solution *solve_timed(const char *scene, double size, double *ff_s, double *el_s,
@@ -97,72 +82,6 @@ static rad_solution *solve_timed(const char *scene, double size, double *ff_s, d
     *el_s = rad_seconds() - t1;
     *wall_s = rad_seconds() - t0;
     return s;
-}
-
-static void atrium_part(const char *dir)
-{
-    double fine = env_double("BENCH_ATRIUM_FINE", 1.0);
-    atrium_stats st;
-    char scene[4096];
-    snprintf(scene, sizeof scene, "%s/atrium.gltf", dir);
-    if (atrium_write(dir, "atrium", fine, &st) != 0)
-        return;
-    printf("atrium (tools/atrium.c, fine %g): %llu triangles, %u objects, %.0f m²\n", fine,
-           (unsigned long long)st.triangles, st.objects, st.area);
-    double ff = 0, el = 0, wall = 0;
-    const char *load0 = load_average();
-    printf("  solving at defaults (load %s) ...\n", load0);
-    fflush(stdout);
-    rad_solution *s = solve_timed(scene, 0.0, &ff, &el, &wall);
-    if (!s)
-        return;
-    struct rusage kids;
-    getrusage(RUSAGE_CHILDREN, &kids);
-    double size = rad_mesh_default_patch_size(s->scene), ideal = st.area / (size * size);
-    uint32_t n = s->mesh->patch_count;
-    printf("  whole solve: %.1f s wall (form factors %.1f s, elements %.1f s = %.0f %% of the "
-           "form factors), load %s\n", wall, ff, el, 100.0 * el / ff, load_average());
-    printf("  peak memory: main %.0f MiB, largest worker %.0f MiB\n",
-           (double)rad_process_memory(1) / 1048576.0, (double)kids.ru_maxrss / 1024.0);
-    printf("  patch size %.3f: N %u (cells %u), area / size² %.0f, N / (area / size²) %.2f\n",
-           size, n, s->mesh->cell_first ? s->mesh->cell_count : n, ideal, n / ideal);
-    for (int k = 2; k <= 4; k += 2) {
-        rad_mesh_options mo = {.patch_size = k * size};
-        uint64_t nk = rad_mesh_count(s->scene, &mo);
-        printf("  at %d× (%.3f): N %llu = %.2f of the default's\n", k, k * size,
-               (unsigned long long)nk, (double)nk / n);
-    }
-    uint64_t all, few;
-    uint32_t fans;
-    drawn(s, &all, &few, &fans);
-    printf("  item buffer draws %llu triangles (every cell: %llu; %u clusters by fans)\n",
-           (unsigned long long)few, (unsigned long long)all, fans);
-    rad_solution_destroy(s);
-}
-
-static void hall_part(const char *dir)
-{
-    char scene[4096];
-    snprintf(scene, sizeof scene, "%s/hall.gltf", dir);
-    hall_stats hs;
-    if (hall_write(dir, "hall", 1.0, &hs) != 0)
-        return;
-    const char *list = getenv("BENCH_ATRIUM_HALL_SIZES");
-    char buf[256];
-    snprintf(buf, sizeof buf, "%s", list ? list : "0.36 0.6");
-    for (char *tok = strtok(buf, " ,"); tok; tok = strtok(NULL, " ,")) {
-        double size = atof(tok), ff = 0, el = 0, wall = 0;
-        rad_solution *s = size > 0 ? solve_timed(scene, size, &ff, &el, &wall) : NULL;
-        if (!s)
-            continue;
-        printf("hall (%llu triangles) at %.2f: N %u, form factors %.1f s, elements %.1f s = %.0f "
-               "%% (%llu element hemi-cubes), wall %.1f s, load %s\n",
-               (unsigned long long)hs.triangles, size, s->mesh->patch_count, ff, el,
-               100.0 * el / ff,
-               (unsigned long long)(s->elements ? s->elements->rows_computed : 0), wall,
-               load_average());
-        rad_solution_destroy(s);
-    }
 }
 
 /* Time per row of `rows` rows spread over the patches of scene at size. */
@@ -206,6 +125,85 @@ static void row_time(const char *scene, double size, uint32_t rows, const char *
     free(list);
     rad_mesh_destroy(m);
     rad_scene_destroy(sc);
+}
+
+/* Patch counts of the scene at the default size and at 2× and 4×, without
+ * meshing (rad_mesh_count); the default size into *size. */
+static void atrium_counts(const char *scene, double area, double *size)
+{
+    rad_scene *sc = NULL;
+    rad_error err = {0};
+    *size = 0.0;
+    if (rad_scene_load(scene, NULL, &sc, &err) != RAD_OK) {
+        printf("  %s\n", err.message);
+        return;
+    }
+    *size = rad_mesh_default_patch_size(sc);
+    uint64_t n1 = 0;
+    for (int k = 1; k <= 4; k *= 2) {
+        rad_mesh_options mo = {.patch_size = k * *size};
+        uint64_t nk = rad_mesh_count(sc, &mo);
+        n1 = k == 1 ? nk : n1;
+        printf("  patch size %.3f (%d×): N %llu, area / size² %.0f, N / (area / size²) %.2f, "
+               "N / N(1×) %.3f\n", k * *size, k, (unsigned long long)nk,
+               area / (k * *size * k * *size), nk / (area / (k * *size * k * *size)),
+               (double)nk / (double)n1);
+    }
+    rad_scene_destroy(sc);
+}
+
+static void atrium_part(const char *dir)
+{
+    double fine = env_double("BENCH_ATRIUM_FINE", 1.0), size;
+    atrium_stats st;
+    char scene[4096];
+    snprintf(scene, sizeof scene, "%s/atrium.gltf", dir);
+    if (atrium_write(dir, "atrium", fine, &st) != 0)
+        return;
+    printf("atrium (tools/atrium.c, fine %g): %llu triangles, %u objects, %.0f m²\n", fine,
+           (unsigned long long)st.triangles, st.objects, st.area);
+    atrium_counts(scene, st.area, &size);
+    row_time(scene, 0.0, (uint32_t)env_double("BENCH_ATRIUM_ROWS", 256), "atrium rows");
+    if (getenv("BENCH_ATRIUM_SOLVE") && strcmp(getenv("BENCH_ATRIUM_SOLVE"), "0") == 0)
+        return;
+    double ff = 0, el = 0, wall = 0;
+    printf("  solving at defaults (load %s) ...\n", load_average());
+    fflush(stdout);
+    rad_solution *s = solve_timed(scene, 0.0, &ff, &el, &wall);
+    if (!s)
+        return;
+    struct rusage kids;
+    getrusage(RUSAGE_CHILDREN, &kids);
+    printf("  whole solve: %.1f s wall (form factors %.1f s, elements %.1f s = %.0f %% of the "
+           "form factors), load %s\n", wall, ff, el, 100.0 * el / ff, load_average());
+    printf("  peak memory: main %.0f MiB, largest worker %.0f MiB\n",
+           (double)rad_process_memory(1) / 1048576.0, (double)kids.ru_maxrss / 1024.0);
+    rad_solution_destroy(s);
+}
+
+static void hall_part(const char *dir)
+{
+    char scene[4096];
+    snprintf(scene, sizeof scene, "%s/hall.gltf", dir);
+    hall_stats hs;
+    if (hall_write(dir, "hall", 1.0, &hs) != 0)
+        return;
+    const char *list = getenv("BENCH_ATRIUM_HALL_SIZES");
+    char buf[256];
+    snprintf(buf, sizeof buf, "%s", list ? list : "0.36 0.6");
+    for (char *tok = strtok(buf, " ,"); tok; tok = strtok(NULL, " ,")) {
+        double size = atof(tok), ff = 0, el = 0, wall = 0;
+        rad_solution *s = size > 0 ? solve_timed(scene, size, &ff, &el, &wall) : NULL;
+        if (!s)
+            continue;
+        printf("hall (%llu triangles) at %.2f: N %u, form factors %.1f s, elements %.1f s = %.0f "
+               "%% (%llu element hemi-cubes), wall %.1f s, load %s\n",
+               (unsigned long long)hs.triangles, size, s->mesh->patch_count, ff, el,
+               100.0 * el / ff,
+               (unsigned long long)(s->elements ? s->elements->rows_computed : 0), wall,
+               load_average());
+        rad_solution_destroy(s);
+    }
 }
 
 static void retess_part(const char *dir)
