@@ -7,8 +7,10 @@
  *   atrium   N against area / size² at the default size and at 2× and 4×
  *            it (rad_mesh_count), the time per row over BENCH_ATRIUM_ROWS
  *            rows and the triangles each item buffer draws (every cell
- *            against the simplified clusters), then (unless
- *            BENCH_ATRIUM_SOLVE=0) the whole solve at defaults: wall time,
+ *            against the simplified clusters), then the whole solve at
+ *            defaults (BENCH_ATRIUM_SOLVE=1 always, 0 never; by default
+ *            only when N <= 4 × area / size², so that `make bench` ends
+ *            while the meshing makes far more patches): wall time,
  *            this process's peak memory (VmHWM) and the largest worker's,
  *            and the elements' time against the form factors' (the patches
  *            solved with refinement off, then refined: the stages apart);
@@ -129,14 +131,14 @@ static void row_time(const char *scene, double size, uint32_t rows, const char *
 
 /* Patch counts of the scene at the default size and at 2× and 4×, without
  * meshing (rad_mesh_count); the default size into *size. */
-static void atrium_counts(const char *scene, double area, double *size)
+static uint64_t atrium_counts(const char *scene, double area, double *size)
 {
     rad_scene *sc = NULL;
     rad_error err = {0};
     *size = 0.0;
     if (rad_scene_load(scene, NULL, &sc, &err) != RAD_OK) {
         printf("  %s\n", err.message);
-        return;
+        return 0;
     }
     *size = rad_mesh_default_patch_size(sc);
     uint64_t n1 = 0;
@@ -150,6 +152,7 @@ static void atrium_counts(const char *scene, double area, double *size)
                (double)nk / (double)n1);
     }
     rad_scene_destroy(sc);
+    return n1;
 }
 
 static void atrium_part(const char *dir)
@@ -162,10 +165,15 @@ static void atrium_part(const char *dir)
         return;
     printf("atrium (tools/atrium.c, fine %g): %llu triangles, %u objects, %.0f m²\n", fine,
            (unsigned long long)st.triangles, st.objects, st.area);
-    atrium_counts(scene, st.area, &size);
+    uint64_t n = atrium_counts(scene, st.area, &size);
     row_time(scene, 0.0, (uint32_t)env_double("BENCH_ATRIUM_ROWS", 256), "atrium rows");
-    if (getenv("BENCH_ATRIUM_SOLVE") && strcmp(getenv("BENCH_ATRIUM_SOLVE"), "0") == 0)
+    const char *solve = getenv("BENCH_ATRIUM_SOLVE");
+    double ratio = size > 0 ? n / (st.area / (size * size)) : 0;
+    if (solve ? strcmp(solve, "0") == 0 : ratio > 4.0) {
+        printf("  whole solve skipped (N %.1f × area / size²%s; BENCH_ATRIUM_SOLVE=1 runs it)\n",
+               ratio, solve ? ", BENCH_ATRIUM_SOLVE=0" : ": the meshing does not yet follow the size");
         return;
+    }
     double ff = 0, el = 0, wall = 0;
     printf("  solving at defaults (load %s) ...\n", load_average());
     fflush(stdout);
