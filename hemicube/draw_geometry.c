@@ -17,14 +17,15 @@
  * other outline vertex (where three patches meet, along a one-cell patch, on
  * a surface's free edge) is kept.
  *
- * Invariant, checked for each cluster before its fan is used: the fan's
+ * Invariant, checked for each cluster before its shape is used: its
  * triangles all face the patch's side (n_i), they cover its outline's
  * projection on n_i once (their projected area is the cells' within 25 %:
  * an outline wound twice doubles it), and every vertex of the cells lies
- * within the tolerance of the fan.  The fan's centre is the patch's centre,
- * else one of the cells' corners nearest their centroid.  A cluster failing any of these (a hole, a fold, a shape no fan of
- * its outline covers) is drawn cell by cell, and its outline vertices are
- * then kept for its neighbours too, which are checked again.  So a patch is
+ * within the tolerance of them.  The fan's centre is the patch's centre,
+ * else one of the cells' corners nearest their centroid.  A cluster
+ * failing these (a hole, a fold, a shape no fan or ear clipping of its
+ * outline covers) is drawn cell by cell, and its outline vertices are then
+ * kept for its neighbours too, which are checked again.  So a patch is
  * drawn either exactly or within the tolerance, and neighbours always meet.
  *
  * RADIOSITY_DRAW_EVERY_CELL=1 in the environment draws every cell (the
