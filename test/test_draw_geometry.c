@@ -1,11 +1,12 @@
 /* test_draw_geometry.c - clusters drawn by their simplified outlines
  * (hemicube/draw_geometry.c, issue 36): in a closed round room whose wall,
  * floor and ceiling are exports' small triangles, grouped into clusters,
- * drawing each cluster as a fan of its simplified outline changes no
- * object's area-mean B by more than 0.2 % against drawing every cell
- * (RADIOSITY_DRAW_EVERY_CELL=1), draws far fewer triangles, and lets no
- * light out: an object outside the room receives nothing.
- * Cost: about 3 s (release) on the 2-core machine under load. */
+ * drawing each cluster by its simplified outline changes no object's
+ * area-mean B by more than 0.2 % against drawing every cell
+ * (RADIOSITY_DRAW_EVERY_CELL=1), draws fewer triangles, and lets no light
+ * out: a point light in the room puts nothing on an object outside it.
+ * Cost: about 4 s of CPU (release), 8-19 s wall on the 2-core machine
+ * under a load of 10-16. */
 #include "../radiosity/pipeline/pipeline.h"
 #include "test.h"
 
