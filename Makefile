@@ -145,7 +145,9 @@ $(B)/bench/%: $(B)/obj/bench/%.o $(LIB)
 $(B)/test/test_render: $(B)/obj/test/exr_read.o
 
 # bench_scale writes its scene with tools/hall.c
-$(B)/bench/bench_scale: $(B)/obj/tools/hall.o
+$(B)/bench/bench_scale: $(B)/obj/tools/hall.o $(B)/obj/tools/scene_gltf.o
+# bench_atrium writes the atrium (tools/atrium.c) and the hall
+$(B)/bench/bench_atrium: $(B)/obj/tools/atrium.o $(B)/obj/tools/hall.o $(B)/obj/tools/scene_gltf.o
 
 # bench_bake bakes the same hall
 $(B)/bench/bench_bake: $(B)/obj/tools/hall.o

@@ -238,91 +238,37 @@ static int program(hc_gl *g, char *msg)
     return 0;
 }
 
-/* A vertex of the VBO: float x, y, z relative to the origin, then the
- * uint32 patch id. */
-typedef struct hc_vtx {
-    float p[3];
-    uint32_t id;
-} hc_vtx;
-
-static uint64_t vtx_hash(const hc_vtx *v)
-{
-    uint32_t w[4];
-    memcpy(w, v, sizeof w);
-    uint64_t h = 0x9E3779B97F4A7C15ull;
-    for (int k = 0; k < 4; k++) {
-        h = (h ^ w[k]) * 0xff51afd7ed558ccdull;
-        h ^= h >> 32;
-    }
-    return h;
-}
-
-/* The one VBO holding every patch's vertices once (the cells of a cluster
- * share theirs: equal positions of one patch are one vertex, as equal
- * floats), each with the patch's id, and the index buffer of its
- * triangles, patch j's indices contiguous (w's layout: vfirst[j] is the
- * first index, vcount[j] their number).  Indexed drawing lets the
- * rasteriser shade a shared vertex once: a cluster of small triangles
- * has about half as many vertices as it has triangles. */
+/* The one VBO holding every patch's triangles as draw_geometry.c builds
+ * them (a cell as itself, a cluster by its simplified outline), each
+ * vertex with its patch id, and the index buffer, patch j's indices
+ * contiguous (w's layout: vfirst[j] is the first index, vcount[j] their
+ * number). */
 static int upload(const hc_engine *e, hc_gl *g, hc_work *w, char *msg)
 {
-    uint32_t n = e->n;
-    size_t ni = 0;
-    for (uint32_t j = 0; j < n; j++) {
-        w->vfirst[j] = (GLint)ni;
-        w->vcount[j] = 0;
-        for (uint32_t c = e->cfirst[j]; c < e->cfirst[j + 1]; c++)
-            w->vcount[j] += e->ncorner[c] == 4 ? 6 : 3;
-        ni += (size_t)w->vcount[j];
-    }
-    w->nvert = (uint32_t)ni;
+    hc_draw d;
+    if (hc_draw_build(e, &d, w->vfirst, w->vcount, msg) != 0)
+        return -1;
+    w->nvert = (uint32_t)d.nidx;
     gl.GenVertexArrays(1, &g->vao);
     gl.BindVertexArray(g->vao);
     gl.GenBuffers(1, &g->vbo);
     gl.BindBuffer(GL_ARRAY_BUFFER, g->vbo);
     gl.GenBuffers(1, &g->ibo);
     gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, g->ibo);
-    if (ni) {
-        size_t cap = 16;
-        while (cap < 2 * ni)
-            cap *= 2;
-        hc_vtx *buf = malloc(ni * sizeof *buf);
-        uint32_t *idx = malloc(ni * sizeof *idx), *slot = calloc(cap, sizeof *slot);
-        if (!buf || !idx || !slot) {
-            free(buf), free(idx), free(slot);
-            snprintf(msg, HC_MAX_MSG, "hemi-cube: out of memory for %zu vertices", ni);
-            return -1;
-        }
-        static const int tri[2][3] = {{0, 1, 2}, {0, 2, 3}};
-        size_t k = 0, nv = 0;
-        for (uint32_t j = 0; j < n; j++)
-            for (uint32_t cell = e->cfirst[j]; cell < e->cfirst[j + 1]; cell++) {
-                const double *c = e->corner + (size_t)cell * 12;
-                for (int t = 0; t < (e->ncorner[cell] == 4 ? 2 : 1); t++)
-                    for (int s = 0; s < 3; s++) {
-                        const double *p = c + 3 * tri[t][s];
-                        hc_vtx v = {{(float)p[0], (float)p[1], (float)p[2]}, j};
-                        size_t h = vtx_hash(&v) & (cap - 1);
-                        while (slot[h] && memcmp(&buf[slot[h] - 1], &v, sizeof v) != 0)
-                            h = (h + 1) & (cap - 1);
-                        if (!slot[h]) {
-                            buf[nv++] = v;
-                            slot[h] = (uint32_t)nv;
-                        }
-                        idx[k++] = slot[h] - 1;
-                    }
-            }
-        gl.BufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(nv * sizeof *buf), buf, GL_STATIC_DRAW);
-        gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(ni * sizeof *idx), idx, GL_STATIC_DRAW);
-        free(buf), free(idx), free(slot);
+    if (d.nidx) {
+        gl.BufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(d.nvtx * sizeof *d.vtx), d.vtx, GL_STATIC_DRAW);
+        gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(d.nidx * sizeof *d.idx), d.idx,
+                      GL_STATIC_DRAW);
     }
+    hc_draw_free(&d);
+    uint32_t n = e->n;
     g->offsets = malloc(((size_t)n + 1) * sizeof *g->offsets);
     if (!g->offsets) {
         snprintf(msg, HC_MAX_MSG, "hemi-cube: out of memory for %u draw ranges", n);
         return -1;
     }
-    gl.VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(hc_vtx), (const void *)0);
-    gl.VertexAttribIPointer(1, 1, GL_UNSIGNED_INT, sizeof(hc_vtx), (const void *)12);
+    gl.VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(hc_draw_vtx), (const void *)0);
+    gl.VertexAttribIPointer(1, 1, GL_UNSIGNED_INT, sizeof(hc_draw_vtx), (const void *)12);
     gl.EnableVertexAttribArray(0);
     gl.EnableVertexAttribArray(1);
     return hc_gl_check("geometry upload", msg);

@@ -35,6 +35,9 @@
  *   wire.c            the protocol between the caller and a worker over a
  *                     byte stream (today a socketpair): framing, requests,
  *                     replies, both ends' calls (each end calls its own);
+ *   draw_geometry.c   the triangles each patch is drawn with: a cell as
+ *                     itself, a cluster as a fan of its simplified outline
+ *                     (no GL: gl.c uploads it);
  *   patch_factors.c   unoccluded point-to-patch and patch-to-patch
  *                     integrals from the engine's geometry (no GL), read by
  *                     rows.c in a worker and column.c in the caller;
@@ -49,7 +52,7 @@
  *   pool_lights.c -> wire.c;
  *   worker.c -> rows.c, light_views.c, gl.c, wire.c;
  *   rows.c -> patch_factors.c, gl.c;  light_views.c -> gl.c;
- *   gl_choice.c -> gl.c;  gl.c -> gl_osmesa.c, gl_egl.c;
+ *   gl_choice.c -> gl.c;  gl.c -> gl_osmesa.c, gl_egl.c, draw_geometry.c;
  *   patch_factors.c -> analytic.c.
  * A worker runs hc_worker_main and reaches only what lies below worker.c,
  * so no caller-side function (a request, a pool call) can run inside a
@@ -544,6 +547,31 @@ extern const hc_gl_context hc_gl_egl;    /* gl_egl.c: libEGL, a GPU or surfacele
  * probe forked before the workers are); RAD_OK, or RAD_ERR_USAGE for a
  * value that is no hc_gl_kind. */
 int hc_gl_settle(hc_options *o, rad_error *err);
+
+/* ------------------------------------------------------- draw_geometry.c */
+
+/* A vertex of the item buffer's geometry: position relative to the origin
+ * (float), then the patch id. */
+typedef struct hc_draw_vtx {
+    float p[3];
+    uint32_t id;
+} hc_draw_vtx;
+
+/* The triangles every patch is drawn with (draw_geometry.c): indexed,
+ * patch j's indices contiguous. */
+typedef struct hc_draw {
+    hc_draw_vtx *vtx;
+    uint32_t nvtx;
+    uint32_t *idx;
+    size_t nidx;
+    uint32_t simplified; /* clusters drawn by a fan of their simplified outline */
+} hc_draw;
+
+/* Builds the draw geometry of e's patches (simplified clusters unless
+ * RADIOSITY_DRAW_EVERY_CELL=1), patch j's indices [vfirst[j], vfirst[j] +
+ * vcount[j]) (caller's arrays of e->n); 0, or -1 with msg set. */
+int hc_draw_build(const hc_engine *e, hc_draw *out, int *vfirst, int *vcount, char *msg);
+void hc_draw_free(hc_draw *d); /* NULL does nothing */
 
 /* ------------------------------------------------------------------ gl.c */
 

@@ -130,6 +130,16 @@ int hc_compute_points(hc_engine *e, const hc_receiver *recv, uint32_t count, hc_
 /* Stops the workers and frees everything.  NULL does nothing. */
 void hc_destroy(hc_engine *e);
 
+/* The triangles the engine's item buffers draw (hemicube/draw_geometry.c):
+ * a patch of one cell as itself, a cluster as a fan of its outline
+ * simplified within 3 % of its size √A_i, neighbours sharing one simplified
+ * boundary; every_cell = 1: every cell of every cluster instead (what
+ * RADIOSITY_DRAW_EVERY_CELL=1 makes the workers draw).  *triangles gets the
+ * total, *simplified the clusters drawn by their fans.  Computed in the
+ * caller's process, without GL: for benchmarks and tests. */
+int hc_draw_triangles(const hc_engine *e, int every_cell, uint64_t *triangles,
+                      uint32_t *simplified, rad_error *err);
+
 /* Punctual lights (glTF KHR_lights_punctual), for shooting their direct
  * light before the solve. */
 typedef enum hc_light_kind {

@@ -17,124 +17,19 @@
  * linear congruential sequence.
  */
 #include "hall.h"
+#include "scene_gltf.h"
 
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-typedef struct v3 {
-    double x, y, z;
-} v3;
-
-static v3 mk(double x, double y, double z) { v3 r = {x, y, z}; return r; }
-static v3 add(v3 a, v3 b) { return mk(a.x + b.x, a.y + b.y, a.z + b.z); }
-static v3 sub(v3 a, v3 b) { return mk(a.x - b.x, a.y - b.y, a.z - b.z); }
-static v3 scl(v3 a, double s) { return mk(a.x * s, a.y * s, a.z * s); }
-static double dot(v3 a, v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-static v3 cross(v3 a, v3 b)
-{
-    return mk(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
-}
-
-/* One object: a node, a mesh, one primitive. */
-typedef struct obj {
-    char name[48];
-    int material;
-    float *v;
-    uint32_t nv, cv;
-    uint32_t *t;
-    uint32_t nt, ct;
-    int failed;
-} obj;
-
-typedef struct hall {
-    obj *o;
-    uint32_t n, cap;
-    uint64_t seed;
-} hall;
-
-static const struct {
-    const char *name;
-    double rgb[3];
-} materials[] = {
+static const gs_material materials[] = {
     {"stone floor", {0.45, 0.42, 0.38}}, {"plaster", {0.72, 0.70, 0.64}},
     {"ceiling", {0.68, 0.66, 0.62}},     {"column stone", {0.58, 0.54, 0.48}},
     {"arcade", {0.64, 0.60, 0.54}},      {"oak", {0.42, 0.28, 0.17}},
 };
 enum { M_FLOOR, M_PLASTER, M_CEILING, M_COLUMN, M_ARCADE, M_OAK };
-
-static double jitter(hall *h)
-{
-    h->seed = h->seed * 6364136223846793005ull + 1442695040888963407ull;
-    return (double)(h->seed >> 11) / 9007199254740992.0 - 0.5; /* [-0.5, 0.5) */
-}
-
-static obj *new_obj(hall *h, const char *name, int material)
-{
-    if (h->n == h->cap) {
-        uint32_t cap = h->cap ? 2 * h->cap : 32;
-        obj *o = realloc(h->o, cap * sizeof *o);
-        if (!o)
-            return NULL;
-        h->o = o;
-        h->cap = cap;
-    }
-    obj *o = &h->o[h->n++];
-    memset(o, 0, sizeof *o);
-    snprintf(o->name, sizeof o->name, "%s", name);
-    o->material = material;
-    return o;
-}
-
-static uint32_t vert(obj *o, v3 p)
-{
-    if (o->nv == o->cv) {
-        uint32_t cap = o->cv ? 2 * o->cv : 1024;
-        float *v = realloc(o->v, (size_t)cap * 3 * sizeof *v);
-        if (!v) {
-            o->failed = 1;
-            return 0;
-        }
-        o->v = v;
-        o->cv = cap;
-    }
-    o->v[3 * o->nv] = (float)p.x;
-    o->v[3 * o->nv + 1] = (float)p.y;
-    o->v[3 * o->nv + 2] = (float)p.z;
-    return o->nv++;
-}
-
-static v3 vat(const obj *o, uint32_t k)
-{
-    return mk(o->v[3 * k], o->v[3 * k + 1], o->v[3 * k + 2]);
-}
-
-/* Triangle a, b, c, turned to face `facing` (its front is where it runs
- * counter-clockwise). */
-static void tri(obj *o, uint32_t a, uint32_t b, uint32_t c, v3 facing)
-{
-    if (o->nt == o->ct) {
-        uint32_t cap = o->ct ? 2 * o->ct : 1024;
-        uint32_t *t = realloc(o->t, (size_t)cap * 3 * sizeof *t);
-        if (!t) {
-            o->failed = 1;
-            return;
-        }
-        o->t = t;
-        o->ct = cap;
-    }
-    v3 n = cross(sub(vat(o, b), vat(o, a)), sub(vat(o, c), vat(o, a)));
-    if (dot(n, facing) < 0.0) {
-        uint32_t s = b;
-        b = c;
-        c = s;
-    }
-    o->t[3 * o->nt] = a;
-    o->t[3 * o->nt + 1] = b;
-    o->t[3 * o->nt + 2] = c;
-    o->nt++;
-}
 
 /* A window in a grid: cells whose centre lies inside are left out. */
 typedef struct hole {
@@ -152,7 +47,7 @@ static int in_hole(const hole *holes, int nh, double u, double v)
 /* The rectangle p0 + s·U + t·V, s, t in [0, 1], as a grid of nu × nv
  * cells, each two triangles facing `facing`; inner vertices not next to a
  * hole move by up to `jit` of a cell within the plane. */
-static void grid(hall *h, obj *o, v3 p0, v3 U, v3 V, uint32_t nu, uint32_t nv, double jit,
+static void grid(gs_scene *h, obj *o, v3 p0, v3 U, v3 V, uint32_t nu, uint32_t nv, double jit,
                  const hole *holes, int nh, v3 facing)
 {
     uint32_t base = o->nv;
@@ -166,10 +61,10 @@ static void grid(hall *h, obj *o, v3 p0, v3 U, v3 V, uint32_t nu, uint32_t nv, d
                 for (int b = -1; b <= 0 && inner; b++)
                     inner = !in_hole(holes, nh, s + (a + 0.5) * du, t + (b + 0.5) * dv);
             if (inner && jit > 0.0) {
-                s += jit * du * jitter(h);
-                t += jit * dv * jitter(h);
+                s += jit * du * gs_jitter(h);
+                t += jit * dv * gs_jitter(h);
             }
-            vert(o, add(p0, add(scl(U, s), scl(V, t))));
+            gs_vert(o, add(p0, add(scl(U, s), scl(V, t))));
         }
     for (uint32_t j = 0; j < nv; j++)
         for (uint32_t i = 0; i < nu; i++) {
@@ -177,11 +72,11 @@ static void grid(hall *h, obj *o, v3 p0, v3 U, v3 V, uint32_t nu, uint32_t nv, d
                 continue;
             uint32_t a = base + j * (nu + 1) + i, b = a + 1, c = b + nu + 1, d = a + nu + 1;
             if ((i + j) % 2) {
-                tri(o, a, b, c, facing);
-                tri(o, a, c, d, facing);
+                gs_tri(o, a, b, c, facing);
+                gs_tri(o, a, c, d, facing);
             } else {
-                tri(o, a, b, d, facing);
-                tri(o, b, c, d, facing);
+                gs_tri(o, a, b, d, facing);
+                gs_tri(o, b, c, d, facing);
             }
         }
 }
@@ -191,7 +86,7 @@ static void grid(hall *h, obj *o, v3 p0, v3 U, v3 V, uint32_t nu, uint32_t nv, d
  * points a triangle's height apart, every other row offset by half a cell,
  * each strip between two rows zipped by the shorter diagonal; inner points
  * move by up to `jit` of a cell within the plane (a remesher's output). */
-static void tri_grid(hall *h, obj *o, v3 p0, v3 U, v3 V, double lu, double lv, double cell,
+static void tri_grid(gs_scene *h, obj *o, v3 p0, v3 U, v3 V, double lu, double lv, double cell,
                      double jit, v3 facing)
 {
     uint32_t nu = (uint32_t)ceil(lu / cell - 1e-9), nv = (uint32_t)ceil(lv / (cell * 0.8660254) - 1e-9);
@@ -205,10 +100,10 @@ static void tri_grid(hall *h, obj *o, v3 p0, v3 U, v3 V, double lu, double lv, d
             double sp = odd ? (i == 0 ? 0.0 : i == n - 1 ? 1.0 : (i - 0.5) / nu) : (double)i / nu;
             double t = (double)j / nv;
             if (inner_row && i > 0 && i + 1 < n && jit > 0.0) {
-                sp += jit * jitter(h) / nu;
-                t += jit * jitter(h) / nv;
+                sp += jit * gs_jitter(h) / nu;
+                t += jit * gs_jitter(h) / nv;
             }
-            vert(o, add(p0, add(scl(U, sp), scl(V, t))));
+            gs_vert(o, add(p0, add(scl(U, sp), scl(V, t))));
         }
         if (j > 0) { /* zip row prev (prev_n points) with this one */
             uint32_t a = 0, b = 0;
@@ -219,15 +114,15 @@ static void tri_grid(hall *h, obj *o, v3 p0, v3 U, v3 V, double lu, double lv, d
                 else if (b + 1 >= n)
                     step_a = 1;
                 else {
-                    v3 da = sub(vat(o, prev + a + 1), vat(o, first + b));
-                    v3 db = sub(vat(o, first + b + 1), vat(o, prev + a));
+                    v3 da = sub(gs_vat(o, prev + a + 1), gs_vat(o, first + b));
+                    v3 db = sub(gs_vat(o, first + b + 1), gs_vat(o, prev + a));
                     step_a = dot(da, da) < dot(db, db);
                 }
                 if (step_a) {
-                    tri(o, prev + a, first + b, prev + a + 1, facing);
+                    gs_tri(o, prev + a, first + b, prev + a + 1, facing);
                     a++;
                 } else {
-                    tri(o, prev + a, first + b, first + b + 1, facing);
+                    gs_tri(o, prev + a, first + b, first + b + 1, facing);
                     b++;
                 }
             }
@@ -245,7 +140,7 @@ static uint32_t cells(double len, double cell)
 
 /* An axis-aligned box lo..hi, faces outwards, cells about `cell`; the
  * bottom face is left out when it stands on the floor (no one sees it). */
-static void box(hall *h, obj *o, v3 lo, v3 hi, double cell, int bottom)
+static void box(gs_scene *h, obj *o, v3 lo, v3 hi, double cell, int bottom)
 {
     v3 d = sub(hi, lo);
     v3 X = mk(d.x, 0, 0), Y = mk(0, d.y, 0), Z = mk(0, 0, d.z);
@@ -268,7 +163,7 @@ static void column(obj *o, double cx, double cz, double r, double y0, double y1,
     for (uint32_t j = 0; j <= rings; j++)
         for (uint32_t i = 0; i < sides; i++) {
             double a = 2 * M_PI * i / sides;
-            vert(o, mk(cx + r * cos(a), y0 + (y1 - y0) * j / rings, cz + r * sin(a)));
+            gs_vert(o, mk(cx + r * cos(a), y0 + (y1 - y0) * j / rings, cz + r * sin(a)));
         }
     for (uint32_t j = 0; j < rings; j++)
         for (uint32_t i = 0; i < sides; i++) {
@@ -277,8 +172,8 @@ static void column(obj *o, double cx, double cz, double r, double y0, double y1,
             uint32_t c = b + sides, d = a + sides;
             double am = 2 * M_PI * (i + 0.5) / sides;
             v3 out = mk(cos(am), 0, sin(am));
-            tri(o, a, b, c, out);
-            tri(o, a, c, d, out);
+            gs_tri(o, a, b, c, out);
+            gs_tri(o, a, c, d, out);
         }
 }
 
@@ -300,13 +195,13 @@ static void arcade(obj *o, const double *xs, int n, double zc, double th, double
                 double a = M_PI * i / steps;
                 double x = xm - r * cos(a), y = ya + r * sin(a);
                 for (uint32_t j = 0; j <= rows; j++)
-                    vert(o, mk(x, y + (yb - y) * j / rows, z));
+                    gs_vert(o, mk(x, y + (yb - y) * j / rows, z));
             }
             for (uint32_t i = 0; i < steps; i++)
                 for (uint32_t j = 0; j < rows; j++) {
                     uint32_t a = base + i * (rows + 1) + j, b = a + rows + 1;
-                    tri(o, a, b, b + 1, facing);
-                    tri(o, a, b + 1, a + 1, facing);
+                    gs_tri(o, a, b, b + 1, facing);
+                    gs_tri(o, a, b + 1, a + 1, facing);
                 }
         }
         /* the intrados: quads across the thickness, facing the arch's centre */
@@ -314,35 +209,35 @@ static void arcade(obj *o, const double *xs, int n, double zc, double th, double
         for (uint32_t i = 0; i <= steps; i++) {
             double a = M_PI * i / steps;
             for (uint32_t j = 0; j <= across; j++)
-                vert(o, mk(xm - r * cos(a), ya + r * sin(a), zc - 0.5 * th + th * j / across));
+                gs_vert(o, mk(xm - r * cos(a), ya + r * sin(a), zc - 0.5 * th + th * j / across));
         }
         for (uint32_t i = 0; i < steps; i++)
             for (uint32_t j = 0; j < across; j++) {
                 uint32_t a = base + i * (across + 1) + j, b = a + across + 1;
                 double am = M_PI * (i + 0.5) / steps;
                 v3 in = mk(cos(am), -sin(am), 0);
-                tri(o, a, b, b + 1, in);
-                tri(o, a, b + 1, a + 1, in);
+                gs_tri(o, a, b, b + 1, in);
+                gs_tri(o, a, b + 1, a + 1, in);
             }
     }
 }
 
 /* ------------------------------------------------------------- the scene */
 
-static int build(hall *h, double fine)
+static int build(gs_scene *h, double fine)
 {
     const double W = 24, D = 14, H = 8;
     const double c_floor = 0.23 / fine, c_wall = 0.23 / fine, c_ceil = 0.23 / fine;
     char name[48];
-    obj *o = new_obj(h, "floor", M_FLOOR);
+    obj *o = gs_new_obj(h, "floor", M_FLOOR);
     if (!o)
         return -1;
     tri_grid(h, o, mk(0, 0, 0), mk(W, 0, 0), mk(0, 0, D), W, D, c_floor, 0.2, mk(0, 1, 0));
-    if (!(o = new_obj(h, "ceiling", M_CEILING)))
+    if (!(o = gs_new_obj(h, "ceiling", M_CEILING)))
         return -1;
     tri_grid(h, o, mk(0, H, 0), mk(W, 0, 0), mk(0, 0, D), W, D, c_ceil, 0.2, mk(0, -1, 0));
     /* the south wall in panels around three windows 2 m wide, from 2 m to 5 m */
-    if (!(o = new_obj(h, "south wall", M_PLASTER)))
+    if (!(o = gs_new_obj(h, "south wall", M_PLASTER)))
         return -1;
     tri_grid(h, o, mk(0, 0, 0), mk(W, 0, 0), mk(0, 2, 0), W, 2, c_wall, 0.2, mk(0, 0, 1));
     tri_grid(h, o, mk(0, 5, 0), mk(W, 0, 0), mk(0, H - 5, 0), W, H - 5, c_wall, 0.2, mk(0, 0, 1));
@@ -350,13 +245,13 @@ static int build(hall *h, double fine)
     for (int k = 0; k < 4; k++)
         tri_grid(h, o, mk(piers[k], 2, 0), mk(gaps[k] - piers[k], 0, 0), mk(0, 3, 0),
                  gaps[k] - piers[k], 3, c_wall, 0.2, mk(0, 0, 1));
-    if (!(o = new_obj(h, "north wall", M_PLASTER)))
+    if (!(o = gs_new_obj(h, "north wall", M_PLASTER)))
         return -1;
     tri_grid(h, o, mk(0, 0, D), mk(W, 0, 0), mk(0, H, 0), W, H, c_wall, 0.2, mk(0, 0, -1));
-    if (!(o = new_obj(h, "west wall", M_PLASTER)))
+    if (!(o = gs_new_obj(h, "west wall", M_PLASTER)))
         return -1;
     tri_grid(h, o, mk(0, 0, 0), mk(0, 0, D), mk(0, H, 0), D, H, c_wall, 0.2, mk(1, 0, 0));
-    if (!(o = new_obj(h, "east wall", M_PLASTER)))
+    if (!(o = gs_new_obj(h, "east wall", M_PLASTER)))
         return -1;
     tri_grid(h, o, mk(W, 0, 0), mk(0, 0, D), mk(0, H, 0), D, H, c_wall, 0.2, mk(-1, 0, 0));
     /* two arcades: columns 3.3 m apart from x = 2.1 to 21.9 */
@@ -368,12 +263,12 @@ static int build(hall *h, double fine)
     for (int a = 0; a < 2; a++) {
         for (int k = 0; k < 7; k++) {
             snprintf(name, sizeof name, "column %c%d", 'A' + a, k + 1);
-            if (!(o = new_obj(h, name, M_COLUMN)))
+            if (!(o = gs_new_obj(h, name, M_COLUMN)))
                 return -1;
             column(o, xs[k], zs[a], 0.3, 0.0, ya, sides < 8 ? 8 : sides, rings < 2 ? 2 : rings);
         }
         snprintf(name, sizeof name, "arcade %c", 'A' + a);
-        if (!(o = new_obj(h, name, M_ARCADE)))
+        if (!(o = gs_new_obj(h, name, M_ARCADE)))
             return -1;
         uint32_t steps = (uint32_t)lround(24 * fine), rows = (uint32_t)lround(14 * fine);
         arcade(o, xs, 7, zs[a], 0.6, ya, H, steps < 4 ? 4 : steps, rows < 1 ? 1 : rows,
@@ -398,7 +293,7 @@ static int build(hall *h, double fine)
     for (int k = 0; k < 6; k++) {
         double x = 3.0 + 3.3 * k;
         snprintf(name, sizeof name, "table %d", k + 1);
-        if (!(o = new_obj(h, name, M_OAK)))
+        if (!(o = gs_new_obj(h, name, M_OAK)))
             return -1;
         box(h, o, mk(x, 0.72, 6.4), mk(x + 1.8, 0.78, 7.6), c_wood, 1);
         for (int l = 0; l < 4; l++) {
@@ -408,128 +303,28 @@ static int build(hall *h, double fine)
         for (int a = 0; a < 2; a++) {
             double z = a ? 11.0 : 2.6;
             snprintf(name, sizeof name, "bench %c%d", 'A' + a, k + 1);
-            if (!(o = new_obj(h, name, M_OAK)))
+            if (!(o = gs_new_obj(h, name, M_OAK)))
                 return -1;
             box(h, o, mk(x, 0.42, z), mk(x + 1.8, 0.47, z + 0.4), c_wood, 1);
             box(h, o, mk(x + 0.1, 0, z + 0.05), mk(x + 0.16, 0.42, z + 0.35), c_wood, 0);
             box(h, o, mk(x + 1.64, 0, z + 0.05), mk(x + 1.7, 0.42, z + 0.35), c_wood, 0);
         }
     }
-    for (uint32_t k = 0; k < h->n; k++)
-        if (h->o[k].failed)
-            return -1;
-    return 0;
-}
-
-/* ---------------------------------------------------------------- writing */
-
-static int write_files(const hall *h, const char *dir, const char *name)
-{
-    char path[4096];
-    snprintf(path, sizeof path, "%s/%s.bin", dir, name);
-    FILE *bin = fopen(path, "wb");
-    if (!bin) {
-        fprintf(stderr, "hall: cannot write %s\n", path);
-        return -1;
-    }
-    uint64_t *off = malloc(2 * (size_t)h->n * sizeof *off), at = 0;
-    int ok = off != NULL;
-    for (uint32_t k = 0; k < h->n && ok; k++) {
-        const obj *o = &h->o[k];
-        off[2 * k] = at;
-        ok = fwrite(o->v, sizeof *o->v, 3 * (size_t)o->nv, bin) == 3 * (size_t)o->nv;
-        at += 12 * (uint64_t)o->nv;
-        off[2 * k + 1] = at;
-        ok = ok && fwrite(o->t, sizeof *o->t, 3 * (size_t)o->nt, bin) == 3 * (size_t)o->nt;
-        at += 12 * (uint64_t)o->nt;
-    }
-    ok = (fclose(bin) == 0) && ok;
-    snprintf(path, sizeof path, "%s/%s.gltf", dir, name);
-    FILE *f = ok ? fopen(path, "w") : NULL;
-    if (!f) {
-        free(off);
-        fprintf(stderr, "hall: cannot write %s\n", path);
-        return -1;
-    }
-    /* The sun: light travels along d, a node's light shines along its -Z:
-     * the rotation taking -Z to d, q = (a × d, 1 + a·d) normalised. */
-    v3 d = mk(0.3, -0.55, 1.0), a = mk(0, 0, -1);
-    d = scl(d, 1.0 / sqrt(dot(d, d)));
-    v3 ax = cross(a, d);
-    double qw = 1.0 + dot(a, d), ql = sqrt(dot(ax, ax) + qw * qw);
-    fprintf(f, "{\"asset\":{\"version\":\"2.0\",\"generator\":\"radiosity tools/hall.c\"},\n");
-    fprintf(f, "\"extensionsUsed\":[\"KHR_lights_punctual\"],\n");
-    fprintf(f, "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"name\":\"sun\","
-               "\"type\":\"directional\",\"color\":[1.0,0.95,0.85],\"intensity\":100000}]}},\n");
-    fprintf(f, "\"scene\":0,\"scenes\":[{\"nodes\":[");
-    for (uint32_t k = 0; k <= h->n; k++)
-        fprintf(f, "%s%u", k ? "," : "", k);
-    fprintf(f, "]}],\n\"nodes\":[");
-    for (uint32_t k = 0; k < h->n; k++)
-        fprintf(f, "%s{\"name\":\"%s\",\"mesh\":%u}", k ? ",\n" : "", h->o[k].name, k);
-    fprintf(f, ",\n{\"name\":\"sun\",\"rotation\":[%.9f,%.9f,%.9f,%.9f],"
-               "\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}],\n",
-            ax.x / ql, ax.y / ql, ax.z / ql, qw / ql);
-    fprintf(f, "\"materials\":[");
-    for (size_t m = 0; m < sizeof materials / sizeof materials[0]; m++)
-        fprintf(f, "%s{\"name\":\"%s\",\"pbrMetallicRoughness\":{\"baseColorFactor\":[%g,%g,%g,1],"
-                   "\"metallicFactor\":0}}",
-                m ? ",\n" : "", materials[m].name, materials[m].rgb[0], materials[m].rgb[1],
-                materials[m].rgb[2]);
-    fprintf(f, "],\n\"meshes\":[");
-    for (uint32_t k = 0; k < h->n; k++)
-        fprintf(f, "%s{\"name\":\"%s\",\"primitives\":[{\"attributes\":{\"POSITION\":%u},"
-                   "\"indices\":%u,\"material\":%d}]}",
-                k ? ",\n" : "", h->o[k].name, 2 * k, 2 * k + 1, h->o[k].material);
-    fprintf(f, "],\n\"accessors\":[");
-    for (uint32_t k = 0; k < h->n; k++) {
-        const obj *o = &h->o[k];
-        float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-        for (uint32_t v = 0; v < o->nv; v++)
-            for (int c = 0; c < 3; c++) {
-                lo[c] = fminf(lo[c], o->v[3 * v + c]);
-                hi[c] = fmaxf(hi[c], o->v[3 * v + c]);
-            }
-        fprintf(f, "%s{\"bufferView\":%u,\"componentType\":5126,\"count\":%u,\"type\":\"VEC3\","
-                   "\"min\":[%.9g,%.9g,%.9g],\"max\":[%.9g,%.9g,%.9g]},\n"
-                   "{\"bufferView\":%u,\"componentType\":5125,\"count\":%u,\"type\":\"SCALAR\"}",
-                k ? ",\n" : "", 2 * k, o->nv, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2], 2 * k + 1,
-                3 * o->nt);
-    }
-    fprintf(f, "],\n\"bufferViews\":[");
-    for (uint32_t k = 0; k < h->n; k++)
-        fprintf(f, "%s{\"buffer\":0,\"byteOffset\":%llu,\"byteLength\":%llu,\"target\":34962},\n"
-                   "{\"buffer\":0,\"byteOffset\":%llu,\"byteLength\":%llu,\"target\":34963}",
-                k ? ",\n" : "", (unsigned long long)off[2 * k], 12ull * h->o[k].nv,
-                (unsigned long long)off[2 * k + 1], 12ull * h->o[k].nt);
-    fprintf(f, "],\n\"buffers\":[{\"uri\":\"%s.bin\",\"byteLength\":%llu}]}\n", name,
-            (unsigned long long)at);
-    free(off);
-    if (fclose(f) != 0) {
-        fprintf(stderr, "hall: cannot write %s\n", path);
-        return -1;
-    }
-    return 0;
+    return gs_failed(h) ? -1 : 0;
 }
 
 int hall_write(const char *dir, const char *name, double fine, hall_stats *stats)
 {
-    hall h = {.seed = 12345};
-    int rc = build(&h, fine > 0 ? fine : 1.0);
-    if (rc != 0)
-        fprintf(stderr, "hall: out of memory\n");
-    if (rc == 0)
-        rc = write_files(&h, dir, name);
+    gs_scene h = {.seed = 12345,
+                  .materials = materials,
+                  .material_count = sizeof materials / sizeof materials[0],
+                  .sun = mk(0.3, -0.55, 1.0),
+                  .generator = "tools/hall.c"};
+    int rc = gs_make(&h, build, fine, dir, name);
     if (stats) {
-        stats->triangles = 0;
+        stats->triangles = gs_triangles(&h);
         stats->objects = h.n;
-        for (uint32_t k = 0; k < h.n; k++)
-            stats->triangles += h.o[k].nt;
     }
-    for (uint32_t k = 0; k < h.n; k++) {
-        free(h.o[k].v);
-        free(h.o[k].t);
-    }
-    free(h.o);
+    gs_free(&h);
     return rc;
 }

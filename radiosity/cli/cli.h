@@ -9,6 +9,7 @@
  *                     results and calls no other command
  *   cli_args.c        argument parsers and options shared by commands:
  *                     solve options, view options, a view drawn to files
+ *   cli_progress.c    the hemi-cubes' progress lines on stderr
  *   cli_process.c     the process: huge pages, malloc, stop signals
  *   cli_print.c       the error, warning and usage-error lines
  * Every cli_* command returns the process exit status: 0, 1, 2 (or 130
@@ -57,6 +58,14 @@ extern volatile sig_atomic_t cli_stop;
 /* Installs the handlers (only the program handles signals, never the
  * library).  A second Ctrl-C ends the process at once. */
 void cli_catch_stop(void);
+
+/* ---------------------------------------------- progress (cli_progress.c) */
+
+/* Sets opt's hemi-cube progress and stage callbacks: rows (or element
+ * hemi-cubes) done, their rate and the time left, on one redrawn line when
+ * stderr is a terminal, else one plain line every RADIOSITY_PROGRESS_SECONDS
+ * (default 5) and at the end of each job. */
+void cli_progress_enable(rad_solve_options *opt);
 
 /* ---------------------------------------------------- printing (cli_print.c) */
 

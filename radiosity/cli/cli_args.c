@@ -74,25 +74,6 @@ int cli_parse_vec3(const char *opt, const char *s, rad_vec3 *out)
 
 /* --------------------------------------------------------- solve options */
 
-/* Progress on stderr, only when stderr is a terminal. */
-static void progress_bar(void *user, uint32_t done, uint32_t total)
-{
-    (void)user;
-    static int last = -1;
-    int pct = total ? (int)(100.0 * done / total) : 100;
-    if (pct == last && done != total)
-        return;
-    last = pct;
-    int filled = pct * 30 / 100;
-    fprintf(stderr, "\rform factors [%.*s%*s] %3d%% %u/%u rows", filled,
-            "##############################", 30 - filled, "", pct, done, total);
-    if (done == total) {
-        fputc('\n', stderr);
-        last = -1;
-    }
-    fflush(stderr);
-}
-
 /* The progressive solver's progress on stderr: shots, and the unshot
  * power on a logarithmic bar from all of it (1) down to the tolerance. */
 static void shots_bar(void *user, const sv_progress *p)
@@ -111,9 +92,8 @@ static void shots_bar(void *user, const sv_progress *p)
 
 void cli_enable_progress(rad_solve_options *opt)
 {
+    cli_progress_enable(opt); /* rows and element hemi-cubes: terminal or log */
     if (isatty(STDERR_FILENO)) {
-        opt->hemicube.progress = progress_bar;
-        opt->hemicube.progress_user = NULL;
         opt->solver.progress = shots_bar;
         opt->solver.progress_user = NULL;
     }

@@ -432,6 +432,8 @@ static int compute_missing_rows(run *c, const sv_system *all, rad_error *err)
      * any row, and a resumed run samples among the rows still missing, so
      * none is computed twice). */
     uint32_t sample[SAMPLE_ROOM], k = 0, longest = 0;
+    if (opt->progress_stage && count && !progressive)
+        opt->progress_stage(opt->hemicube.progress_user, "form factors");
     int rc = sample_rows(c, missing, count, progressive ? row_store_bytes(c) : 0, sample, &k, err);
     uint32_t left = 0;
     for (uint32_t q = 0; q < count; q++)
@@ -890,6 +892,8 @@ static int refine(run *c, rad_error *err)
                                    .entries_read = release_rows,
                                    .entries_read_user = c};
     int rc = refines(opt) ? start_hemicube(c, err) : RAD_OK;
+    if (!rc && refines(opt) && opt->progress_stage)
+        opt->progress_stage(opt->hemicube.progress_user, "elements");
     if (!rc)
         rc = rad_elements_refine(s, c->hc, &ro, err);
     free(lights);

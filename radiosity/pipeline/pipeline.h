@@ -131,6 +131,11 @@ typedef struct rad_solve_options {
      * emitters), not by counting pixels: what `ff FILE.vs3` does by
      * default, where a few large surfaces make it cheap (issue 39). */
     int exact_all;
+    /* May be NULL: called with hemicube.progress_user as a stage whose
+     * hemi-cubes report progress (hemicube.progress) begins: "form factors"
+     * (the patches' rows) or "elements" (the elements' hemi-cubes), so
+     * that a progress line can say which it counts. */
+    void (*progress_stage)(void *user, const char *stage);
 } rad_solve_options;
 
 /* The whole computation for a scene file: load, mesh, form factors, solve.
