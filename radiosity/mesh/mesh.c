@@ -211,7 +211,7 @@ static uint64_t add_sat(uint64_t a, uint64_t b)
 /* Cells along an edge of length len for a target patch edge `size`.  The
  * 1e-9 keeps an edge of exactly k·size from becoming k+1 cells through
  * rounding.  UINT64_MAX when the count would not fit a uint32. */
-static uint64_t divisions(double len, double size)
+uint64_t mesh_divisions(double len, double size)
 {
     if (!(size > 0.0) || !isfinite(size))
         return 1;
@@ -278,8 +278,8 @@ static split polygon_split(const rad_scene *s, const rad_polygon *pg, double opt
         } else {
             double lu = fmax(rad_length(rad_sub(p[1], p[0])), rad_length(rad_sub(p[2], p[3])));
             double lv = fmax(rad_length(rad_sub(p[2], p[1])), rad_length(rad_sub(p[3], p[0])));
-            r.nu = divisions(lu, size);
-            r.nv = divisions(lv, size);
+            r.nu = mesh_divisions(lu, size);
+            r.nv = mesh_divisions(lv, size);
         }
         if (r.nu == UINT64_MAX || r.nv == UINT64_MAX) {
             r.patches = r.vertices = UINT64_MAX;
@@ -301,7 +301,7 @@ static split polygon_split(const rad_scene *s, const rad_polygon *pg, double opt
             for (uint32_t i = 0; i < n; i++)
                 longest = fmax(longest, rad_length(rad_sub(p[i], c)));
         }
-        k = divisions(longest, size);
+        k = mesh_divisions(longest, size);
     }
     r.nu = r.nv = k;
     if (k == UINT64_MAX) {
@@ -332,16 +332,88 @@ static int transmits(const rad_scene *scene, const rad_polygon *pg)
            rad_material_transmits(&scene->materials[pg->material], scene->band_count);
 }
 
-/* What rad_mesh_build and rad_mesh_count share: which polygons are grouped
- * (eligible: one cell at this size, no subdivision of its own, opaque;
- * grouped: eligible with a neighbour of its kind, see cluster.c) and the
- * totals.  `cells` counts the cell layer's cells when there is one (some
- * polygon grouped), else 0. */
+/* What rad_mesh_build and rad_mesh_count share: the weld, the planar
+ * regions (region.c), which polygons are grouped into clusters (eligible:
+ * one cell at this size, no subdivision of its own, opaque, not in a
+ * region; grouped: eligible with a neighbour of its kind, see cluster.c)
+ * and the totals.  `cells` counts the cell layer's cells when there is one
+ * (some polygon grouped or in a region), else 0. */
 typedef struct plan {
     double opt_size, def_size;
+    uint32_t *pos, *first, npos; /* weld ids (mesh_weld) */
+    mesh_regions rg;
     mesh_clusters cl;
     uint64_t patches, vertices, cells;
 } plan;
+
+static void plan_free(plan *pl)
+{
+    free(pl->pos);
+    free(pl->first);
+    mesh_regions_free(&pl->rg);
+    mesh_clusters_free(&pl->cl);
+}
+
+/* Weld points within 1e-6 of the scene's diagonal. */
+#define MESH_WELD 1e-6
+
+static int distinct_points(const plan *pl, const rad_polygon *pg)
+{
+    for (uint32_t a = 0; a < pg->point_count; a++)
+        for (uint32_t b = 0; b < a; b++)
+            if (pl->pos[pg->first_point + a] == pl->pos[pg->first_point + b])
+                return 0;
+    return 1;
+}
+
+/* How polygon pg may enter a planar region (mesh_internal.h). */
+static uint8_t region_mode(const rad_scene *scene, const plan *pl, const rad_polygon *pg)
+{
+    if (!polygon_ok(scene, pg) || pg->object >= scene->object_count ||
+        pg->material >= scene->material_count || transmits(scene, pg) ||
+        (!(pl->opt_size > 0.0) && pg->subdiv_u > 0) || !distinct_points(pl, pg))
+        return MESH_REGION_OFF;
+    split sp = polygon_split(scene, pg, pl->opt_size, pl->def_size);
+    if (sp.patches == 1)
+        return MESH_REGION_SMALL;
+    const rad_vec3 *p = scene->points + pg->first_point;
+    if (pg->point_count > 4)
+        return MESH_REGION_SPLIT;
+    double longest = 0.0;
+    for (uint32_t k = 0; k < pg->point_count; k++)
+        longest = fmax(longest, rad_length(rad_sub(p[(k + 1) % pg->point_count], p[k])));
+    if (pg->point_count == 3) /* its k² cells have its shape */
+        return longest * longest > 4.0 * (1 + 1e-9) * pg->area ? MESH_REGION_SPLIT
+                                                               : MESH_REGION_ALONE;
+    double lu = fmax(rad_length(rad_sub(p[1], p[0])), rad_length(rad_sub(p[2], p[3])));
+    double lv = fmax(rad_length(rad_sub(p[2], p[1])), rad_length(rad_sub(p[3], p[0])));
+    double cu = lu / (double)sp.nu, cv = lv / (double)sp.nv;
+    return fmax(cu, cv) > 4.0 * (1 + 1e-9) * fmin(cu, cv) ? MESH_REGION_SPLIT : MESH_REGION_ALONE;
+}
+
+/* The weld and the planar regions. */
+static int plan_regions(const rad_scene *scene, const rad_mesh_options *opt, plan *pl,
+                        rad_error *err)
+{
+    const char *src = scene->source ? scene->source : "<memory>";
+    const uint32_t np = scene->polygon_count;
+    pl->pos = malloc(((size_t)scene->point_count + 1) * sizeof *pl->pos);
+    pl->first = malloc(((size_t)scene->point_count + 1) * sizeof *pl->first);
+    uint8_t *mode = calloc((size_t)np + 1, 1);
+    rad_vec3 lo, hi;
+    double eps = rad_scene_bounds(scene, &lo, &hi) ? MESH_WELD * rad_length(rad_sub(hi, lo)) : 0;
+    if (!pl->pos || !pl->first || !mode ||
+        mesh_weld(scene, eps, pl->pos, pl->first, &pl->npos) != 0) {
+        free(mode);
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: mesh: out of memory", src);
+    }
+    for (uint32_t i = 0; i < np && !(opt && opt->no_clusters); i++)
+        mode[i] = region_mode(scene, pl, &scene->polygons[i]);
+    int rc = mesh_regions_build(scene, pl->pos, pl->first, pl->npos, mode,
+                                pl->opt_size > 0.0 ? pl->opt_size : pl->def_size, &pl->rg, err);
+    free(mode);
+    return rc;
+}
 
 static int make_plan(const rad_scene *scene, const rad_mesh_options *opt, plan *pl,
                      rad_error *err)
@@ -350,6 +422,11 @@ static int make_plan(const rad_scene *scene, const rad_mesh_options *opt, plan *
     pl->opt_size = opt && opt->patch_size > 0.0 ? opt->patch_size : 0.0;
     pl->def_size = rad_mesh_default_patch_size(scene);
     const uint32_t np = scene->polygon_count;
+    int rc = plan_regions(scene, opt, pl, err);
+    if (rc != RAD_OK || pl->rg.overflow) {
+        pl->patches = pl->vertices = UINT64_MAX;
+        return rc;
+    }
     uint8_t *eligible = calloc((size_t)np + 1, 1);
     if (!eligible)
         return rad_fail(err, RAD_ERR_NOMEM, "%s: mesh: out of memory",
@@ -358,19 +435,20 @@ static int make_plan(const rad_scene *scene, const rad_mesh_options *opt, plan *
         const rad_polygon *pg = &scene->polygons[i];
         if (!polygon_ok(scene, pg) || pg->object >= scene->object_count ||
             pg->material >= scene->material_count || transmits(scene, pg) ||
-            (!(pl->opt_size > 0.0) && pg->subdiv_u > 0))
+            (!(pl->opt_size > 0.0) && pg->subdiv_u > 0) || pl->rg.of[i] != RAD_NONE ||
+            !distinct_points(pl, pg))
             continue;
         eligible[i] = polygon_split(scene, pg, pl->opt_size, pl->def_size).patches == 1;
     }
-    int rc = mesh_cluster(scene, eligible, pl->opt_size > 0.0 ? pl->opt_size : pl->def_size,
-                          &pl->cl, err);
+    rc = mesh_cluster(scene, eligible, pl->pos, pl->opt_size > 0.0 ? pl->opt_size : pl->def_size,
+                      &pl->cl, err);
     free(eligible);
     if (rc != RAD_OK)
         return rc;
     uint64_t tp = 0, tv = 0;
     for (uint32_t i = 0; i < np; i++) {
         const rad_polygon *pg = &scene->polygons[i];
-        if (!polygon_ok(scene, pg) || pl->cl.of[i] != RAD_NONE)
+        if (!polygon_ok(scene, pg) || pl->cl.of[i] != RAD_NONE || pl->rg.of[i] != RAD_NONE)
             continue;
         split sp = polygon_split(scene, pg, pl->opt_size, pl->def_size);
         /* a transmitting sheet has a back side of as many cells again */
@@ -378,9 +456,11 @@ static int make_plan(const rad_scene *scene, const rad_mesh_options *opt, plan *
         tp = add_sat(tp, mul_sat(sides, sp.patches));
         tv = add_sat(tv, mul_sat(sides, sp.vertices));
     }
-    pl->cells = pl->cl.count ? add_sat(tp, pl->cl.first[pl->cl.count]) : 0;
-    pl->patches = add_sat(tp, pl->cl.count);
-    pl->vertices = add_sat(tv, pl->cl.vkeys);
+    pl->cells = pl->cl.count || pl->rg.count
+                    ? add_sat(add_sat(tp, pl->cl.first[pl->cl.count]), pl->rg.cells)
+                    : 0;
+    pl->patches = add_sat(add_sat(tp, pl->cl.count), pl->rg.patches);
+    pl->vertices = add_sat(add_sat(tv, pl->cl.vkeys), pl->rg.vertices);
     return RAD_OK;
 }
 
@@ -410,10 +490,10 @@ uint64_t rad_mesh_count(const rad_scene *scene, const rad_mesh_options *opt)
     if (!scene)
         return 0;
     plan pl;
-    if (make_plan(scene, opt, &pl, NULL) != RAD_OK)
-        return UINT64_MAX;
-    mesh_clusters_free(&pl.cl);
-    return pl.patches;
+    int rc = make_plan(scene, opt, &pl, NULL);
+    uint64_t n = rc == RAD_OK ? pl.patches : UINT64_MAX;
+    plan_free(&pl);
+    return n;
 }
 
 /* ---------------------------------------------------------------- building */
@@ -657,8 +737,6 @@ static void build_cluster(builder *b, const mesh_clusters *cl, uint32_t k, uint3
     const rad_scene *s = b->s;
     rad_mesh *m = b->m;
     const uint32_t c0 = b->nc;
-    double area = 0.0;
-    rad_vec3 sum_n = rad_v3(0, 0, 0), sum_c = rad_v3(0, 0, 0);
     m->cell_first[b->np] = c0;
     for (uint32_t q = cl->first[k]; q < cl->first[k + 1]; q++) {
         const uint32_t i = cl->member[q];
@@ -679,33 +757,64 @@ static void build_cluster(builder *b, const mesh_clusters *cl, uint32_t k, uint3
             *bad = 1;
             return;
         }
-        area += c->area;
-        sum_n = rad_add(sum_n, rad_scale(c->normal, c->area));
-        sum_c = rad_add(sum_c, rad_scale(c->center, c->area));
     }
-    rad_patch *p = &m->patches[b->np++];
-    if (b->nc - c0 == 1) {
-        *p = m->cells[c0];
-        return;
+    if (mesh_patch_of_cells(m->vertices, &m->cells[c0], b->nc - c0, &m->patches[b->np++]) != 0)
+        *bad = 1;
+}
+
+int mesh_patch_of_cells(const rad_vec3 *V, const rad_patch *cells, uint32_t n, rad_patch *out)
+{
+    if (n == 1) {
+        *out = cells[0];
+        return 0;
+    }
+    double area = 0.0;
+    rad_vec3 sum_n = rad_v3(0, 0, 0), sum_c = rad_v3(0, 0, 0);
+    for (uint32_t c = 0; c < n; c++) {
+        area += cells[c].area;
+        sum_n = rad_add(sum_n, rad_scale(cells[c].normal, cells[c].area));
+        sum_c = rad_add(sum_c, rad_scale(cells[c].center, cells[c].area));
     }
     rad_vec3 centroid = rad_scale(sum_c, 1.0 / area), at = centroid;
-    uint32_t home = c0;
+    uint32_t home = 0;
     double best = INFINITY;
-    for (uint32_t c = c0; c < b->nc; c++) {
+    for (uint32_t c = 0; c < n; c++) {
         rad_vec3 q;
-        double d2 = rad_cell_nearest(m->vertices, m->cells[c].v, centroid, &q);
+        double d2 = rad_cell_nearest(V, cells[c].v, centroid, &q);
         if (d2 < best) {
             best = d2;
             home = c;
             at = q;
         }
     }
-    *p = m->cells[home];
-    p->center = at;
-    p->normal = rad_normalize(sum_n);
-    p->area = area;
-    if (!(rad_length(sum_n) > 0.0))
-        *bad = 1;
+    *out = cells[home];
+    out->center = at;
+    out->normal = rad_normalize(sum_n);
+    out->area = area;
+    return rad_length(sum_n) > 0.0 ? 0 : -1;
+}
+
+/* Region r of the plan (region.c made it): its vertices, then its patches
+ * and their cells, copied with the vertex indices moved to the mesh's. */
+static void build_region(builder *b, const mesh_regions *rg, uint32_t r)
+{
+    rad_mesh *m = b->m;
+    const uint32_t v0 = rg->vfirst[r], shift = b->nv;
+    for (uint32_t v = v0; v < rg->vfirst[r + 1]; v++)
+        add_vertex(b, rg->V[v], rg->Vb[v]);
+    for (uint32_t p = rg->pfirst[r]; p < rg->pfirst[r + 1]; p++) {
+        m->cell_first[b->np] = b->nc;
+        for (uint32_t c = rg->cfirst[p]; c < rg->cfirst[p + 1]; c++) {
+            rad_patch *q = &m->cells[b->nc++];
+            *q = rg->cell[c];
+            for (int k = 0; k < rad_patch_corners(q); k++)
+                q->v[k] = q->v[k] - v0 + shift;
+        }
+        rad_patch *q = &m->patches[b->np++];
+        *q = rg->patch[p];
+        for (int k = 0; k < rad_patch_corners(q); k++)
+            q->v[k] = q->v[k] - v0 + shift;
+    }
 }
 
 int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh **out,
@@ -727,12 +836,14 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
     uint32_t limit = opt && opt->max_patches ? opt->max_patches : RAD_MESH_DEFAULT_MAX_PATCHES;
     plan pl;
     int rc = make_plan(scene, opt, &pl, err);
-    if (rc != RAD_OK)
+    if (rc != RAD_OK) {
+        plan_free(&pl);
         return rc;
+    }
     const uint64_t np = pl.patches, nv = pl.vertices;
     double size = effective_default(scene, opt);
     if (np > limit || nv >= UINT32_MAX || pl.cells > UINT32_MAX || np == 0) {
-        mesh_clusters_free(&pl.cl);
+        plan_free(&pl);
         if (np == 0)
             return rad_fail(err, RAD_ERR_INVALID, "%s: mesh: the scene has no polygons", src);
         if (np <= limit)
@@ -755,7 +866,7 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
     uint64_t kmax = 0;
     for (uint32_t i = 0; i < scene->polygon_count; i++) {
         const rad_polygon *pg = &scene->polygons[i];
-        if (pg->point_count != 4 && pl.cl.of[i] == RAD_NONE) {
+        if (pg->point_count != 4 && pl.cl.of[i] == RAD_NONE && pl.rg.of[i] == RAD_NONE) {
             split sp = polygon_split(scene, pg, pl.opt_size, pl.def_size);
             if (sp.nu > kmax)
                 kmax = sp.nu;
@@ -771,7 +882,7 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
         free(g);
         free(vmap);
         rad_mesh_destroy(m);
-        mesh_clusters_free(&pl.cl);
+        plan_free(&pl);
         return rad_fail(err, RAD_ERR_NOMEM,
                         "%s: mesh: out of memory for %llu patches and %llu vertices", src,
                         (unsigned long long)np, (unsigned long long)nv);
@@ -782,8 +893,11 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
     int bad = 0;
     for (uint32_t i = 0; i < scene->polygon_count && !bad; i++) {
         const rad_polygon *pg = &scene->polygons[i];
-        const uint32_t k = pl.cl.of[i];
-        if (k != RAD_NONE) { /* grouped: the cluster in its first polygon's place */
+        const uint32_t k = pl.cl.of[i], r = pl.rg.of[i];
+        if (r != RAD_NONE) { /* a planar region in its first polygon's place */
+            if (pl.rg.lead[r] == i)
+                build_region(&b, &pl.rg, r);
+        } else if (k != RAD_NONE) { /* grouped: the cluster in its first polygon's place */
             if (pl.cl.member[pl.cl.first[k]] == i)
                 build_cluster(&b, &pl.cl, k, vmap, &bad);
         } else {
@@ -808,7 +922,7 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
             free(g);
             free(vmap);
             rad_mesh_destroy(m);
-            mesh_clusters_free(&pl.cl);
+            plan_free(&pl);
             return rad_fail(err, RAD_ERR_INVALID,
                             "%s: polygon '%s': a patch has no area at this subdivision "
                             "(the polygon is too thin); use a larger patch size",
@@ -819,7 +933,7 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
         m->cell_first[np] = b.nc;
     free(g);
     free(vmap);
-    mesh_clusters_free(&pl.cl);
+    plan_free(&pl);
     RAD_ASSERT(b.nv == nv && b.np == np && b.nc == pl.cells);
     rc = rad_mesh_link_twins(m, scene, err);
     if (rc != RAD_OK) {

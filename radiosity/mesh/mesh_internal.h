@@ -24,10 +24,62 @@ typedef struct mesh_clusters {
 } mesh_clusters;
 
 /* Groups the eligible polygons (eligible[i] = 1) into clusters of about
- * `size` (the patch edge length).  *out is zeroed first; free it with
- * mesh_clusters_free.  RAD_OK or RAD_ERR_NOMEM. */
-int mesh_cluster(const rad_scene *s, const uint8_t *eligible, double size, mesh_clusters *out,
-                 rad_error *err);
+ * `size` (the patch edge length); pos: each scene point's weld id
+ * (mesh_weld), so that points at one place join.  *out is zeroed first;
+ * free it with mesh_clusters_free.  RAD_OK or RAD_ERR_NOMEM. */
+int mesh_cluster(const rad_scene *s, const uint8_t *eligible, const uint32_t *pos, double size,
+                 mesh_clusters *out, rad_error *err);
 void mesh_clusters_free(mesh_clusters *c);
+
+/* Weld (weld.c): id[k] for each of the scene's points, equal for points
+ * within eps of the first point of that id (first[id]); *count ids.  Both
+ * arrays hold point_count entries.  0, or -1 out of memory. */
+int mesh_weld(const rad_scene *s, double eps, uint32_t *id, uint32_t *first, uint32_t *count);
+
+/* How a polygon may enter a planar region (region.c), decided by mesh.c. */
+enum {
+    MESH_REGION_OFF = 0, /* never: transmits, keeps its own subdivision, or degenerate */
+    MESH_REGION_SMALL,   /* one cell at this size (the clusters' kind) */
+    MESH_REGION_ALONE,   /* larger, and meshed well on its own */
+    MESH_REGION_SPLIT    /* larger, and poor on its own (many sides, or long and thin) */
+};
+
+/* Planar regions (region.c): coplanar neighbouring polygons meshed as one.
+ * Regions are numbered by their lowest polygon; region r holds patches
+ * pfirst[r]..pfirst[r+1], its cells and vertices [vfirst[r], vfirst[r+1])
+ * of V, which the patches and cells index.  Patch p's cells are
+ * cell[cfirst[p] .. cfirst[p+1]). */
+typedef struct mesh_regions {
+    uint32_t count;
+    uint32_t *of;     /* polygon -> its region, RAD_NONE when meshed otherwise */
+    uint32_t *lead;   /* region -> its lowest polygon */
+    uint32_t *pfirst, *vfirst;
+    rad_patch *patch, *cell;
+    uint32_t *cfirst;
+    rad_vec3 *V;
+    uint8_t *Vb;      /* per vertex: on its region's outline */
+    uint32_t patches, cells, vertices;
+    int overflow;     /* a region would need more cells than any limit allows */
+    size_t cap_p, cap_f, cap_c, cap_v, cap_b;
+} mesh_regions;
+
+/* Finds and meshes the regions of polygons with mode[i] != OFF at patch
+ * size `size` (pos/first/npos from mesh_weld).  *out zeroed first; free
+ * with mesh_regions_free.  RAD_OK (out->overflow set when too large),
+ * RAD_ERR_NOMEM, RAD_ERR_INVALID (a cell without area). */
+int mesh_regions_build(const rad_scene *s, const uint32_t *pos, const uint32_t *first,
+                       uint32_t npos, const uint8_t *mode, double size, mesh_regions *out,
+                       rad_error *err);
+void mesh_regions_free(mesh_regions *r);
+
+/* Cells along an edge of length len for a target patch edge `size`
+ * (mesh.c); UINT64_MAX when more than a uint32 holds. */
+uint64_t mesh_divisions(double len, double size);
+
+/* A patch of n cells (mesh.c): area their sum, normal their area-weighted
+ * mean, centre their area centroid moved onto the nearest cell, whose
+ * corners and polygon it carries; one cell is the patch.  -1 when the
+ * normals cancel. */
+int mesh_patch_of_cells(const rad_vec3 *V, const rad_patch *cells, uint32_t n, rad_patch *out);
 
 #endif /* RAD_MESH_INTERNAL_H */
