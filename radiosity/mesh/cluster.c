@@ -103,7 +103,7 @@ static int edge_cmp(const void *a, const void *b)
     return x->polygon < y->polygon ? -1 : x->polygon > y->polygon;
 }
 
-static uint32_t find(uint32_t *up, uint32_t x)
+uint32_t mesh_uf_find(uint32_t *up, uint32_t x)
 {
     while (up[x] != x) {
         up[x] = up[up[x]];
@@ -116,8 +116,8 @@ static uint32_t find(uint32_t *up, uint32_t x)
  * index of their set. */
 static void join(uint32_t *up, uint32_t a, uint32_t b)
 {
-    a = find(up, a);
-    b = find(up, b);
+    a = mesh_uf_find(up, a);
+    b = mesh_uf_find(up, b);
     if (a < b)
         up[b] = a;
     else if (b < a)
@@ -229,7 +229,7 @@ static void grid_key(const work *w, uint32_t i, int64_t key[3])
 /* The cluster path: eligible polygons of surfaces with two or more. */
 static int on_path(const work *w, const uint32_t *surf_size, uint32_t i)
 {
-    return w->elig[i] && surf_size[find(w->surf, i)] > 1;
+    return w->elig[i] && surf_size[mesh_uf_find(w->surf, i)] > 1;
 }
 
 /* Breadth-first clusters: from the lowest polygon not yet taken, its
@@ -325,7 +325,7 @@ static int merge_slivers(work *w, uint32_t *up)
             mem[start[w->cl[i] + 1]++] = i;
     const double sliver = SLIVER_AREA * w->size * w->size, extent = MERGE_EXTENT * w->size;
     for (uint32_t c = 0; c < nc; c++) {
-        if (ci[c].area >= sliver || ci[c].grew || find(up, c) != c)
+        if (ci[c].area >= sliver || ci[c].grew || mesh_uf_find(up, c) != c)
             continue;
         uint32_t best = RAD_NONE;
         for (uint32_t m = start[c]; m < start[c + 1]; m++)
@@ -333,7 +333,7 @@ static int merge_slivers(work *w, uint32_t *up)
                 uint32_t q = w->nb[4 * (size_t)mem[m] + e];
                 if (q == RAD_NONE)
                     continue;
-                uint32_t d = find(up, w->cl[q]);
+                uint32_t d = mesh_uf_find(up, w->cl[q]);
                 if (d == c || (best != RAD_NONE && (ci[d].area > ci[best].area ||
                                                     (ci[d].area == ci[best].area && d > best))))
                     continue;
@@ -378,7 +378,7 @@ static int number(work *w, uint32_t *up, mesh_clusters *out)
         out->of[i] = RAD_NONE;
         if (w->cl[i] == RAD_NONE)
             continue;
-        uint32_t r = find(up, w->cl[i]);
+        uint32_t r = mesh_uf_find(up, w->cl[i]);
         if (label[r] == RAD_NONE)
             label[r] = count++;
         out->of[i] = label[r];
@@ -425,7 +425,7 @@ static int vertices(work *w, mesh_clusters *out)
         if (out->of[i] == RAD_NONE)
             continue;
         const rad_polygon *pg = &s->polygons[i];
-        uint64_t surf = find(w->surf, i);
+        uint64_t surf = mesh_uf_find(w->surf, i);
         for (uint32_t k = 0; k < pg->point_count; k++) {
             const uint32_t pt = pg->first_point + k;
             const key_ctx ctx = {keys, surf << 32 | w->pos[pt]};
@@ -484,7 +484,7 @@ int mesh_cluster(const rad_scene *s, const uint8_t *eligible, const uint32_t *po
         goto done;
     for (uint32_t i = 0; i < w.np; i++)
         if (w.elig[i])
-            surf_size[find(w.surf, i)]++;
+            surf_size[mesh_uf_find(w.surf, i)]++;
     if (grow(&w, surf_size) != 0 || !(up = malloc(((size_t)w.ncl + 1) * sizeof *up)) ||
         merge_slivers(&w, up) != 0 || number(&w, up, out) != 0 || vertices(&w, out) != 0)
         goto done;

@@ -31,6 +31,9 @@ int mesh_cluster(const rad_scene *s, const uint8_t *eligible, const uint32_t *po
                  mesh_clusters *out, rad_error *err);
 void mesh_clusters_free(mesh_clusters *c);
 
+/* The root of x in the union-find forest up (cluster.c), halving paths. */
+uint32_t mesh_uf_find(uint32_t *up, uint32_t x);
+
 /* Weld (weld.c): id[k] for each of the scene's points, equal for points
  * within eps of the first point of that id (first[id]); *count ids.  Both
  * arrays hold point_count entries.  0, or -1 out of memory. */

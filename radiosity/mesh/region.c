@@ -425,13 +425,6 @@ static cand cand_union(const cand *a, const cand *b)
     return u;
 }
 
-static uint32_t root(uint32_t *up, uint32_t x)
-{
-    while (up[x] != x)
-        x = up[x] = up[up[x]];
-    return x;
-}
-
 static uint32_t cand_find(const cand *cd, uint32_t n, uint64_t g)
 {
     uint32_t lo = 0, hi = n;
@@ -460,7 +453,7 @@ static void merge_slivers(const rwork *w, cand *cd, uint32_t n, uint32_t *up)
         double best_r = INFINITY;
         for (int k = 0; k < 4; k++) {
             uint32_t d = nb[k] == UINT64_MAX ? RAD_NONE : cand_find(cd, n, nb[k]);
-            if (d == RAD_NONE || (d = root(up, d)) == c)
+            if (d == RAD_NONE || (d = mesh_uf_find(up, d)) == c)
                 continue;
             cand u = cand_union(&cd[d], &cd[c]);
             double ul, ur = cand_ratio(&u, &ul);
@@ -512,18 +505,28 @@ static int unique_corners(rwork *w, uint32_t *uid, uint32_t *urep, uint32_t *nu)
     }
     free(k);
     size_t kept = 0;
+    const double tiny = 1e-12 * w->sx * w->sy;
     for (size_t c = 0; c < w->ncell; c++) {
         rad_patch cl = w->cell[c];
-        int n = rad_patch_corners(&cl), ok = 1;
-        for (int a = 0; a < n; a++)
+        int n = rad_patch_corners(&cl);
+        pt2 q[4];
+        for (int a = 0; a < n; a++) {
             cl.v[a] = uid[cl.v[a]];
-        for (int a = 0; a < n; a++)
-            for (int b = 0; b < a; b++)
-                ok &= cl.v[a] != cl.v[b];
-        if (ok) {
-            w->cell[kept] = cl;
-            w->gi[kept++] = w->gi[c];
+            q[a] = w->raw[urep[cl.v[a]]];
         }
+        /* merged corners may have left a half without area: keep the rest */
+        int h1 = tri2(q[0], q[1], q[2]) > tiny, h2 = n == 4 && tri2(q[0], q[2], q[3]) > tiny;
+        if (n == 4 && h1 != h2) {
+            if (h2)
+                cl.v[1] = cl.v[2], cl.v[2] = cl.v[3];
+            cl.v[3] = RAD_NONE;
+        } else if (n == 4 && !h1) {
+            continue;
+        } else if (n == 3 && !h1) {
+            continue;
+        }
+        w->cell[kept] = cl;
+        w->gi[kept++] = w->gi[c];
     }
     w->ncell = kept;
     return 0;
@@ -602,10 +605,10 @@ static int emit(rwork *w, const gcell *gc, const uint32_t *ci, uint32_t *up, uin
     for (uint32_t c = 0; c < ncand; c++)
         pnum[c] = RAD_NONE;
     for (uint32_t c = 0; c < ncand; c++)
-        if (pnum[root(up, c)] == RAD_NONE)
-            pnum[root(up, c)] = (*np)++;
+        if (pnum[mesh_uf_find(up, c)] == RAD_NONE)
+            pnum[mesh_uf_find(up, c)] = (*np)++;
     for (size_t k = 0; k < w->ncell; k++)
-        start[pnum[root(up, ci[k])] + 2]++;
+        start[pnum[mesh_uf_find(up, ci[k])] + 2]++;
     for (uint32_t p = 0; p < *np; p++)
         start[p + 2] += start[p + 1];
     for (uint32_t u = 0; u < nu; u++)
@@ -624,7 +627,7 @@ static int emit(rwork *w, const gcell *gc, const uint32_t *ci, uint32_t *up, uin
             }
             cl.v[a] = vmap[u];
         }
-        out->cell[c0 + start[pnum[root(up, ci[k])] + 1]++] = cl;
+        out->cell[c0 + start[pnum[mesh_uf_find(up, ci[k])] + 1]++] = cl;
     }
     out->cells += (uint32_t)w->ncell;
     int bad = 0;
