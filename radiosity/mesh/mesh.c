@@ -208,19 +208,6 @@ static uint64_t add_sat(uint64_t a, uint64_t b)
     return a > UINT64_MAX - b ? UINT64_MAX : a + b;
 }
 
-/* Cells along an edge of length len for a target patch edge `size`.  The
- * 1e-9 keeps an edge of exactly k·size from becoming k+1 cells through
- * rounding.  UINT64_MAX when the count would not fit a uint32. */
-uint64_t mesh_divisions(double len, double size)
-{
-    if (!(size > 0.0) || !isfinite(size))
-        return 1;
-    double q = len / size;
-    if (!(q <= 4294967295.0))
-        return UINT64_MAX;
-    double c = ceil(q - 1e-9);
-    return c < 1.0 ? 1 : (uint64_t)c;
-}
 
 double rad_mesh_default_patch_size(const rad_scene *scene)
 {
@@ -513,23 +500,6 @@ static uint32_t add_vertex(builder *b, rad_vec3 p, int boundary)
     return k;
 }
 
-int rad_cell_geometry(const rad_vec3 *V, const uint32_t v[4], rad_vec3 n, rad_vec3 *center,
-                      double *area)
-{
-    double a1 = 0.5 * rad_dot(rad_cross(rad_sub(V[v[1]], V[v[0]]), rad_sub(V[v[2]], V[v[0]])), n);
-    rad_vec3 c = rad_scale(rad_add(rad_add(V[v[0]], V[v[1]]), V[v[2]]), a1 / 3.0);
-    double a = a1;
-    if (v[3] != RAD_NONE) {
-        double a2 = 0.5 * rad_dot(rad_cross(rad_sub(V[v[2]], V[v[0]]), rad_sub(V[v[3]], V[v[0]])), n);
-        c = rad_add(c, rad_scale(rad_add(rad_add(V[v[0]], V[v[2]]), V[v[3]]), a2 / 3.0));
-        a += a2;
-    }
-    if (!(a > 0.0) || !isfinite(a))
-        return -1;
-    *area = a;
-    *center = rad_scale(c, 1.0 / a);
-    return 0;
-}
 
 /* Appends a patch; area and centre from its corners projected on the
  * polygon normal (so a polygon within the planarity tolerance still tiles
@@ -762,36 +732,31 @@ static void build_cluster(builder *b, const mesh_clusters *cl, uint32_t k, uint3
         *bad = 1;
 }
 
-int mesh_patch_of_cells(const rad_vec3 *V, const rad_patch *cells, uint32_t n, rad_patch *out)
+
+/* Polygon i on its own: a grid of quads, a subdivided triangle or a fan;
+ * its back side when it transmits; each patch its own cell when the mesh
+ * has a cell layer. */
+static void build_polygon(builder *b, const plan *pl, uint32_t i, uint32_t *g, int *bad)
 {
-    if (n == 1) {
-        *out = cells[0];
-        return 0;
+    const rad_scene *scene = b->s;
+    rad_mesh *m = b->m;
+    const rad_polygon *pg = &scene->polygons[i];
+    const rad_vec3 *p = scene->points + pg->first_point;
+    split sp = polygon_split(scene, pg, pl->opt_size, pl->def_size);
+    uint32_t first_patch = b->np, first_vertex = b->nv;
+    b->polygon = i;
+    if (pg->point_count == 4)
+        build_quad(b, p, (uint32_t)sp.nu, (uint32_t)sp.nv, bad);
+    else if (pg->point_count == 3)
+        build_triangle(b, p, (uint32_t)sp.nu, g, bad);
+    else
+        build_fan(b, p, pg->point_count, (uint32_t)sp.nu, g, pg->normal, bad);
+    if (!*bad && transmits(scene, pg))
+        build_back_side(b, first_patch, first_vertex, bad);
+    for (uint32_t q = first_patch; m->cells && !*bad && q < b->np; q++) {
+        m->cell_first[q] = b->nc;
+        m->cells[b->nc++] = m->patches[q];
     }
-    double area = 0.0;
-    rad_vec3 sum_n = rad_v3(0, 0, 0), sum_c = rad_v3(0, 0, 0);
-    for (uint32_t c = 0; c < n; c++) {
-        area += cells[c].area;
-        sum_n = rad_add(sum_n, rad_scale(cells[c].normal, cells[c].area));
-        sum_c = rad_add(sum_c, rad_scale(cells[c].center, cells[c].area));
-    }
-    rad_vec3 centroid = rad_scale(sum_c, 1.0 / area), at = centroid;
-    uint32_t home = 0;
-    double best = INFINITY;
-    for (uint32_t c = 0; c < n; c++) {
-        rad_vec3 q;
-        double d2 = rad_cell_nearest(V, cells[c].v, centroid, &q);
-        if (d2 < best) {
-            best = d2;
-            home = c;
-            at = q;
-        }
-    }
-    *out = cells[home];
-    out->center = at;
-    out->normal = rad_normalize(sum_n);
-    out->area = area;
-    return rad_length(sum_n) > 0.0 ? 0 : -1;
 }
 
 /* Region r of the plan (region.c made it): its vertices, then its patches
@@ -901,22 +866,7 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
             if (pl.cl.member[pl.cl.first[k]] == i)
                 build_cluster(&b, &pl.cl, k, vmap, &bad);
         } else {
-            const rad_vec3 *p = scene->points + pg->first_point;
-            split sp = polygon_split(scene, pg, pl.opt_size, pl.def_size);
-            uint32_t first_patch = b.np, first_vertex = b.nv;
-            b.polygon = i;
-            if (pg->point_count == 4)
-                build_quad(&b, p, (uint32_t)sp.nu, (uint32_t)sp.nv, &bad);
-            else if (pg->point_count == 3)
-                build_triangle(&b, p, (uint32_t)sp.nu, g, &bad);
-            else
-                build_fan(&b, p, pg->point_count, (uint32_t)sp.nu, g, pg->normal, &bad);
-            if (!bad && transmits(scene, pg))
-                build_back_side(&b, first_patch, first_vertex, &bad);
-            for (uint32_t q = first_patch; m->cells && !bad && q < b.np; q++) {
-                m->cell_first[q] = b.nc;
-                m->cells[b.nc++] = m->patches[q];
-            }
+            build_polygon(&b, &pl, i, g, &bad);
         }
         if (bad) {
             free(g);
