@@ -75,6 +75,14 @@ int mesh_regions_build(const rad_scene *s, const uint32_t *pos, const uint32_t *
                        rad_error *err);
 void mesh_regions_free(mesh_regions *r);
 
+/* Appends to out one region's ncell cells (corners: ids 0..nu-1 into pos,
+ * normals set), cell k in patch patch_of[k] (0..np-1): the vertices in
+ * order of first use, cells grouped by patch, areas and centres measured,
+ * each patch from its cells (mesh_patch_of_cells), outline flags from
+ * unmatched edges.  0, -1 out of memory, -2 a cell or patch without area. */
+int mesh_regions_emit(mesh_regions *out, const rad_patch *cells, size_t ncell,
+                      const uint32_t *patch_of, uint32_t np, const rad_vec3 *pos, uint32_t nu);
+
 /* Cells along an edge of length len for a target patch edge `size`
  * (mesh.c); UINT64_MAX when more than a uint32 holds. */
 uint64_t mesh_divisions(double len, double size);

@@ -560,92 +560,115 @@ static cand *candidates(const rwork *w, const gcell *gc, const uint32_t *urep, u
     return cd;
 }
 
-/* Vertices on the outline of the region: ends of cell edges that no other
- * cell runs the other way. */
-static int outline_flags(rwork *w, mesh_regions *out, uint32_t c0)
+/* Vertices on the outline of the cells from c0 on: ends of cell edges
+ * that no other cell runs the other way. */
+static int outline_flags(mesh_regions *out, uint32_t c0)
 {
     size_t ne = 0;
     for (uint32_t c = c0; c < out->cells; c++)
         ne += (size_t)rad_patch_corners(&out->cell[c]);
-    if (GROW(w->ekey, w->cekey, ne + 1) != 0)
+    uint64_t *ekey = malloc((ne + 1) * sizeof *ekey);
+    if (!ekey)
         return -1;
     ne = 0;
     for (uint32_t c = c0; c < out->cells; c++) {
         const rad_patch *cl = &out->cell[c];
         const int n = rad_patch_corners(cl);
         for (int k = 0; k < n; k++)
-            w->ekey[ne++] = (uint64_t)cl->v[k] << 32 | cl->v[(k + 1) % n];
+            ekey[ne++] = (uint64_t)cl->v[k] << 32 | cl->v[(k + 1) % n];
     }
-    qsort(w->ekey, ne, sizeof *w->ekey, u64_cmp);
+    qsort(ekey, ne, sizeof *ekey, u64_cmp);
     for (size_t e = 0; e < ne; e++) {
-        uint64_t rev = w->ekey[e] << 32 | w->ekey[e] >> 32;
-        if (!bsearch(&rev, w->ekey, ne, sizeof *w->ekey, u64_cmp))
-            out->Vb[w->ekey[e] >> 32] = out->Vb[w->ekey[e] & 0xffffffffu] = 1;
+        uint64_t rev = ekey[e] << 32 | ekey[e] >> 32;
+        if (!bsearch(&rev, ekey, ne, sizeof *ekey, u64_cmp))
+            out->Vb[ekey[e] >> 32] = out->Vb[ekey[e] & 0xffffffffu] = 1;
     }
+    free(ekey);
     return 0;
 }
 
-/* Appends the region's patches, cells (grouped by patch) and vertices to
- * out, from the cells in w.  *np: its patches. */
-static int emit(rwork *w, const gcell *gc, const uint32_t *ci, uint32_t *up, uint32_t ncand,
-                const uint32_t *urep, uint32_t nu, mesh_regions *out, uint32_t *np)
+int mesh_regions_emit(mesh_regions *out, const rad_patch *cells, size_t ncell,
+                      const uint32_t *patch_of, uint32_t np, const rad_vec3 *pos, uint32_t nu)
 {
-    uint32_t *pnum = malloc(((size_t)ncand + 1) * sizeof *pnum);
     uint32_t *vmap = malloc(((size_t)nu + 1) * sizeof *vmap);
-    uint32_t *start = calloc((size_t)ncand + 2, sizeof *start);
-    if (!pnum || !vmap || !start || GROW(out->patch, out->cap_p, out->patches + ncand + 1) ||
-        GROW(out->cfirst, out->cap_f, out->patches + ncand + 2) ||
-        GROW(out->cell, out->cap_c, out->cells + w->ncell + 1) ||
+    uint32_t *start = calloc((size_t)np + 2, sizeof *start);
+    if (!vmap || !start || GROW(out->patch, out->cap_p, out->patches + np + 1) ||
+        GROW(out->cfirst, out->cap_f, out->patches + np + 2) ||
+        GROW(out->cell, out->cap_c, out->cells + ncell + 1) ||
         GROW(out->V, out->cap_v, out->vertices + nu + 1) ||
         GROW(out->Vb, out->cap_b, out->vertices + nu + 1)) {
-        free(pnum), free(vmap), free(start);
+        free(vmap), free(start);
         return -1;
     }
-    *np = 0;
-    for (uint32_t c = 0; c < ncand; c++)
-        pnum[c] = RAD_NONE;
-    for (uint32_t c = 0; c < ncand; c++)
-        if (pnum[mesh_uf_find(up, c)] == RAD_NONE)
-            pnum[mesh_uf_find(up, c)] = (*np)++;
-    for (size_t k = 0; k < w->ncell; k++)
-        start[pnum[mesh_uf_find(up, ci[k])] + 2]++;
-    for (uint32_t p = 0; p < *np; p++)
+    for (size_t k = 0; k < ncell; k++)
+        start[patch_of[k] + 2]++;
+    for (uint32_t p = 0; p < np; p++)
         start[p + 2] += start[p + 1];
     for (uint32_t u = 0; u < nu; u++)
         vmap[u] = RAD_NONE;
     const uint32_t c0 = out->cells, p0 = out->patches;
-    for (size_t k = 0; k < w->ncell; k++) {
-        rad_patch cl = w->cell[gc[k].c];
+    for (size_t k = 0; k < ncell; k++) {
+        rad_patch cl = cells[k];
         for (int a = 0; a < rad_patch_corners(&cl); a++) {
             uint32_t u = cl.v[a];
             if (vmap[u] == RAD_NONE) {
-                pt2 q = w->raw[urep[u]];
                 vmap[u] = out->vertices;
                 out->Vb[out->vertices] = 0;
-                out->V[out->vertices++] =
-                    rad_add(w->O, rad_add(rad_scale(w->U, q.c[0]), rad_scale(w->V, q.c[1])));
+                out->V[out->vertices++] = pos[u];
             }
             cl.v[a] = vmap[u];
         }
-        out->cell[c0 + start[pnum[mesh_uf_find(up, ci[k])] + 1]++] = cl;
+        out->cell[c0 + start[patch_of[k] + 1]++] = cl;
     }
-    out->cells += (uint32_t)w->ncell;
+    out->cells += (uint32_t)ncell;
     int bad = 0;
     for (uint32_t c = c0; c < out->cells; c++) {
         rad_patch *cl = &out->cell[c];
         bad |= rad_cell_geometry(out->V, cl->v, cl->normal, &cl->center, &cl->area) != 0;
     }
-    for (uint32_t p = 0; p < *np && !bad; p++) {
+    for (uint32_t p = 0; p < np && !bad; p++) {
         out->cfirst[p0 + p] = c0 + start[p];
         bad |= mesh_patch_of_cells(out->V, &out->cell[c0 + start[p]], start[p + 1] - start[p],
                                    &out->patch[p0 + p]) != 0;
     }
-    out->patches += *np;
+    out->patches += np;
     out->cfirst[out->patches] = out->cells;
-    free(pnum), free(vmap), free(start);
+    free(vmap), free(start);
     if (bad)
         return -2;
-    return outline_flags(w, out, c0);
+    return outline_flags(out, c0);
+}
+
+/* The region's cells in grid order, numbered by patch (merged candidates
+ * share their root's number, in order of first appearance), on their
+ * unique corners placed in the region's plane; appended to out. */
+static int emit(rwork *w, const gcell *gc, const uint32_t *ci, uint32_t *up, uint32_t ncand,
+                const uint32_t *urep, uint32_t nu, mesh_regions *out, uint32_t *np)
+{
+    uint32_t *pnum = malloc(((size_t)ncand + 1) * sizeof *pnum);
+    uint32_t *of = malloc((w->ncell + 1) * sizeof *of);
+    rad_patch *cells = malloc((w->ncell + 1) * sizeof *cells);
+    rad_vec3 *pos = malloc(((size_t)nu + 1) * sizeof *pos);
+    int rc = -1;
+    if (pnum && of && cells && pos) {
+        *np = 0;
+        for (uint32_t c = 0; c < ncand; c++)
+            pnum[c] = RAD_NONE;
+        for (uint32_t c = 0; c < ncand; c++)
+            if (pnum[mesh_uf_find(up, c)] == RAD_NONE)
+                pnum[mesh_uf_find(up, c)] = (*np)++;
+        for (size_t k = 0; k < w->ncell; k++) {
+            of[k] = pnum[mesh_uf_find(up, ci[k])];
+            cells[k] = w->cell[gc[k].c];
+        }
+        for (uint32_t u = 0; u < nu; u++) {
+            pt2 q = w->raw[urep[u]];
+            pos[u] = rad_add(w->O, rad_add(rad_scale(w->U, q.c[0]), rad_scale(w->V, q.c[1])));
+        }
+        rc = mesh_regions_emit(out, cells, w->ncell, of, *np, pos, nu);
+    }
+    free(pnum), free(of), free(cells), free(pos);
+    return rc;
 }
 
 /* Meshes one region's members into out (see the top of the file); with
