@@ -83,6 +83,29 @@ void mesh_regions_free(mesh_regions *r);
 int mesh_regions_emit(mesh_regions *out, const rad_patch *cells, size_t ncell,
                       const uint32_t *patch_of, uint32_t np, const rad_vec3 *pos, uint32_t nu);
 
+/* Meshes the nm polygons mem[] of one curved surface of narrow facets
+ * (smooth.c) into patches of about size across, appended to out as one
+ * region.  0, -1 out of memory, -2 a cell without area, -3 too many. */
+int mesh_smooth_mesh(const rad_scene *s, const uint32_t *pos, const uint32_t *first,
+                     const uint32_t *mem, uint32_t nm, double size, mesh_regions *out);
+
+/* A rounded position (or cube) and the index it belongs to; mesh_key_cmp
+ * orders by key, then index (cells.c), for qsort. */
+typedef struct mesh_key {
+    int64_t k[3];
+    uint32_t r;
+} mesh_key;
+int mesh_key_cmp(const void *a, const void *b);
+
+/* The corners in[0..n) of a closed outline (elt bytes each) into out
+ * without repeats (a corner equal to the one before it, or the last equal
+ * to the first); returns how many (cells.c). */
+size_t mesh_ring_unique(const void *in, size_t n, void *out, size_t elt);
+
+/* Grows *p (of *cap elements of elt bytes) to hold need, doubling
+ * (cells.c); 0, or -1 out of memory with *p kept. */
+int mesh_grow(void **p, size_t *cap, size_t need, size_t elt);
+
 /* Cells along an edge of length len for a target patch edge `size`
  * (mesh.c); UINT64_MAX when more than a uint32 holds. */
 uint64_t mesh_divisions(double len, double size);

@@ -55,26 +55,13 @@ typedef struct pt2 {
     double c[2];
 } pt2;
 
-static int grow_buf(void **p, size_t *cap, size_t need, size_t elt)
-{
-    if (need <= *cap)
-        return 0;
-    size_t n = *cap ? *cap : 64;
-    while (n < need)
-        n *= 2;
-    void *q = realloc(*p, n * elt);
-    if (!q)
-        return -1;
-    *p = q;
-    *cap = n;
-    return 0;
-}
-#define GROW(arr, cap, need) grow_buf((void **)&(arr), &(cap), (need), sizeof *(arr))
+#define GROW(arr, cap, need) mesh_grow((void **)&(arr), &(cap), (need), sizeof *(arr))
 
 /* One region's scratch, reused. */
 typedef struct rwork {
     const rad_scene *s;
     const uint32_t *pos, *first; /* weld ids, their positions' points */
+    uint32_t npos;
     double size;
     /* frame and grid */
     rad_vec3 O, U, V, N;
@@ -332,11 +319,7 @@ static int add_piece(rwork *w, uint32_t polygon, const pt2 *p, size_t n, uint64_
     uint32_t base = (uint32_t)w->nraw;
     if (GROW(w->raw, w->craw, w->nraw + n + 1) != 0)
         return -1;
-    for (size_t k = 0; k < n; k++) /* drop repeated corners */
-        if (m == 0 || memcmp(&p[k], &w->raw[base + m - 1], sizeof *p) != 0)
-            w->raw[base + m++] = p[k];
-    while (m > 1 && memcmp(&w->raw[base], &w->raw[base + m - 1], sizeof *p) == 0)
-        m--;
+    m = mesh_ring_unique(p, n, &w->raw[base], sizeof *p);
     if (m < 3)
         return 0;
     w->nraw += m;
@@ -468,35 +451,22 @@ static void merge_slivers(const rwork *w, cand *cd, uint32_t n, uint32_t *up)
     }
 }
 
-typedef struct rkey {
-    int64_t k[2];
-    uint32_t r;
-} rkey;
-
-static int rkey_cmp(const void *a, const void *b)
-{
-    const rkey *x = a, *y = b;
-    for (int d = 0; d < 2; d++)
-        if (x->k[d] != y->k[d])
-            return x->k[d] < y->k[d] ? -1 : 1;
-    return x->r < y->r ? -1 : x->r > y->r;
-}
-
 /* Raw corners -> unique ids (equal after rounding to 1e-7 of the size;
  * urep: an id's first raw corner); cells renumbered onto them, those that
  * lose a corner dropped. */
 static int unique_corners(rwork *w, uint32_t *uid, uint32_t *urep, uint32_t *nu)
 {
     const double q = 1e-7 * w->size;
-    rkey *k = malloc((w->nraw + 1) * sizeof *k);
+    mesh_key *k = malloc((w->nraw + 1) * sizeof *k);
     if (!k)
         return -1;
     for (size_t r = 0; r < w->nraw; r++) {
         k[r].k[0] = llround((w->raw[r].c[0] - w->x0) / q);
         k[r].k[1] = llround((w->raw[r].c[1] - w->y0) / q);
+        k[r].k[2] = 0;
         k[r].r = (uint32_t)r;
     }
-    qsort(k, w->nraw, sizeof *k, rkey_cmp);
+    qsort(k, w->nraw, sizeof *k, mesh_key_cmp);
     *nu = 0;
     for (size_t e = 0; e < w->nraw; e++) {
         if (e == 0 || k[e].k[0] != k[e - 1].k[0] || k[e].k[1] != k[e - 1].k[1])
@@ -560,84 +530,7 @@ static cand *candidates(const rwork *w, const gcell *gc, const uint32_t *urep, u
     return cd;
 }
 
-/* Vertices on the outline of the cells from c0 on: ends of cell edges
- * that no other cell runs the other way. */
-static int outline_flags(mesh_regions *out, uint32_t c0)
-{
-    size_t ne = 0;
-    for (uint32_t c = c0; c < out->cells; c++)
-        ne += (size_t)rad_patch_corners(&out->cell[c]);
-    uint64_t *ekey = malloc((ne + 1) * sizeof *ekey);
-    if (!ekey)
-        return -1;
-    ne = 0;
-    for (uint32_t c = c0; c < out->cells; c++) {
-        const rad_patch *cl = &out->cell[c];
-        const int n = rad_patch_corners(cl);
-        for (int k = 0; k < n; k++)
-            ekey[ne++] = (uint64_t)cl->v[k] << 32 | cl->v[(k + 1) % n];
-    }
-    qsort(ekey, ne, sizeof *ekey, u64_cmp);
-    for (size_t e = 0; e < ne; e++) {
-        uint64_t rev = ekey[e] << 32 | ekey[e] >> 32;
-        if (!bsearch(&rev, ekey, ne, sizeof *ekey, u64_cmp))
-            out->Vb[ekey[e] >> 32] = out->Vb[ekey[e] & 0xffffffffu] = 1;
-    }
-    free(ekey);
-    return 0;
-}
 
-int mesh_regions_emit(mesh_regions *out, const rad_patch *cells, size_t ncell,
-                      const uint32_t *patch_of, uint32_t np, const rad_vec3 *pos, uint32_t nu)
-{
-    uint32_t *vmap = malloc(((size_t)nu + 1) * sizeof *vmap);
-    uint32_t *start = calloc((size_t)np + 2, sizeof *start);
-    if (!vmap || !start || GROW(out->patch, out->cap_p, out->patches + np + 1) ||
-        GROW(out->cfirst, out->cap_f, out->patches + np + 2) ||
-        GROW(out->cell, out->cap_c, out->cells + ncell + 1) ||
-        GROW(out->V, out->cap_v, out->vertices + nu + 1) ||
-        GROW(out->Vb, out->cap_b, out->vertices + nu + 1)) {
-        free(vmap), free(start);
-        return -1;
-    }
-    for (size_t k = 0; k < ncell; k++)
-        start[patch_of[k] + 2]++;
-    for (uint32_t p = 0; p < np; p++)
-        start[p + 2] += start[p + 1];
-    for (uint32_t u = 0; u < nu; u++)
-        vmap[u] = RAD_NONE;
-    const uint32_t c0 = out->cells, p0 = out->patches;
-    for (size_t k = 0; k < ncell; k++) {
-        rad_patch cl = cells[k];
-        for (int a = 0; a < rad_patch_corners(&cl); a++) {
-            uint32_t u = cl.v[a];
-            if (vmap[u] == RAD_NONE) {
-                vmap[u] = out->vertices;
-                out->Vb[out->vertices] = 0;
-                out->V[out->vertices++] = pos[u];
-            }
-            cl.v[a] = vmap[u];
-        }
-        out->cell[c0 + start[patch_of[k] + 1]++] = cl;
-    }
-    out->cells += (uint32_t)ncell;
-    int bad = 0;
-    for (uint32_t c = c0; c < out->cells; c++) {
-        rad_patch *cl = &out->cell[c];
-        bad |= rad_cell_geometry(out->V, cl->v, cl->normal, &cl->center, &cl->area) != 0;
-    }
-    for (uint32_t p = 0; p < np && !bad; p++) {
-        out->cfirst[p0 + p] = c0 + start[p];
-        bad |= mesh_patch_of_cells(out->V, &out->cell[c0 + start[p]], start[p + 1] - start[p],
-                                   &out->patch[p0 + p]) != 0;
-    }
-    out->patches += np;
-    out->cfirst[out->patches] = out->cells;
-    free(vmap), free(start);
-    if (bad)
-        return -2;
-    return outline_flags(out, c0);
-}
 
 /* The region's cells in grid order, numbered by patch (merged candidates
  * share their root's number, in order of first appearance), on their
@@ -764,24 +657,120 @@ static int wanted(const uint8_t *mode, const uint32_t *mem, uint32_t nm)
     return 2;
 }
 
+/* Narrow regions (the short side of their box under the size) that share
+ * a point, of one object and material with lead normals within 30°, are
+ * one curved surface: surf[r] its lowest region (union-find), for regions
+ * with want[r] (some member larger than one cell) only; others point to
+ * themselves. */
+static int curved_surfaces(rwork *w, const uint32_t *first, const uint32_t *mem,
+                           const uint8_t *want, uint32_t nreg, uint32_t *surf)
+{
+    const rad_scene *s = w->s;
+    uint8_t *narrow = calloc((size_t)nreg + 1, 1);
+    uint32_t *owner = malloc(((size_t)w->npos + 1) * sizeof *owner);
+    if (!narrow || !owner) {
+        free(narrow), free(owner);
+        return -1;
+    }
+    for (uint32_t j = 0; j < w->npos; j++)
+        owner[j] = RAD_NONE;
+    for (uint32_t r = 0; r < nreg; r++) {
+        surf[r] = r;
+        if (!want[r])
+            continue;
+        if (frame(w, mem + first[r], first[r + 1] - first[r]) != 0) {
+            free(narrow), free(owner);
+            return -1;
+        }
+        grid(w, mem + first[r], first[r + 1] - first[r]);
+        narrow[r] = fmin(w->x1 - w->x0, w->y1 - w->y0) < w->size;
+    }
+    for (uint32_t r = 0; r < nreg; r++) {
+        const rad_polygon *lead = &s->polygons[mem[first[r]]];
+        for (uint32_t m = first[r]; narrow[r] && m < first[r + 1]; m++) {
+            const rad_polygon *pg = &s->polygons[mem[m]];
+            for (uint32_t k = 0; k < pg->point_count; k++) {
+                uint32_t id = w->pos[pg->first_point + k], o = owner[id];
+                if (o == RAD_NONE) {
+                    owner[id] = r;
+                    continue;
+                }
+                const rad_polygon *ol = &s->polygons[mem[first[o]]];
+                if (o != r && ol->object == lead->object && ol->material == lead->material &&
+                    rad_dot(ol->normal, lead->normal) >= RAD_MESH_SURFACE_COS) {
+                    uint32_t a = mesh_uf_find(surf, o), b = mesh_uf_find(surf, r);
+                    surf[a > b ? a : b] = a > b ? b : a;
+                }
+            }
+        }
+    }
+    for (uint32_t r = 0; r < nreg; r++)
+        surf[r] = mesh_uf_find(surf, r);
+    free(narrow), free(owner);
+    return 0;
+}
+
+/* Region r's members, or with a curved surface of several regions (at its
+ * lowest region) all of theirs, meshed into out; *skip when r is part of a
+ * surface meshed at another region.  rc as mesh_region. */
+static int mesh_one(rwork *w, const uint8_t *mode, const uint32_t *first, const uint32_t *mem,
+                    const uint32_t *surf, const uint32_t *ssize, uint32_t r, uint32_t nreg,
+                    mesh_regions *out, uint32_t *got)
+{
+    const uint32_t *m = mem + first[r], nm = first[r + 1] - first[r];
+    if (ssize[surf[r]] < 2)
+        return mesh_region(w, m, nm, wanted(mode, m, nm) == 2, out, got);
+    /* the surface's polygons, region by region */
+    uint32_t total = 0, k = 0;
+    for (uint32_t q = r; q < nreg; q++)
+        total += surf[q] == r ? first[q + 1] - first[q] : 0;
+    uint32_t *all = malloc(((size_t)total + 1) * sizeof *all);
+    if (!all)
+        return -1;
+    for (uint32_t q = r; q < nreg; q++)
+        for (uint32_t e = first[q]; surf[q] == r && e < first[q + 1]; e++)
+            all[k++] = mem[e];
+    uint32_t p0 = out->patches;
+    int rc = mesh_smooth_mesh(w->s, w->pos, w->first, all, total, w->size, out);
+    *got = out->patches - p0;
+    free(all);
+    return rc;
+}
+
 static int take_regions(rwork *w, const uint8_t *mode, uint32_t nreg, mesh_regions *out)
 {
     const uint32_t np = w->s->polygon_count;
     uint32_t *first = NULL, *mem = NULL, *keep = malloc(((size_t)nreg + 1) * sizeof *keep);
-    int rc = keep ? members(out, np, nreg, &first, &mem) : -1;
+    uint32_t *surf = malloc(((size_t)nreg + 1) * sizeof *surf);
+    uint32_t *ssize = calloc((size_t)nreg + 1, sizeof *ssize);
+    uint8_t *want = calloc((size_t)nreg + 1, 1);
+    int rc = keep && surf && ssize && want ? members(out, np, nreg, &first, &mem) : -1;
     if (rc == 0 && (!(out->lead = malloc(((size_t)nreg + 1) * sizeof *out->lead)) ||
                     !(out->pfirst = malloc(((size_t)nreg + 2) * sizeof *out->pfirst)) ||
                     !(out->vfirst = malloc(((size_t)nreg + 2) * sizeof *out->vfirst))))
         rc = -1;
+    /* want: 0 left to the clusters or meshed alone, 1 taken, 2 taken if
+     * it makes more than one patch, 3 only as part of a curved surface */
+    for (uint32_t r = 0; r < nreg && rc == 0; r++) {
+        want[r] = (uint8_t)wanted(mode, mem + first[r], first[r + 1] - first[r]);
+        for (uint32_t e = first[r]; !want[r] && e < first[r + 1]; e++)
+            want[r] = mode[mem[e]] != MESH_REGION_SMALL ? 3 : 0;
+    }
+    if (rc == 0)
+        rc = curved_surfaces(w, first, mem, want, nreg, surf);
+    for (uint32_t r = 0; r < nreg && rc == 0; r++)
+        ssize[surf[r]] += want[r] != 0;
     out->count = 0;
     for (uint32_t r = 0; r < nreg && rc == 0; r++) {
-        const uint32_t *m = mem + first[r], nm = first[r + 1] - first[r];
-        int want = wanted(mode, m, nm);
         uint32_t v0 = out->vertices, p0 = out->patches, got = 0;
         keep[r] = RAD_NONE;
-        if (!want)
+        if (ssize[surf[r]] >= 2 && surf[r] != r) { /* meshed with its surface */
+            keep[r] = keep[surf[r]];
             continue;
-        rc = mesh_region(w, m, nm, want == 2, out, &got);
+        }
+        if (!want[r] || (want[r] == 3 && ssize[surf[r]] < 2))
+            continue;
+        rc = mesh_one(w, mode, first, mem, surf, ssize, r, nreg, out, &got);
         if (rc == 1) {
             rc = 0;
             continue;
@@ -789,7 +778,7 @@ static int take_regions(rwork *w, const uint8_t *mode, uint32_t nreg, mesh_regio
         if (rc != 0)
             break;
         keep[r] = out->count;
-        out->lead[out->count] = m[0];
+        out->lead[out->count] = mem[first[r]];
         out->pfirst[out->count] = p0;
         out->vfirst[out->count++] = v0;
     }
@@ -800,7 +789,7 @@ static int take_regions(rwork *w, const uint8_t *mode, uint32_t nreg, mesh_regio
             if (out->of[i] != RAD_NONE)
                 out->of[i] = keep[out->of[i]];
     }
-    free(first), free(mem), free(keep);
+    free(first), free(mem), free(keep), free(surf), free(ssize), free(want);
     return rc;
 }
 
@@ -820,7 +809,7 @@ int mesh_regions_build(const rad_scene *s, const uint32_t *pos, const uint32_t *
         return RAD_OK; /* no size to mesh by: every polygon on its own */
     const double tol = REGION_PLANE_TOL * rad_length(rad_sub(hi, lo));
     uint32_t nreg = 0;
-    rwork w = {.s = s, .pos = pos, .first = first, .size = size};
+    rwork w = {.s = s, .pos = pos, .first = first, .npos = npos, .size = size};
     int rc = find_regions(s, pos, first, npos, mode, tol, out->of, &nreg);
     if (rc == 0)
         rc = take_regions(&w, mode, nreg, out);
