@@ -19,6 +19,11 @@
  * patch of several cells, in the place of its first polygon; its cells'
  * vertices are shared across its surface.  The mesh then has a cell layer
  * (rad.h), in which every other patch is its own single cell.
+ *
+ * Planar regions (region.c) and curved surfaces of narrow facets
+ * (smooth.c) are meshed whole before that, and placed as a cluster is, in
+ * the place of their lowest polygon, their cells' vertices shared across
+ * their polygons.
  */
 #include "mesh_internal.h"
 

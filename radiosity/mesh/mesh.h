@@ -16,6 +16,12 @@
  * cell layer).  So the patch size sets the patch count whatever the
  * triangles' size.  A small polygon without such a neighbour is meshed on
  * its own, as any polygon.
+ *
+ * Before both, points within 1e-6 of the scene's diagonal are welded
+ * (weld.c), and coplanar neighbouring polygons of one object and material
+ * are meshed as one planar region on a grid of the patch size (region.c);
+ * narrow regions of a curved surface are meshed across their facets
+ * (smooth.c).  docs/surfaces.md has the rules.
  */
 #ifndef RAD_MESH_H
 #define RAD_MESH_H
