@@ -196,3 +196,16 @@ size_t mesh_ring_unique(const void *in, size_t n, void *out, size_t elt)
         m--;
     return m;
 }
+
+int mesh_regions_over(mesh_regions *out, double more)
+{
+    if (out->estimate_only) {
+        out->estimate += more;
+        return 1;
+    }
+    double n = (double)out->patches + more;
+    if (!(n > 1.5 * (double)out->patch_limit)) /* 1.5: slivers make more than area / s² */
+        return 0;
+    out->estimate = n;
+    return 1;
+}

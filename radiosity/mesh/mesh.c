@@ -384,8 +384,8 @@ static uint8_t region_mode(const rad_scene *scene, const plan *pl, const rad_pol
 }
 
 /* The weld and the planar regions. */
-static int plan_regions(const rad_scene *scene, const rad_mesh_options *opt, plan *pl,
-                        rad_error *err)
+static int plan_regions(const rad_scene *scene, const rad_mesh_options *opt, int estimate,
+                        plan *pl, rad_error *err)
 {
     const char *src = scene->source ? scene->source : "<memory>";
     const uint32_t np = scene->polygon_count;
@@ -401,22 +401,32 @@ static int plan_regions(const rad_scene *scene, const rad_mesh_options *opt, pla
     }
     for (uint32_t i = 0; i < np && !(opt && opt->no_clusters); i++)
         mode[i] = region_mode(scene, pl, &scene->polygons[i]);
+    uint64_t limit = opt && opt->max_patches ? opt->max_patches : RAD_MESH_DEFAULT_MAX_PATCHES;
     int rc = mesh_regions_build(scene, pl->pos, pl->first, pl->npos, mode,
-                                pl->opt_size > 0.0 ? pl->opt_size : pl->def_size, &pl->rg, err);
+                                pl->opt_size > 0.0 ? pl->opt_size : pl->def_size, limit, estimate,
+                                &pl->rg, err);
     free(mode);
     return rc;
 }
 
-static int make_plan(const rad_scene *scene, const rad_mesh_options *opt, plan *pl,
-                     rad_error *err)
+/* estimate: planar regions counted by area (no cutting), for a patch
+ * size search. */
+static int make_plan(const rad_scene *scene, const rad_mesh_options *opt, int estimate,
+                     plan *pl, rad_error *err)
 {
     memset(pl, 0, sizeof *pl);
     pl->opt_size = opt && opt->patch_size > 0.0 ? opt->patch_size : 0.0;
     pl->def_size = rad_mesh_default_patch_size(scene);
     const uint32_t np = scene->polygon_count;
-    int rc = plan_regions(scene, opt, pl, err);
+    int rc = plan_regions(scene, opt, estimate, pl, err);
     if (rc != RAD_OK || pl->rg.overflow) {
-        pl->patches = pl->vertices = UINT64_MAX;
+        /* too many: the regions' estimate, at least past the limit */
+        uint64_t limit = opt && opt->max_patches ? opt->max_patches : RAD_MESH_DEFAULT_MAX_PATCHES;
+        double e = pl->rg.estimate;
+        pl->patches = pl->vertices = rc != RAD_OK ? UINT64_MAX
+                                     : e >= 1.8e19 ? UINT64_MAX
+                                     : e > (double)limit ? (uint64_t)e
+                                     : limit + 1;
         return rc;
     }
     uint8_t *eligible = calloc((size_t)np + 1, 1);
@@ -452,27 +462,50 @@ static int make_plan(const rad_scene *scene, const rad_mesh_options *opt, plan *
                     ? add_sat(add_sat(tp, pl->cl.first[pl->cl.count]), pl->rg.cells)
                     : 0;
     pl->patches = add_sat(add_sat(tp, pl->cl.count), pl->rg.patches);
+    if (estimate)
+        pl->patches = add_sat(pl->patches, pl->rg.estimate >= 1.8e19 ? UINT64_MAX
+                                                                     : (uint64_t)pl->rg.estimate);
     pl->vertices = add_sat(add_sat(tv, pl->cl.vkeys), pl->rg.vertices);
     return RAD_OK;
+}
+
+static uint64_t plan_count(const rad_scene *scene, const rad_mesh_options *opt, int estimate)
+{
+    plan pl;
+    int rc = make_plan(scene, opt, estimate, &pl, NULL);
+    uint64_t n = rc == RAD_OK ? pl.patches : UINT64_MAX;
+    plan_free(&pl);
+    return n;
 }
 
 double rad_mesh_size_for(const rad_scene *scene, const rad_mesh_options *opt, uint64_t limit)
 {
     rad_mesh_options o = opt ? *opt : (rad_mesh_options){0};
     double size = effective_default(scene, &o);
-    uint64_t n = rad_mesh_count(scene, &o);
     if (!(size > 0.0) || limit == 0)
         return size;
-    /* N falls about as 1/size²: start there, then grow by 10 % until the
-     * mesher agrees (clusters and whole polygons round differently). */
-    if (n > limit)
-        size *= n == UINT64_MAX ? 1e6 : sqrt((double)n / (double)limit);
-    for (int k = 0; k < 64; k++) {
+    /* Planar regions counted by their area first (cutting them at a size
+     * far too small would cost what the limit guards against), then the
+     * mesher's exact count; N falls about as 1/size²: start there, then grow
+     * by 10 % until it agrees (clusters and whole polygons round
+     * differently). */
+    for (int exact = 0; exact < 2; exact++) {
         o.patch_size = size;
-        n = rad_mesh_count(scene, &o);
-        if (n <= limit)
-            break;
-        size *= n == UINT64_MAX ? 10.0 : 1.1;
+        uint64_t n = plan_count(scene, &o, !exact);
+        for (int k = 0; k < 64 && n == UINT64_MAX; k++) { /* too many to count: coarser */
+            size *= 4.0;
+            o.patch_size = size;
+            n = plan_count(scene, &o, !exact);
+        }
+        if (n > limit)
+            size *= sqrt((double)n / (double)limit);
+        for (int k = 0; k < 64; k++) {
+            o.patch_size = size;
+            n = plan_count(scene, &o, !exact);
+            if (n <= limit)
+                break;
+            size *= n == UINT64_MAX ? 10.0 : 1.1;
+        }
     }
     return size;
 }
@@ -481,11 +514,7 @@ uint64_t rad_mesh_count(const rad_scene *scene, const rad_mesh_options *opt)
 {
     if (!scene)
         return 0;
-    plan pl;
-    int rc = make_plan(scene, opt, &pl, NULL);
-    uint64_t n = rc == RAD_OK ? pl.patches : UINT64_MAX;
-    plan_free(&pl);
-    return n;
+    return plan_count(scene, opt, 0);
 }
 
 /* ---------------------------------------------------------------- building */
@@ -805,7 +834,7 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
     }
     uint32_t limit = opt && opt->max_patches ? opt->max_patches : RAD_MESH_DEFAULT_MAX_PATCHES;
     plan pl;
-    int rc = make_plan(scene, opt, &pl, err);
+    int rc = make_plan(scene, opt, 0, &pl, err);
     if (rc != RAD_OK) {
         plan_free(&pl);
         return rc;

@@ -62,18 +62,34 @@ typedef struct mesh_regions {
     rad_vec3 *V;
     uint8_t *Vb;      /* per vertex: on its region's outline */
     uint32_t patches, cells, vertices;
-    int overflow;     /* a region would need more cells than any limit allows */
+    int overflow;     /* the regions would need too many patches or cells */
+    double estimate;  /* with overflow: the patches they would make, about;
+                       * with estimate_only: the estimated regions' */
+    int estimate_only;
+    uint64_t cell_limit, patch_limit;
     size_t cap_p, cap_f, cap_c, cap_v, cap_b;
 } mesh_regions;
 
 /* Finds and meshes the regions of polygons with mode[i] != OFF at patch
- * size `size` (pos/first/npos from mesh_weld).  *out zeroed first; free
+ * size `size` (pos/first/npos from mesh_weld), stopping with
+ * out->overflow set once the patches (estimated from the area before a
+ * region is cut) pass 1.5 × max_patches or the cells 16 × max_patches +
+ * 10^6: a patch size far too small must be refused, not tried.  *out zeroed first; free
  * with mesh_regions_free.  RAD_OK (out->overflow set when too large),
  * RAD_ERR_NOMEM, RAD_ERR_INVALID (a cell without area). */
 int mesh_regions_build(const rad_scene *s, const uint32_t *pos, const uint32_t *first,
-                       uint32_t npos, const uint8_t *mode, double size, mesh_regions *out,
-                       rad_error *err);
+                       uint32_t npos, const uint8_t *mode, double size, uint64_t max_patches,
+                       int estimate_only, mesh_regions *out, rad_error *err);
+
+/* With estimate_only, no region is cut: each adds area / its grid cell to
+ * out->estimate and its polygons' of[] is MESH_REGION_ESTIMATED (for a
+ * patch size search, rad_mesh_size_for). */
+#define MESH_REGION_ESTIMATED (RAD_NONE - 1)
 void mesh_regions_free(mesh_regions *r);
+
+/* 1 (and out->estimate set) when `more` patches on top of out's would pass
+ * 1.5 × its patch limit: the region is not cut, and the mesh refused. */
+int mesh_regions_over(mesh_regions *out, double more);
 
 /* Appends to out one region's ncell cells (corners: ids 0..nu-1 into pos,
  * normals set), cell k in patch patch_of[k] (0..np-1): the vertices in

@@ -78,6 +78,7 @@ typedef struct rwork {
     size_t ctmp[2];
     uint64_t *ekey;
     size_t cekey;
+    uint64_t climit; /* cells this region may still make */
 } rwork;
 
 /* --------------------------------------------------------------- regions */
@@ -295,6 +296,8 @@ static double tri2(pt2 a, pt2 b, pt2 c)
 static int add_cell(rwork *w, const rad_polygon *pg, uint32_t polygon, const uint32_t *r, int k,
                     uint64_t g)
 {
+    if (w->ncell >= w->climit)
+        return -3;
     if (GROW(w->cell, w->ccell, w->ncell + 1) != 0 || GROW(w->gi, w->cgi, w->ncell + 1) != 0)
         return -1;
     rad_patch *c = &w->cell[w->ncell];
@@ -331,8 +334,9 @@ static int add_piece(rwork *w, uint32_t polygon, const pt2 *p, size_t n, uint64_
     for (size_t t = 1; t + 1 < m; t++)
         if (tri2(q[0], q[t], q[t + 1]) > tiny) {
             uint32_t r[3] = {base, base + (uint32_t)t, base + (uint32_t)t + 1};
-            if (add_cell(w, pg, polygon, r, 3, g) != 0)
-                return -1;
+            int rc = add_cell(w, pg, polygon, r, 3, g);
+            if (rc != 0)
+                return rc;
         }
     return 0;
 }
@@ -365,8 +369,9 @@ static int cut_polygon(rwork *w, uint32_t i)
         for (uint64_t y = from[1]; ns >= 3 && y <= to[1]; y++) {
             size_t m = clip(strip, ns, a, 1, line_at(w, 1, y), 1);
             m = clip(a, m, b, 1, line_at(w, 1, y + 1), 0);
-            if (m >= 3 && add_piece(w, i, b, m, y * w->nx + x) != 0)
-                return -1;
+            int rc = m >= 3 ? add_piece(w, i, b, m, y * w->nx + x) : 0;
+            if (rc != 0)
+                return rc;
         }
     }
     return 0;
@@ -575,11 +580,20 @@ static int mesh_region(rwork *w, const uint32_t *mem, uint32_t nm, int only_spli
         return -1;
     grid(w, mem, nm);
     /* 2^27 grid cells in one region: beyond any patch limit */
-    if (w->nx == UINT64_MAX || w->ny == UINT64_MAX || (double)w->nx * (double)w->ny > 134217728.0)
-        return -3;
+    /* a grid of more cells than the limit allows cells (a convex region
+     * covers most of its grid): refused before cutting */
+    w->climit = out->cell_limit > out->cells ? out->cell_limit - out->cells : 0;
+    double area = 0.0;
     for (uint32_t m = 0; m < nm; m++)
-        if (cut_polygon(w, mem[m]) != 0)
-            return -1;
+        area += w->s->polygons[mem[m]].area;
+    if (mesh_regions_over(out, area / (w->sx * w->sy)) || w->nx == UINT64_MAX ||
+        w->ny == UINT64_MAX || (double)w->nx * (double)w->ny > 4.0 * (double)w->climit)
+        return -3;
+    for (uint32_t m = 0; m < nm; m++) {
+        int rc = cut_polygon(w, mem[m]);
+        if (rc != 0)
+            return rc;
+    }
     if (w->nraw >= UINT32_MAX || w->ncell >= UINT32_MAX)
         return -3;
     uint32_t *uid = malloc((w->nraw + 1) * sizeof *uid);
@@ -614,6 +628,7 @@ done:
 }
 
 /* ------------------------------------------------------------ the result */
+
 
 void mesh_regions_free(mesh_regions *r)
 {
@@ -775,6 +790,11 @@ static int take_regions(rwork *w, const uint8_t *mode, uint32_t nreg, mesh_regio
             rc = 0;
             continue;
         }
+        if (rc == -3 && out->estimate_only) { /* counted in out->estimate */
+            rc = 0;
+            keep[r] = MESH_REGION_ESTIMATED;
+            continue;
+        }
         if (rc != 0)
             break;
         keep[r] = out->count;
@@ -787,17 +807,22 @@ static int take_regions(rwork *w, const uint8_t *mode, uint32_t nreg, mesh_regio
         out->vfirst[out->count] = out->vertices;
         for (uint32_t i = 0; i < np; i++)
             if (out->of[i] != RAD_NONE)
-                out->of[i] = keep[out->of[i]];
+                out->of[i] = keep[out->of[i]] == MESH_REGION_ESTIMATED && out->estimate_only
+                                 ? MESH_REGION_ESTIMATED
+                                 : keep[out->of[i]];
     }
     free(first), free(mem), free(keep), free(surf), free(ssize), free(want);
     return rc;
 }
 
 int mesh_regions_build(const rad_scene *s, const uint32_t *pos, const uint32_t *first,
-                       uint32_t npos, const uint8_t *mode, double size, mesh_regions *out,
-                       rad_error *err)
+                       uint32_t npos, const uint8_t *mode, double size, uint64_t max_patches,
+                       int estimate_only, mesh_regions *out, rad_error *err)
 {
     memset(out, 0, sizeof *out);
+    out->estimate_only = estimate_only;
+    out->cell_limit = 16 * max_patches + 1000000;
+    out->patch_limit = max_patches;
     const char *src = s->source ? s->source : "<memory>";
     rad_vec3 lo, hi;
     out->of = malloc(((size_t)s->polygon_count + 1) * sizeof *out->of);
@@ -816,9 +841,11 @@ int mesh_regions_build(const rad_scene *s, const uint32_t *pos, const uint32_t *
     free(w.raw), free(w.cell), free(w.gi), free(w.tmp[0]), free(w.tmp[1]), free(w.ekey);
     if (rc == 0)
         return RAD_OK;
+    double estimate = out->estimate;
     mesh_regions_free(out);
     if (rc == -3) {
         out->overflow = 1;
+        out->estimate = estimate;
         return RAD_OK;
     }
     if (rc == -2)

@@ -41,6 +41,7 @@ typedef struct swork {
     size_t ccube;
     rad_vec3 *tmp;
     size_t ctmp;
+    uint64_t climit; /* cells this surface may still make */
 } swork;
 
 #define GROW3(arr, cap, need) mesh_grow((void **)&(arr), &(cap), (need), sizeof *(arr))
@@ -119,6 +120,8 @@ static int add_piece(swork *w, uint32_t i, const rad_vec3 *p, size_t n, const in
     for (size_t t = 1; t + 1 < m; t += quad ? 2 : 1) {
         if (!quad && !(tri_area(q[0], q[t], q[t + 1], pg->normal) > tiny))
             continue;
+        if (w->ncell >= w->climit)
+            return -3;
         if (GROW3(w->cell, w->ccell, w->ncell + 1) != 0 ||
             GROW3(w->cube, w->ccube, w->ncell + 1) != 0)
             return -1;
@@ -171,8 +174,9 @@ static int cut_polygon(swork *w, const uint32_t *pos, const uint32_t *first, uin
                 double z = comp(w->lo, 2) + (double)key[2] * w->h;
                 size_t nz = clip3(bufs[2], ny, bufs[0], 2, z, 1);
                 nz = clip3(bufs[0], nz, bufs[3], 2, z + w->h, 0);
-                if (nz >= 3 && add_piece(w, i, bufs[3], nz, key) != 0)
-                    return -1;
+                int rc = nz >= 3 ? add_piece(w, i, bufs[3], nz, key) : 0;
+                if (rc != 0)
+                    return rc;
             }
         }
     }
@@ -367,10 +371,14 @@ int mesh_smooth_mesh(const rad_scene *s, const uint32_t *pos, const uint32_t *fi
                      const uint32_t *mem, uint32_t nm, double size, mesh_regions *out)
 {
     rad_vec3 hi;
-    swork w = {.s = s, .h = size};
+    swork w = {.s = s, .h = size,
+               .climit = out->cell_limit > out->cells ? out->cell_limit - out->cells : 0};
     if (!rad_scene_bounds(s, &w.lo, &hi))
         return -2;
-    int rc = 0;
+    double area = 0.0;
+    for (uint32_t m = 0; m < nm; m++)
+        area += s->polygons[mem[m]].area;
+    int rc = mesh_regions_over(out, area / (size * size)) ? -3 : 0;
     for (uint32_t m = 0; m < nm && rc == 0; m++)
         rc = cut_polygon(&w, pos, first, mem[m]);
     if (rc == 0 && (w.nraw >= UINT32_MAX || w.ncell >= UINT32_MAX))
