@@ -48,8 +48,9 @@ typedef struct rad_mesh_options {
     double patch_size;
     /* Refuse to build more patches than this; 0 = RAD_MESH_DEFAULT_MAX_PATCHES. */
     uint32_t max_patches;
-    /* 1 = never group small polygons into clusters: every polygon gets its
-     * own patches (one patch per triangle of a modeller's export). */
+    /* 1 = never group polygons (clusters, planar regions, curved
+     * surfaces): every polygon gets its own patches (one patch per
+     * triangle of a modeller's export). */
     int no_clusters;
 } rad_mesh_options;
 
@@ -67,7 +68,9 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
 int rad_mesh_link_twins(rad_mesh *m, const rad_scene *scene, rad_error *err);
 
 /* Number of patches rad_mesh_build would make, without allocating them;
- * UINT64_MAX if it overflows (or memory for the grouping runs out). */
+ * UINT64_MAX if it overflows (or memory for the grouping runs out).  Past
+ * 1.5 × max_patches, planar regions are not cut and the count is their
+ * estimate (area / grid cell): more than the limit, not exact. */
 uint64_t rad_mesh_count(const rad_scene *scene, const rad_mesh_options *opt);
 
 /* A patch size (scene units) at which rad_mesh_build makes at most `limit`
