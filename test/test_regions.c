@@ -402,8 +402,37 @@ TEST(curved_furnace)
     rad_solution_destroy(sol);
 }
 
+/* A patch size far too small is refused at once, not tried (the regions
+ * are counted by area before they are cut), and the size it advises fits. */
+TEST(far_too_small_size)
+{
+    char *text = disks_polyfile();
+    rad_scene *s = NULL;
+    rad_error err = {0};
+    rad_load_options lo = {.allow_no_emitter = 1};
+    CHECK(rad_scene_parse_polyfile(text, strlen(text), "disks.rad", &lo, &s, &err) == RAD_OK);
+    free(text);
+    if (!s)
+        return;
+    rad_mesh_options opt = {.patch_size = 1e-4, .max_patches = 10000};
+    rad_mesh *m = NULL;
+    CHECK(rad_mesh_build(s, &opt, &m, &err) == RAD_ERR_LIMIT && m == NULL);
+    CHECK_MSG(strstr(err.message, "exceed the limit of 10000; use --patch-size") != NULL, "%s",
+              err.message);
+    CHECK(rad_mesh_count(s, &opt) > 10000);
+    rad_mesh_options fit = opt;
+    fit.patch_size = rad_mesh_size_for(s, &opt, 10000);
+    uint64_t n = rad_mesh_count(s, &fit);
+    printf("  refused: %s\n  advised size %.4g: %llu patches\n", err.message, fit.patch_size,
+           (unsigned long long)n);
+    /* at most the limit, and not far below (2π / size² = 10,000 at 0.0251) */
+    CHECK(n <= 10000 && n > 7000);
+    rad_scene_destroy(s);
+}
+
 int main(void)
 {
+    RUN(far_too_small_size);
     RUN(curved_furnace);
     RUN(faceted_cylinder);
     RUN(floor_variants);
