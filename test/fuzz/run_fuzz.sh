@@ -48,7 +48,7 @@ mkdir -p "$OUT/obj" "$OUT/artifacts"
 # newer than it (headers are few; tracking them exactly is not worth it).
 newest_header=$(ls -t radiosity/*/*.h hemicube/*.h solver/*.h render/*.h 2>/dev/null | head -n 1)
 lib_src=$(ls radiosity/*/*.c radiosity/*/*.cpp hemicube/*.c solver/*.c render/*.c 2>/dev/null |
-          grep -v -E '^radiosity/cli/')
+          grep -v -E '^radiosity/cli/|^hemicube/mpi_ranks\.c$')  # MPI: radiosity-mpi only
 build_failed=0
 objs=()
 for src in $lib_src; do
