@@ -2,6 +2,7 @@
  * (validate.h) and prints it as a table or as JSON.
  *
  *   radiosity validate [--json] [--quick] [--resolution R[,R...]] [--processes P]
+ *   radiosity validate --catalog [--accuracy default|high] [--json] [--processes P]
  *
  * Exit status 0 when every case at the default settings is within the error
  * the report promises for it, 1 when one is not (the line says which), 2 for
@@ -134,6 +135,13 @@ int cli_validate(int argc, char **argv)
             json = 1;
         } else if (!strcmp(a, "--quick")) {
             opt.quick = 1;
+        } else if (!strcmp(a, "--catalog")) {
+            opt.catalog = 1;
+        } else if (!strcmp(a, "--accuracy")) {
+            const char *v = i + 1 < argc ? argv[++i] : "";
+            if (strcmp(v, "default") && strcmp(v, "high"))
+                return cli_usage_error("validate: --accuracy '%s': default or high", v);
+            opt.engine = strcmp(v, "high") ? RAD_VAL_DEFAULTS : RAD_VAL_ACCURATE;
         } else if (!strcmp(a, "--resolution") || !strcmp(a, "--resolutions")) {
             int rc = parse_resolutions(i + 1 < argc ? argv[i + 1] : NULL, res, 64, &nres);
             if (rc)
@@ -146,7 +154,7 @@ int cli_validate(int argc, char **argv)
             i++;
         } else {
             return cli_usage_error("validate: unknown argument '%s' (options: --json, --quick, "
-                                   "--resolution R[,R...], --processes P)", a);
+                                   "--resolution R[,R...], --processes P, --catalog, --accuracy default|high)", a);
         }
     }
     if (nres) {
