@@ -84,7 +84,7 @@
  * scale of the gap, so i's centre is what is wrong: squares 0.05 apart
  * were 3.8 % low, plates meeting at an edge 1.5-2.5 %). */
 static const double weak_thin[3] = {0.0, 32.0, 64.0};
-static const double weak_near[3] = {0.0, 3.0, 6.0};
+static const double weak_near[3] = {0.0, 3.0, 20.0};
 /* ... and a thin or small polygon's patch within weak_area diameters of
  * i's centre gets the area average over i too, not the factor at c_i (2×1
  * plates side by side, 0.5 apart: -1.3 % at the centres). */
@@ -104,7 +104,8 @@ struct hc_cand {
     uint32_t px;       /* pixels of S°_ij */
     uint8_t focus;     /* 1: its focused view is still to be measured */
     uint8_t faces;     /* bit f: drawn on hemi-cube face f */
-    uint8_t near;      /* nearer to c_i than its own diameter */
+    uint8_t near;      /* 1: nearer to c_i than its own diameter; 2: within
+                        * weak_near diameters of i (hc_options.weak) */
     uint8_t area;      /* F_exact averaged over patch i (an emitter seen from a patch row) */
 };
 
@@ -460,7 +461,7 @@ static uint32_t exact_factors(const hc_engine *e, hc_work *wk, uint32_t i, rad_v
         cd->px = 0;
         double ex;
         if (cd->near || cd->area) {
-            ex = hc_area_factor(e, i, j, cd->near);
+            ex = hc_area_factor(e, i, j, cd->near == 1);
         } else {
             ex = hc_point_to_patch(e, c, nn, j);
         }
@@ -695,7 +696,9 @@ static uint32_t cull(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 c, ra
                 close = rad_dot(d, d) < reach * reach;
                 double size = 2.0 * e->radius[j];
                 const double wide = weak_near[e->opt.weak] * 2.0 * e->radius[i];
-                is_near = rad_dot(d, d) < fmax(size, wide) * fmax(size, wide);
+                /* 1: nearer than j's own size (the finer average); 2: only
+                 * within the weak rule's reach */
+                is_near = rad_dot(d, d) < size * size ? 1 : rad_dot(d, d) < wide * wide ? 2 : 0;
             }
             const int marked = e->exact && e->exact[j];
             const uint32_t q = e->mesh->patches[j].polygon;
