@@ -366,9 +366,69 @@ static double sample_weight(const hc_light_req *q, const hc_view *v, rad_vec3 r,
     return cosj / l2 * (q->kind == HC_LIGHT_SPOT ? falloff_at(q, r) : 1.0);
 }
 
+/* Does pixel (px, py) of part q's item buffer let the light reach point x
+ * of patch j?  Yes when it shows j's plane (shows_plane); when it shows
+ * another patch k, unless x lies behind k's plane (the light is in front
+ * of it, so the ray to x crosses it; a surface x lies in front of is
+ * beyond x, like the wall a floor tile meets); when it shows nothing
+ * (depth cleared: the ray misses everything, as beside a floor's outer
+ * edge) or a back side farther than x. */
+static int pixel_lets_through(const hc_engine *e, hc_work *wk, const hc_light_req *q,
+                              const hc_view *v, uint32_t px, uint32_t py, rad_vec3 x, uint32_t j)
+{
+    const uint32_t id = wk->lpixels[(size_t)py * q->resolution + px];
+    if (shows_plane(e, id, j))
+        return 1;
+    const rad_vec3 r = rad_sub(x, v->pos);
+    const double dist = v->ortho ? e->bradius : rad_length(r);
+    if (id < e->n)
+        return rad_dot(rad_sub(x, e->center[id]), e->mesh->patches[id].normal) >= -1e-4 * dist;
+    const double D = hc_gl_read_depth(wk->gl, px, py);
+    if (!(D > 0.0))
+        return 1;
+    if (v->ortho) { /* light_render's orthographic depth */
+        const double rz = e->bradius * 1.01 + 1e-300;
+        return D <= (rz - rad_dot(x, v->fwd)) / (2.0 * rz) + 1e-6;
+    }
+    const double near = 1e-6 * (e->bradius + rad_length(v->pos)) + 1e-300;
+    return D <= near / rad_dot(r, v->fwd) * (1.0 + 1e-4);
+}
+
+/* Visibility of point x of patch j: the bilinear weight of the four pixel
+ * centres around its projection that let the light through. */
+static double sample_visibility(const hc_engine *e, hc_work *wk, const hc_light_req *q,
+                                const hc_view *v, rad_vec3 x, uint32_t j)
+{
+    const uint32_t R = q->resolution;
+    double X, Y;
+    if (v->ortho) {
+        X = rad_dot(x, v->right) / v->rw;
+        Y = rad_dot(x, v->up) / v->rw;
+    } else {
+        const rad_vec3 r = rad_sub(x, v->pos);
+        const double w = rad_dot(r, v->fwd);
+        X = rad_dot(r, v->right) / w;
+        Y = rad_dot(r, v->up) / w;
+    }
+    X = (X + 1.0) * 0.5 * R - 0.5;
+    Y = (Y + 1.0) * 0.5 * R - 0.5;
+    const double fx0 = floor(X), fy0 = floor(Y), fx = X - fx0, fy = Y - fy0;
+    double vis = 0.0;
+    for (int dy = 0; dy < 2; dy++)
+        for (int dx = 0; dx < 2; dx++) {
+            long px = (long)fx0 + dx, py = (long)fy0 + dy;
+            px = px < 0 ? 0 : px >= (long)R ? (long)R - 1 : px;
+            py = py < 0 ? 0 : py >= (long)R ? (long)R - 1 : py;
+            const double w = (dx ? fx : 1.0 - fx) * (dy ? fy : 1.0 - fy);
+            if (w > 0.0 && pixel_lets_through(e, wk, q, v, (uint32_t)px, (uint32_t)py, x, j))
+                vis += w;
+        }
+    return vis > 1.0 ? 1.0 : vis;
+}
+
 /* v_j from k² points per cell of j; *mixed set when some are lit and some
  * not.  -1 when no point falls in the part. */
-static double sampled_visibility(const hc_engine *e, const hc_work *wk, const hc_light_req *q,
+static double sampled_visibility(const hc_engine *e, hc_work *wk, const hc_light_req *q,
                                  const hc_view *v, uint32_t j, uint32_t k, int *mixed)
 {
     const rad_vec3 nj = e->mesh->patches[j].normal;
@@ -398,7 +458,7 @@ static double sampled_visibility(const hc_engine *e, const hc_work *wk, const hc
                     if (!(h > 0.0) || fabs(rad_dot(r, v->right)) > h || fabs(rad_dot(r, v->up)) > h)
                         continue;
                 }
-                const double vis = point_visibility(e, wk, v, q->resolution, x, j);
+                const double vis = sample_visibility(e, wk, q, v, x, j);
                 sw += w;
                 sv += w * vis;
                 lit |= vis > 0.0;
