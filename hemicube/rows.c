@@ -78,13 +78,15 @@
  * HC_WEAK_OFF, _ON, _HIGH: a far polygon narrower on the cube than
  * weak_thin pixels is thin (a pixel count's error goes as its boundary
  * over its area, one pixel over its width: a 10:1 strip 20 widths away, 3
- * pixels wide at R = 128, was 6.4 % low), and with exact_near a patch j
+ * pixels wide at R = 128, was 6.4 % low; the ceiling of a 1 × 2 × 3 box,
+ * 21 pixels wide from the floor, 2.8 % high where the floor's patch
+ * centres fell in step with the pixel grid), and with exact_near a patch j
  * whose centre is within weak_near diameters of patch i's centre gets the
  * area average over i (near a surface, F_{dA→j} varies across i on the
  * scale of the gap, so i's centre is what is wrong: squares 0.05 apart
  * were 3.8 % low, plates meeting at an edge 1.5-2.5 %). */
 static const double weak_thin[3] = {0.0, 32.0, 64.0};
-static const double weak_near[3] = {0.0, 3.0, 20.0};
+static const double weak_near[3] = {0.0, 2.0, 20.0};
 /* ... and a thin or small polygon's patch within weak_area diameters of
  * i's centre gets the area average over i too, not the factor at c_i (2×1
  * plates side by side, 0.5 apart: -1.3 % at the centres). */
