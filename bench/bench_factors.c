@@ -95,7 +95,9 @@ static void light_row(int spot, uint32_t R)
     rad_solution *sol = NULL;
     double t0 = rad_seconds();
     if (!rc)
-        rc = rad_solve_scene(s, &opt, &sol, &e);
+        rc = rad_solve_scene(s, &opt, &sol, &e); /* takes s */
+    else
+        rad_scene_destroy(s);
     double t = rad_seconds() - t0;
     double *H = sol ? malloc((size_t)sol->mesh->patch_count * sizeof *H) : NULL;
     if (rc || !H || rad_solution_direct_irradiance(sol, H, NULL) != RAD_OK) {
@@ -120,7 +122,6 @@ static void light_row(int spot, uint32_t R)
     }
     free(H);
     rad_solution_destroy(sol);
-    rad_scene_destroy(s);
 }
 
 int main(void)
