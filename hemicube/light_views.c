@@ -12,6 +12,12 @@
  * pixels) and looks each point up in it (point_visibility).  Invariant:
  * power and visibility read the one rendering code (light_render), so a
  * point and the patch power agree on what the light sees.
+ *
+ * A part's Φ_j is exact where nothing shadows j (issue 39): the closed-form
+ * solid angle of j's part in the face (a spot's falloff integrated over
+ * it; a directional light's projected area) times j's visible fraction,
+ * sampled in the item buffer at points of j (exact_power); the pixel sums
+ * (pixel_power) stand only for a sliver of j that no sample falls in.
  */
 #include "hc_internal.h"
 

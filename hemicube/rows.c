@@ -50,7 +50,10 @@
  *
  * Candidates are the marked patches (emitters), with exact_near the near
  * ones, and the patches of any far polygon too small on the cube for its
- * pixels to be counted (small_polygon: fewer than HC_SMALL_PIXELS).  An
+ * pixels to be counted (small_polygon: fewer than HC_SMALL_PIXELS); with
+ * hc_options.weak (issue 39) also far polygons too thin on the cube, the
+ * patches within weak_near diameters of i (area-averaged), and a closed
+ * row's deficit goes to the entries nearest i (spread_deficit).  An
  * emitter's entry in a patch row is averaged over the patch
  * (hc_ff_polygon_polygon) rather than taken at its centre: its column then
  * sums to the emitter's area, which a closed room's energy balance needs.
