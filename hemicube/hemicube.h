@@ -52,11 +52,11 @@ typedef struct hc_options {
     int exact_near;
     /* Exact entries where the hemi-cube's pixel count is weak (issue 39,
      * docs/limits.md): HC_WEAK_OFF (0) adds none; HC_WEAK_ON makes exact
-     * the entries of far polygons too thin on the cube (narrower than
-     * HC_THIN_PIXELS pixels) and, with exact_near, area-averages the
-     * entries of every j nearer to c_i than a few diameters of patch i
-     * (nearly touching surfaces, plates meeting at an edge); HC_WEAK_HIGH
-     * widens both for the accurate setting (0.1 %). */
+     * the entries of far polygons too thin on the cube (under 8 pixels,
+     * facing the eye) and, with exact_near, area-averages the entries of
+     * a facing plane nearer to c_i than i's diameter (nearly touching
+     * surfaces); HC_WEAK_HIGH widens both for the accurate setting (0.1 %:
+     * 64 pixels at any angle, every j within 20 diameters). */
     int weak;
     /* May be NULL: a flag the caller sets (from a signal handler, say) to
      * stop a job of rows: no new row is handed out, the rows the workers

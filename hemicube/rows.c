@@ -52,7 +52,8 @@
  * ones, and the patches of any far polygon too small on the cube for its
  * pixels to be counted (small_polygon: fewer than HC_SMALL_PIXELS); with
  * hc_options.weak (issue 39) also far polygons too thin on the cube, the
- * patches within weak_near diameters of i (area-averaged), and a closed
+ * patches within weak_near diameters of i where i's centre samples them
+ * poorly (sampling_weak; area-averaged), and a closed
  * row's deficit goes to the entries nearest i (spread_deficit).  An
  * emitter's entry in a patch row is averaged over the patch
  * (hc_ff_polygon_polygon) rather than taken at its centre: its column then
@@ -84,8 +85,8 @@
  * pixels wide at R = 128, was 6.4 % low; the ceiling of a 1 × 2 × 3 box,
  * 21 pixels wide from the floor, 2.8 % high where the floor's patch
  * centres fell in step with the pixel grid), and with exact_near a patch j
- * whose centre is within weak_near diameters of patch i's centre gets the
- * area average over i (near a surface, F_{dA→j} varies across i on the
+ * whose centre is within weak_near diameters of patch i's centre, where
+ * sampling_weak says so, gets the area average over i (near a surface, F_{dA→j} varies across i on the
  * scale of the gap, so i's centre is what is wrong: squares 0.05 apart
  * were 3.8 % low, plates meeting at an edge 1.5-2.5 %). */
 static const double weak_thin[3] = {0.0, 8.0, 64.0};
