@@ -19,8 +19,8 @@
  * hemi-cube of its own (rad_solve_options.element_hemicubes).
  * BENCH_REGIONS=1 also prints every region's error for each row;
  * BENCH_SVG=FILE writes the curve (worst and RMS region error against CPU
- * seconds); BENCH_PATCH_SIZE, BENCH_TOLERANCE and BENCH_EXACT_NEAR set
- * those options for every row.  Nothing here asserts anything.
+ * seconds); BENCH_PATCH_SIZE, BENCH_TOLERANCE, BENCH_EXACT_NEAR and
+ * BENCH_ACCURACY set those options for every row.  Nothing here asserts anything.
  */
 #include "../radiosity/pipeline/pipeline.h"
 
@@ -123,6 +123,8 @@ static void run(row *r, int repeat)
             opt.mesh.patch_size = atof(getenv("BENCH_PATCH_SIZE"));
         if (getenv("BENCH_EXACT_NEAR"))
             opt.exact_near = atoi(getenv("BENCH_EXACT_NEAR"));
+        if (getenv("BENCH_ACCURACY")) /* -1 pixels, 0 default, 1 high (issue 39) */
+            opt.accuracy = atoi(getenv("BENCH_ACCURACY"));
         if (getenv("BENCH_TOLERANCE"))
             opt.solver.tolerance = atof(getenv("BENCH_TOLERANCE"));
         rad_solution *s = NULL;

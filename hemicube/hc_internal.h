@@ -444,6 +444,8 @@ typedef struct hc_work {
     uint32_t *fslot;   /* 2n: a focused view's candidates (indices into cand),
                         * then their pixel counts */
     double *fsum;      /* 3n: a focused view's sums S, S° and visibilities */
+    double *preach;    /* npoly: farthest corner of a polygon's patches from its
+                        * centre (rows.c's thin polygons, hc_options.weak) */
     /* Lights (light_views.c): */
     uint32_t lR;       /* size of lpixels and lweight (0: none yet) */
     hc_light_req lkey; /* the part whose item buffer lpixels holds, when lkey_valid */

@@ -57,6 +57,14 @@ typedef struct hc_options {
     /* 1 = also treat exactly every patch j nearer to i's centre than j's own
      * size (the proximity case, where point sampling of i is the weak part). */
     int exact_near;
+    /* Exact entries where the hemi-cube's pixel count is weak (issue 39,
+     * docs/limits.md): HC_WEAK_OFF (0) adds none; HC_WEAK_ON makes exact
+     * the entries of far polygons too thin on the cube (under 8 pixels,
+     * facing the eye) and, with exact_near, area-averages the entries of
+     * a facing plane nearer to c_i than i's diameter (nearly touching
+     * surfaces); HC_WEAK_HIGH widens both for the accurate setting (0.1 %:
+     * 64 pixels at any angle, every j within 20 diameters). */
+    int weak;
     /* May be NULL: a flag the caller sets (from a signal handler, say) to
      * stop a job of rows: no new row is handed out, the rows the workers
      * hold are still received and stored, and the call then fails with
@@ -88,6 +96,9 @@ int hc_gl_choose(hc_gl_kind want, hc_gl_choice *out, rad_error *err);
 const char *hc_gl_name(hc_gl_kind kind);
 /* The kind a name ("osmesa", "egl", "auto") names: 0, or -1 for any other. */
 int hc_gl_parse(const char *name, hc_gl_kind *out);
+
+/* hc_options.weak */
+enum { HC_WEAK_OFF = 0, HC_WEAK_ON = 1, HC_WEAK_HIGH = 2 };
 
 typedef struct hc_engine hc_engine;
 
@@ -245,6 +256,15 @@ double hc_ff_coaxial_disks(double r1, double r2, double h);
  * element facing the rectangle and lying on the normal through one of its
  * corners (Howell B-3). */
 double hc_ff_element_parallel_rectangle(double a, double b, double c);
+
+/* From rectangle 1, [x0, x1] × [y0, y1] in the plane z = 0, to rectangle 2,
+ * [u0, u1] × [v0, v1] in the plane z = c, edges parallel, anywhere in their
+ * planes (offset or partly overlapping): the superposition of corner-to-
+ * corner integrals (Howell C-12's general form).  NAN for an empty
+ * rectangle or c <= 0.  Accurate where the rectangles are within a few
+ * hundred gaps of each other (the terms cancel as the distance grows). */
+double hc_ff_parallel_offset(double x0, double x1, double y0, double y1, double u0, double u1,
+                             double v0, double v1, double c);
 
 /* From a differential element at p with unit normal n to a planar polygon
  * (any orientation; the part behind the element's plane is clipped away),

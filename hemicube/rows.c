@@ -50,7 +50,11 @@
  *
  * Candidates are the marked patches (emitters), with exact_near the near
  * ones, and the patches of any far polygon too small on the cube for its
- * pixels to be counted (small_polygon: fewer than HC_SMALL_PIXELS).  An
+ * pixels to be counted (small_polygon: fewer than HC_SMALL_PIXELS); with
+ * hc_options.weak (issue 39) also far polygons too thin on the cube, the
+ * patches within weak_near diameters of i where i's centre samples them
+ * poorly (sampling_weak; area-averaged), and a closed
+ * row's deficit goes to the entries nearest i (spread_deficit).  An
  * emitter's entry in a patch row is averaged over the patch
  * (hc_ff_polygon_polygon) rather than taken at its centre: its column then
  * sums to the emitter's area, which a closed room's energy balance needs.
@@ -74,6 +78,31 @@
  * covering about ten pixels). */
 #define HC_SMALL_PIXELS 64.0
 #define HC_SMALL_MAX 1024u
+/* Where the hemi-cube is weak (hc_options.weak, docs/limits.md), by
+ * HC_WEAK_OFF, _ON, _HIGH: a far polygon narrower on the cube than
+ * weak_thin pixels is thin (a pixel count's error goes as its boundary
+ * over its area, one pixel over its width: a 10:1 strip 20 widths away, 3
+ * pixels wide at R = 128, was 6.4 % low; the ceiling of a 1 × 2 × 3 box,
+ * 21 pixels wide from the floor, 2.8 % high where the floor's patch
+ * centres fell in step with the pixel grid), and with exact_near a patch j
+ * whose centre is within weak_near diameters of patch i's centre, where
+ * sampling_weak says so, gets the area average over i (near a surface, F_{dA→j} varies across i on the
+ * scale of the gap, so i's centre is what is wrong: squares 0.05 apart
+ * were 3.8 % low, plates meeting at an edge 1.5-2.5 %). */
+static const double weak_thin[3] = {0.0, 8.0, 64.0};
+static const double weak_near[3] = {0.0, 2.0, 20.0};
+/* At the defaults the thin rule takes only polygons facing the eye (cos
+ * θ_j at least weak_cos) and narrower than 8 pixels, and the near rule
+ * only facing planes closer than i's diameter (sampling_weak): broader
+ * (32 pixels at any angle, every patch within 2 diameters) the glTF Cornell
+ * box's solve took 2.8 times the CPU and its worst region (the tall
+ * block's front) went from 0.95 % to 1.24 % of the path-traced reference
+ * (report/factors.md); the accurate setting keeps the broad rules. */
+static const double weak_cos[3] = {0.0, 0.5, 0.0};
+/* ... and a thin or small polygon's patch within weak_area diameters of
+ * i's centre gets the area average over i too, not the factor at c_i (2×1
+ * plates side by side, 0.5 apart: -1.3 % at the centres). */
+static const double weak_area[3] = {0.0, 10.0, 30.0};
 
 /* ------------------------------------------------------------------ faces */
 
@@ -89,7 +118,8 @@ struct hc_cand {
     uint32_t px;       /* pixels of S°_ij */
     uint8_t focus;     /* 1: its focused view is still to be measured */
     uint8_t faces;     /* bit f: drawn on hemi-cube face f */
-    uint8_t near;      /* nearer to c_i than its own diameter */
+    uint8_t near;      /* 1: nearer to c_i than its own diameter; 2: within
+                        * weak_near diameters of i (hc_options.weak) */
     uint8_t area;      /* F_exact averaged over patch i (an emitter seen from a patch row) */
 };
 
@@ -102,8 +132,20 @@ int hc_rows_init(const hc_engine *e, hc_work *wk, char *msg)
              (wk->order = hc_alloc(n, sizeof *wk->order, msg)) &&
              (wk->mark = hc_alloc(n, sizeof *wk->mark, msg)) &&
              (wk->fslot = hc_alloc((size_t)2 * n, sizeof *wk->fslot, msg)) &&
-             (wk->fsum = hc_alloc((size_t)3 * n, sizeof *wk->fsum, msg));
-    return ok ? 0 : -1;
+             (wk->fsum = hc_alloc((size_t)3 * n, sizeof *wk->fsum, msg)) &&
+             (wk->preach = hc_alloc((size_t)e->npoly + 1, sizeof *wk->preach, msg));
+    if (!ok)
+        return -1;
+    for (uint32_t j = 0; j < n; j++) {
+        const uint32_t q = e->mesh->patches[j].polygon;
+        for (uint32_t cell = e->cfirst[j]; cell < e->cfirst[j + 1]; cell++) {
+            rad_vec3 p[4];
+            hc_load_corners(e, cell, p);
+            for (int k = 0; k < 4; k++)
+                wk->preach[q] = fmax(wk->preach[q], rad_length(rad_sub(p[k], e->poly_center[q])));
+        }
+    }
+    return 0;
 }
 
 /* Frustum planes through the eye, as bits of a mask; a patch is skipped for
@@ -433,7 +475,7 @@ static uint32_t exact_factors(const hc_engine *e, hc_work *wk, uint32_t i, rad_v
         cd->px = 0;
         double ex;
         if (cd->near || cd->area) {
-            ex = hc_area_factor(e, i, j, cd->near);
+            ex = hc_area_factor(e, i, j, cd->near == 1);
         } else {
             ex = hc_point_to_patch(e, c, nn, j);
         }
@@ -570,18 +612,46 @@ static void exact_entries(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 
  * covers fewer than HC_SMALL_PIXELS pixels?  Its solid angle A cos θ / r²
  * over the solid angle of a pixel of the face it falls on, pixel × μ³ with
  * μ the cosine to that face's axis. */
-static int small_polygon(const hc_engine *e, uint32_t j, rad_vec3 c, rad_vec3 nn, rad_vec3 u,
-                         rad_vec3 v, double pixel)
+static int small_polygon(const hc_engine *e, const hc_work *wk, uint32_t j, rad_vec3 c,
+                         rad_vec3 nn, rad_vec3 u, rad_vec3 v, double pixel)
 {
     const uint32_t q = e->mesh->patches[j].polygon;
     const rad_vec3 d = rad_sub(e->poly_center[q], c);
     const double r2 = rad_dot(d, d), A = e->poly_area[q];
-    if (!(r2 > 4.0 * A) || !(A > 0.0))
+    if (!(A > 0.0))
         return 0;
     const double r = sqrt(r2);
     const double cos_j = fabs(rad_dot(d, e->mesh->patches[j].normal)) / r;
     const double mu = fmax(fabs(rad_dot(d, nn)), fmax(fabs(rad_dot(d, u)), fabs(rad_dot(d, v)))) / r;
-    return A * cos_j / r2 < HC_SMALL_PIXELS * pixel * mu * mu * mu;
+    if (r2 > 4.0 * A && A * cos_j / r2 < HC_SMALL_PIXELS * pixel * mu * mu * mu)
+        return 1;
+    /* Thin: the polygon's width A / (2 reach), foreshortened by cos θ_j, in
+     * pixels of side sqrt(pixel) μ^1.5 at this direction; only for a
+     * polygon whose reach ends short of c (its patches are then all in
+     * front, within one focused view's cone or probed). */
+    const double reach = wk->preach[q], thin = weak_thin[e->opt.weak];
+    if (cos_j < weak_cos[e->opt.weak])
+        return 0;
+    return thin > 0.0 && r > reach &&
+           A * cos_j / (2.0 * reach * r) < thin * sqrt(pixel * mu * mu * mu);
+}
+
+/* Is patch i's centre a poor sample of its entry for a patch j within
+ * weak_near diameters, at the defaults?  Only facing planes closer than i's
+ * diameter (squares 0.05 apart: -3.8 % by centres, -0.25 % averaged).
+ * Plates meeting at an edge are left to the centres (a patch by the edge
+ * errs one way, the next ones the other, and over a wide wall it averages
+ * out): with them too (every j within 2 diameters, or only where i's or
+ * j's polygon is under 2.2 patch diameters wide, as the narrow plates of
+ * the catalog are) the Cornell box's tall block front went from -0.95 %
+ * to -1.19 % or -0.97 % of the reference. */
+static int sampling_weak(const hc_engine *e, uint32_t i, uint32_t j)
+{
+    if (e->opt.weak == HC_WEAK_HIGH)
+        return 1;
+    const rad_patch *P = e->mesh->patches;
+    const double gap = fabs(rad_dot(P[j].normal, rad_sub(e->center[i], e->center[j])));
+    return rad_dot(P[i].normal, P[j].normal) < -0.9 && gap < 2.0 * e->radius[i];
 }
 
 /* The patches a cube at c on patch i (normal nn, basis u, v) may see:
@@ -653,18 +723,25 @@ static uint32_t cull(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 c, ra
             hc_push_range(wk, wk->first[f], wk->count[f], &nr[f], &last[f], j);
         }
         if (e->any_exact) {
-            int is_near = 0;
+            int is_near = 0, close = 0;
             if (near_ok) {
                 rad_vec3 d = rad_sub(e->center[j], c);
+                const double reach = weak_area[e->opt.weak] * 2.0 * e->radius[i];
+                close = rad_dot(d, d) < reach * reach;
                 double size = 2.0 * e->radius[j];
-                is_near = rad_dot(d, d) < size * size;
+                const double wide = weak_near[e->opt.weak] * 2.0 * e->radius[i];
+                /* 1: nearer than j's own size (the finer average); 2: only
+                 * within the weak rule's reach */
+                is_near = rad_dot(d, d) < size * size ? 1
+                          : rad_dot(d, d) < wide * wide && sampling_weak(e, i, j) ? 2
+                                                        : 0;
             }
             const int marked = e->exact && e->exact[j];
             const uint32_t q = e->mesh->patches[j].polygon;
             if (q != last_poly) {
                 last_poly = q;
                 last_small = nsmall + e->poly_patches[q] <= HC_SMALL_MAX &&
-                             small_polygon(e, j, c, nn, u, v, pixel);
+                             small_polygon(e, wk, j, c, nn, u, v, pixel);
                 nsmall += last_small ? e->poly_patches[q] : 0;
             }
             const int small = last_small && !is_near && !marked;
@@ -673,12 +750,42 @@ static uint32_t cull(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 c, ra
                 cd->j = j;
                 cd->faces = (uint8_t)faces;
                 cd->near = (uint8_t)is_near;
-                cd->area = (uint8_t)(whole && marked && !is_near);
+                cd->area = (uint8_t)(whole && (marked || close) && !is_near);
             }
         }
     }
     *nfront_out = nfront;
     return ncand;
+}
+
+/* A closed row's deficit delta = T − Σ exact − Σ pixel entries, added to
+ * the pixel entries (those not in wk->mark) in proportion to
+ * F_ij (r_i / d_ij)², d_ij the distance between centres: where i's centre
+ * misjudges the average over i, the error goes as F_ij times (size /
+ * distance)², so the entries just beyond the near ones take nearly all of
+ * it and a far ceiling keeps its pixel count (a uniform scale moved the
+ * ceiling of a 1 × 2 × 3 box by 2.7 %).  0, or -1 (nothing changed) when
+ * an entry would fall to 0 or below. */
+static int spread_deficit(const hc_engine *e, hc_work *wk, uint32_t i, uint32_t nfront,
+                          double delta)
+{
+    const double r2 = e->radius[i] * e->radius[i];
+    double W = 0.0;
+    for (uint32_t k = 0; k < nfront; k++) {
+        const uint32_t j = wk->front[k];
+        const rad_vec3 d = rad_sub(e->center[j], e->center[i]);
+        if (!wk->mark[j] && wk->acc[j] > 0.0)
+            W += wk->acc[j] * r2 / fmax(rad_dot(d, d), r2);
+    }
+    if (!(W > 0.0) || (delta < 0.0 && -delta >= W))
+        return -1; /* each entry's share is below delta / W × acc[j] <= acc[j] */
+    for (uint32_t k = 0; k < nfront; k++) {
+        const uint32_t j = wk->front[k];
+        const rad_vec3 d = rad_sub(e->center[j], e->center[i]);
+        if (!wk->mark[j] && wk->acc[j] > 0.0)
+            wk->acc[j] += delta / W * wk->acc[j] * r2 / fmax(rad_dot(d, d), r2);
+    }
+    return 0;
 }
 
 /* Renormalisation of a row with exact entries (wk->acc holding the pixel
@@ -722,6 +829,9 @@ static int renormalise(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 c, 
      * entries fill what the exact ones leave (without this a room at ρ =
      * 0.999 lost 9 % of its light through rows 1.6e-3 short). */
     const int closed = total >= 1.0 - 1e-9;
+    if (any_near && closed && e->opt.weak != HC_WEAK_OFF && sum_ex <= total &&
+        spread_deficit(e, wk, i, nfront, total - sum_ex - sum_px) == 0)
+        return 0;
     if ((!any_near || closed) && sum_ex <= total) {
         if (sum_px > 0.0)
             *scale_px = (total - sum_ex) / sum_px;

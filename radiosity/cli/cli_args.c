@@ -187,6 +187,16 @@ int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt)
         opt->element_hemicubes = 1;
         return 1;
     }
+    if (!strcmp(a, "--accuracy")) {
+        if (!v || (strcmp(v, "default") && strcmp(v, "high") && strcmp(v, "pixels")))
+        {
+            cli_usage_error("--accuracy '%s': default, high or pixels", v ? v : "");
+            return -1;
+        }
+        opt->accuracy = !strcmp(v, "high") ? 1 : !strcmp(v, "pixels") ? -1 : 0;
+        (*i)++;
+        return 1;
+    }
     if (!strcmp(a, "--pixel-near")) {
         opt->exact_near = -1;
         return 1;

@@ -3,6 +3,7 @@
  *
  *   radiosity validate [--json] [--quick] [--resolution R[,R...]] [--processes P]
  *                      [--gl osmesa|egl|auto]
+ *   radiosity validate --catalog [--accuracy default|high] [--json] [--processes P]
  *
  * Exit status 0 when every case at the default settings is within the error
  * the report promises for it, 1 when one is not (the line says which), 2 for
@@ -135,6 +136,13 @@ int cli_validate(int argc, char **argv)
             json = 1;
         } else if (!strcmp(a, "--quick")) {
             opt.quick = 1;
+        } else if (!strcmp(a, "--catalog")) {
+            opt.catalog = 1;
+        } else if (!strcmp(a, "--accuracy")) {
+            const char *v = i + 1 < argc ? argv[++i] : "";
+            if (strcmp(v, "default") && strcmp(v, "high"))
+                return cli_usage_error("validate: --accuracy '%s': default or high", v);
+            opt.engine = strcmp(v, "high") ? RAD_VAL_DEFAULTS : RAD_VAL_ACCURATE;
         } else if (!strcmp(a, "--resolution") || !strcmp(a, "--resolutions")) {
             int rc = parse_resolutions(i + 1 < argc ? argv[i + 1] : NULL, res, 64, &nres);
             if (rc)
@@ -152,7 +160,8 @@ int cli_validate(int argc, char **argv)
             i++;
         } else {
             return cli_usage_error("validate: unknown argument '%s' (options: --json, --quick, "
-                                   "--resolution R[,R...], --processes P, --gl G)", a);
+                                   "--resolution R[,R...], --processes P, --gl G, --catalog, "
+                                   "--accuracy default|high)", a);
         }
     }
     if (nres) {

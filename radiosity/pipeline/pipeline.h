@@ -62,6 +62,12 @@ typedef struct rad_solve_options {
                           * energy balance rests on (0.12 % -> 0.02 % in a closed room
                           * with a lamp at the default patch size); < 0 = counted in
                           * pixels like the others (before issue 18) */
+    int accuracy;        /* form factors where the hemi-cube is weak (issue 39,
+                          * docs/limits.md): 0 (default) = thin far surfaces and
+                          * nearly touching pairs exactly (hc_options.weak
+                          * HC_WEAK_ON); 1 = the accurate setting (HC_WEAK_HIGH:
+                          * every patch within 20 diameters area-averaged, 0.1 %
+                          * on the catalog); < 0 = pixel counts there (before) */
     /* Progressive solver only, may be NULL: called every solver.preview_every
      * shots and/or every solver.preview_seconds of solving, with the current
      * estimate including the ambient term (patch_count × bands).  Non-zero

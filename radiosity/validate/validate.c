@@ -41,7 +41,7 @@ const char *rad_validate_config_name(rad_val_config config)
 {
     static const char *names[RAD_VAL_CONFIG_COUNT] = {
         "parallel", "perpendicular", "disks", "element", "enclosure", "closed-cube", "plates",
-        "cube-lamp"};
+        "cube-lamp", "offset", "box", "box-wall"};
     return (unsigned)config < RAD_VAL_CONFIG_COUNT ? names[config] : "unknown";
 }
 
@@ -58,6 +58,9 @@ uint32_t rad_validate_default_subdiv(rad_val_config config)
     case RAD_VAL_CLOSED_CUBE: return 4;
     case RAD_VAL_PLATES: return 16;
     case RAD_VAL_CUBE_LAMP: return 8;
+    case RAD_VAL_OFFSET: return 16;
+    case RAD_VAL_BOX: return 8;
+    case RAD_VAL_BOX_WALL: return 8;
     default: return 1;
     }
 }
@@ -68,11 +71,13 @@ void rad_validate_defaults(rad_val_case *c)
     if (c->b == 0) c->b = 1;
     if (c->c == 0) c->c = 1;
     if (c->resolution == 0) c->resolution = HC_DEFAULT_RESOLUTION;
-    if (c->subdiv == 0) c->subdiv = rad_validate_default_subdiv(c->config);
+    /* Engine cases keep subdiv 0: the mesher's default patch size. */
+    if (c->subdiv == 0 && c->engine == RAD_VAL_BARE)
+        c->subdiv = rad_validate_default_subdiv(c->config);
     if (c->sides == 0) c->sides = 32;
     if (c->rho == 0) c->rho = 0.5;
     if (c->tolerance == 0) c->tolerance = 1e-7;
-    if (c->subdiv_long == 0) {
+    if (c->subdiv_long == 0 && c->subdiv > 0) {
         /* Square-ish patches on an elongated rectangle: scale the count along
          * the long edge by the aspect ratio. */
         double lo = fmin(c->a, c->b), hi = fmax(c->a, c->b);
@@ -112,10 +117,13 @@ static int add_quad(builder *b, const char *name, uint32_t obj, uint32_t mat, ra
     return rad_scene_add_polygon(b->s, name, obj, mat, q, 4, nu, nv, b->name, NULL, b->err);
 }
 
-/* The six faces of the axis-aligned cube [0,s]³, normals inward, each split
- * n×n; face 4 is the floor (z = 0), face 5 the ceiling (z = s). */
-static int add_cube(builder *b, double s, uint32_t n, const uint32_t obj[6], const uint32_t mat[6])
+/* The six faces of the axis-aligned box [0,s.x]×[0,s.y]×[0,s.z], normals
+ * inward, each split n×n; face 2 is the wall y = 0, face 4 the floor (z =
+ * 0), face 5 the ceiling (z = s.z). */
+static int add_box(builder *b, rad_vec3 size, uint32_t n, const uint32_t obj[6],
+                   const uint32_t mat[6])
 {
+    const double s3[3] = {size.x, size.y, size.z};
     static const char *names[6] = {"x0", "x1", "y0", "y1", "floor", "ceiling"};
     for (int f = 0; f < 6; f++) {
         int ax = f / 2, side = f % 2;
@@ -129,9 +137,9 @@ static int add_cube(builder *b, double s, uint32_t n, const uint32_t obj[6], con
         rad_vec3 q[4];
         for (int k = 0; k < 4; k++) {
             double co[3];
-            co[ax] = side ? s : 0;
-            co[(ax + 1) % 3] = uv[k][0] * s;
-            co[(ax + 2) % 3] = uv[k][1] * s;
+            co[ax] = side ? s3[ax] : 0;
+            co[(ax + 1) % 3] = uv[k][0] * s3[(ax + 1) % 3];
+            co[(ax + 2) % 3] = uv[k][1] * s3[(ax + 2) % 3];
             q[k] = rad_v3(co[0], co[1], co[2]);
         }
         int rc = add_quad(b, names[f], obj[f], mat[f], q[0], q[1], q[2], q[3], n, n);
@@ -193,6 +201,25 @@ static int add_icosahedron(builder *b, uint32_t k, uint32_t obj, uint32_t mat)
 
 /* ----------------------------------------------------------------- the case */
 
+/* A closed black box a×b×c: object "A" the floor, "B" the ceiling (box) or
+ * the wall y = 0 (box-wall), "walls" the rest. */
+static int box_scene(builder *b, const rad_val_case *c, uint32_t dark, uint32_t *A, uint32_t *B)
+{
+    uint32_t walls, objs[6], mats[6];
+    int rc = add_object(b, "A", A);
+    if (!rc) rc = add_object(b, "B", B);
+    if (!rc) rc = add_object(b, "walls", &walls);
+    if (rc)
+        return rc;
+    for (int f = 0; f < 6; f++) {
+        objs[f] = walls;
+        mats[f] = dark;
+    }
+    objs[4] = *A;
+    objs[c->config == RAD_VAL_BOX ? 5 : 2] = *B;
+    return add_box(b, rad_v3(c->a, c->b, c->c), c->subdiv, objs, mats);
+}
+
 static int finite_pos(double x) { return isfinite(x) && x > 0; }
 
 /* Builds the case's scene.  *from / *to: the objects between which F_AB is
@@ -210,7 +237,7 @@ static int build_scene(const rad_val_case *c, const char *name, rad_scene **out,
     if (!rc) rc = add_material(&b, "lamp", c->config == RAD_VAL_PLATES ? c->rho_a : c->rho, 1, &lamp);
     if (!rc) rc = add_material(&b, "black", 0, 0, &dark);
     if (!rc && c->config != RAD_VAL_ENCLOSURE && c->config != RAD_VAL_CLOSED_CUBE &&
-        c->config != RAD_VAL_CUBE_LAMP) {
+        c->config != RAD_VAL_CUBE_LAMP && c->config != RAD_VAL_BOX && c->config != RAD_VAL_BOX_WALL) {
         rc = add_object(&b, "A", &A);
         if (!rc) rc = add_object(&b, "B", &B);
     }
@@ -231,6 +258,20 @@ static int build_scene(const rad_val_case *c, const char *name, rad_scene **out,
                           rad_v3(a, 0, cc), nb, na);
         break;
     }
+    case RAD_VAL_OFFSET: {
+        const double dx = c->dx, dy = c->dy;
+        rc = add_quad(&b, "A", A, dark, rad_v3(0, 0, 0), rad_v3(a, 0, 0), rad_v3(a, bb, 0),
+                      rad_v3(0, bb, 0), COUNT(a, bb), COUNT(bb, a));
+        if (!rc)
+            rc = add_quad(&b, "B", B, dark, rad_v3(dx, dy, cc), rad_v3(dx, dy + bb, cc),
+                          rad_v3(dx + a, dy + bb, cc), rad_v3(dx + a, dy, cc), COUNT(bb, a),
+                          COUNT(a, bb));
+        break;
+    }
+    case RAD_VAL_BOX:
+    case RAD_VAL_BOX_WALL:
+        rc = box_scene(&b, c, dark, &A, &B);
+        break;
     case RAD_VAL_PERPENDICULAR: {
         /* Common edge along x from 0 to a; A in z = 0 (y in [0, b], normal
          * +z), B in y = 0 (z in [0, c], normal +y). */
@@ -286,7 +327,7 @@ static int build_scene(const rad_val_case *c, const char *name, rad_scene **out,
             mats[f] = c->config == RAD_VAL_CLOSED_CUBE || f == 5 ? lamp : white;
         }
         if (!rc)
-            rc = add_cube(&b, 1.0, n, objs, mats);
+            rc = add_box(&b, rad_v3(1, 1, 1), n, objs, mats);
         if (!rc && c->config == RAD_VAL_CUBE_LAMP)
             B = objs[4]; /* the floor: its mean B is the quantity */
         break;
@@ -332,6 +373,14 @@ static void case_name(const rad_val_case *c, char *out, size_t len)
     case RAD_VAL_CUBE_LAMP:
         snprintf(out, len, "cube, lit ceiling, rho %g", c->rho);
         break;
+    case RAD_VAL_OFFSET:
+        snprintf(out, len, "parallel %gx%g, gap %g, offset %g,%g", c->a, c->b, c->c, c->dx, c->dy);
+        break;
+    case RAD_VAL_BOX:
+    case RAD_VAL_BOX_WALL:
+        snprintf(out, len, "box %gx%gx%g, floor to %s", c->a, c->b, c->c,
+                 c->config == RAD_VAL_BOX ? "ceiling" : "wall");
+        break;
     default:
         snprintf(out, len, "unknown");
     }
@@ -344,6 +393,11 @@ static int check_case(const rad_val_case *c, const char *name, rad_error *err)
     if (!finite_pos(c->a) || !finite_pos(c->b) || !finite_pos(c->c) || c->a > 1e6 || c->b > 1e6 ||
         c->c > 1e6)
         return rad_fail(err, RAD_ERR_USAGE, "validate: %s: sizes must be positive and finite", name);
+    if (!(fabs(c->dx) <= 1e6) || !(fabs(c->dy) <= 1e6))
+        return rad_fail(err, RAD_ERR_USAGE, "validate: %s: offsets must be finite", name);
+    if (c->engine > RAD_VAL_ACCURATE)
+        return rad_fail(err, RAD_ERR_USAGE, "validate: %s: engine %u: must be 0, 1 or 2", name,
+                        c->engine);
     if (!(c->rho >= 0 && c->rho < 1) || !(c->rho_a >= 0 && c->rho_a < 1))
         return rad_fail(err, RAD_ERR_USAGE, "validate: %s: reflectance must be in [0, 1)", name);
     if (c->sides < 3 || c->sides > VAL_MAX_SIDES)
@@ -543,6 +597,15 @@ int rad_validate_reference(const rad_val_case *cin, double *reference, double *s
     case RAD_VAL_ELEMENT:
         ref = hc_ff_element_parallel_rectangle(c.a, c.b, c.c);
         break;
+    case RAD_VAL_OFFSET:
+        ref = hc_ff_parallel_offset(0, c.a, 0, c.b, c.dx, c.dx + c.a, c.dy, c.dy + c.b, c.c);
+        break;
+    case RAD_VAL_BOX:
+        ref = hc_ff_parallel_rectangles(c.a, c.b, c.c);
+        break;
+    case RAD_VAL_BOX_WALL:
+        ref = hc_ff_perpendicular_rectangles(c.a, c.b, c.c);
+        break;
     case RAD_VAL_DISKS: {
         rad_vec3 *pa = malloc(c.sides * sizeof *pa), *pb = malloc(c.sides * sizeof *pb);
         if (!pa || !pb) {
@@ -710,6 +773,10 @@ int rad_validate_case(const rad_val_case *cin, rad_val_result *out, rad_error *e
         if (solve || c.config == RAD_VAL_ENCLOSURE || m->patches[i].object == A)
             rows[nrows++] = i;
     hc_options ho = {.resolution = c.resolution, .processes = c.processes, .gl = c.gl};
+    if (c.engine != RAD_VAL_BARE) { /* as the pipeline sets them (pipeline.c) */
+        ho.exact_near = 1;
+        ho.weak = c.engine == RAD_VAL_ACCURATE ? HC_WEAK_HIGH : HC_WEAK_ON;
+    }
     rc = hc_create(m, &ho, &hc, err);
     if (!rc)
         rc = hc_compute_rows(hc, rows, nrows, F, err);
@@ -808,6 +875,101 @@ uint32_t rad_validate_standard(rad_val_case *cases, double *promised, uint32_t c
     return total;
 }
 
+/* The catalog of issue 39: closed-form pairs where pixel counts were weak
+ * (thin, far, nearly touching), at the default mesh.  a, b, c, dx, dy as
+ * in rad_val_case. */
+static const struct catalog_case {
+    rad_val_config config;
+    const char *label;
+    double a, b, c, dx, dy;
+    uint32_t subdiv; /* 0: the default patch size */
+} catalog[] = {
+    {RAD_VAL_PARALLEL, "squares", 1, 1, 0.05, 0, 0, 0},
+    {RAD_VAL_PARALLEL, "squares", 1, 1, 0.1, 0, 0, 0},
+    {RAD_VAL_PARALLEL, "squares", 1, 1, 0.2, 0, 0, 0},
+    {RAD_VAL_PARALLEL, "squares", 1, 1, 0.5, 0, 0, 0},
+    {RAD_VAL_PARALLEL, "squares", 1, 1, 1, 0, 0, 0},
+    {RAD_VAL_PARALLEL, "squares", 1, 1, 2, 0, 0, 0},
+    {RAD_VAL_PARALLEL, "squares", 1, 1, 5, 0, 0, 0},
+    {RAD_VAL_PARALLEL, "squares", 1, 1, 10, 0, 0, 0},
+    {RAD_VAL_PARALLEL, "squares", 1, 1, 20, 0, 0, 0},
+    {RAD_VAL_PARALLEL, "strips", 10, 1, 1, 0, 0, 0},
+    {RAD_VAL_PARALLEL, "strips", 10, 1, 2, 0, 0, 0},
+    {RAD_VAL_PARALLEL, "strips", 10, 1, 5, 0, 0, 0},
+    {RAD_VAL_PARALLEL, "strips", 10, 1, 10, 0, 0, 0},
+    {RAD_VAL_PARALLEL, "strips", 10, 1, 20, 0, 0, 0},
+    {RAD_VAL_PERPENDICULAR, "plates", 1, 0.2, 3, 0, 0, 0},
+    {RAD_VAL_PERPENDICULAR, "plates", 1, 0.5, 2, 0, 0, 0},
+    {RAD_VAL_PERPENDICULAR, "plates", 1, 1, 1, 0, 0, 0},
+    {RAD_VAL_PERPENDICULAR, "plates", 1, 3, 0.2, 0, 0, 0},
+    {RAD_VAL_PERPENDICULAR, "plates", 1, 5, 0.5, 0, 0, 0},
+    {RAD_VAL_DISKS, "disks", 0.5, 0.5, 1, 0, 0, 4},
+    {RAD_VAL_DISKS, "disks", 0.5, 0.5, 0.5, 0, 0, 4},
+    {RAD_VAL_DISKS, "disks", 0.5, 0.5, 0.25, 0, 0, 4},
+    {RAD_VAL_DISKS, "disks", 0.5, 1, 0.5, 0, 0, 4},
+    {RAD_VAL_BOX, "box", 1, 2, 3, 0, 0, 0},
+    {RAD_VAL_BOX, "box", 1, 1, 1, 0, 0, 0},
+    {RAD_VAL_BOX, "box", 3, 2, 1, 0, 0, 0},
+    {RAD_VAL_BOX_WALL, "box", 1, 2, 3, 0, 0, 0},
+    {RAD_VAL_BOX_WALL, "box", 3, 1, 0.5, 0, 0, 0},
+    {RAD_VAL_OFFSET, "overlap", 1, 1, 1, 0.5, 0, 0},
+    {RAD_VAL_OFFSET, "overlap", 1, 1, 0.2, 0.5, 0.5, 0},
+    {RAD_VAL_OFFSET, "corner", 1, 1, 1, 1, 1, 0},
+    {RAD_VAL_OFFSET, "beside", 2, 1, 0.5, 2.5, 0, 0},
+};
+
+uint32_t rad_validate_catalog(uint32_t engine, rad_val_case *cases, double *promised, uint32_t cap)
+{
+    uint32_t total = (uint32_t)(sizeof catalog / sizeof catalog[0]);
+    for (uint32_t k = 0; k < total && k < cap; k++) {
+        rad_val_case c = {0};
+        c.config = catalog[k].config;
+        snprintf(c.label, sizeof c.label, "%s", catalog[k].label);
+        c.a = catalog[k].a;
+        c.b = catalog[k].b;
+        c.c = catalog[k].c;
+        c.dx = catalog[k].dx;
+        c.dy = catalog[k].dy;
+        /* Disks: 4 per side of each fan triangle (512 patches a disk); the
+         * default patch size makes 1600-2600, five times slower. */
+        c.subdiv = catalog[k].subdiv;
+        c.engine = engine == RAD_VAL_ACCURATE ? RAD_VAL_ACCURATE : RAD_VAL_DEFAULTS;
+        rad_validate_defaults(&c);
+        if (cases)
+            cases[k] = c;
+        if (promised)
+            promised[k] = c.engine == RAD_VAL_ACCURATE ? 0.001 : 0.01;
+    }
+    return total;
+}
+
+/* Runs cases[0..n) with their promises into a new array. */
+static int run_list(const rad_validate_options *o, const rad_val_case *todo, const double *prom,
+                    uint32_t nt, rad_val_result **out, uint32_t *count, rad_error *err)
+{
+    rad_val_result *res = calloc(nt ? nt : 1, sizeof *res);
+    if (!res)
+        return rad_fail(err, RAD_ERR_NOMEM, "validate: out of memory");
+    int rc = RAD_OK;
+    for (uint32_t k = 0; k < nt && !rc; k++) {
+        rad_val_case c = todo[k];
+        c.processes = o->processes;
+        rc = rad_validate_case(&c, &res[k], err);
+        if (rc)
+            break;
+        res[k].promised = prom[k];
+        if (o->progress)
+            o->progress(o->progress_user, k + 1, nt, &res[k]);
+    }
+    if (rc) {
+        free(res);
+        return rc;
+    }
+    *out = res;
+    *count = nt;
+    return RAD_OK;
+}
+
 int rad_validate_run(const rad_validate_options *opt, rad_val_result **out, uint32_t *count,
                      rad_error *err)
 {
@@ -831,6 +993,12 @@ int rad_validate_run(const rad_validate_options *opt, rad_val_result **out, uint
                             "validate: resolution %u: must be even and within 8..4096",
                             o.resolutions[k]);
 
+    if (o.catalog) {
+        rad_val_case cat[64];
+        double pc[64];
+        uint32_t nc = rad_validate_catalog(o.engine, cat, pc, 64);
+        return run_list(&o, cat, pc, nc, out, count, err);
+    }
     rad_val_case std[64];
     double promised[64];
     uint32_t ns = rad_validate_standard(std, promised, 64);
@@ -871,28 +1039,8 @@ int rad_validate_run(const rad_validate_options *opt, rad_val_result **out, uint
             todo[nt++] = d;
         }
     }
-    rad_val_result *res = calloc(nt ? nt : 1, sizeof *res);
-    if (!res) {
-        free(todo);
-        free(prom);
-        return rad_fail(err, RAD_ERR_NOMEM, "validate: out of memory");
-    }
-    int rc = RAD_OK;
-    for (uint32_t k = 0; k < nt && !rc; k++) {
-        rc = rad_validate_case(&todo[k], &res[k], err);
-        if (rc)
-            break;
-        res[k].promised = prom[k];
-        if (o.progress)
-            o.progress(o.progress_user, k + 1, nt, &res[k]);
-    }
+    int rc = run_list(&o, todo, prom, nt, out, count, err);
     free(todo);
     free(prom);
-    if (rc) {
-        free(res);
-        return rc;
-    }
-    *out = res;
-    *count = nt;
-    return RAD_OK;
+    return rc;
 }

@@ -51,6 +51,15 @@ typedef enum rad_val_config {
      * collocation at this case's own subdivision, which is what the hemi-cube
      * tends to as R grows. */
     RAD_VAL_CUBE_LAMP,
+    /* Parallel rectangles a×b, gap c, B shifted by (dx, dy) in its plane:
+     * offset or partly overlapping (hc_ff_parallel_offset). */
+    RAD_VAL_OFFSET,
+    /* A closed box a×b×c (floor a×b, height c), every face black: F from
+     * the floor to the ceiling (Howell C-11). */
+    RAD_VAL_BOX,
+    /* The same box: F from the floor to the a×c wall along its edge a
+     * (Howell C-14, edge a, widths b and c). */
+    RAD_VAL_BOX_WALL,
     RAD_VAL_CONFIG_COUNT
 } rad_val_config;
 
@@ -72,7 +81,16 @@ typedef struct rad_val_case {
     double tolerance;      /* solver tolerance; 0 = 1e-7 */
     uint32_t processes;    /* hemi-cube worker processes; 0 = all CPUs */
     hc_gl_kind gl;         /* the workers' GL (hc_options.gl); 0 = OSMesa */
+    double dx, dy;         /* offset: B's shift in its plane */
+    /* How F is computed: RAD_VAL_BARE (0) the hemi-cube's pixel counts
+     * alone, at `subdiv`; RAD_VAL_DEFAULTS as `solve` and `ff` compute it at
+     * their defaults (exact near entries, hc_options.weak on; subdiv 0: the
+     * default patch size, the scene's diagonal / 24); RAD_VAL_ACCURATE the
+     * same with the accurate setting (HC_WEAK_HIGH, `--accuracy high`). */
+    uint32_t engine;
 } rad_val_case;
+
+enum { RAD_VAL_BARE = 0, RAD_VAL_DEFAULTS = 1, RAD_VAL_ACCURATE = 2 };
 
 typedef struct rad_val_result {
     rad_val_case c;            /* the case with every default filled in */
@@ -135,7 +153,20 @@ typedef struct rad_validate_options {
     /* Called after each case (may be NULL): done of total. */
     void (*progress)(void *user, uint32_t done, uint32_t total, const rad_val_result *last);
     void *progress_user;
+    /* 1 = the catalog of issue 39 (rad_validate_catalog) instead of the
+     * standard cases, at `engine` (RAD_VAL_DEFAULTS when 0). */
+    int catalog;
+    uint32_t engine;
 } rad_validate_options;
+
+/* The catalog of closed-form pairs (issue 39): parallel squares at gaps
+ * 0.05-20 × side, 10:1 strips at 1-20 × width, perpendicular plates from
+ * 0.2 × 3 to 5 × 0.5, coaxial disks r/h 0.5-2, boxes' floor to ceiling and
+ * to a wall, offset and partly overlapping rectangles, each computed with
+ * `engine` (RAD_VAL_DEFAULTS or RAD_VAL_ACCURATE) at the default mesh, with
+ * the error promised there (1 % at defaults, 0.1 % accurate).  Writes at
+ * most cap; returns how many there are. */
+uint32_t rad_validate_catalog(uint32_t engine, rad_val_case *cases, double *promised, uint32_t cap);
 
 /* The standard cases at their default settings, with the relative error the
  * report promises for each (|rel_error| <= promised[k]).  Writes at most cap
