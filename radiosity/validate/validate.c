@@ -954,6 +954,7 @@ static int run_list(const rad_validate_options *o, const rad_val_case *todo, con
     for (uint32_t k = 0; k < nt && !rc; k++) {
         rad_val_case c = todo[k];
         c.processes = o->processes;
+        c.gl = o->gl;
         rc = rad_validate_case(&c, &res[k], err);
         if (rc)
             break;
