@@ -30,6 +30,17 @@
 /* Welding and on-edge tolerance, as a share of the scene's radius. */
 #define HC_CONFORM_WELD 1e-9
 
+/* Points are sorted along a direction no scene axis or usual plane is
+ * perpendicular to, so a wall at x = const does not put all its corners in
+ * one window; two points within q in every coordinate differ by at most
+ * q × KEY_SUM along it. */
+#define KEY_SUM (0.5386 + 0.6871 + 0.4873)
+
+static double key_of(const double *p)
+{
+    return 0.5386 * p[0] + 0.6871 * p[1] + 0.4873 * p[2];
+}
+
 typedef struct xkey {
     double x;
     uint32_t k;
@@ -53,7 +64,7 @@ typedef struct cf {
     uint32_t *id;     /* ncell × 4: corner -> its weld representative corner */
     uint64_t *edge;   /* sorted directed edges a << 32 | b */
     size_t nedge;
-    xkey *cand;       /* representatives on unpaired edges, by x */
+    xkey *cand;       /* representatives on unpaired edges, by key_of */
     size_t ncand;
 } cf;
 
@@ -69,7 +80,8 @@ static uint32_t uf_find(uint32_t *up, uint32_t k)
     return k;
 }
 
-/* Corners within q of each other (every coordinate) share the lowest one. */
+/* Corners within q of each other (every coordinate) share the lowest one
+ * (xkey.x: the point's key_of). */
 static int weld(cf *c)
 {
     const size_t n = (size_t)c->e->ncell * 4;
@@ -80,12 +92,12 @@ static int weld(cf *c)
         return -1;
     }
     for (size_t k = 0; k < n; k++)
-        s[k] = (xkey){cpos(c, (uint32_t)k)[0], (uint32_t)k}, c->id[k] = (uint32_t)k;
+        s[k] = (xkey){key_of(cpos(c, (uint32_t)k)), (uint32_t)k}, c->id[k] = (uint32_t)k;
     qsort(s, n, sizeof *s, xkey_cmp);
     for (size_t i = 0; i < n; i++)
-        for (size_t j = i + 1; j < n && s[j].x - s[i].x <= c->q; j++) {
+        for (size_t j = i + 1; j < n && s[j].x - s[i].x <= c->q * KEY_SUM; j++) {
             const double *a = cpos(c, s[i].k), *b = cpos(c, s[j].k);
-            if (fabs(a[1] - b[1]) <= c->q && fabs(a[2] - b[2]) <= c->q) {
+            if (fabs(a[0] - b[0]) <= c->q && fabs(a[1] - b[1]) <= c->q && fabs(a[2] - b[2]) <= c->q) {
                 uint32_t ra = uf_find(c->id, s[i].k), rb = uf_find(c->id, s[j].k);
                 c->id[ra > rb ? ra : rb] = ra < rb ? ra : rb;
             }
@@ -123,8 +135,8 @@ static int edges(cf *c)
         for (int k = 0; k < e->ncorner[q]; k++) {
             uint32_t a = corner_id(c, q, k), b = corner_id(c, q, k + 1);
             if (!paired(c, a, b)) {
-                c->cand[c->ncand++] = (xkey){cpos(c, a)[0], a};
-                c->cand[c->ncand++] = (xkey){cpos(c, b)[0], b};
+                c->cand[c->ncand++] = (xkey){key_of(cpos(c, a)), a};
+                c->cand[c->ncand++] = (xkey){key_of(cpos(c, b)), b};
             }
         }
     qsort(c->cand, c->ncand, sizeof *c->cand, xkey_cmp);
@@ -148,18 +160,19 @@ static size_t on_edge(const cf *c, uint32_t a, uint32_t b, tpt *T, size_t cap)
 {
     const double *pa = cpos(c, a), *pb = cpos(c, b);
     double ab[3] = {pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]};
-    double l2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2], lo = fmin(pa[0], pb[0]) - c->q;
+    double l2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2], ka = key_of(pa), kb = key_of(pb);
+    double lo = fmin(ka, kb) - c->q * KEY_SUM, hi_key = fmax(ka, kb) + c->q * KEY_SUM;
     size_t i = 0, hi = c->ncand, n = 0;
-    while (i < hi) { /* first candidate with x >= lo */
+    while (i < hi) { /* first candidate with key >= lo */
         size_t m = (i + hi) / 2;
         if (c->cand[m].x < lo)
             i = m + 1;
         else
             hi = m;
     }
-    for (; i < c->ncand && c->cand[i].x <= fmax(pa[0], pb[0]) + c->q && n < cap; i++) {
+    for (; i < c->ncand && c->cand[i].x <= hi_key && n < cap; i++) {
         uint32_t g = c->cand[i].k;
-        if (g == a || g == b || (n && T[n - 1].g == g) || !(l2 > 0.0))
+        if (g == a || g == b || !(l2 > 0.0))
             continue;
         const double *p = cpos(c, g);
         double ap[3] = {p[0] - pa[0], p[1] - pa[1], p[2] - pa[2]};

@@ -28,6 +28,11 @@
  * kept for its neighbours too, which are checked again.  So a patch is
  * drawn either exactly or within the tolerance, and neighbours always meet.
  *
+ * All of this works on the cells as draw_conform.c leaves them: corners
+ * welded and the points of a neighbour's T-junction inserted, so that the
+ * two sides of every shared edge, also between a planar region and another
+ * surface, run through the same vertices before any is dropped.
+ *
  * RADIOSITY_DRAW_EVERY_CELL=1 in the environment draws every cell (the
  * reference the simplified drawing is tested against).
  */
