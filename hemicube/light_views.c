@@ -304,6 +304,31 @@ static double spot_triangle(const hc_light_req *q, rad_vec3 a, rad_vec3 b, rad_v
            spot_triangle(q, ca, bc, c, depth + 1) + spot_triangle(q, ab, bc, ca, depth + 1);
 }
 
+double hc_light_polygon(const hc_light *light, const rad_vec3 *poly, uint32_t count, rad_vec3 n)
+{
+    if (count < 3)
+        return 0.0;
+    if (light->kind == HC_LIGHT_DIRECTIONAL) {
+        rad_vec3 twice = rad_v3(0, 0, 0);
+        for (uint32_t k = 1; k + 1 < count; k++)
+            twice = rad_add(twice, rad_cross(rad_sub(poly[k], poly[0]), rad_sub(poly[k + 1], poly[0])));
+        const double cosl = -rad_dot(n, rad_normalize(light->direction));
+        return cosl > 0.0 ? 0.5 * rad_length(twice) * cosl : 0.0;
+    }
+    const rad_vec3 d = light->kind == HC_LIGHT_SPOT ? rad_normalize(light->direction) : rad_v3(0, 0, 1);
+    const hc_light_req q = {.kind = (uint32_t)light->kind, .dir = {d.x, d.y, d.z},
+                            .cos_inner = cos(light->inner_cone), .cos_outer = cos(light->outer_cone)};
+    const rad_vec3 a = rad_sub(poly[0], light->position);
+    if (!(rad_dot(a, n) < 0.0))
+        return 0.0; /* the light is on or behind the polygon's plane */
+    double phi = 0.0;
+    for (uint32_t k = 1; k + 1 < count; k++) {
+        const rad_vec3 b = rad_sub(poly[k], light->position), c = rad_sub(poly[k + 1], light->position);
+        phi += light->kind == HC_LIGHT_SPOT ? spot_triangle(&q, a, b, c, 0) : tri_solid_angle(a, b, c);
+    }
+    return phi;
+}
+
 /* Clips polygon p[0..np) (relative to the light) to the cube face of view
  * v (|r·right| <= r·fwd, |r·up| <= r·fwd) into out; returns its count. */
 static int clip_to_face(const hc_view *v, const rad_vec3 *p, int np, rad_vec3 out[16])
