@@ -212,7 +212,8 @@ double hc_light_polygon(const hc_light *light, const rad_vec3 *poly, uint32_t co
  * point falls in, or the orthographic view): the bilinear weight of the four
  * pixel centres around the point's projection that show the point's own
  * surface (its patch, or a front side in its patch's plane: a coplanar
- * neighbour across a patch seam).  Hence 1 where all four show it, 0 where
+ * neighbour across a patch seam) or nothing at all (no surface drawn, as
+ * beside a floor's outer edge).  Hence 1 where all four show it, 0 where
  * something nearer the light covers all four, and in between a value that
  * moves continuously across a shadow edge within one pixel: the edge is
  * anti-aliased, not a staircase of pixels.  A point at the light gets 0.

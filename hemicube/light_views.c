@@ -203,7 +203,7 @@ static int shows_plane(const hc_engine *e, uint32_t id, uint32_t p)
 
 /* Visibility of point `at` (relative to the origin) on patch p in the item
  * buffer of view v: the bilinear weight of the four pixel centres around its
- * projection that show p's plane (clamped at the face's border). */
+ * projection that show p's plane or nothing (clamped at the face's border). */
 static double point_visibility(const hc_engine *e, const hc_work *wk, const hc_view *v, uint32_t R,
                                rad_vec3 at, uint32_t p)
 {
@@ -232,7 +232,13 @@ static double point_visibility(const hc_engine *e, const hc_work *wk, const hc_v
             px = px < 0 ? 0 : px >= (long)R ? (long)R - 1 : px;
             py = py < 0 ? 0 : py >= (long)R ? (long)R - 1 : py;
             double w = (dx ? fx : 1.0 - fx) * (dy ? fy : 1.0 - fy);
-            if (w > 0.0 && shows_plane(e, wk->lpixels[(size_t)py * R + (size_t)px], p))
+            if (!(w > 0.0))
+                continue;
+            /* its surface, or nothing at all (depth cleared: beside an
+             * outline, the ray meets no surface; issue 39) */
+            const uint32_t id = wk->lpixels[(size_t)py * R + (size_t)px];
+            if (shows_plane(e, id, p) ||
+                (id == HC_NO_PATCH && !(hc_gl_read_depth(wk->gl, (uint32_t)px, (uint32_t)py) > 0.0f)))
                 vis += w;
         }
     return vis > 1.0 ? 1.0 : vis;

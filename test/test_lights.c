@@ -1341,10 +1341,11 @@ TEST(punctual_tiles_exact)
  * of the shadow hull's bounding box is within 0.5 % of the mean of
  * I f cosθ / r² over it (mean_from, midpoint quadrature 100×100; the spot's
  * elements in the falloff's last 1e-4 of I/h² against 1e-7 of it
- * absolute).  Measured worst relative: point 1.4e-7, spot 2.2e-5.  The
- * value at the element's centre, which elements took before, is off by
- * up to 26 % (point) and 43 % (spot) here: the test checks that it would
- * fail. */
+ * absolute).  Measured worst relative: point 5.8e-6, spot 6.0e-4 (an
+ * element deep in the falloff: the adaptive integral's absolute
+ * tolerance).  The value at the element's centre, which elements took
+ * before, is off by up to 5.2 % (point) and 100 % (spot: an element whose
+ * centre lies outside the cone) here: the test checks that it would fail. */
 TEST(elements_grazing_exact)
 {
     const double h = 0.3, lo[3] = {0.5, -0.1, 0.1}, hi[3] = {0.7, 0.1, 0.2};
@@ -1393,7 +1394,7 @@ TEST(elements_grazing_exact)
         printf("     %s: %u unshadowed elements, worst %.2e (the centre's value: %.1f %%)\n",
                spot ? "spot" : "point", clear, worst, 100 * centre_worst);
         CHECK(clear >= (spot ? 60u : 200u));
-        CHECK(centre_worst > 0.05); /* centre sampling would fail this test */
+        CHECK(centre_worst > 0.02); /* centre sampling would fail this test */
         free(H);
         rad_solution_destroy(sol);
     }
