@@ -10,10 +10,11 @@
  *     shadow;
  *   - glTF parsing: 683 lm/W, node transforms, the required extension;
  *   - relight: off, scale 2, nothing rendered again; solution round trip;
- *   - elements (substructuring) get their direct light at their own
- *     centres, not their patch's: a point light's irradiance on uniform
- *     elements, the edges of a box's shadow, a spot's cone and a
+ *   - elements (substructuring) get their own direct light, not their
+ *     patch's: the mean irradiance over each (issue 39) from a point light
+ *     on uniform elements, the edges of a box's shadow, a spot's cone and a
  *     directional light's shadow placed within a fraction of an element,
+ *     elements at grazing angles against quadrature,
  *     adaptive refinement following a shadow edge, and a relight that
  *     doubles every element's direct term with nothing rendered.
  */
