@@ -502,10 +502,11 @@ TEST(relight_punctual_light)
 #define ELEM_LIGHT_R 1024u
 #define EDGE_EPS 0.01
 
-/* Relative tolerance of an element's H_d,e where it is lit without a shadow
- * edge within EDGE_EPS: there the visibility is exactly 1 and h_le is
- * I cosθ / r² stored as a float, so only its rounding is left (2^-24 =
- * 6e-8; measured: at most 5.8e-8 in the tests below).  Four roundings' worth:
+/* Relative tolerance of an element's H_d,e where no shadow edge crosses
+ * it: there the visibility is exactly 1 and h_le is the closed-form mean of
+ * I cosθ / r² stored as a float, so its rounding and the reference's
+ * quadrature error are left (2^-24 = 6e-8; measured: at most 8.4e-8 in the
+ * tests below).  Four roundings' worth:
  * an element's direct light off by 0.5 % fails by a factor of 20,000. */
 #define ELEM_H_TOL 2.5e-7
 
@@ -603,7 +604,7 @@ static double element_mean(const rad_elements *el, uint32_t e, double h, double 
 /* A 2×2 m floor at 10×10 patches split twice (elements 5 cm), a point light
  * of 3 W/sr 1 m above its centre: every element's H_d,e within ELEM_H_TOL
  * of the element's mean of I cosθ / r² (element_mean; the floor is
- * unoccluded and the visibility exactly 1; measured 6.0e-8), and B_e = ρ
+ * unoccluded and the visibility exactly 1; measured 8.4e-8), and B_e = ρ
  * H_d,e.  (Issue 39: the value at the centre, used before, was up to
  * 6.2e-4 off the mean here.) */
 TEST(elements_point_light_irradiance)
@@ -1213,7 +1214,7 @@ TEST(polyfile_lights)
  * floor's axis, relative to the centre's, follows the exact cos³ θ law
  * within 1 % (issue 18: patches alone drew the edge 2.2 % and x = 0.5 3 %
  * too bright - each patch holds its mean Φ/A, and vertex averages flatten
- * the peak; the default elements carry their centre's own h_le and are
+ * the peak; the default elements carry their own mean h_le and are
  * drawn with quadratic fits).  Measured: worst 0.32 % over x = 0.25 ... 0.98.
  * Cost: under 1 s. */
 TEST(point_light_cos3_at_defaults)
