@@ -195,6 +195,16 @@ int hc_light_power(hc_engine *e, const hc_light *light, uint32_t resolution, dou
  * 0 at the light itself.  The light is taken as hc_light_power checks it. */
 double hc_light_direct(const hc_light *light, rad_vec3 p, rad_vec3 n);
 
+/* Unoccluded power polygon poly[0..count) (planar, convex, unit normal n)
+ * receives from `light` at unit strength, front side only (hc_light_power's
+ * units, the closed form its exact path uses, issue 39): point, the solid
+ * angle of the polygon seen from the light; spot, the falloff integrated
+ * over that solid angle (adaptively, to ~1e-5 of the peak); directional, the
+ * projected area A max(0, -n·d).  Divided by A: the polygon's mean
+ * irradiance, where hc_light_direct gives one point's.  0 when the light
+ * lies on or behind the polygon's plane. */
+double hc_light_polygon(const hc_light *light, const rad_vec3 *poly, uint32_t count, rad_vec3 n);
+
 /* Visibility from a light of points on patches (an element's centre, say):
  * vis[k] in [0, 1] for points[k].center on patch points[k].patch (caller's
  * buffer of count values).  Read from the same item buffers hc_light_power
@@ -202,7 +212,8 @@ double hc_light_direct(const hc_light *light, rad_vec3 p, rad_vec3 n);
  * point falls in, or the orthographic view): the bilinear weight of the four
  * pixel centres around the point's projection that show the point's own
  * surface (its patch, or a front side in its patch's plane: a coplanar
- * neighbour across a patch seam).  Hence 1 where all four show it, 0 where
+ * neighbour across a patch seam) or nothing at all (no surface drawn, as
+ * beside a floor's outer edge).  Hence 1 where all four show it, 0 where
  * something nearer the light covers all four, and in between a value that
  * moves continuously across a shadow edge within one pixel: the edge is
  * anti-aliased, not a staircase of pixels.  A point at the light gets 0.

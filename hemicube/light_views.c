@@ -203,7 +203,7 @@ static int shows_plane(const hc_engine *e, uint32_t id, uint32_t p)
 
 /* Visibility of point `at` (relative to the origin) on patch p in the item
  * buffer of view v: the bilinear weight of the four pixel centres around its
- * projection that show p's plane (clamped at the face's border). */
+ * projection that show p's plane or nothing (clamped at the face's border). */
 static double point_visibility(const hc_engine *e, const hc_work *wk, const hc_view *v, uint32_t R,
                                rad_vec3 at, uint32_t p)
 {
@@ -232,7 +232,13 @@ static double point_visibility(const hc_engine *e, const hc_work *wk, const hc_v
             px = px < 0 ? 0 : px >= (long)R ? (long)R - 1 : px;
             py = py < 0 ? 0 : py >= (long)R ? (long)R - 1 : py;
             double w = (dx ? fx : 1.0 - fx) * (dy ? fy : 1.0 - fy);
-            if (w > 0.0 && shows_plane(e, wk->lpixels[(size_t)py * R + (size_t)px], p))
+            if (!(w > 0.0))
+                continue;
+            /* its surface, or nothing at all (depth cleared: beside an
+             * outline, the ray meets no surface; issue 39) */
+            const uint32_t id = wk->lpixels[(size_t)py * R + (size_t)px];
+            if (shows_plane(e, id, p) ||
+                (id == HC_NO_PATCH && !(hc_gl_read_depth(wk->gl, (uint32_t)px, (uint32_t)py) > 0.0f)))
                 vis += w;
         }
     return vis > 1.0 ? 1.0 : vis;
@@ -302,6 +308,31 @@ static double spot_triangle(const hc_light_req *q, rad_vec3 a, rad_vec3 b, rad_v
                    ca = rad_scale(rad_add(c, a), 0.5);
     return spot_triangle(q, a, ab, ca, depth + 1) + spot_triangle(q, ab, b, bc, depth + 1) +
            spot_triangle(q, ca, bc, c, depth + 1) + spot_triangle(q, ab, bc, ca, depth + 1);
+}
+
+double hc_light_polygon(const hc_light *light, const rad_vec3 *poly, uint32_t count, rad_vec3 n)
+{
+    if (count < 3)
+        return 0.0;
+    if (light->kind == HC_LIGHT_DIRECTIONAL) {
+        rad_vec3 twice = rad_v3(0, 0, 0);
+        for (uint32_t k = 1; k + 1 < count; k++)
+            twice = rad_add(twice, rad_cross(rad_sub(poly[k], poly[0]), rad_sub(poly[k + 1], poly[0])));
+        const double cosl = -rad_dot(n, rad_normalize(light->direction));
+        return cosl > 0.0 ? 0.5 * rad_length(twice) * cosl : 0.0;
+    }
+    const rad_vec3 d = light->kind == HC_LIGHT_SPOT ? rad_normalize(light->direction) : rad_v3(0, 0, 1);
+    const hc_light_req q = {.kind = (uint32_t)light->kind, .dir = {d.x, d.y, d.z},
+                            .cos_inner = cos(light->inner_cone), .cos_outer = cos(light->outer_cone)};
+    const rad_vec3 a = rad_sub(poly[0], light->position);
+    if (!(rad_dot(a, n) < 0.0))
+        return 0.0; /* the light is on or behind the polygon's plane */
+    double phi = 0.0;
+    for (uint32_t k = 1; k + 1 < count; k++) {
+        const rad_vec3 b = rad_sub(poly[k], light->position), c = rad_sub(poly[k + 1], light->position);
+        phi += light->kind == HC_LIGHT_SPOT ? spot_triangle(&q, a, b, c, 0) : tri_solid_angle(a, b, c);
+    }
+    return phi;
 }
 
 /* Clips polygon p[0..np) (relative to the light) to the cube face of view

@@ -1,8 +1,9 @@
 /* element_gather.c - an element's radiosity from the patch solution:
  *   B_e = E_p + ρ_p (Σ_j F_ej B_j + [Ĥ_i(c_e)] + H_d,e) + τ_p H_twin(p),
  *   H_d,e = Σ_l I_l h_le,
- * with h_le the punctual lights' direct irradiance at the element's centre
- * (unit strength, visibility from the light's item buffer), Ĥ_i the
+ * with h_le the punctual lights' mean direct irradiance over the element
+ * (unit strength, closed form times the visible fraction from the light's
+ * item buffer, refine.c's element_lights), Ĥ_i the
  * patches' irradiance from all but the direct sources interpolated at the
  * element's centre (interpolated elements only, solution.h) and, on the
  * side of a transmitting sheet, what comes through from the other side's

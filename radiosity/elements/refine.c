@@ -420,10 +420,135 @@ static int store_direct(builder *b, uint32_t e, uint32_t k, const hc_receiver *a
     return RAD_OK;
 }
 
-/* h_le of the elements which[k] at the receivers r[k] (their centres), for
- * every light: the unoccluded unit-strength irradiance there times the
- * visibility from the light's item buffer.  Only points that face the light
- * (and lie in a spot's cone) are looked up. */
+/* Points per side where an element's visibility is sampled when a shadow
+ * edge crosses it (issue 39). */
+#define EL_VIS_SAMPLES 4u
+
+/* Element n's corners into p; returns their count. */
+static int element_corners(const builder *b, const enode *n, rad_vec3 p[4])
+{
+    const int corners = n->v[3] == RAD_NONE ? 3 : 4;
+    for (int c = 0; c < corners; c++)
+        p[c] = b->V[n->v[c]];
+    return corners;
+}
+
+/* Point (s, t) in [0, 1]² of polygon p (a quad bilinearly, a triangle as
+ * the square folded onto it: s along 0-1, t towards 2) and its area weight. */
+static rad_vec3 element_point(const rad_vec3 *p, int corners, double s, double t, double *w)
+{
+    if (corners == 4) {
+        *w = 1.0;
+        return rad_add(rad_scale(rad_add(rad_scale(p[0], 1 - s), rad_scale(p[1], s)), 1 - t),
+                       rad_scale(rad_add(rad_scale(p[3], 1 - s), rad_scale(p[2], s)), t));
+    }
+    *w = 1.0 - t;
+    return rad_add(rad_add(rad_scale(p[0], (1 - s) * (1 - t)), rad_scale(p[1], s * (1 - t))),
+                   rad_scale(p[2], t));
+}
+
+/* Where mixed[k] (some of an element's probe points lit, some not: a shadow
+ * edge crosses it or passes within a pixel), replaces vis[k] by the mean
+ * over EL_VIS_SAMPLES² points of the element, weighted by the unoccluded
+ * irradiance there.  lit[k] and at[k] as in element_lights. */
+static int edge_visibility(builder *b, hc_engine *hc, const hc_light *hl, const hc_receiver *lit,
+                           const uint32_t *at, const uint8_t *mixed_k, uint32_t m, double *vis,
+                           rad_error *err)
+{
+    const uint32_t S = EL_VIS_SAMPLES * EL_VIS_SAMPLES;
+    uint32_t mixed = 0;
+    for (uint32_t k = 0; k < m; k++)
+        mixed += mixed_k[k];
+    if (!mixed)
+        return RAD_OK;
+    hc_receiver *pt = malloc((size_t)mixed * S * sizeof *pt);
+    double *w = malloc((size_t)mixed * S * sizeof *w), *v = malloc((size_t)mixed * S * sizeof *v);
+    int rc = pt && w && v ? RAD_OK : rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    for (uint32_t k = 0, q = 0; k < m && rc == RAD_OK; k++) {
+        if (!mixed_k[k])
+            continue;
+        rad_vec3 p[4];
+        const int corners = element_corners(b, &b->E[at[k]], p);
+        const rad_vec3 nx = b->s->mesh->patches[lit[k].patch].normal;
+        for (uint32_t a = 0; a < EL_VIS_SAMPLES; a++)
+            for (uint32_t c = 0; c < EL_VIS_SAMPLES; c++, q++) {
+                double jac;
+                pt[q].center = element_point(p, corners, (a + 0.5) / EL_VIS_SAMPLES,
+                                             (c + 0.5) / EL_VIS_SAMPLES, &jac);
+                pt[q].patch = lit[k].patch;
+                w[q] = jac * hc_light_direct(hl, pt[q].center, nx);
+            }
+    }
+    if (rc == RAD_OK)
+        rc = hc_light_visibility(hc, hl, b->light_R, pt, mixed * S, v, err);
+    for (uint32_t k = 0, q = 0; k < m && rc == RAD_OK; k++) {
+        if (!mixed_k[k])
+            continue;
+        double sw = 0.0, sv = 0.0;
+        for (uint32_t t = 0; t < S; t++, q++) {
+            sw += w[q];
+            sv += w[q] * v[q];
+        }
+        if (sw > 0.0)
+            vis[k] = sv / sw;
+    }
+    free(pt);
+    free(w);
+    free(v);
+    return rc;
+}
+
+/* The visibility of the elements lit[0..m) (at[k] their index): at their
+ * centres, and where the centre and EL_PROBES - 1 points of the element
+ * (the centres of its quarters, and points 2 % in from its corners, so an
+ * edge crossing near a side is seen) disagree, edge_visibility's mean. */
+#define EL_PROBES 9u
+static int element_visibility(builder *b, hc_engine *hc, const hc_light *hl, const hc_receiver *lit,
+                              const uint32_t *at, uint32_t m, double *vis, rad_error *err)
+{
+    hc_receiver *pt = malloc((size_t)m * EL_PROBES * sizeof *pt);
+    double *v = malloc((size_t)m * EL_PROBES * sizeof *v);
+    uint8_t *mixed = malloc(m);
+    int rc = pt && v && mixed ? RAD_OK : rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    for (uint32_t k = 0; k < m && rc == RAD_OK; k++) {
+        rad_vec3 p[4];
+        const int corners = element_corners(b, &b->E[at[k]], p);
+        pt[k * EL_PROBES] = lit[k];
+        for (uint32_t q = 1; q < EL_PROBES; q++) {
+            static const double at_s[2][2] = {{0.25, 0.75}, {0.02, 0.98}};
+            const double *u = at_s[q > 4];
+            double jac;
+            pt[k * EL_PROBES + q].center =
+                element_point(p, corners, u[(q - 1) & 1], u[((q - 1) >> 1) & 1], &jac);
+            pt[k * EL_PROBES + q].patch = lit[k].patch;
+        }
+    }
+    if (rc == RAD_OK)
+        rc = hc_light_visibility(hc, hl, b->light_R, pt, m * EL_PROBES, v, err);
+    for (uint32_t k = 0; k < m && rc == RAD_OK; k++) {
+        int some_lit = 0, some_dark = 0;
+        for (uint32_t q = 0; q < EL_PROBES; q++) {
+            some_lit |= v[k * EL_PROBES + q] > 0.0;
+            some_dark |= v[k * EL_PROBES + q] < 1.0;
+        }
+        vis[k] = v[k * EL_PROBES];
+        mixed[k] = (uint8_t)(some_lit && some_dark);
+    }
+    if (rc == RAD_OK)
+        rc = edge_visibility(b, hc, hl, lit, at, mixed, m, vis, err);
+    free(pt);
+    free(v);
+    free(mixed);
+    return rc;
+}
+
+/* h_le of the elements which[k] (centres r[k]) for every light: the mean
+ * unoccluded unit-strength irradiance over the element in closed form
+ * (hc_light_polygon / A_e: exact where hc_light_direct at the centre was
+ * off by the irradiance's curvature over the element) times its visibility
+ * from the light's item buffer, at its centre or, where a shadow edge
+ * crosses it, its mean over points of the element (element_visibility).  Only elements that face the light (and reach into a
+ * spot's cone) are looked up. */
 static int element_lights(builder *b, hc_engine *hc, const hc_receiver *r, const uint32_t *which,
                           uint32_t count, rad_error *err)
 {
@@ -440,9 +565,15 @@ static int element_lights(builder *b, hc_engine *hc, const hc_receiver *r, const
         const hc_light hl = b->lights[l];
         uint32_t m = 0;
         for (uint32_t k = 0; k < count; k++) {
-            double d = hc_light_direct(&hl, r[k].center, b->s->mesh->patches[r[k].patch].normal);
+            const enode *n = &b->E[which[k]];
+            const rad_vec3 nx = b->s->mesh->patches[r[k].patch].normal;
+            rad_vec3 p[4], c;
+            double area = 0.0, d = 0.0;
+            const int corners = element_corners(b, n, p);
+            if (rad_cell_geometry(b->V, n->v, cell_of(b, n)->normal, &c, &area) == 0 && area > 0.0)
+                d = hc_light_polygon(&hl, p, (uint32_t)corners, nx) / area;
             b->h[(size_t)which[k] * nl + l] = 0.0f;
-            if (d > 0.0) {
+            if (d > 0.0 && isfinite(d)) {
                 lit[m] = r[k];
                 at[m] = which[k];
                 direct[m++] = d;
@@ -450,7 +581,7 @@ static int element_lights(builder *b, hc_engine *hc, const hc_receiver *r, const
         }
         if (!m)
             continue;
-        rc = hc_light_visibility(hc, &hl, b->light_R, lit, m, vis, err);
+        rc = element_visibility(b, hc, &hl, lit, at, m, vis, err);
         for (uint32_t k = 0; k < m && rc == RAD_OK; k++)
             b->h[(size_t)at[k] * nl + l] = (float)(direct[k] * vis[k]);
         b->lights_rendered++;

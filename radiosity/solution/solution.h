@@ -68,9 +68,10 @@ typedef struct rad_light_power {
  * at the element's centre, and the punctual lights' direct irradiance at
  * the element itself:
  *   B_e = E_p + ρ_p (Σ_j F_ej B_j + H_d,e),   H_d,e = Σ_l I_l h_le,
- * h_le the direct irradiance at the element's centre from light l at unit
- * strength (1 W/sr, or 1 W/m² for a directional light), visibility from the
- * light's item buffer: hc_light_direct × hc_light_visibility.  Stored, so a
+ * h_le the mean direct irradiance over the element from light l at unit
+ * strength (1 W/sr, or 1 W/m² for a directional light): hc_light_polygon /
+ * A_e × its visible fraction in the light's item buffer (hc_light_visibility
+ * at its centre, or at points of it where a shadow edge crosses it).  Stored, so a
  * relight rescales it without rendering.  A level-0 element is its patch:
  * B_e = B_p, no row of its own, h_le = 0 (its patch's H_d,p = Σ_l I_l Φ_lp
  * / A_p is in B_p).  Elements read from a version 3 file have no h_le
