@@ -325,6 +325,9 @@ static void report_text(FILE *f, const report *r)
         fprintf(f, " %.6g", r->tot_a[b]);
     fputc('\n', f);
     report_solver(f, r);
+    if (s->patch_size > 0.0)
+        fprintf(f, "patch size: %.6g scene units (%u patches)\n", s->patch_size,
+                s->mesh->patch_count);
     fprintf(f, "form factors: %u of %u rows present, %llu computed in the last run, R = %u\n",
             r->eco.rows_present, s->mesh->patch_count, (unsigned long long)s->rows_computed,
             s->resolution);

@@ -241,7 +241,9 @@ typedef struct rad_solution {
     double *B;               /* radiosity per band, n × bands (owned) */
 
     /* provenance */
-    double patch_size;       /* the mesh option used (0 = polygon parameters/default) */
+    double patch_size;       /* the patch size meshed with: the option, else the scene's default
+                              * (polygons with subdivision parameters keep theirs); 0 in
+                              * files written before it was recorded */
     uint32_t resolution;     /* hemi-cube R of the stored rows */
     char solver[32];         /* "gauss-seidel", "jacobi", "progressive" */
     double tolerance;
