@@ -28,11 +28,6 @@
  * kept for its neighbours too, which are checked again.  So a patch is
  * drawn either exactly or within the tolerance, and neighbours always meet.
  *
- * All of this works on the cells as draw_conform.c leaves them: corners
- * welded and the points of a neighbour's T-junction inserted, so that the
- * two sides of every shared edge, also between a planar region and another
- * surface, run through the same vertices before any is dropped.
- *
  * RADIOSITY_DRAW_EVERY_CELL=1 in the environment draws every cell (the
  * reference the simplified drawing is tested against).
  */
@@ -762,18 +757,11 @@ static int prepare(dg *d, char *msg)
     return rc;
 }
 
-/* Draws e's cells made watertight first (draw_conform.c): shared edges run
- * through the same vertices on both sides, T-junction points included. */
-static int build(const hc_engine *e0, int every_cell, hc_draw *out, int *vfirst, int *vcount,
+static int build(const hc_engine *e, int every_cell, hc_draw *out, int *vfirst, int *vcount,
                  char *msg)
 {
-    hc_engine ce;
-    rad_mesh cm;
-    *out = (hc_draw){0};
-    if (hc_draw_conform(e0, &ce, &cm, msg) != 0)
-        return -1;
-    const hc_engine *e = &ce;
     dg d = {.e = e};
+    *out = (hc_draw){0};
     int rc = 0, clusters = 0;
     for (uint32_t j = 0; j < e->n && !clusters; j++)
         clusters = e->cfirst[j + 1] - e->cfirst[j] > 1;
@@ -784,7 +772,6 @@ static int build(const hc_engine *e0, int every_cell, hc_draw *out, int *vfirst,
     if (!rc)
         rc = emit_all(&d, out, vfirst, vcount, msg);
     dg_free(&d);
-    hc_draw_conform_free(&ce, &cm);
     if (rc)
         hc_draw_free(out);
     return rc;

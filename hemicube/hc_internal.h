@@ -574,12 +574,6 @@ typedef struct hc_draw {
  * vcount[j]) (caller's arrays of e->n); 0, or -1 with msg set. */
 int hc_draw_build(const hc_engine *e, hc_draw *out, int *vfirst, int *vcount, char *msg);
 void hc_draw_free(hc_draw *d); /* NULL does nothing */
-/* draw_conform.c: *ce, a shallow copy of e drawing *cm's cells, made
- * watertight (welded corners, T-junction points inserted); the new arrays
- * are owned by the caller, freed by hc_draw_conform_free.  0, or -1 with
- * msg (out of memory). */
-int hc_draw_conform(const hc_engine *e, hc_engine *ce, rad_mesh *cm, char *msg);
-void hc_draw_conform_free(hc_engine *ce, rad_mesh *cm);
 
 /* ------------------------------------------------------------------ gl.c */
 
