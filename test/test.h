@@ -13,6 +13,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 static int test_checks_failed_;
 static int test_passed_, test_failed_;
@@ -65,6 +67,38 @@ static const char *test_current_ = "";
         } else {                                                                       \
             test_failed_++;                                                            \
             printf("FAIL %s\n", #name);                                                \
+        }                                                                              \
+        fflush(stdout);                                                                \
+    } while (0)
+
+/* RUN in a child process of its own, for tests that fork (the hemi-cube's
+ * workers) after an earlier test in the same program started threads
+ * (Embree's TBB workers): a fork copies a lock such a thread may hold, and
+ * under ASan (whose allocator takes no lock around fork in GCC 12) the
+ * child can wait on it forever.  A fresh child holds one thread only.  The
+ * child leaves by _exit, so no copied atexit handler waits for a thread
+ * that is not there. */
+#define RUN_ISOLATED(name)                                                             \
+    do {                                                                               \
+        fflush(stdout);                                                                \
+        fflush(stderr);                                                                \
+        pid_t pid_ = fork();                                                           \
+        if (pid_ == 0) {                                                               \
+            test_current_ = #name;                                                     \
+            name();                                                                    \
+            fflush(stdout);                                                            \
+            fflush(stderr);                                                            \
+            _exit(test_checks_failed_ ? 1 : 0);                                        \
+        }                                                                              \
+        int st_ = 0;                                                                   \
+        int ok_ = pid_ > 0 && waitpid(pid_, &st_, 0) == pid_ && WIFEXITED(st_) &&      \
+                  WEXITSTATUS(st_) == 0;                                               \
+        if (ok_) {                                                                     \
+            test_passed_++;                                                            \
+            printf("ok   %s\n", #name);                                                \
+        } else {                                                                       \
+            test_failed_++;                                                            \
+            printf("FAIL %s%s\n", #name, pid_ < 0 ? " (fork failed)" : "");            \
         }                                                                              \
         fflush(stdout);                                                                \
     } while (0)
