@@ -66,6 +66,21 @@ grep "MPI: 3 ranks" "$dir/three.log" | grep -vq "(0 hemi-cubes" &&
 s=$(same_solution "$dir/one.sol" "$dir/three.sol")
 [ "$s" = same ] && ok "3 ranks: the single process's solution, bit for bit" || bad "3 ranks differ in: $s"
 
+# The same command again after a rank died (f NAME: NAME.sol, NAMEb.log):
+# it keeps the journaled rows, computes only the others (132 in all), and
+# gives the single process's solution.
+rerun_resumes() { # what, name
+    mpi "$BIN" solve "${args[@]}" -o "$dir/$2.sol" > "$dir/$2b.log" 2>&1
+    local kept n s
+    kept=$(sed -n 's/^resumed: \([0-9]*\) rows kept.*/\1/p' "$dir/$2b.log")
+    n=$(computed "$dir/$2b.log")
+    [ -n "$kept" ] && [ "$kept" -gt 0 ] && [ $((kept + n)) -eq 132 ] &&
+        ok "$1: the rerun computes only the $n rows not kept ($kept kept)" ||
+        bad "rerun $1: kept '$kept', computed '$n'"
+    s=$(same_solution "$dir/one.sol" "$dir/$2.sol")
+    [ "$s" = same ] && ok "resumed $1: the same solution" || bad "resumed $1 differs in: $s"
+}
+
 # A computing rank exits after 2 blocks.  Under --enable-recovery the job
 # outlives it and rank 0 names it; the rerun computes only what is missing.
 RADIOSITY_TEST_RANK_EXIT=1:2 mpi --enable-recovery "$BIN" solve "${args[@]}" -o "$dir/f1.sol" \
@@ -74,13 +89,7 @@ grep -q "radiosity: error: MPI rank 1 (pid [0-9]* on .*) stopped while computing
     ok "a computing rank that exits is named" || bad "rank 1's exit not named: $(grep -v '^$' "$dir/f1.log" | head -5)"
 [ ! -e "$dir/f1.sol" ] && [ -s "$dir/f1.sol.partial" ] && ok "its rows stay in the .partial file" ||
     bad "after rank 1's exit: $(ls "$dir")"
-mpi "$BIN" solve "${args[@]}" -o "$dir/f1.sol" > "$dir/f1b.log" 2>&1
-kept=$(sed -n 's/^resumed: \([0-9]*\) rows kept.*/\1/p' "$dir/f1b.log")
-n=$(computed "$dir/f1b.log")
-[ -n "$kept" ] && [ "$kept" -gt 0 ] && [ $((kept + n)) -eq 132 ] &&
-    ok "the rerun computes only the $n rows not kept ($kept kept)" || bad "rerun: kept '$kept', computed '$n'"
-s=$(same_solution "$dir/one.sol" "$dir/f1.sol")
-[ "$s" = same ] && ok "resumed after rank 1: the same solution" || bad "resumed after rank 1 differs in: $s"
+rerun_resumes "after rank 1" f1
 
 # The same by default: mpirun ends the job and names the rank itself.
 RADIOSITY_TEST_RANK_EXIT=2:2 mpi "$BIN" solve "${args[@]}" -o "$dir/f2.sol" > "$dir/f2.log" 2>&1
@@ -98,13 +107,7 @@ RADIOSITY_TEST_RANK_EXIT=0:3 mpi --enable-recovery "$BIN" solve "${args[@]}" -o 
     > "$dir/f0.log" 2>&1
 grep -q "radiosity: error: MPI rank 0 (pid [0-9]* on .*), the assembling rank, stopped" "$dir/f0.log" &&
     ok "the assembling rank that exits is named" || bad "rank 0's exit not named: $(grep -v '^$' "$dir/f0.log" | head -5)"
-mpi "$BIN" solve "${args[@]}" -o "$dir/f0.sol" > "$dir/f0b.log" 2>&1
-kept=$(sed -n 's/^resumed: \([0-9]*\) rows kept.*/\1/p' "$dir/f0b.log")
-n=$(computed "$dir/f0b.log")
-[ -n "$kept" ] && [ "$kept" -gt 0 ] && [ $((kept + n)) -eq 132 ] &&
-    ok "after rank 0: the rerun computes the $n rows not kept ($kept kept)" || bad "rerun after rank 0: kept '$kept', computed '$n'"
-s=$(same_solution "$dir/one.sol" "$dir/f0.sol")
-[ "$s" = same ] && ok "resumed after rank 0: the same solution" || bad "resumed after rank 0 differs in: $s"
+rerun_resumes "after rank 0" f0
 
 # A row that stops two workers, wherever it is drawn, ends the job with
 # its message and no rank left waiting (the timeout would say 124).
