@@ -150,7 +150,7 @@ $(B)/bench/bench_scale: $(B)/obj/tools/hall.o $(B)/obj/tools/scene_gltf.o
 $(B)/bench/bench_atrium: $(B)/obj/tools/atrium.o $(B)/obj/tools/hall.o $(B)/obj/tools/scene_gltf.o
 
 # bench_bake bakes the same hall
-$(B)/bench/bench_bake: $(B)/obj/tools/hall.o
+$(B)/bench/bench_bake: $(B)/obj/tools/hall.o $(B)/obj/tools/scene_gltf.o
 
 $(B)/tools/%: $(B)/obj/tools/%.o $(LIB)
 	@mkdir -p $(dir $@)
