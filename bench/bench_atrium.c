@@ -28,25 +28,13 @@
 #include "../radiosity/pipeline/pipeline.h"
 #include "../tools/atrium.h"
 #include "../tools/hall.h"
+#include "bench_util.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
 #include <unistd.h>
-
-static const char *load_average(void)
-{
-    static char line[128];
-    FILE *f = fopen("/proc/loadavg", "r");
-    snprintf(line, sizeof line, "?");
-    if (f) {
-        if (fgets(line, sizeof line, f))
-            line[strcspn(line, " ")] = '\0'; /* the 1-minute figure */
-        fclose(f);
-    }
-    return line;
-}
 
 static int wants(const char *part)
 {
@@ -117,9 +105,9 @@ static void row_time(const char *scene, double size, uint32_t rows, const char *
     }
     if (t1 > t0)
         printf("  %s: N %u, %u rows in %.2f s = %.2f ms a row (wall, every CPU); draws %llu "
-               "triangles (every cell %llu), load %s\n",
+               "triangles (every cell %llu), load %.2f\n",
                label, n, k, t1 - t0, 1e3 * (t1 - t0) / k, (unsigned long long)few,
-               (unsigned long long)all, load_average());
+               (unsigned long long)all, bench_load());
     else
         printf("  %s: %s\n", label, err.message);
     hc_destroy(e);
@@ -175,7 +163,7 @@ static void atrium_part(const char *dir)
         return;
     }
     double ff = 0, el = 0, wall = 0;
-    printf("  solving at defaults (load %s) ...\n", load_average());
+    printf("  solving at defaults (load %.2f) ...\n", bench_load());
     fflush(stdout);
     rad_solution *s = solve_timed(scene, 0.0, &ff, &el, &wall);
     if (!s)
@@ -183,7 +171,7 @@ static void atrium_part(const char *dir)
     struct rusage kids;
     getrusage(RUSAGE_CHILDREN, &kids);
     printf("  whole solve: %.1f s wall (form factors %.1f s, elements %.1f s = %.0f %% of the "
-           "form factors), load %s\n", wall, ff, el, 100.0 * el / ff, load_average());
+           "form factors), load %.2f\n", wall, ff, el, 100.0 * el / ff, bench_load());
     printf("  peak memory: main %.0f MiB, largest worker %.0f MiB\n",
            (double)rad_process_memory(1) / 1048576.0, (double)kids.ru_maxrss / 1024.0);
     rad_solution_destroy(s);
@@ -205,11 +193,11 @@ static void hall_part(const char *dir)
         if (!s)
             continue;
         printf("hall (%llu triangles) at %.2f: N %u, form factors %.1f s, elements %.1f s = %.0f "
-               "%% (%llu element hemi-cubes), wall %.1f s, load %s\n",
+               "%% (%llu element hemi-cubes), wall %.1f s, load %.2f\n",
                (unsigned long long)hs.triangles, size, s->mesh->patch_count, ff, el,
                100.0 * el / ff,
                (unsigned long long)(s->elements ? s->elements->rows_computed : 0), wall,
-               load_average());
+               bench_load());
         rad_solution_destroy(s);
     }
 }
@@ -239,7 +227,7 @@ int main(void)
         perror("mkdtemp");
         return 1;
     }
-    printf("bench_atrium: load average %s\n", load_average());
+    printf("bench_atrium: load average %.2f\n", bench_load());
     if (wants("atrium"))
         atrium_part(dir);
     if (wants("hall"))

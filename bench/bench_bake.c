@@ -18,23 +18,12 @@
 #include "../radiosity/bake/bake.h"
 #include "../radiosity/pipeline/pipeline.h"
 #include "../tools/hall.h"
+#include "bench_util.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <sys/stat.h>
 #include <unistd.h>
-
-static void load_average(const char *when)
-{
-    FILE *f = fopen("/proc/loadavg", "r");
-    char line[128] = "?\n";
-    if (f) {
-        if (!fgets(line, sizeof line, f))
-            snprintf(line, sizeof line, "?\n");
-        fclose(f);
-    }
-    printf("load average %s: %s", when, line);
-}
 
 /* The fastest of five bakes of s to path; *st from the last. */
 static int best_bake(const rad_solution *s, const char *path, double *best, rad_bake_stats *st)
@@ -100,7 +89,7 @@ int main(int argc, char **argv)
     }
     hall_stats hs;
     int rc = hall_write(dir, "hall", fine_env ? atof(fine_env) : 1.0, &hs);
-    load_average("before");
+    bench_print_load("before");
     printf("\n| scene | patches | elements | solve s | vertices | triangles | auto EV | "
            ".glb s | .gltf + .bin s | .glb MiB | bytes a vertex beside 12 a triangle |\n"
            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
@@ -114,7 +103,7 @@ int main(int argc, char **argv)
         rc = row("hall", scene, size, R, dir);
     printf("\nhall: %llu triangles in %u objects, patch size %.3g, R = %u\n",
            (unsigned long long)hs.triangles, hs.objects, size, R ? R : HC_DEFAULT_RESOLUTION);
-    load_average("after");
+    bench_print_load("after");
     snprintf(scene, sizeof scene, "%s/hall.gltf", dir);
     unlink(scene);
     snprintf(scene, sizeof scene, "%s/hall.bin", dir);

@@ -28,6 +28,7 @@
  */
 #include "../radiosity/pipeline/pipeline.h"
 #include "../tools/hall.h"
+#include "bench_util.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -60,18 +61,6 @@ static void on_estimate(void *user, const rad_estimate *e)
     result *r = user;
     r->est = *e;
     r->have_est = 1;
-}
-
-static void load_average(const char *when)
-{
-    FILE *f = fopen("/proc/loadavg", "r");
-    char line[128] = "?";
-    if (f) {
-        if (!fgets(line, sizeof line, f))
-            snprintf(line, sizeof line, "?\n");
-        fclose(f);
-    }
-    printf("load average %s: %s", when, line);
 }
 
 /* The child: solve at `size` (0: defaults; no_clusters: one patch per
@@ -191,7 +180,7 @@ int main(int argc, char **argv)
     printf("Generated hall (tools/hall.c): %llu triangles in %u objects, one sun through three "
            "windows; defaults: R = %u, Gauss-Seidel, %ld worker processes\n",
            (unsigned long long)hs.triangles, hs.objects, HC_DEFAULT_RESOLUTION, cpus);
-    load_average("before");
+    bench_print_load("before");
     printf("\n| patch size | patches N | cells | form factors s | solve s | CPU s (workers) | "
            "CPU s (main) | estimate: F MiB | estimate: peak MiB | peak MiB (main) | "
            "peak MiB (worker) | estimate: file MiB | file MiB |\n");
@@ -225,7 +214,7 @@ int main(int argc, char **argv)
         if (!keep)
             unlink(sol);
     }
-    load_average("after");
+    bench_print_load("after");
     if (!keep) {
         char bin[4200];
         snprintf(bin, sizeof bin, "%s/hall.bin", dir);

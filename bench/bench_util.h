@@ -1,11 +1,15 @@
 /* bench_util.h - what several benchmarks share: the patch size that meshes
- * a scene into about a target number of patches.  Static functions in a
+ * a scene into about a target number of patches, and the machine's load
+ * average printed beside the timings it stretches.  Static functions in a
  * header, like test/util.h: each benchmark is one translation unit.
  */
 #ifndef BENCH_UTIL_H
 #define BENCH_UTIL_H
 
 #include "../radiosity/mesh/mesh.h"
+
+#include <stdio.h>
+#include <stdlib.h>
 
 /* The patch size for about `target` patches, by bisection on rad_mesh_count,
  * so a table's sizes are the nearest the mesher makes. */
@@ -21,6 +25,19 @@ static inline double bench_patch_size_for(const rad_scene *scene, uint32_t targe
             hi = mid;
     }
     return hi;
+}
+
+/* The 1-minute load average, or -1 where the system does not say. */
+static inline double bench_load(void)
+{
+    double load[1] = {-1.0};
+    return getloadavg(load, 1) == 1 ? load[0] : -1.0;
+}
+
+/* One line "load average WHEN: L" beside a table. */
+static inline void bench_print_load(const char *when)
+{
+    printf("load average %s: %.2f\n", when, bench_load());
 }
 
 #endif /* BENCH_UTIL_H */
