@@ -63,7 +63,12 @@ typedef struct hc_options {
      * facing the eye) and, with exact_near, area-averages the entries of
      * a facing plane nearer to c_i than i's diameter (nearly touching
      * surfaces); HC_WEAK_HIGH widens both for the accurate setting (0.1 %:
-     * 64 pixels at any angle, every j within 20 diameters). */
+     * 64 pixels at any angle, every j within 20 diameters).
+     * HC_WEAK_SURFACE is the default for rows that make surface-to-surface
+     * factors F_AB (ff, validate's catalog), which are area averages over
+     * A by definition: thin under 32 pixels at any angle and every j within
+     * 2 diameters area-averaged (1 %); a solve's rows stay HC_WEAK_ON, as
+     * collocation rows (docs/limits.md says why). */
     int weak;
     /* May be NULL: a flag the caller sets (from a signal handler, say) to
      * stop a job of rows: no new row is handed out, the rows the workers
@@ -98,7 +103,7 @@ const char *hc_gl_name(hc_gl_kind kind);
 int hc_gl_parse(const char *name, hc_gl_kind *out);
 
 /* hc_options.weak */
-enum { HC_WEAK_OFF = 0, HC_WEAK_ON = 1, HC_WEAK_HIGH = 2 };
+enum { HC_WEAK_OFF = 0, HC_WEAK_ON = 1, HC_WEAK_HIGH = 2, HC_WEAK_SURFACE = 3 };
 
 typedef struct hc_engine hc_engine;
 

@@ -235,8 +235,8 @@ static int check_options(const hc_options *opt, hc_options *o, long *cpus, rad_e
     if (o->processes > HC_MAX_PROCESSES)
         return rad_fail(err, RAD_ERR_USAGE, "hc_create: %u worker processes: at most %u",
                         o->processes, HC_MAX_PROCESSES);
-    if (o->weak < HC_WEAK_OFF || o->weak > HC_WEAK_HIGH)
-        return rad_fail(err, RAD_ERR_USAGE, "hc_create: weak %d: must be 0, 1 or 2", o->weak);
+    if (o->weak < HC_WEAK_OFF || o->weak > HC_WEAK_SURFACE)
+        return rad_fail(err, RAD_ERR_USAGE, "hc_create: weak %d: must be 0, 1, 2 or 3", o->weak);
     *cpus = sysconf(_SC_NPROCESSORS_ONLN);
     *cpus = *cpus < 1 ? 1 : *cpus > 64 ? 64 : *cpus;
     if (o->processes == 0)

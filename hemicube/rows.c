@@ -79,7 +79,7 @@
 #define HC_SMALL_PIXELS 64.0
 #define HC_SMALL_MAX 1024u
 /* Where the hemi-cube is weak (hc_options.weak, docs/limits.md), by
- * HC_WEAK_OFF, _ON, _HIGH: a far polygon narrower on the cube than
+ * HC_WEAK_OFF, _ON, _HIGH, _SURFACE: a far polygon narrower on the cube than
  * weak_thin pixels is thin (a pixel count's error goes as its boundary
  * over its area, one pixel over its width: a 10:1 strip 20 widths away, 3
  * pixels wide at R = 128, was 6.4 % low; the ceiling of a 1 × 2 × 3 box,
@@ -89,20 +89,23 @@
  * sampling_weak says so, gets the area average over i (near a surface, F_{dA→j} varies across i on the
  * scale of the gap, so i's centre is what is wrong: squares 0.05 apart
  * were 3.8 % low, plates meeting at an edge 1.5-2.5 %). */
-static const double weak_thin[3] = {0.0, 8.0, 64.0};
-static const double weak_near[3] = {0.0, 2.0, 20.0};
+static const double weak_thin[4] = {0.0, 8.0, 64.0, 32.0};
+static const double weak_near[4] = {0.0, 2.0, 20.0, 2.0};
 /* At the defaults the thin rule takes only polygons facing the eye (cos
  * θ_j at least weak_cos) and narrower than 8 pixels, and the near rule
  * only facing planes closer than i's diameter (sampling_weak): broader
  * (32 pixels at any angle, every patch within 2 diameters) the glTF Cornell
  * box's solve took 2.8 times the CPU and its worst region (the tall
  * block's front) went from 0.95 % to 1.24 % of the path-traced reference
- * (report/factors.md); the accurate setting keeps the broad rules. */
-static const double weak_cos[3] = {0.0, 0.5, 0.0};
+ * (report/factors.md); the accurate setting keeps the broad rules, and so
+ * do rows for surface-to-surface factors (HC_WEAK_SURFACE: F_AB is an
+ * area average over A by definition, where a solve's row is a collocation
+ * row at c_i; docs/limits.md). */
+static const double weak_cos[4] = {0.0, 0.5, 0.0, 0.0};
 /* ... and a thin or small polygon's patch within weak_area diameters of
  * i's centre gets the area average over i too, not the factor at c_i (2×1
  * plates side by side, 0.5 apart: -1.3 % at the centres). */
-static const double weak_area[3] = {0.0, 10.0, 30.0};
+static const double weak_area[4] = {0.0, 10.0, 30.0, 10.0};
 
 /* ------------------------------------------------------------------ faces */
 
@@ -644,10 +647,12 @@ static int small_polygon(const hc_engine *e, const hc_work *wk, uint32_t j, rad_
  * out): with them too (every j within 2 diameters, or only where i's or
  * j's polygon is under 2.2 patch diameters wide, as the narrow plates of
  * the catalog are) the Cornell box's tall block front went from -0.95 %
- * to -1.19 % or -0.97 % of the reference. */
+ * to -1.19 % or -0.97 % of the reference (a solve's rows are collocation
+ * rows: docs/limits.md).  For surface-to-surface factors (HC_WEAK_SURFACE)
+ * and at the accurate setting every j within weak_near diameters. */
 static int sampling_weak(const hc_engine *e, uint32_t i, uint32_t j)
 {
-    if (e->opt.weak == HC_WEAK_HIGH)
+    if (e->opt.weak == HC_WEAK_HIGH || e->opt.weak == HC_WEAK_SURFACE)
         return 1;
     const rad_patch *P = e->mesh->patches;
     const double gap = fabs(rad_dot(P[j].normal, rad_sub(e->center[i], e->center[j])));

@@ -115,7 +115,10 @@ static int start_hemicube(run *c, rad_error *err)
         return RAD_OK;
     hc_options ho = c->opt->hemicube;
     ho.exact_near = c->opt->exact_near >= 0; /* on unless asked off */
-    ho.weak = c->opt->accuracy < 0 ? HC_WEAK_OFF : c->opt->accuracy > 0 ? HC_WEAK_HIGH : HC_WEAK_ON;
+    ho.weak = c->opt->accuracy < 0   ? HC_WEAK_OFF
+              : c->opt->accuracy > 0 ? HC_WEAK_HIGH
+              : c->opt->surface_factors ? HC_WEAK_SURFACE
+                                        : HC_WEAK_ON;
     ho.stop = c->opt->stop;
     if (ho.progress) {
         ho.progress = row_progress;
@@ -139,7 +142,8 @@ static int rows_key(run *c, uint64_t *key, rad_error *err)
     const rad_solve_options *o = c->opt;
     uint32_t R = o->hemicube.resolution ? o->hemicube.resolution : HC_DEFAULT_RESOLUTION;
     uint32_t flags = (o->exact_near >= 0 ? 1u : 0u) | (o->pixel_emitters ? 2u : 0u) |
-                     (o->accuracy < 0 ? 4u : o->accuracy > 0 ? 8u : 0u);
+                     (o->accuracy < 0 ? 4u : o->accuracy > 0 ? 8u : 0u) |
+                     (o->accuracy == 0 && o->surface_factors ? 16u : 0u);
     *key = rad_rows_key(c->s->mesh, R, c->exact ? c->exact : o->hemicube.exact, flags);
     return RAD_OK;
 }

@@ -68,6 +68,12 @@ typedef struct rad_solve_options {
                           * HC_WEAK_ON); 1 = the accurate setting (HC_WEAK_HIGH:
                           * every patch within 20 diameters area-averaged, 0.1 %
                           * on the catalog); < 0 = pixel counts there (before) */
+    int surface_factors; /* 1 = the rows are for surface-to-surface factors F_AB
+                          * (ff, a .vs3 matrix): at accuracy 0 the weak rule of
+                          * F_AB's own definition, the area average over A, for
+                          * every near pair and thin polygon (HC_WEAK_SURFACE,
+                          * docs/limits.md); 0 (default) = a solve's collocation
+                          * rows (HC_WEAK_ON) */
     /* Progressive solver only, may be NULL: called every solver.preview_every
      * shots and/or every solver.preview_seconds of solving, with the current
      * estimate including the ambient term (patch_count × bands).  Non-zero

@@ -775,7 +775,12 @@ int rad_validate_case(const rad_val_case *cin, rad_val_result *out, rad_error *e
     hc_options ho = {.resolution = c.resolution, .processes = c.processes, .gl = c.gl};
     if (c.engine != RAD_VAL_BARE) { /* as the pipeline sets them (pipeline.c) */
         ho.exact_near = 1;
-        ho.weak = c.engine == RAD_VAL_ACCURATE ? HC_WEAK_HIGH : HC_WEAK_ON;
+        /* F_AB as `ff` computes it (surface_factors), a solve's rows as
+         * `solve` does */
+        const int surface = !solve && c.config != RAD_VAL_ENCLOSURE && c.config != RAD_VAL_ELEMENT;
+        ho.weak = c.engine == RAD_VAL_ACCURATE ? HC_WEAK_HIGH
+                  : surface                    ? HC_WEAK_SURFACE
+                                               : HC_WEAK_ON;
     }
     rc = hc_create(m, &ho, &hc, err);
     if (!rc)

@@ -83,9 +83,11 @@ typedef struct rad_val_case {
     hc_gl_kind gl;         /* the workers' GL (hc_options.gl); 0 = OSMesa */
     double dx, dy;         /* offset: B's shift in its plane */
     /* How F is computed: RAD_VAL_BARE (0) the hemi-cube's pixel counts
-     * alone, at `subdiv`; RAD_VAL_DEFAULTS as `solve` and `ff` compute it at
-     * their defaults (exact near entries, hc_options.weak on; subdiv 0: the
-     * default patch size, the scene's diagonal / 24); RAD_VAL_ACCURATE the
+     * alone, at `subdiv`; RAD_VAL_DEFAULTS as `ff` computes F_AB and
+     * `solve` its rows at their defaults (exact near entries,
+     * hc_options.weak HC_WEAK_SURFACE for F_AB, HC_WEAK_ON for a solve or
+     * the row sums; subdiv 0: the default patch size, the scene's
+     * diagonal / 24); RAD_VAL_ACCURATE the
      * same with the accurate setting (HC_WEAK_HIGH, `--accuracy high`). */
     uint32_t engine;
 } rad_val_case;
