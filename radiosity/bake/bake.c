@@ -362,14 +362,20 @@ static int drawing_exposure(const rad_solution *s, const rad_drawing *d, double 
     double total = 0.0;
     for (uint32_t c = 0; c < nc; c++) {
         const rad_patch *cell = &rm->patches[c];
-        if (emits(s, patch_of ? patch_of[c] : c))
+        const uint32_t p = patch_of ? patch_of[c] : c, m = s->mesh->patches[p].material;
+        if (emits(s, p))
             continue;
+        /* a textured cell's COLOR_0 is L / ρ̄ (bk_geometry_build) */
+        const double *rho = rad_material_texture(s->scene, m) ? s->scene->materials[m].rho : NULL;
         double L = 0.0;
         for (uint32_t b = 0; b < (bands >= 3 ? 3 : 1); b++) {
             double sum = 0.0;
             for (int k = 0; k < rad_patch_corners(cell); k++)
                 sum += vB[(size_t)cell->v[k] * bands + b];
-            L = fmax(L, sum / rad_patch_corners(cell) / M_PI);
+            double v = sum / rad_patch_corners(cell) / M_PI;
+            if (rho)
+                v = rho[b] > 0.0 ? v / rho[b] : 0.0;
+            L = fmax(L, v);
         }
         cells[n++] = (lit){L, cell->area};
         total += cell->area;
