@@ -1300,7 +1300,7 @@ static int parse_point_uv(sol_reader *r, rad_scene *sc)
 static int parse_textures(sol_reader *r, rad_solution *s)
 {
     rad_scene *sc = s->scene;
-    uint32_t n, np;
+    uint32_t n = 0, np = 0;
     int rc = parse_images(r, sc);
     if (!rc)
         rc = get_count(r, &n, 7u * 4u + 4u * 8u, "texture", "textures");
