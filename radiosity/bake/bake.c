@@ -47,6 +47,14 @@ typedef struct walk {
 
 static uint32_t cell_patch(const walk *w, uint32_t c) { return w->patch_of ? w->patch_of[c] : c; }
 
+const rad_texture *bk_texture(const rad_scene *sc, uint32_t m)
+{
+    for (uint32_t b = 0; b < sc->band_count; b++)
+        if (sc->materials[m].emission[b] > 0.0)
+            return NULL;
+    return rad_material_texture(sc, m);
+}
+
 /* (u, v) at x, a point of polygon poly: barycentric in the triangle of the
  * polygon's fan from its first corner (p0, pk, pk+1) where x lies (the one
  * whose smallest barycentric coordinate is largest, for points on an edge
@@ -213,7 +221,7 @@ static void walk_cells(walk *w, const cell_key *ord, uint32_t nc)
         w->first = w->nv;
         uint64_t first_index = w->ni;
         const rad_patch *pp = &w->s->mesh->patches[cell_patch(w, ord[i].cell)];
-        int textured = rad_material_texture(sc, pp->material) != NULL;
+        int textured = bk_texture(sc, pp->material) != NULL;
         w->rho = textured ? sc->materials[pp->material].rho : NULL;
         while (j < nc && ord[j].key == ord[i].key)
             put_cell(w, prim, ord[j++].cell);
@@ -366,7 +374,7 @@ static int drawing_exposure(const rad_solution *s, const rad_drawing *d, double 
         if (emits(s, p))
             continue;
         /* a textured cell's COLOR_0 is L / ρ̄ (bk_geometry_build) */
-        const double *rho = rad_material_texture(s->scene, m) ? s->scene->materials[m].rho : NULL;
+        const double *rho = bk_texture(s->scene, m) ? s->scene->materials[m].rho : NULL;
         double L = 0.0;
         for (uint32_t b = 0; b < (bands >= 3 ? 3 : 1); b++) {
             double sum = 0.0;

@@ -31,6 +31,11 @@ typedef struct bk_geometry {
     uint32_t prim_count;
 } bk_geometry;
 
+/* Material m's texture when a bake draws it, else NULL: a reflecting
+ * material's (an emitter's light is its own, not the texture's: it bakes
+ * as an untextured material). */
+const rad_texture *bk_texture(const rad_scene *sc, uint32_t m);
+
 /* Builds g from d, a drawing of s, at exposure ev (caller frees with
  * bk_geometry_free; g is zeroed on failure). */
 int bk_geometry_build(const rad_solution *s, const rad_drawing *d, double ev, bk_geometry *g,

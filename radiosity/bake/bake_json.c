@@ -106,7 +106,7 @@ static void put_materials(jbuf *j, const rad_scene *sc)
     jb_put(j, "\"materials\":[");
     for (uint32_t m = 0; m < sc->material_count; m++) {
         const rad_material *mat = &sc->materials[m];
-        const rad_texture *t = rad_material_texture(sc, m);
+        const rad_texture *t = bk_texture(sc, m);
         jb_put(j, "%s{\"name\":", m ? "," : "");
         jb_string(j, mat->name);
         /* The light already holds ρ (B = E + ρH): the base colour is white,
