@@ -8,7 +8,10 @@
  * unique non-empty names; punctual lights finite, of non-negative
  * intensity, with unit directions and valid cones.  Once added, an element is
  * never changed, except that a polygon may be given a reflectance of its own
- * (rad_scene_set_polygon_rho), under the same rules as a material's.
+ * (rad_scene_set_polygon_rho), under the same rules as a material's, and
+ * texture coordinates (rad_scene_set_polygon_uv, finite).  Images enter
+ * only as PNG or JPEG whose bytes start with that format's signature, and a
+ * material has at most one texture, whose indices exist.
  *
  * Also holds the private name set (scene_internal.h) that keeps the
  * uniqueness checks linear in the number of names.
