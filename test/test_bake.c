@@ -290,7 +290,10 @@ TEST(textures_through_the_file)
     CHECK(b && b->image_count == 1 && b->texture_count == 1 && b->point_uv);
     if (b && b->image_count == 1 && b->texture_count == 1 && b->point_uv) {
         CHECK(b->images[0].size == png_n && !memcmp(b->images[0].data, png, png_n));
-        CHECK(!memcmp(&a->textures[0], &b->textures[0], sizeof a->textures[0]));
+        const rad_texture *x = &a->textures[0], *y = &b->textures[0];
+        CHECK(x->material == y->material && x->image == y->image && x->texcoord == y->texcoord &&
+              x->wrap_s == y->wrap_s && x->wrap_t == y->wrap_t && x->mag_filter == y->mag_filter &&
+              x->min_filter == y->min_filter && !memcmp(x->factor, y->factor, sizeof x->factor));
         CHECK(!memcmp(a->point_uv, b->point_uv, 2 * sizeof(double) * a->point_count));
     }
     rad_drawing *d = NULL;
