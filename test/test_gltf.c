@@ -918,6 +918,28 @@ TEST(texture_kept_with_coordinates)
             }
         rad_scene_destroy(s);
     }
+    /* TEXCOORD_0 that holds no coordinates (VEC3): the solve does not need
+     * it, so the load goes on, and the warning names the mesh */
+    spec odd = {.tail = (const unsigned char *)uv, .tail_size = sizeof uv, .extra = extra.s,
+                .accessors = ",{\"bufferView\":2,\"componentType\":5126,\"count\":2,"
+                             "\"type\":\"VEC3\"}",
+                .meshes = "[{\"name\":\"odd\",\"primitives\":[{\"attributes\":{\"POSITION\":0,"
+                          "\"TEXCOORD_0\":2},\"indices\":1,\"material\":0}]}]",
+                .materials = "[{\"name\":\"tex\",\"pbrMetallicRoughness\":{\"baseColorTexture\":"
+                             "{\"index\":0}},\"emissiveFactor\":[1,1,1]}]"};
+    rad_scene *s;
+    rad_error err;
+    caught c;
+    int rc = parse_warn(&odd, &s, &err, &c);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc == RAD_OK) {
+        CHECK(s->texture_count == 1 && s->point_uv == NULL);
+        int named = 0;
+        for (int k = 0; k < c.count && k < 16; k++)
+            named |= strstr(c.line[k], "mesh 'odd': primitives without the TEXCOORD set") != NULL;
+        CHECK_MSG(named, "%d lines: %s", c.count, c.line[0]);
+        rad_scene_destroy(s);
+    }
     free(extra.s);
     free(png);
 }

@@ -682,6 +682,33 @@ std::string primitive_label(const char *mesh_name, size_t p)
     return format("mesh %s primitive %zu", q(mesh_name).c_str(), p);
 }
 
+/* The TEXCOORD set the primitive's material samples its baseColorTexture
+ * with (0 or 1; only a bake reads it), when the material has one.  An
+ * accessor that does not hold texture coordinates is left out rather than
+ * refused: the solve does not need it, and gltf.c's warning names the
+ * primitive that lacks them. */
+void plan_texcoords(const tinygltf::Model &m, const tinygltf::Primitive &pr,
+                    const std::string &where, prim_plan &pl)
+{
+    if (pr.material < 0)
+        return;
+    const tinygltf::TextureInfo &ti =
+        m.materials[(size_t)pr.material].pbrMetallicRoughness.baseColorTexture;
+    if (ti.index < 0 || ti.texCoord < 0 || ti.texCoord > 1)
+        return;
+    int n = ti.texCoord;
+    const char *name = n ? "TEXCOORD_1" : "TEXCOORD_0";
+    auto uv = pr.attributes.find(name);
+    if (uv == pr.attributes.end())
+        return;
+    try {
+        pl.uv[n] = check_accessor(m, uv->second, where, name, ROLE_TEXCOORD);
+        pl.textured[n] = pl.uv[n].count == pl.pos.count;
+    } catch (const bridge_error &) {
+        pl.textured[n] = false;
+    }
+}
+
 /* Checks one primitive: its material index, and for TRIANGLES its POSITION,
  * COLOR_0 and index accessors and a whole number of triangles.  Other modes get an
  * empty plan: gltf.c refuses them with the mode's name. */
@@ -707,17 +734,7 @@ prim_plan plan_primitive(const tinygltf::Model &m, const tinygltf::Primitive &pr
             fail(RAD_ERR_PARSE, format("%s: COLOR_0 has %zu elements, POSITION %zu",
                                        where.c_str(), pl.col.count, pl.pos.count));
     }
-    for (int n = 0; n < 2; n++) {
-        const char *name = n ? "TEXCOORD_1" : "TEXCOORD_0";
-        auto uv = pr.attributes.find(name);
-        if (uv == pr.attributes.end())
-            continue;
-        pl.textured[n] = true;
-        pl.uv[n] = check_accessor(m, uv->second, where, name, ROLE_TEXCOORD);
-        if (pl.uv[n].count != pl.pos.count)
-            fail(RAD_ERR_PARSE, format("%s: %s has %zu elements, POSITION %zu", where.c_str(),
-                                       name, pl.uv[n].count, pl.pos.count));
-    }
+    plan_texcoords(m, pr, where, pl);
     if (pr.indices >= 0) {
         pl.indexed = true;
         pl.idx = check_accessor(m, pr.indices, where, "indices", ROLE_INDEX);
@@ -794,9 +811,10 @@ void copy_colors(const prim_plan &pl, const std::string &where, rad_gltf_raw_pri
     }
 }
 
-/* The planned TEXCOORD_0 and _1 elements as (u, v) doubles, each finite;
- * integer ones normalised (v / 255 or v / 65535). */
-void copy_texcoords(const prim_plan &pl, const std::string &where, rad_gltf_raw_primitive &out)
+/* The planned TEXCOORD_0 or _1 elements as (u, v) doubles, integer ones
+ * normalised (v / 255 or v / 65535); a set with a value that is not finite
+ * is left out (NULL), as an unusable accessor is. */
+void copy_texcoords(const prim_plan &pl, rad_gltf_raw_primitive &out)
 {
     for (int n = 0; n < 2; n++) {
         if (!pl.textured[n])
@@ -810,9 +828,11 @@ void copy_texcoords(const prim_plan &pl, const std::string &where, rad_gltf_raw_
                            : sp.type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT
                                ? (double)(e[2 * c] | e[2 * c + 1] << 8) / 65535.0
                                : (double)e[c] / 255.0;
-                if (!std::isfinite(x))
-                    fail(RAD_ERR_PARSE, format("%s: TEXCOORD_%d of vertex %zu is not finite",
-                                               where.c_str(), n, v));
+                if (!std::isfinite(x)) {
+                    free(out.uv[n]);
+                    out.uv[n] = nullptr;
+                    return;
+                }
                 out.uv[n][2 * v + c] = x;
             }
         }
@@ -859,7 +879,7 @@ void fill_mesh(const tinygltf::Mesh &src, const std::vector<prim_plan> &plans,
         copy_positions(plans[p], where, out);
         copy_indices(plans[p], where, out);
         copy_colors(plans[p], where, out);
-        copy_texcoords(plans[p], where, out);
+        copy_texcoords(plans[p], out);
     }
 }
 
