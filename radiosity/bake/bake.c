@@ -47,14 +47,6 @@ typedef struct walk {
 
 static uint32_t cell_patch(const walk *w, uint32_t c) { return w->patch_of ? w->patch_of[c] : c; }
 
-const rad_texture *bk_texture(const rad_scene *sc, uint32_t m)
-{
-    for (uint32_t b = 0; b < sc->band_count; b++)
-        if (sc->materials[m].emission[b] > 0.0)
-            return NULL;
-    return rad_material_texture(sc, m);
-}
-
 /* (u, v) at x, a point of polygon poly: barycentric in the triangle of the
  * polygon's fan from its first corner (p0, pk, pk+1) where x lies (the one
  * whose smallest barycentric coordinate is largest, for points on an edge

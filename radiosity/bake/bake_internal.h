@@ -34,7 +34,7 @@ typedef struct bk_geometry {
 /* Material m's texture when a bake draws it, else NULL: a reflecting
  * material's (an emitter's light is its own, not the texture's: it bakes
  * as an untextured material). */
-const rad_texture *bk_texture(const rad_scene *sc, uint32_t m);
+const rad_texture *bk_texture(const rad_scene *sc, uint32_t m); /* bake_json.c */
 
 /* Builds g from d, a drawing of s, at exposure ev (caller frees with
  * bk_geometry_free; g is zeroed on failure). */

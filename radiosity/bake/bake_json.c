@@ -95,6 +95,15 @@ static void jb_string(jbuf *j, const char *s)
 
 /* ----------------------------------------------------------------- JSON */
 
+/* (bake_internal.h; here so that bake.c -> bake_json.c stays one way) */
+const rad_texture *bk_texture(const rad_scene *sc, uint32_t m)
+{
+    for (uint32_t b = 0; b < sc->band_count; b++)
+        if (sc->materials[m].emission[b] > 0.0)
+            return NULL;
+    return rad_material_texture(sc, m);
+}
+
 /* Texture k of the scene is glTF texture k (and sampler k when it has one). */
 static uint32_t texture_index(const rad_scene *sc, const rad_texture *t)
 {
