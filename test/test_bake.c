@@ -2,7 +2,9 @@
  * vertex of a primitive inside an edge of its triangles) and covers each
  * surface exactly once per side; the automatic exposure keeps its 1 %
  * rule; the .glb's header, chunks and sizes are what the layout says; a
- * .gltf brings its .bin; an output that cannot be written leaves nothing.
+ * .gltf brings its .bin; an output that cannot be written leaves nothing;
+ * a texture goes through the solution file and into the bake's TEXCOORD_0
+ * and COLOR_0 = L / ρ̄ (test/cli/bake_texture.sh checks the files).
  * The scene: a floor under a lamp with a small shelf between them, whose
  * shadow makes refinement split some floor elements and not their
  * neighbours (the T-junctions), solved at R = 64 in about a second.
@@ -226,12 +228,130 @@ TEST(unwritable_leaves_nothing)
     CHECK(rmdir(dir) == 0); /* neither taken.bin nor a temporary */
 }
 
+/* The scene's floor and shelf (both 'white') with a texture: u, v an
+ * affine function of the position on each.  NULL on failure. */
+static rad_solution *solved_textured(unsigned char **png, size_t *png_n)
+{
+    rad_scene *sc = NULL;
+    rad_error err = {0};
+    *png = (unsigned char *)test_slurp("test/data/real/checker.png", png_n);
+    if (!*png || rad_scene_parse_polyfile(scene_text, strlen(scene_text), "shelf.rad", NULL, &sc,
+                                          &err))
+        return NULL;
+    rad_texture t = {.material = rad_scene_find_material(sc, "white"), .image = 0,
+                     .wrap_s = RAD_WRAP_CLAMP, .factor = {0.5, 0.5, 0.5, 1}};
+    int rc = rad_scene_add_image(sc, "image/png", *png, *png_n, "test", NULL, &err);
+    rc = rc ? rc : rad_scene_add_texture(sc, &t, "test", &err);
+    for (uint32_t p = 0; p < 2 && !rc; p++) { /* floor: u = 0.5 x + 0.25, v = 0.75 z; shelf: x, z */
+        double uv[8];
+        for (uint32_t k = 0; k < 4; k++) {
+            rad_vec3 q = sc->points[sc->polygons[p].first_point + k];
+            uv[2 * k] = p ? q.x : 0.5 * q.x + 0.25;
+            uv[2 * k + 1] = p ? q.z : 0.75 * q.z;
+        }
+        rc = rad_scene_set_polygon_uv(sc, p, uv, "test", &err);
+    }
+    rad_solve_options opt = {0};
+    opt.mesh.patch_size = 0.25;
+    opt.hemicube.resolution = 64;
+    rad_solution *s = NULL;
+    if (rc || rad_solve_scene(sc, &opt, &s, &err)) {
+        fprintf(stderr, "  %s\n", err.message);
+        return NULL;
+    }
+    return s;
+}
+
+/* A textured material through the solution file and into a bake: the
+ * image, texture and every corner's (u, v) read back as written; every
+ * vertex of the textured primitives (the elements' and fans' too) has
+ * the (u, v) of its polygon's affine function, within float rounding
+ * (measured 0: the functions are exact in binary); COLOR_0 = L / ρ̄ · 2^EV
+ * within 1/65535 (measured 0.50/65535: the short's rounding);
+ * a TEXTURES section naming an image that does not exist is refused. */
+TEST(textures_through_the_file)
+{
+    unsigned char *png = NULL;
+    size_t png_n = 0;
+    rad_solution *s = solved_textured(&png, &png_n);
+    CHECK(s != NULL);
+    if (!s) {
+        free(png);
+        return;
+    }
+    char dir[] = "/tmp/test_bake.XXXXXX", path[256];
+    CHECK(mkdtemp(dir) != NULL);
+    snprintf(path, sizeof path, "%s/tex.sol", dir);
+    rad_error err = {0};
+    rad_solution *r = NULL;
+    CHECK_MSG(rad_solution_write(s, path, &err) == RAD_OK, "%s", err.message);
+    CHECK_MSG(rad_solution_read(path, &r, &err) == RAD_OK, "%s", err.message);
+    const rad_scene *a = s->scene, *b = r ? r->scene : NULL;
+    CHECK(b && b->image_count == 1 && b->texture_count == 1 && b->point_uv);
+    if (b && b->image_count == 1 && b->texture_count == 1 && b->point_uv) {
+        CHECK(b->images[0].size == png_n && !memcmp(b->images[0].data, png, png_n));
+        const rad_texture *x = &a->textures[0], *y = &b->textures[0];
+        CHECK(x->material == y->material && x->image == y->image && x->texcoord == y->texcoord &&
+              x->wrap_s == y->wrap_s && x->wrap_t == y->wrap_t && x->mag_filter == y->mag_filter &&
+              x->min_filter == y->min_filter && !memcmp(x->factor, y->factor, sizeof x->factor));
+        CHECK(!memcmp(a->point_uv, b->point_uv, 2 * sizeof(double) * a->point_count));
+    }
+    rad_drawing *d = NULL;
+    bk_geometry g = {0};
+    CHECK(r && rad_drawing_create(r, &d, &err) == RAD_OK && bk_geometry_build(r, d, 1.0, &g, &err) == RAD_OK);
+    double worst = 0, cworst = 0;
+    uint64_t checked = 0;
+    for (uint32_t p = 0; p < g.prim_count; p++) {
+        const bk_prim *pr = &g.prims[p];
+        CHECK(pr->textured == (pr->material == rad_scene_find_material(b, "white")));
+        for (uint64_t v = pr->first_vertex; pr->textured && v < pr->first_vertex + pr->vertex_count; v++) {
+            const float *x = g.position + 3 * v, *uv = g.uv + 2 * v;
+            int floor = x[1] == 0.0f;
+            worst = fmax(worst, fabs(uv[0] - (floor ? 0.5 * x[0] + 0.25 : x[0])));
+            worst = fmax(worst, fabs(uv[1] - (floor ? 0.75 * x[2] : x[2])));
+            for (int c = 0; c < 3; c++) {
+                double want = fmin(1.0, g.radiance[3 * v + c] * 2.0 / b->materials[pr->material].rho[c]);
+                cworst = fmax(cworst, fabs(g.color[4 * v + c] / 65535.0 - want));
+            }
+            checked++;
+        }
+    }
+    printf("  %llu textured vertices: (u, v) within %g, COLOR_0 within %.2f/65535\n",
+           (unsigned long long)checked, worst, cworst * 65535);
+    CHECK_MSG(checked > 50 && worst <= 1e-6 && cworst <= 1.0 / 65535,
+              "%llu vertices, (u, v) off by %g, COLOR_0 by %g", (unsigned long long)checked, worst,
+              cworst * 65535);
+    bk_geometry_free(&g);
+    rad_drawing_destroy(d);
+    rad_solution_destroy(r);
+    /* image index 7 in the texture record, checksums off: refused by name */
+    size_t n = 0;
+    unsigned char *f = (unsigned char *)test_slurp(path, &n);
+    uint64_t len = 0;
+    size_t at = f ? test_v6_section(f, n, "TEXR", &len) : 0;
+    CHECK(at > 0 && len > png_n);
+    if (at > 0 && len > png_n) {
+        f[at + 4 + 4 + strlen("image/png") + 8 + png_n + 4 + 4] = 7;
+        r = NULL;
+        CHECK(rad_solution_parse(f, n, "bad.sol", 0, &r, &err) != RAD_OK && r == NULL);
+        printf("  %s\n", err.message);
+        CHECK_MSG(strstr(err.message, "bad.sol: section TEXTURES: ") == err.message &&
+                      strstr(err.message, "image 7 does not exist"), "%s", err.message);
+    }
+    free(f);
+    unlink(path);
+    CHECK(rmdir(dir) == 0);
+    rad_solution_destroy(s);
+    free(png);
+}
+
 int main(void)
 {
     RUN(crack_free_one_sided);
     RUN(auto_exposure_rule);
     RUN(glb_layout);
     RUN(unwritable_leaves_nothing);
+    RUN(textures_through_the_file);
     rad_solution_destroy(solved());
     return test_finish("test_bake");
 }

@@ -862,6 +862,88 @@ TEST(vertex_color_accessors)
     expect_error(&negative, RAD_ERR_PARSE, "COLOR_0 of vertex 0 is -0.4");
 }
 
+/* A read baseColorTexture is kept for a bake: the image's bytes as they
+ * were, its sampler and factor, and each polygon corner's TEXCOORD_0.  Two
+ * triangles whose coordinates are affine over their square merge into one
+ * quad; moved off the affine map at one corner (or split by a seam) they
+ * stay two triangles, each with its corners' own coordinates. */
+TEST(texture_kept_with_coordinates)
+{
+    size_t png_n = 0;
+    unsigned char *png = (unsigned char *)test_slurp("test/data/real/checker.png", &png_n);
+    CHECK(png && png_n > 8);
+    if (!png)
+        return;
+    text extra = {0};
+    tx_add(&extra, "\"textures\":[{\"source\":0,\"sampler\":0}],\"samplers\":[{\"wrapS\":33071,"
+                   "\"magFilter\":9728}],\"images\":[{\"uri\":\"data:image/png;base64,");
+    tx_base64(&extra, png, png_n);
+    tx_add(&extra, "\"}]");
+    /* unit_quad's corners (0,0) (1,0) (1,1) (0,1): u = 0.5 x + 0.25, v = 0.75 y */
+    float uv[8] = {0.25f, 0, 0.75f, 0, 0.75f, 0.75f, 0.25f, 0.75f};
+    for (int bent = 0; bent < 2; bent++) {
+        if (bent)
+            uv[5] = 0.5f; /* corner 2 off the affine map */
+        spec sp = {.tail = (const unsigned char *)uv, .tail_size = sizeof uv, .extra = extra.s,
+                   .accessors = ",{\"bufferView\":2,\"componentType\":5126,\"count\":4,"
+                                "\"type\":\"VEC2\"}",
+                   .meshes = "[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":2},"
+                             "\"indices\":1,\"material\":0}]}]",
+                   .materials = "[{\"name\":\"tex\",\"pbrMetallicRoughness\":{\"baseColorFactor\":"
+                                "[0.5,0.6,0.7,0.9],\"baseColorTexture\":{\"index\":0}},"
+                                "\"emissiveFactor\":[1,1,1]}]"};
+        rad_scene *s;
+        rad_error err;
+        int rc = parse(&sp, &s, &err);
+        CHECK_MSG(rc == RAD_OK, "%s", err.message);
+        if (rc)
+            continue;
+        CHECK(s->image_count == 1 && s->texture_count == 1 && s->point_uv);
+        if (s->image_count == 1 && s->texture_count == 1 && s->point_uv) {
+            CHECK(s->images[0].size == png_n && !memcmp(s->images[0].data, png, png_n));
+            CHECK(!strcmp(s->images[0].mime, "image/png"));
+            const rad_texture *t = rad_material_texture(s, 0);
+            CHECK(t && t->image == 0 && t->texcoord == 0 && t->wrap_s == RAD_WRAP_CLAMP &&
+                  t->wrap_t == 0 && t->mag_filter == 9728 && t->min_filter == 0);
+            CHECK(t && t->factor[0] == 0.5 && t->factor[1] == 0.6 && t->factor[3] == 0.9);
+        }
+        CHECK_MSG(s->polygon_count == (bent ? 2u : 1u), "%u polygons", s->polygon_count);
+        for (uint32_t p = 0; p < s->polygon_count && s->point_uv; p++)
+            for (uint32_t k = 0; k < s->polygons[p].point_count; k++) {
+                uint32_t at = s->polygons[p].first_point + k;
+                rad_vec3 q = s->points[at];
+                int corner = q.y == 0 ? (q.x == 0 ? 0 : 1) : (q.x == 0 ? 3 : 2);
+                CHECK(s->point_uv[2 * at] == uv[2 * corner] &&
+                      s->point_uv[2 * at + 1] == uv[2 * corner + 1]);
+            }
+        rad_scene_destroy(s);
+    }
+    /* TEXCOORD_0 that holds no coordinates (VEC3): the solve does not need
+     * it, so the load goes on, and the warning names the mesh */
+    spec odd = {.tail = (const unsigned char *)uv, .tail_size = sizeof uv, .extra = extra.s,
+                .accessors = ",{\"bufferView\":2,\"componentType\":5126,\"count\":2,"
+                             "\"type\":\"VEC3\"}",
+                .meshes = "[{\"name\":\"odd\",\"primitives\":[{\"attributes\":{\"POSITION\":0,"
+                          "\"TEXCOORD_0\":2},\"indices\":1,\"material\":0}]}]",
+                .materials = "[{\"name\":\"tex\",\"pbrMetallicRoughness\":{\"baseColorTexture\":"
+                             "{\"index\":0}},\"emissiveFactor\":[1,1,1]}]"};
+    rad_scene *s;
+    rad_error err;
+    caught c;
+    int rc = parse_warn(&odd, &s, &err, &c);
+    CHECK_MSG(rc == RAD_OK, "%s", err.message);
+    if (rc == RAD_OK) {
+        CHECK(s->texture_count == 1 && s->point_uv == NULL);
+        int named = 0;
+        for (int k = 0; k < c.count && k < 16; k++)
+            named |= strstr(c.line[k], "mesh 'odd': primitives without the TEXCOORD set") != NULL;
+        CHECK_MSG(named, "%d lines: %s", c.count, c.line[0]);
+        rad_scene_destroy(s);
+    }
+    free(extra.s);
+    free(png);
+}
+
 /* ----------------------------------------------------------------- errors */
 
 TEST(error_malformed_json)
@@ -1251,6 +1333,7 @@ int main(void)
     RUN(clamp_and_default_material);
     RUN(unreadable_textures);
     RUN(vertex_color_accessors);
+    RUN(texture_kept_with_coordinates);
     RUN(error_truncated_glb);
     RUN(error_structure);
     RUN(external_buffers);

@@ -907,9 +907,9 @@ TEST(elements_relight_and_round_trip)
     CHECK(f && fread(head, 1, 12, f) == 12);
     if (f)
         fclose(f);
-    /* format version 7; its INFO announces LIGHTS, ELEMENTS and ELEMENTLIGHTS
+    /* format version 8; its INFO announces LIGHTS, ELEMENTS and ELEMENTLIGHTS
      * (elements with their own direct light), which the read below needs */
-    CHECK(head[8] == 7 && head[9] == 0);
+    CHECK(head[8] == 8 && head[9] == 0);
     rad_solution *r = NULL;
     CHECK_MSG(rad_solution_read(path, &r, &e) == RAD_OK, "%s", e.message);
     if (r) {

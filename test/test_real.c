@@ -153,7 +153,9 @@ TEST(textures_average)
     /* no polygon has a ρ of its own (no vertex colours) */
     CHECK(s->polygon_rho == NULL);
 
-    CHECK_MSG(c.count == 3, "%d warning lines", c.count);
+    CHECK_MSG(c.count == 4, "%d warning lines", c.count);
+    CHECK_LINE(&c, "meshes 'floor', 'wall': primitives without the TEXCOORD set of their "
+                   "baseColorTexture");
     CHECK_LINE(&c, REAL "textured.gltf: ", "extensions KHR_texture_transform, "
                                           "KHR_materials_specular: ignored");
     CHECK_LINE(&c, "materials 'checker floor', 'bricks', 'lamp': texture coordinates ignored");
@@ -210,7 +212,8 @@ TEST(vertex_colors_glb)
     const rad_material *label = &s->materials[material(s, "label")];
     for (int b = 0; b < 3; b++)
         CHECK_NEAR(label->rho[b], 0.5 * png[b], 2e-15); /* lossless, as above */
-    CHECK_MSG(c.count == 2, "%d warning lines", c.count);
+    CHECK_MSG(c.count == 3, "%d warning lines", c.count);
+    CHECK_LINE(&c, "primitives without the TEXCOORD set of their baseColorTexture");
     CHECK_LINE(&c, "material 'painted': reflectance >= 1 clamped to 0.95");
     CHECK_LINE(&c, "material 'label': texture coordinates ignored");
     rad_scene_destroy(s);

@@ -600,7 +600,7 @@ static uint8_t *written_image(const rad_solution *s, const char *name, char path
     path_in(path, 600, name);
     CHECK_MSG(rad_solution_write(s, path, &e) == RAD_OK, "%s", e.message);
     uint8_t *buf = slurp(path, size);
-    CHECK(buf && rd32(buf + 8) == 7);
+    CHECK(buf && rd32(buf + 8) == 8);
     return buf;
 }
 
@@ -942,11 +942,11 @@ TEST(layout_follows_the_format)
         return;
     const uint8_t *b = golden;
     CHECK(memcmp(b, "RADSOL\r\n", 8) == 0);
-    CHECK(rd32(b + 8) == 7);
+    CHECK(rd32(b + 8) == 8);
     CHECK(rd32(b + 12) == 0);
     size_t x = v6_index_at(b);
     uint32_t count = rd32(b + x);
-    CHECK(rd32(b + x + 4) == 7); /* the version again, under the index's CRC */
+    CHECK(rd32(b + x + 4) == 8); /* the version again, under the index's CRC */
     CHECK(x + 8 + 32ull * count == golden_size);
     CHECK(rd64(b + 24) == crc64_xz(b + x, golden_size - x));
     const char *order[8] = {"MTRX", "INFO", "SCEN", "MESH", "ROWS", "PDAT", "IRRD", "LGHT"};
@@ -1344,11 +1344,11 @@ TEST(newer_version_and_foreign_files)
         return;
     uint8_t *buf = malloc(golden_size);
     memcpy(buf, golden, golden_size);
-    wr32(buf + 8, 8);
+    wr32(buf + 8, 9);
     rad_solution *s = NULL;
     rad_error e;
     CHECK(rad_solution_parse(buf, golden_size, "new.sol", 1, &s, &e) == RAD_ERR_PARSE);
-    CHECK_MSG(strcmp(e.message, "new.sol: format version 8 is newer than this program (7)") == 0,
+    CHECK_MSG(strcmp(e.message, "new.sol: format version 9 is newer than this program (8)") == 0,
               "%s", e.message);
     CHECK(s == NULL);
     free(buf);

@@ -7,6 +7,14 @@
  * its centre, whose value is the mean of its corners (the bilinear value
  * there), so the two differ only inside the quad.
  *
+ * A material with a texture (rad_texture) gets TEXCOORD_0 at each vertex:
+ * the (u, v) its cell's scene polygon has there, interpolated from the
+ * polygon's corners (polygon_uv).  A drawing vertex shared by cells of two
+ * polygons is written once only where both give it the same float (u, v):
+ * across a UV seam it is two vertices.  Its COLOR_0 is then the incident
+ * light L / ρ̄, ρ̄ the material's (mean) reflectance, which the viewer
+ * multiplies by the texture.
+ *
  * Invariant: every triangle runs counter-clockwise about its cell's
  * normal (glTF's front face), so one-sided surfaces stay one-sided; a
  * transmitting sheet's back side is cells of their own facing the other
@@ -27,6 +35,10 @@ typedef struct walk {
     double scale;        /* 2^EV: displayed = L · scale */
     uint32_t *stamp;     /* per drawing vertex: 1 + the primitive that numbered it */
     uint32_t *local;     /* its number in that primitive */
+    uint32_t *vpoly;     /* textured: the polygon it was numbered for */
+    float *vuv;          /* textured: the (u, v) it was numbered with */
+    const double *rho;   /* textured primitive: ρ̄, its material's ρ; else NULL */
+    uint32_t poly;       /* textured: the current cell's scene polygon */
     bk_geometry *g;
     int fill;
     uint64_t nv, ni;     /* vertices and indices so far */
@@ -35,9 +47,55 @@ typedef struct walk {
 
 static uint32_t cell_patch(const walk *w, uint32_t c) { return w->patch_of ? w->patch_of[c] : c; }
 
+/* (u, v) at x, a point of polygon poly: barycentric in the triangle of the
+ * polygon's fan from its first corner (p0, pk, pk+1) where x lies (the one
+ * whose smallest barycentric coordinate is largest, for points on an edge
+ * or rounded just outside).  Exact for a triangle, and for a quad whose
+ * coordinates are affine over it, which gltf.c makes sure of. */
+static void polygon_uv(const rad_scene *sc, uint32_t poly, rad_vec3 x, double uv[2])
+{
+    uv[0] = uv[1] = 0.0;
+    if (!sc->point_uv || poly >= sc->polygon_count)
+        return;
+    const rad_polygon *pg = &sc->polygons[poly];
+    const rad_vec3 *P = sc->points + pg->first_point;
+    const double *T = sc->point_uv + 2 * (size_t)pg->first_point;
+    double best = -INFINITY;
+    for (uint32_t k = 1; k + 1 < pg->point_count; k++) {
+        rad_vec3 a = P[0], b = P[k], c = P[k + 1];
+        double d = rad_dot(rad_cross(rad_sub(b, a), rad_sub(c, a)), pg->normal);
+        if (!(fabs(d) > 0.0))
+            continue;
+        double la = rad_dot(rad_cross(rad_sub(b, x), rad_sub(c, x)), pg->normal) / d;
+        double lb = rad_dot(rad_cross(rad_sub(c, x), rad_sub(a, x)), pg->normal) / d;
+        double lc = 1.0 - la - lb, worst = fmin(la, fmin(lb, lc));
+        if (worst <= best)
+            continue;
+        best = worst;
+        for (int q = 0; q < 2; q++)
+            uv[q] = la * T[q] + lb * T[2 * k + q] + lc * T[2 * (k + 1) + q];
+    }
+}
+
+/* COLOR_0 of radiance L in a band of reflectance rho (NULL: untextured):
+ * min(1, L · 2^EV), textured min(1, L / ρ̄ · 2^EV), 0 where ρ̄ = 0. */
+static uint16_t shown(const walk *w, double L, const double *rho, uint32_t band)
+{
+    double v = L * w->scale;
+    if (rho)
+        v = rho[band] > 0.0 ? v / rho[band] : 0.0;
+    return (uint16_t)lrint(fmin(v, 1.0) * 65535.0);
+}
+
 /* Appends a vertex at p with radiosity B (bands values); its local number. */
 static uint32_t put_vertex(walk *w, rad_vec3 p, const double *B)
 {
+    if (w->fill && w->rho) {
+        double uv[2];
+        polygon_uv(w->s->scene, w->poly, p, uv);
+        w->g->uv[2 * w->nv] = (float)uv[0];
+        w->g->uv[2 * w->nv + 1] = (float)uv[1];
+    }
     if (w->fill) {
         const uint32_t bands = w->s->band_count;
         uint64_t k = w->nv;
@@ -45,22 +103,39 @@ static uint32_t put_vertex(walk *w, rad_vec3 p, const double *B)
         uint16_t *col = w->g->color + 4 * k;
         pos[0] = (float)p.x, pos[1] = (float)p.y, pos[2] = (float)p.z;
         for (int c = 0; c < 3; c++) {
-            double L = B[bands >= 3 ? (uint32_t)c : 0] / M_PI;
+            uint32_t band = bands >= 3 ? (uint32_t)c : 0;
+            double L = B[band] / M_PI;
             L = L > 0.0 ? L : 0.0; /* NaN too */
-            double shown = fmin(L * w->scale, 1.0);
             rad[c] = (float)L;
-            col[c] = (uint16_t)lrint(shown * 65535.0);
+            col[c] = shown(w, L, w->rho, band);
         }
         col[3] = 65535;
     }
     return (uint32_t)(w->nv++ - w->first);
 }
 
+/* Drawing vertex v in primitive prim: numbered once per primitive, and in
+ * a textured one again where the current polygon gives it another float
+ * (u, v) than the one it was numbered with (a UV seam). */
 static uint32_t drawing_vertex(walk *w, uint32_t prim, uint32_t v)
 {
-    if (w->stamp[v] != prim + 1) {
+    float uv[2] = {0, 0};
+    int again = w->stamp[v] != prim + 1;
+    if (w->rho && !again && w->vpoly[v] != w->poly) {
+        double d[2];
+        polygon_uv(w->s->scene, w->poly, w->rm->vertices[v], d);
+        uv[0] = (float)d[0], uv[1] = (float)d[1];
+        again = uv[0] != w->vuv[2 * (size_t)v] || uv[1] != w->vuv[2 * (size_t)v + 1];
+    }
+    if (again) {
         w->stamp[v] = prim + 1;
         w->local[v] = put_vertex(w, w->rm->vertices[v], w->vB + (size_t)v * w->s->band_count);
+        if (w->rho) {
+            double d[2];
+            polygon_uv(w->s->scene, w->poly, w->rm->vertices[v], d);
+            w->vpoly[v] = w->poly;
+            w->vuv[2 * (size_t)v] = (float)d[0], w->vuv[2 * (size_t)v + 1] = (float)d[1];
+        }
     }
     return w->local[v];
 }
@@ -83,6 +158,9 @@ static void put_triangle(walk *w, const rad_vec3 *p, const uint32_t *id, rad_vec
 static void put_cell(walk *w, uint32_t prim, uint32_t c)
 {
     const rad_patch *cell = &w->rm->patches[c];
+    w->poly = cell->polygon < w->s->scene->polygon_count
+                  ? cell->polygon
+                  : w->s->mesh->patches[cell_patch(w, c)].polygon;
     const int corners = rad_patch_corners(cell);
     rad_vec3 p[4];
     uint32_t id[4];
@@ -128,26 +206,36 @@ static void walk_cells(walk *w, const cell_key *ord, uint32_t nc)
 {
     uint32_t prim = 0;
     w->nv = w->ni = 0;
+    uint64_t nuv = 0;
+    const rad_scene *sc = w->s->scene;
     for (uint32_t i = 0; i < nc;) {
         uint32_t j = i;
         w->first = w->nv;
         uint64_t first_index = w->ni;
+        const rad_patch *pp = &w->s->mesh->patches[cell_patch(w, ord[i].cell)];
+        int textured = bk_texture(sc, pp->material) != NULL;
+        w->rho = textured ? sc->materials[pp->material].rho : NULL;
         while (j < nc && ord[j].key == ord[i].key)
             put_cell(w, prim, ord[j++].cell);
         if (w->fill) {
             bk_prim *pr = &w->g->prims[prim];
-            const rad_patch *pp = &w->s->mesh->patches[cell_patch(w, ord[i].cell)];
             pr->object = pp->object;
             pr->material = pp->material;
             pr->first_vertex = w->first;
             pr->vertex_count = w->nv - w->first;
             pr->first_index = first_index;
             pr->index_count = w->ni - first_index;
+            pr->textured = textured;
+            pr->first_uv = nuv;
         }
+        if (textured)
+            nuv += w->nv - w->first;
         prim++;
         i = j;
     }
+    w->rho = NULL;
     w->g->prim_count = prim;
+    w->g->uv_count = nuv;
 }
 
 /* POSITION's min and max of every primitive. */
@@ -172,7 +260,12 @@ static int geometry_alloc(bk_geometry *g)
     g->color = malloc((g->vertex_count * 4 + 1) * sizeof *g->color);
     g->index = malloc((g->index_count + 1) * sizeof *g->index);
     g->prims = calloc((size_t)g->prim_count + 1, sizeof *g->prims);
-    return g->position && g->radiance && g->color && g->index && g->prims ? 0 : -1;
+    if (g->uv_count)
+        g->uv = malloc((g->vertex_count * 2 + 1) * sizeof *g->uv);
+    return g->position && g->radiance && g->color && g->index && g->prims &&
+                   (g->uv || !g->uv_count)
+               ? 0
+               : -1;
 }
 
 int bk_geometry_build(const rad_solution *s, const rad_drawing *d, double ev, bk_geometry *g,
@@ -186,7 +279,11 @@ int bk_geometry_build(const rad_solution *s, const rad_drawing *d, double ev, bk
     cell_key *ord = malloc(((size_t)nc + 1) * sizeof *ord);
     w.stamp = calloc((size_t)nv + 1, sizeof *w.stamp);
     w.local = malloc(((size_t)nv + 1) * sizeof *w.local);
-    if (!ord || !w.stamp || !w.local) {
+    if (s->scene->texture_count) {
+        w.vpoly = malloc(((size_t)nv + 1) * sizeof *w.vpoly);
+        w.vuv = malloc(((size_t)nv + 1) * 2 * sizeof *w.vuv);
+    }
+    if (!ord || !w.stamp || !w.local || (s->scene->texture_count && (!w.vpoly || !w.vuv))) {
         rc = rad_fail(err, RAD_ERR_NOMEM, "bake: out of memory for %u cells", nc);
         goto done;
     }
@@ -211,6 +308,8 @@ done:
     free(ord);
     free(w.stamp);
     free(w.local);
+    free(w.vpoly);
+    free(w.vuv);
     if (rc)
         bk_geometry_free(g);
     return rc;
@@ -222,6 +321,7 @@ void bk_geometry_free(bk_geometry *g)
     free(g->color);
     free(g->radiance);
     free(g->index);
+    free(g->uv);
     free(g->prims);
     memset(g, 0, sizeof *g);
 }
@@ -262,14 +362,20 @@ static int drawing_exposure(const rad_solution *s, const rad_drawing *d, double 
     double total = 0.0;
     for (uint32_t c = 0; c < nc; c++) {
         const rad_patch *cell = &rm->patches[c];
-        if (emits(s, patch_of ? patch_of[c] : c))
+        const uint32_t p = patch_of ? patch_of[c] : c, m = s->mesh->patches[p].material;
+        if (emits(s, p))
             continue;
+        /* a textured cell's COLOR_0 is L / ρ̄ (bk_geometry_build) */
+        const double *rho = bk_texture(s->scene, m) ? s->scene->materials[m].rho : NULL;
         double L = 0.0;
         for (uint32_t b = 0; b < (bands >= 3 ? 3 : 1); b++) {
             double sum = 0.0;
             for (int k = 0; k < rad_patch_corners(cell); k++)
                 sum += vB[(size_t)cell->v[k] * bands + b];
-            L = fmax(L, sum / rad_patch_corners(cell) / M_PI);
+            double v = sum / rad_patch_corners(cell) / M_PI;
+            if (rho)
+                v = rho[b] > 0.0 ? v / rho[b] : 0.0;
+            L = fmax(L, v);
         }
         cells[n++] = (lit){L, cell->area};
         total += cell->area;

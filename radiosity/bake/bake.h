@@ -10,6 +10,11 @@
  * radiance L itself, unclamped, rides along as the custom `_RADIANCE`.
  * One band is grey, three or more bands RGB from the first three (as
  * render/png.c).  Units are the scene's, coordinates untouched.
+ * A material with a texture (scene.h's rad_texture) keeps it, its
+ * baseColorFactor and TEXCOORD_0 (interpolated from its polygons' corners),
+ * and its COLOR_0 carries the incident light instead: clamp(L / ρ̄ · 2^EV,
+ * 0, 1), ρ̄ the material's mean reflectance per band (0 where ρ̄ = 0), so
+ * the viewer's factor × texture × COLOR_0 averages to L · 2^EV.
  */
 #ifndef RAD_BAKE_H
 #define RAD_BAKE_H
@@ -35,7 +40,8 @@ typedef struct rad_bake_stats {
 /* The automatic exposure: the EV that maps the 99th percentile (by area)
  * of the reflecting (non-emitting) cells' brightest channel of radiance to
  * 1, rounded down to 1/100 stop, so that 1 % of the reflecting area at most
- * is clipped whatever the scene's units; 0 when nothing reflects light. */
+ * is clipped whatever the scene's units; 0 when nothing reflects light.
+ * A textured cell counts with what its COLOR_0 carries, L / ρ̄. */
 int rad_bake_auto_exposure(const rad_solution *s, double *ev, rad_error *err);
 
 /* Writes s as glTF to path: binary when path ends in ".glb" (any case), else JSON

@@ -12,6 +12,9 @@ typedef struct bk_prim {
     uint64_t first_vertex, vertex_count; /* into bk_geometry's vertex arrays */
     uint64_t first_index, index_count;   /* into index; indices local to the primitive */
     float lo[3], hi[3];                  /* POSITION bounds (glTF asks for them) */
+    int textured;                        /* its material has a rad_texture: TEXCOORD_0 */
+    uint64_t first_uv;                   /* textured: its first vertex's pair among the
+                                          * textured primitives' TEXCOORD_0 */
 } bk_prim;
 
 /* Vertex arrays, one glTF buffer view each, primitives one after another. */
@@ -20,10 +23,18 @@ typedef struct bk_geometry {
     uint16_t *color;   /* COLOR_0: 4 per vertex, normalized, alpha 1 */
     float *radiance;   /* _RADIANCE: 3 per vertex, linear L = B/π */
     uint32_t *index;   /* 3 per triangle, counter-clockwise about the front */
+    float *uv;         /* TEXCOORD_0: 2 per vertex (used in textured primitives only);
+                        * NULL when no primitive is textured */
     uint64_t vertex_count, index_count;
+    uint64_t uv_count; /* vertices of the textured primitives */
     bk_prim *prims;
     uint32_t prim_count;
 } bk_geometry;
+
+/* Material m's texture when a bake draws it, else NULL: a reflecting
+ * material's (an emitter's light is its own, not the texture's: it bakes
+ * as an untextured material). */
+const rad_texture *bk_texture(const rad_scene *sc, uint32_t m); /* bake_json.c */
 
 /* Builds g from d, a drawing of s, at exposure ev (caller frees with
  * bk_geometry_free; g is zeroed on failure). */

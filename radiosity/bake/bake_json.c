@@ -7,7 +7,11 @@
  * COLOR_0 normalized unsigned short VEC4 (stride 8), _RADIANCE float VEC3
  * (stride 12), indices unsigned int.  Vertex views share accessors, so they
  * name their byteStride (the validator's MESH_PRIMITIVE_ACCESSOR_WITHOUT_
- * BYTESTRIDE).  32 bytes a vertex, 12 a triangle.
+ * BYTESTRIDE).  32 bytes a vertex, 12 a triangle.  A scene with textures
+ * adds, after these, a fifth view, TEXCOORD_0 float VEC2 (stride 8) of the
+ * textured primitives' vertices, their accessors numbered after the four
+ * of every primitive, and one view per image with its bytes as the input
+ * held them; without textures the files are what they were before.
  *
  * Invariant: the JSON is valid UTF-8 with every name escaped, every
  * chunk and view 4-byte aligned; files appear only complete (rad_output).
@@ -91,17 +95,41 @@ static void jb_string(jbuf *j, const char *s)
 
 /* ----------------------------------------------------------------- JSON */
 
+/* (bake_internal.h; here so that bake.c -> bake_json.c stays one way) */
+const rad_texture *bk_texture(const rad_scene *sc, uint32_t m)
+{
+    for (uint32_t b = 0; b < sc->band_count; b++)
+        if (sc->materials[m].emission[b] > 0.0)
+            return NULL;
+    return rad_material_texture(sc, m);
+}
+
+/* Texture k of the scene is glTF texture k (and sampler k when it has one). */
+static uint32_t texture_index(const rad_scene *sc, const rad_texture *t)
+{
+    return (uint32_t)(t - sc->textures);
+}
+
 static void put_materials(jbuf *j, const rad_scene *sc)
 {
     jb_put(j, "\"materials\":[");
     for (uint32_t m = 0; m < sc->material_count; m++) {
         const rad_material *mat = &sc->materials[m];
+        const rad_texture *t = bk_texture(sc, m);
         jb_put(j, "%s{\"name\":", m ? "," : "");
         jb_string(j, mat->name);
         /* The light already holds ρ (B = E + ρH): the base colour is white,
-         * and the solve's ρ and E stay as extras. */
-        jb_put(j, ",\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,1,1,1],\"metallicFactor\":0,"
-                  "\"roughnessFactor\":1},\"doubleSided\":false,"
+         * and the solve's ρ and E stay as extras.  A textured material
+         * keeps its texture and factor: its COLOR_0 is L / ρ̄. */
+        if (t)
+            jb_put(j, ",\"pbrMetallicRoughness\":{\"baseColorFactor\":[%.9g,%.9g,%.9g,%.9g],"
+                      "\"baseColorTexture\":{\"index\":%u},\"metallicFactor\":0,"
+                      "\"roughnessFactor\":1}", t->factor[0], t->factor[1], t->factor[2],
+                   t->factor[3], texture_index(sc, t));
+        else
+            jb_put(j, ",\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,1,1,1],"
+                      "\"metallicFactor\":0,\"roughnessFactor\":1}");
+        jb_put(j, ",\"doubleSided\":false,"
                   "\"extensions\":{\"KHR_materials_unlit\":{}},\"extras\":{\"reflectance\":[");
         for (uint32_t b = 0; b < sc->band_count; b++)
             jb_put(j, "%s%.9g", b ? "," : "", mat->rho[b]);
@@ -190,11 +218,17 @@ static void put_mesh(jbuf *j, const rad_scene *sc, const bk_geometry *g, uint32_
     jb_put(j, "{\"name\":");
     jb_string(j, sc->objects[g->prims[first].object].name);
     jb_put(j, ",\"primitives\":[");
-    for (uint32_t p = first; p < end; p++)
-        jb_put(j, "%s{\"attributes\":{\"POSITION\":%u,\"COLOR_0\":%u,\"_RADIANCE\":%u},"
-                  "\"indices\":%u,\"material\":%u,\"mode\":4}",
-               p > first ? "," : "", 4 * p, 4 * p + 1, 4 * p + 2, 4 * p + 3,
+    uint32_t uv_accessor = 4 * g->prim_count; /* the textured ones' TEXCOORD_0 follow */
+    for (uint32_t q = 0; q < first; q++)
+        uv_accessor += (uint32_t)g->prims[q].textured;
+    for (uint32_t p = first; p < end; p++) {
+        jb_put(j, "%s{\"attributes\":{\"POSITION\":%u,\"COLOR_0\":%u,\"_RADIANCE\":%u",
+               p > first ? "," : "", 4 * p, 4 * p + 1, 4 * p + 2);
+        if (g->prims[p].textured)
+            jb_put(j, ",\"TEXCOORD_0\":%u", uv_accessor++);
+        jb_put(j, "},\"indices\":%u,\"material\":%u,\"mode\":4}", 4 * p + 3,
                g->prims[p].material);
+    }
     jb_put(j, "]}");
 }
 
@@ -230,33 +264,105 @@ static void put_nodes(jbuf *j, const rad_scene *sc, const bk_geometry *g)
     jb_put(j, "]");
 }
 
-/* Byte offsets of the four views in the buffer. */
+/* Byte offsets of the views in the buffer: the four of every bake, then
+ * TEXCOORD_0 and the images (each padded to 4 bytes) of a textured one. */
 typedef struct layout {
-    uint64_t pos, color, radiance, index, total;
+    uint64_t pos, color, radiance, index, uv, image, total;
 } layout;
 
-static layout buffer_layout(const bk_geometry *g)
+static uint64_t pad4(uint64_t n) { return (n + 3) & ~(uint64_t)3; }
+
+static layout buffer_layout(const rad_scene *sc, const bk_geometry *g)
 {
     layout l;
     l.pos = 0;
     l.color = l.pos + g->vertex_count * 12;
     l.radiance = l.color + g->vertex_count * 8;
     l.index = l.radiance + g->vertex_count * 12;
-    l.total = l.index + g->index_count * 4;
+    l.uv = l.index + g->index_count * 4;
+    l.image = l.uv + g->uv_count * 8;
+    l.total = l.image;
+    for (uint32_t k = 0; k < sc->image_count; k++)
+        l.total += pad4(sc->images[k].size);
     return l;
 }
 
-static void put_accessors(jbuf *j, const bk_geometry *g, layout l)
+/* The views, accessors and arrays only a textured bake has: TEXCOORD_0's
+ * view (4) and one per image, then (after the accessors) the textures,
+ * samplers and images. */
+static void put_texture_views(jbuf *j, const rad_scene *sc, const bk_geometry *g, layout l)
+{
+    if (g->uv_count)
+        jb_put(j, ",{\"buffer\":0,\"byteOffset\":%llu,\"byteLength\":%llu,\"byteStride\":8,"
+                  "\"target\":34962}", (unsigned long long)l.uv,
+               (unsigned long long)(g->uv_count * 8));
+    uint64_t at = l.image;
+    for (uint32_t k = 0; k < sc->image_count; k++) {
+        jb_put(j, ",{\"buffer\":0,\"byteOffset\":%llu,\"byteLength\":%llu}",
+               (unsigned long long)at, (unsigned long long)sc->images[k].size);
+        at += pad4(sc->images[k].size);
+    }
+}
+
+static void put_uv_accessors(jbuf *j, const bk_geometry *g)
+{
+    for (uint32_t p = 0; p < g->prim_count; p++)
+        if (g->prims[p].textured)
+            jb_put(j, ",{\"bufferView\":4,\"byteOffset\":%llu,\"componentType\":5126,"
+                      "\"count\":%llu,\"type\":\"VEC2\"}",
+                   (unsigned long long)g->prims[p].first_uv * 8,
+                   (unsigned long long)g->prims[p].vertex_count);
+}
+
+static void put_sampler_value(jbuf *j, const char *name, int v, int *first)
+{
+    if (v) {
+        jb_put(j, "%s\"%s\":%d", *first ? "" : ",", name, v);
+        *first = 0;
+    }
+}
+
+static void put_texture_arrays(jbuf *j, const rad_scene *sc, const bk_geometry *g)
+{
+    if (!sc->texture_count)
+        return;
+    jb_put(j, ",\"textures\":[");
+    for (uint32_t k = 0; k < sc->texture_count; k++)
+        jb_put(j, "%s{\"source\":%u,\"sampler\":%u}", k ? "," : "", sc->textures[k].image, k);
+    jb_put(j, "],\"samplers\":[");
+    for (uint32_t k = 0; k < sc->texture_count; k++) {
+        const rad_texture *t = &sc->textures[k];
+        int first = 1;
+        jb_put(j, "%s{", k ? "," : "");
+        put_sampler_value(j, "magFilter", t->mag_filter, &first);
+        put_sampler_value(j, "minFilter", t->min_filter, &first);
+        put_sampler_value(j, "wrapS", t->wrap_s, &first);
+        put_sampler_value(j, "wrapT", t->wrap_t, &first);
+        jb_put(j, "}");
+    }
+    jb_put(j, "],\"images\":[");
+    uint32_t view = 4 + (g->uv_count ? 1u : 0u);
+    for (uint32_t k = 0; k < sc->image_count; k++) {
+        jb_put(j, "%s{\"bufferView\":%u,\"mimeType\":", k ? "," : "", view + k);
+        jb_string(j, sc->images[k].mime);
+        jb_put(j, "}");
+    }
+    jb_put(j, "]");
+}
+
+static void put_accessors(jbuf *j, const rad_scene *sc, const bk_geometry *g, layout l)
 {
     jb_put(j, ",\"bufferViews\":["
               "{\"buffer\":0,\"byteOffset\":%llu,\"byteLength\":%llu,\"byteStride\":12,\"target\":34962},"
               "{\"buffer\":0,\"byteOffset\":%llu,\"byteLength\":%llu,\"byteStride\":8,\"target\":34962},"
               "{\"buffer\":0,\"byteOffset\":%llu,\"byteLength\":%llu,\"byteStride\":12,\"target\":34962},"
-              "{\"buffer\":0,\"byteOffset\":%llu,\"byteLength\":%llu,\"target\":34963}],\"accessors\":[",
+              "{\"buffer\":0,\"byteOffset\":%llu,\"byteLength\":%llu,\"target\":34963}",
            (unsigned long long)l.pos, (unsigned long long)(l.color - l.pos),
            (unsigned long long)l.color, (unsigned long long)(l.radiance - l.color),
            (unsigned long long)l.radiance, (unsigned long long)(l.index - l.radiance),
-           (unsigned long long)l.index, (unsigned long long)(l.total - l.index));
+           (unsigned long long)l.index, (unsigned long long)(l.uv - l.index));
+    put_texture_views(j, sc, g, l);
+    jb_put(j, "],\"accessors\":[");
     for (uint32_t p = 0; p < g->prim_count; p++) {
         const bk_prim *pr = &g->prims[p];
         unsigned long long v0 = pr->first_vertex, nv = pr->vertex_count;
@@ -272,7 +378,9 @@ static void put_accessors(jbuf *j, const bk_geometry *g, layout l)
                   "\"type\":\"SCALAR\"}", (unsigned long long)pr->first_index * 4,
                (unsigned long long)pr->index_count);
     }
+    put_uv_accessors(j, g);
     jb_put(j, "]");
+    put_texture_arrays(j, sc, g);
 }
 
 /* The whole JSON; uri NULL for a .glb's own buffer. */
@@ -280,7 +388,7 @@ static int make_json(const rad_solution *s, const bk_geometry *g, const char *ur
                      rad_error *err)
 {
     const rad_scene *sc = s->scene;
-    layout l = buffer_layout(g);
+    layout l = buffer_layout(sc, g);
     rad_vec3 lo, hi;
     double size = rad_scene_bounds(sc, &lo, &hi) ? rad_length(rad_sub(hi, lo)) : 1.0;
     jb_put(j, "{\"asset\":{\"version\":\"2.0\",\"generator\":\"radiosity %s bake\"},"
@@ -289,7 +397,7 @@ static int make_json(const rad_solution *s, const bk_geometry *g, const char *ur
     jb_put(j, ",");
     put_materials(j, sc);
     put_cameras(j, sc, size > 0 ? size : 1.0);
-    put_accessors(j, g, l);
+    put_accessors(j, sc, g, l);
     jb_put(j, ",\"buffers\":[{\"byteLength\":%llu", (unsigned long long)l.total);
     if (uri) {
         jb_put(j, ",\"uri\":\"");
@@ -310,12 +418,20 @@ static int make_json(const rad_solution *s, const bk_geometry *g, const char *ur
 
 /* ---------------------------------------------------------------- files */
 
-static int write_buffer(rad_output *o, const bk_geometry *g)
+static int write_buffer(rad_output *o, const rad_scene *sc, const bk_geometry *g)
 {
     int rc = rad_output_write(o, g->position, g->vertex_count * 12);
     rc |= rad_output_write(o, g->color, g->vertex_count * 8);
     rc |= rad_output_write(o, g->radiance, g->vertex_count * 12);
     rc |= rad_output_write(o, g->index, g->index_count * 4);
+    for (uint32_t p = 0; p < g->prim_count; p++) /* the textured primitives' TEXCOORD_0 */
+        if (g->prims[p].textured)
+            rc |= rad_output_write(o, g->uv + 2 * g->prims[p].first_vertex,
+                                   g->prims[p].vertex_count * 8);
+    for (uint32_t k = 0; k < sc->image_count; k++) {
+        rc |= rad_output_write(o, sc->images[k].data, sc->images[k].size);
+        rc |= rad_output_write(o, "\0\0\0", pad4(sc->images[k].size) - sc->images[k].size);
+    }
     return rc;
 }
 
@@ -326,10 +442,10 @@ static void put_u32(rad_output *o, uint32_t v)
     rad_output_write(o, b, 4);
 }
 
-static int write_glb(const char *path, const jbuf *j, const bk_geometry *g, uint64_t *bytes,
-                     rad_error *err)
+static int write_glb(const rad_scene *sc, const char *path, const jbuf *j, const bk_geometry *g,
+                     uint64_t *bytes, rad_error *err)
 {
-    uint64_t json_len = (j->n + 3) & ~(uint64_t)3, bin_len = buffer_layout(g).total;
+    uint64_t json_len = (j->n + 3) & ~(uint64_t)3, bin_len = buffer_layout(sc, g).total;
     uint64_t total = 12 + 8 + json_len + 8 + bin_len;
     if (total > UINT32_MAX)
         return rad_fail(err, RAD_ERR_LIMIT, "%s: %llu bytes: more than a .glb holds (4 GiB); "
@@ -347,7 +463,7 @@ static int write_glb(const char *path, const jbuf *j, const bk_geometry *g, uint
     rad_output_write(o, "   ", json_len - j->n);
     put_u32(o, (uint32_t)bin_len);
     rad_output_write(o, "BIN\0", 4);
-    write_buffer(o, g);
+    write_buffer(o, sc, g);
     *bytes = total;
     return rad_output_commit(o, err);
 }
@@ -375,9 +491,9 @@ static int write_gltf(const rad_solution *s, const bk_geometry *g, const char *p
     if (!rc)
         rc = rad_output_open(path, &oj, err);
     if (!rc) {
-        write_buffer(ob, g);
+        write_buffer(ob, s->scene, g);
         rad_output_write(oj, j.p, j.n);
-        *bytes = buffer_layout(g).total + j.n;
+        *bytes = buffer_layout(s->scene, g).total + j.n;
         rc = rad_output_commit(ob, err);
         ob = NULL;
     }
@@ -401,7 +517,7 @@ int bk_write_files(const rad_solution *s, const bk_geometry *g, const char *path
         jbuf j = {0};
         int rc = make_json(s, g, NULL, &j, err);
         if (!rc)
-            rc = write_glb(path, &j, g, bytes, err);
+            rc = write_glb(s->scene, path, &j, g, bytes, err);
         free(j.p);
         return rc;
     }

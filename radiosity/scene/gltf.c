@@ -14,10 +14,18 @@
  *   - Three bands named R, G, B.
  *   - ρ = baseColorFactor RGB × the mean linear colour of baseColorTexture
  *     (gltf_image.c: every texel sRGB-decoded, alpha ignored; a patch has
- *     one ρ, so texture coordinates, samplers and KHR_texture_transform are
- *     not read, and the warning says so) × COLOR_0 (below).  A texture the
- *     engine cannot read counts as white (the factor alone), with a
- *     warning.
+ *     one ρ, so the solve reads no texture coordinates, and the warning
+ *     says so) × COLOR_0 (below).  A texture the engine cannot read counts
+ *     as white (the factor alone), with a warning.
+ *   - For a bake, a read baseColorTexture of PNG or JPEG is also kept in
+ *     the scene (rad_texture: the image's bytes as they were, its sampler,
+ *     texCoord set and baseColorFactor) with each polygon's corners'
+ *     texture coordinates of that set (rad_scene_set_polygon_uv).  Two
+ *     triangles become a quad only where their coordinates agree on the
+ *     shared edge and are affine over the quad, so that interpolating on
+ *     the quad gives what the triangles gave; a UV seam (vertices split by
+ *     their coordinates) stays two polygons.  KHR_texture_transform is not
+ *     applied (its extension line names it ignored).
  *   - ρ must lie in [0, 1): a surface that reflects all it receives has no
  *     place in an energy balance.  glTF's default base colour is 1, and
  *     exporters leave it on every textured material and on plain white
@@ -132,6 +140,7 @@ enum {
     W_LIGHT_RANGE = RAD_GLTF_NOTE_LIGHT_RANGE,
     W_EXTENSION = RAD_GLTF_NOTE_COUNT,
     W_TEXCOORD,
+    W_NO_TEXCOORD,
     W_UNREADABLE,
     W_NO_MATERIAL,
     W_CLAMPED,
@@ -154,8 +163,11 @@ static const struct {
     [W_LIGHT_RANGE] = {"light", "lights", "range ignored (light falls off as 1/r² everywhere)"},
     [W_EXTENSION] = {"extension", "extensions", "ignored"},
     [W_TEXCOORD] = {"material", "materials",
-                    "texture coordinates ignored: a texture counts by the mean colour of all "
-                    "its texels"},
+                    "texture coordinates ignored by the solve: a texture counts by the mean "
+                    "colour of all its texels (bake keeps a baseColorTexture)"},
+    [W_NO_TEXCOORD] = {"mesh", "meshes",
+                       "primitives without the TEXCOORD set of their baseColorTexture: baked "
+                       "with texture coordinate (0, 0)"},
     [W_UNREADABLE] = {"texture", "textures", "not read: the factor alone is used"},
     [W_NO_MATERIAL] = {"mesh", "meshes",
                        "primitives without a material get glTF's default material (white: "
@@ -181,6 +193,8 @@ typedef struct mat_info {
     double t;           /* diffuse transmission factor */
     int clamped;        /* its own ρ was clamped */
     int clamp_noted;    /* named in the W_CLAMPED line already */
+    int textured;       /* a baseColorTexture kept in the scene (rad_texture) */
+    uint32_t uv_set;    /* textured: the TEXCOORD set it samples */
     const char *name;   /* the scene's name for it (owned by the scene) */
 } mat_info;
 
@@ -401,27 +415,38 @@ static int is_parallelogram(rad_vec3 q0, rad_vec3 q1, rad_vec3 r, rad_vec3 q2)
     return rad_length(rad_sub(n1, n2)) <= QUAD_TOL;
 }
 
-/* Adds one polygon (and its reversed twin for double-sided materials). */
+/* Adds one polygon (and its reversed twin for double-sided materials),
+ * with its corners' texture coordinates uv (2 × n, or NULL). */
 static int emit(gltf_ctx *c, const char *pname, uint32_t object, uint32_t material,
-                int double_sided, const rad_vec3 *pts, uint32_t n, const char *where)
+                int double_sided, const rad_vec3 *pts, const double *uv, uint32_t n,
+                const char *where)
 {
     for (int side = 0; side < (double_sided ? 2 : 1); side++) {
         if ((uint64_t)c->s->polygon_count >= c->max_polygons)
             return rad_fail(c->err, RAD_ERR_LIMIT, "%s: %s: more than %llu polygons (the limit)",
                             c->src, where, (unsigned long long)c->max_polygons);
         rad_vec3 rev[4];
+        double ruv[8];
         const rad_vec3 *p = pts;
+        const double *t = uv;
         char back[300];
         const char *name = pname;
         if (side) {
-            for (uint32_t k = 0; k < n; k++)
+            for (uint32_t k = 0; k < n; k++) {
                 rev[k] = pts[n - 1 - k];
+                if (uv)
+                    ruv[2 * k] = uv[2 * (n - 1 - k)], ruv[2 * k + 1] = uv[2 * (n - 1 - k) + 1];
+            }
             p = rev;
+            t = uv ? ruv : NULL;
             snprintf(back, sizeof back, "%s/back", pname);
             name = back;
         }
-        int rc = rad_scene_add_polygon(c->s, name, object, material, p, n, 0, 0, where, NULL,
+        uint32_t index;
+        int rc = rad_scene_add_polygon(c->s, name, object, material, p, n, 0, 0, where, &index,
                                        c->err);
+        if (rc == RAD_OK && t)
+            rc = rad_scene_set_polygon_uv(c->s, index, t, where, c->err);
         if (rc)
             return rc;
     }
@@ -471,10 +496,11 @@ static void triangle_color(const double *colors, const uint32_t *T, double *C)
 /* emit, then the polygons' own ρ when the primitive has vertex colours
  * (C, else NULL). */
 static int emit_colored(gltf_ctx *c, const char *pname, uint32_t object, mat_info *mi,
-                        const rad_vec3 *pts, uint32_t n, const char *where, const double *C)
+                        const rad_vec3 *pts, const double *uv, uint32_t n, const char *where,
+                        const double *C)
 {
     uint32_t before = c->s->polygon_count;
-    int rc = emit(c, pname, object, mi->index, mi->two_sided, pts, n, where);
+    int rc = emit(c, pname, object, mi->index, mi->two_sided, pts, uv, n, where);
     if (rc == RAD_OK && C)
         rc = color_polygons(c, before, C, mi, where);
     return rc;
@@ -626,8 +652,41 @@ static void pair_triangles(prim_work *pw)
     }
 }
 
+/* The texture coordinates of vertices v[0..n) into out (2 × n); NULL
+ * (out untouched) when the primitive has none for the material. */
+static const double *corner_uv(const double *uv, const uint32_t *v, uint32_t n, double *out)
+{
+    if (!uv)
+        return NULL;
+    for (uint32_t k = 0; k < n; k++)
+        out[2 * k] = uv[2 * (size_t)v[k]], out[2 * k + 1] = uv[2 * (size_t)v[k] + 1];
+    return out;
+}
+
+/* Texture coordinates allow the pair t, u to be the quad q0 q1 r q2: they
+ * agree on the shared edge (no seam along it) and are affine over the
+ * parallelogram (uv(q0) + uv(r) = uv(q1) + uv(q2)), so that interpolating
+ * on the quad gives what the two triangles gave. */
+static int quad_uv_ok(const double *uv, const prim_work *pw, uint32_t t, uint32_t u)
+{
+    if (!uv)
+        return 1;
+    const uint32_t *T = &pw->tri[4 * (size_t)t], *U = &pw->tri[4 * (size_t)u];
+    uint32_t s = pw->pslot[t], su = pw->pslot[u];
+    uint32_t i1 = T[s], i2 = T[(s + 1) % 3], i0 = T[(s + 2) % 3];
+    uint32_t j2 = U[su], j1 = U[(su + 1) % 3], r = U[(su + 2) % 3]; /* u runs q2 -> q1 */
+    for (int c = 0; c < 2; c++) {
+        double a0 = uv[2 * i0 + c], a1 = uv[2 * i1 + c], a2 = uv[2 * i2 + c], ar = uv[2 * r + c];
+        double tol = QUAD_TOL * (1.0 + fmax(fmax(fabs(a0), fabs(a1)), fmax(fabs(a2), fabs(ar))));
+        if (uv[2 * j1 + c] != a1 || uv[2 * j2 + c] != a2 || fabs(a0 + ar - a1 - a2) > tol)
+            return 0;
+    }
+    return 1;
+}
+
 /* Adds the kept triangles, each pair as one quad where scene.c takes it,
- * with each polygon's mean vertex colour when the primitive has COLOR_0.
+ * with each polygon's mean vertex colour when the primitive has COLOR_0
+ * and its corners' texture coordinates when its material keeps a texture.
  * *object is created on the first polygon. */
 static int emit_primitive(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_t pi,
                           const char *object_name, uint32_t *object, mat_info *mi,
@@ -635,6 +694,8 @@ static int emit_primitive(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_t p
 {
     const rad_vec3 *W = pw->W;
     const double *col = mesh->primitives[pi].colors;
+    const double *uv = mi->textured && mi->uv_set < 2 ? mesh->primitives[pi].uv[mi->uv_set] : NULL;
+    double cuv[8];
     char where[300], pname[300];
     snprintf(where, sizeof where, "object '%.200s'", object_name);
     for (uint32_t t = 0; t < pw->kept; t++) {
@@ -655,16 +716,17 @@ static int emit_primitive(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_t p
         double Ct[3], Cu[3], Cq[3];
         if (col)
             triangle_color(col, T, Ct);
-        if (u != RAD_NONE) {
+        if (col && u != RAD_NONE)
+            triangle_color(col, &pw->tri[4 * (size_t)u], Cu);
+        if (u != RAD_NONE && quad_uv_ok(uv, pw, t, u)) {
             uint32_t s = pw->pslot[t];
             uint32_t i1 = T[s], i2 = T[(s + 1) % 3], i0 = T[(s + 2) % 3];
             uint32_t r = pw->tri[4 * (size_t)u + (pw->pslot[u] + 2) % 3];
             rad_vec3 quad[4] = {W[i0], W[i1], W[r], W[i2]};
-            if (col) {
-                triangle_color(col, &pw->tri[4 * (size_t)u], Cu);
+            const uint32_t qv[4] = {i0, i1, r, i2};
+            if (col)
                 for (int b = 0; b < 3; b++)
                     Cq[b] = 0.5 * (Ct[b] + Cu[b]);
-            }
             /* A pair that passes the test above but not scene.c's own
              * planarity or convexity check stays two triangles; any other
              * failure is the caller's. */
@@ -673,7 +735,8 @@ static int emit_primitive(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_t p
             uint32_t before = c->s->polygon_count;
             gltf_ctx probe = *c;
             probe.err = &scratch;
-            rc = emit_colored(&probe, pname, *object, mi, quad, 4, where, col ? Cq : NULL);
+            rc = emit_colored(&probe, pname, *object, mi, quad, corner_uv(uv, qv, 4, cuv), 4,
+                              where, col ? Cq : NULL);
             memcpy(c->warn, probe.warn, sizeof c->warn); /* what the probe noted */
             if (rc == RAD_OK)
                 continue;
@@ -684,12 +747,14 @@ static int emit_primitive(gltf_ctx *c, const rad_gltf_raw_mesh *mesh, uint32_t p
             }
         }
         rad_vec3 p3[3] = {W[T[0]], W[T[1]], W[T[2]]};
-        rc = emit_colored(c, pname, *object, mi, p3, 3, where, col ? Ct : NULL);
+        rc = emit_colored(c, pname, *object, mi, p3, corner_uv(uv, T, 3, cuv), 3, where,
+                          col ? Ct : NULL);
         if (rc == RAD_OK && u != RAD_NONE) {
             const uint32_t *U = &pw->tri[4 * (size_t)u];
             rad_vec3 q3[3] = {W[U[0]], W[U[1]], W[U[2]]};
             snprintf(pname, sizeof pname, "%.200s/%u/%u", mesh->name, pi, U[3]);
-            rc = emit_colored(c, pname, *object, mi, q3, 3, where, col ? Cu : NULL);
+            rc = emit_colored(c, pname, *object, mi, q3, corner_uv(uv, U, 3, cuv), 3, where,
+                              col ? Cu : NULL);
         }
         if (rc)
             return rc;
@@ -798,6 +863,30 @@ static int check_material(gltf_ctx *c, const rad_gltf_raw_material *m)
     return RAD_OK;
 }
 
+/* A read baseColorTexture whose image the bridge kept (a PNG or JPEG)
+ * becomes the scene's texture of material mi (scene image k = the raw
+ * image k, convert adds them all first), for a bake; the solve still
+ * reflects its mean. */
+static int keep_texture(gltf_ctx *c, const rad_gltf_raw_material *m, mat_info *mi,
+                        const char *where)
+{
+    const rad_gltf_raw_texture *tx = &m->base_texture;
+    if (tx->state != RAD_GLTF_TEXTURE_READ || tx->image < 0)
+        return RAD_OK;
+    rad_texture t = {.material = mi->index, .image = (uint32_t)tx->image,
+                     .texcoord = tx->texcoord, .wrap_s = tx->wrap_s, .wrap_t = tx->wrap_t,
+                     .mag_filter = tx->mag_filter, .min_filter = tx->min_filter};
+    /* glTF keeps the factor in [0, 1]; a larger one is clamped as shown */
+    for (int k = 0; k < 4; k++)
+        t.factor[k] = fmin(1.0, k < 3 ? m->base_color[k] : m->base_alpha);
+    int rc = rad_scene_add_texture(c->s, &t, where, c->err);
+    if (rc)
+        return rc;
+    mi->textured = 1;
+    mi->uv_set = tx->texcoord;
+    return RAD_OK;
+}
+
 /* Adds material m to the scene and fills *mi (whether its own ρ was
  * clamped: it is named in the warning once a polygon without vertex colours
  * uses it, see convert). */
@@ -857,7 +946,7 @@ static int add_material(gltf_ctx *c, const rad_gltf_raw_material *m, mat_info *m
     mi->clamped = clamped;
     if (read && warn_name(c, W_TEXCOORD, mi->name) != 0)
         return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
-    return RAD_OK;
+    return keep_texture(c, m, mi, where);
 }
 
 /* ----------------------------------------------------------------- lights */
@@ -942,7 +1031,7 @@ static int check_extensions(gltf_ctx *c, const rad_gltf_raw *raw)
  * which warnings named it already. */
 typedef struct plan {
     mat_info *mats;
-    uint8_t *mesh_noted; /* bit 1: W_SKIPPED, bit 2: W_NO_MATERIAL */
+    uint8_t *mesh_noted; /* bit 1: W_SKIPPED, bit 2: W_NO_MATERIAL, bit 4: W_NO_TEXCOORD */
 } plan;
 
 /* glTF's default material: white, not emitting, single-sided, diffuse
@@ -1096,7 +1185,14 @@ static int add_polygons(gltf_ctx *c, const rad_gltf_raw *raw, plan *pl, const ui
                 continue; /* pass 1 refused or skipped it */
             mat_info *mi = &pl->mats[pr->material >= 0 ? (uint32_t)pr->material
                                                        : raw->material_count];
-            rc = convert_primitive(c, me, p, nd->world, oname, &object, mi);
+            if (mi->textured && (mi->uv_set > 1 || !pr->uv[mi->uv_set]) &&
+                !(pl->mesh_noted[nd->mesh] & 4)) {
+                pl->mesh_noted[nd->mesh] |= 4;
+                if (warn_name(c, W_NO_TEXCOORD, me->name) != 0)
+                    rc = rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
+            }
+            if (rc == RAD_OK)
+                rc = convert_primitive(c, me, p, nd->world, oname, &object, mi);
         }
         free(oname);
     }
@@ -1139,6 +1235,14 @@ static int convert(gltf_ctx *c, const rad_gltf_raw *raw)
         if (!(c->s->band_names[b] = strdup(bands[b])))
             return rad_fail(c->err, RAD_ERR_NOMEM, "%s: out of memory", c->src);
 
+    for (uint32_t k = 0; k < raw->image_count; k++) {
+        char where[40];
+        snprintf(where, sizeof where, "image %u", k);
+        rc = rad_scene_add_image(c->s, raw->images[k].mime, raw->images[k].data,
+                                 raw->images[k].size, where, NULL, c->err);
+        if (rc)
+            return rc;
+    }
     plan pl;
     pl.mats = calloc((size_t)raw->material_count + 1, sizeof *pl.mats);
     pl.mesh_noted = calloc(raw->mesh_count ? raw->mesh_count : 1, 1);

@@ -267,7 +267,7 @@ void local_matrix(const tinygltf::Model &m, size_t i, double out[16])
 /* -------------------------------------------------------------- accessors */
 
 /* What an accessor must hold. */
-enum accessor_role { ROLE_POSITION, ROLE_INDEX, ROLE_COLOR };
+enum accessor_role { ROLE_POSITION, ROLE_INDEX, ROLE_COLOR, ROLE_TEXCOORD };
 
 struct data_span {
     const unsigned char *base = nullptr;
@@ -332,6 +332,22 @@ size_t check_color_element(const tinygltf::Accessor &a, const std::string &w)
     }
 }
 
+/* TEXCOORD_n: VEC2 of float, or of unsigned byte or short (normalised);
+ * returns bytes per component. */
+size_t check_texcoord_element(const tinygltf::Accessor &a, const std::string &w)
+{
+    if (a.type != TINYGLTF_TYPE_VEC2)
+        fail(RAD_ERR_PARSE, w + ": type " + type_name(a.type) + ", expected VEC2");
+    if (a.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT)
+        return 4;
+    if ((a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+         a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT) && a.normalized)
+        return a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ? 1 : 2;
+    fail(RAD_ERR_PARSE, format("%s: componentType %d, expected float or normalized unsigned "
+                               "byte or short (5126, 5121, 5123)",
+                               w.c_str(), a.componentType));
+}
+
 /* Checks that accessor `a` (named by w) holds what `role` needs and
  * returns the bytes per component; elements per accessor are at most
  * kMaxVertices (POSITION, COLOR_0) or kMaxIndices. */
@@ -342,6 +358,8 @@ size_t check_element(const tinygltf::Accessor &a, const std::string &w, accessor
     size_t component = 4;
     if (role == ROLE_COLOR) {
         component = check_color_element(a, w);
+    } else if (role == ROLE_TEXCOORD) {
+        component = check_texcoord_element(a, w);
     } else {
         if (a.type != TINYGLTF_TYPE_VEC3)
             fail(RAD_ERR_PARSE, w + ": type " + type_name(a.type) + ", expected VEC3");
@@ -373,7 +391,8 @@ data_span check_accessor(const tinygltf::Model &m, int idx, const std::string &w
         fail(RAD_ERR_PARSE, w + ": sparse accessors are not supported");
     data_span sp;
     sp.component = check_element(a, w, role);
-    sp.width = role == ROLE_INDEX ? 1 : a.type == TINYGLTF_TYPE_VEC4 ? 4 : 3;
+    sp.width = role == ROLE_INDEX ? 1 : a.type == TINYGLTF_TYPE_VEC4 ? 4
+                                    : a.type == TINYGLTF_TYPE_VEC2 ? 2 : 3;
     sp.type = a.componentType;
     size_t elem = sp.component * sp.width;
     sp.count = a.count;
@@ -484,6 +503,7 @@ void convert_material(const tinygltf::Material &src, size_t i, rad_gltf_raw_mate
         dst.base_color[c] = bc[c];
         dst.emissive[c] = ef[c];
     }
+    dst.base_alpha = bc[3];
     dst.emissive_strength = emissive_strength(src, where);
     diffuse_transmission(src, where, dst);
     dst.double_sided = src.doubleSided ? 1 : 0;
@@ -650,14 +670,43 @@ void convert_nodes(const tinygltf::Model &m, rad_gltf_raw *raw)
 /* What one primitive will copy, found before anything is allocated. */
 struct prim_plan {
     data_span pos, idx, col;
+    data_span uv[2];
     bool indexed = false;
     bool colored = false; /* COLOR_0 present */
+    bool textured[2] = {false, false}; /* TEXCOORD_0, TEXCOORD_1 present */
     uint64_t triangles = 0;
 };
 
 std::string primitive_label(const char *mesh_name, size_t p)
 {
     return format("mesh %s primitive %zu", q(mesh_name).c_str(), p);
+}
+
+/* The TEXCOORD set the primitive's material samples its baseColorTexture
+ * with (0 or 1; only a bake reads it), when the material has one.  An
+ * accessor that does not hold texture coordinates is left out rather than
+ * refused: the solve does not need it, and gltf.c's warning names the
+ * primitive that lacks them. */
+void plan_texcoords(const tinygltf::Model &m, const tinygltf::Primitive &pr,
+                    const std::string &where, prim_plan &pl)
+{
+    if (pr.material < 0)
+        return;
+    const tinygltf::TextureInfo &ti =
+        m.materials[(size_t)pr.material].pbrMetallicRoughness.baseColorTexture;
+    if (ti.index < 0 || ti.texCoord < 0 || ti.texCoord > 1)
+        return;
+    int n = ti.texCoord;
+    const char *name = n ? "TEXCOORD_1" : "TEXCOORD_0";
+    auto uv = pr.attributes.find(name);
+    if (uv == pr.attributes.end())
+        return;
+    try {
+        pl.uv[n] = check_accessor(m, uv->second, where, name, ROLE_TEXCOORD);
+        pl.textured[n] = pl.uv[n].count == pl.pos.count;
+    } catch (const bridge_error &) {
+        pl.textured[n] = false;
+    }
 }
 
 /* Checks one primitive: its material index, and for TRIANGLES its POSITION,
@@ -685,6 +734,7 @@ prim_plan plan_primitive(const tinygltf::Model &m, const tinygltf::Primitive &pr
             fail(RAD_ERR_PARSE, format("%s: COLOR_0 has %zu elements, POSITION %zu",
                                        where.c_str(), pl.col.count, pl.pos.count));
     }
+    plan_texcoords(m, pr, where, pl);
     if (pr.indices >= 0) {
         pl.indexed = true;
         pl.idx = check_accessor(m, pr.indices, where, "indices", ROLE_INDEX);
@@ -761,6 +811,34 @@ void copy_colors(const prim_plan &pl, const std::string &where, rad_gltf_raw_pri
     }
 }
 
+/* The planned TEXCOORD_0 or _1 elements as (u, v) doubles, integer ones
+ * normalised (v / 255 or v / 65535); a set with a value that is not finite
+ * is left out (NULL), as an unusable accessor is. */
+void copy_texcoords(const prim_plan &pl, rad_gltf_raw_primitive &out)
+{
+    for (int n = 0; n < 2; n++) {
+        if (!pl.textured[n])
+            continue;
+        const data_span &sp = pl.uv[n];
+        out.uv[n] = calloc_n<double>(2 * sp.count);
+        for (size_t v = 0; v < sp.count; v++) {
+            const unsigned char *e = sp.base + v * sp.stride;
+            for (int c = 0; c < 2; c++) {
+                double x = sp.type == TINYGLTF_COMPONENT_TYPE_FLOAT ? le_float(e + 4 * c)
+                           : sp.type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT
+                               ? (double)(e[2 * c] | e[2 * c + 1] << 8) / 65535.0
+                               : (double)e[c] / 255.0;
+                if (!std::isfinite(x)) {
+                    free(out.uv[n]);
+                    out.uv[n] = nullptr;
+                    return;
+                }
+                out.uv[n][2 * v + c] = x;
+            }
+        }
+    }
+}
+
 /* The planned indices as uint32, each below the vertex count; a primitive
  * without indices gets 0, 1, 2, ... */
 void copy_indices(const prim_plan &pl, const std::string &where, rad_gltf_raw_primitive &out)
@@ -801,6 +879,7 @@ void fill_mesh(const tinygltf::Mesh &src, const std::vector<prim_plan> &plans,
         copy_positions(plans[p], where, out);
         copy_indices(plans[p], where, out);
         copy_colors(plans[p], where, out);
+        copy_texcoords(plans[p], out);
     }
 }
 
@@ -1108,6 +1187,8 @@ extern "C" void rad_gltf_raw_free(rad_gltf_raw *raw)
             free(me->primitives[p].positions);
             free(me->primitives[p].indices);
             free(me->primitives[p].colors);
+            free(me->primitives[p].uv[0]);
+            free(me->primitives[p].uv[1]);
         }
         free(me->primitives);
         free(me->name);
@@ -1134,5 +1215,8 @@ extern "C" void rad_gltf_raw_free(rad_gltf_raw *raw)
     for (uint32_t i = 0; raw->notes && i < raw->note_count; i++)
         free(raw->notes[i].subject);
     free(raw->notes);
+    for (uint32_t i = 0; raw->images && i < raw->image_count; i++)
+        free(raw->images[i].data);
+    free(raw->images);
     free(raw);
 }

@@ -33,6 +33,8 @@ typedef struct rad_gltf_raw_primitive {
     uint32_t *indices;     /* every entry < vertex_count */
     double *colors;        /* COLOR_0 as linear RGB (alpha dropped), 3 × vertex_count, each
                             * finite and >= 0; NULL = no vertex colours */
+    double *uv[2];         /* TEXCOORD_0 and TEXCOORD_1 as (u, v) pairs, 2 × vertex_count,
+                            * each finite; NULL = absent */
 } rad_gltf_raw_primitive;
 
 typedef struct rad_gltf_raw_mesh {
@@ -58,7 +60,21 @@ typedef struct rad_gltf_raw_texture {
     int state;       /* RAD_GLTF_TEXTURE_* */
     double mean[3];  /* READ: mean over texels of the sRGB-decoded RGB, each in [0, 1] */
     char *problem;   /* UNREADABLE: one line; else NULL */
+    /* READ, baseColorTexture only: what a bake needs to draw it */
+    int32_t image;   /* index into rad_gltf_raw.images, -1 = not kept */
+    uint32_t texcoord;          /* texCoord: the TEXCOORD_n set it samples */
+    int transformed;            /* has KHR_texture_transform (not applied) */
+    int wrap_s, wrap_t;         /* the sampler's, glTF numbers; 0 = none given */
+    int mag_filter, min_filter;
 } rad_gltf_raw_texture;
+
+/* An image a kept texture samples: its bytes exactly as the document held
+ * them (PNG or JPEG, as their signature says). */
+typedef struct rad_gltf_raw_image {
+    const char *mime;   /* "image/png" or "image/jpeg" (static) */
+    unsigned char *data;
+    size_t size;
+} rad_gltf_raw_image;
 
 typedef struct rad_gltf_raw_material {
     char *name;               /* glTF name, else "material<index>" */
@@ -67,6 +83,7 @@ typedef struct rad_gltf_raw_material {
     rad_gltf_raw_texture base_texture;     /* pbrMetallicRoughness.baseColorTexture */
     rad_gltf_raw_texture emissive_texture; /* emissiveTexture */
     double base_color[3];     /* pbrMetallicRoughness.baseColorFactor RGB (default 1) */
+    double base_alpha;        /* and its alpha (default 1), kept for a bake */
     double emissive[3];       /* emissiveFactor (default 0) */
     double emissive_strength; /* KHR_materials_emissive_strength (default 1) */
     /* KHR_materials_diffuse_transmission: diffuseTransmissionFactor (default
@@ -148,6 +165,8 @@ typedef struct rad_gltf_raw {
     uint32_t extensions_used_count;
     rad_gltf_raw_note *notes;          /* in document order, each subject once per kind */
     uint32_t note_count;
+    rad_gltf_raw_image *images;        /* those kept baseColorTextures sample, each once */
+    uint32_t image_count;
 } rad_gltf_raw;
 
 /* Reads a glTF document (.gltf JSON or .glb, told apart by the "glTF" magic)

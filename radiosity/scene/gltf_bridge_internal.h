@@ -137,7 +137,14 @@ struct image_def {
  * EXT_texture_webp source). */
 struct texture_def {
     int64_t source = -1;
+    int64_t sampler = -1;   /* -1 = none (glTF's defaults) */
     std::string problem;    /* non-empty: why the entry cannot be used */
+};
+
+/* One entry of `samplers`, as far as it reads: glTF's numbers, 0 where a
+ * member is absent or not an integer (a bake then writes none). */
+struct sampler_def {
+    int wrap_s = 0, wrap_t = 0, mag_filter = 0, min_filter = 0;
 };
 
 /* Which files tinygltf may open: gltf_vet.cpp fills `sizes` with the vetted
@@ -157,6 +164,7 @@ struct vetted_doc {
     std::vector<light_def> lights;    /* KHR_lights_punctual.lights, type-checked */
     std::vector<texture_def> textures;
     std::vector<image_def> images;
+    std::vector<sampler_def> samplers;
     std::vector<bool> metallic;       /* per material: metallicFactor given and > 0 */
     size_t animations = 0, skins = 0; /* entries of the dropped arrays, for the notes */
 };

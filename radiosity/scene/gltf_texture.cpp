@@ -1,6 +1,8 @@
 /* gltf_texture.cpp - the glTF bridge's texture pass: a used material's
  * baseColorTexture and emissiveTexture -> the mean linear colour of the
- * image each samples (rad_gltf_raw_texture, gltf_bridge.h).
+ * image each samples (rad_gltf_raw_texture, gltf_bridge.h); for a
+ * baseColorTexture also the image's bytes as they are (PNG or JPEG), its
+ * coordinate set and sampler, which a bake draws.
  *
  * It owns the way from a material to image bytes: texture index -> the
  * `textures` entry -> its `source` image (both read by gltf_vet.cpp, since
@@ -40,12 +42,27 @@ namespace {
  * barely compresses to this). */
 const size_t kMaxImageFile = (size_t)640 << 20;
 
-/* What one image came to: its mean, or why not. */
+/* What one image came to: its mean, or why not; a PNG or JPEG also its
+ * bytes, for a bake (kept = its index in raw->images once a
+ * baseColorTexture samples it). */
 struct image_result {
     bool ok = false;
     double mean[3] = {0, 0, 0};
     std::string problem;
+    const char *mime = nullptr;
+    std::vector<unsigned char> bytes;
+    int32_t kept = -1;
 };
+
+/* The media type glTF allows that these bytes are, by their signature. */
+const char *sniff_mime(const unsigned char *p, size_t n)
+{
+    if (n >= 8 && memcmp(p, "\x89PNG\r\n\x1a\n", 8) == 0)
+        return "image/png";
+    if (n >= 3 && memcmp(p, "\xff\xd8\xff", 3) == 0)
+        return "image/jpeg";
+    return nullptr;
+}
 
 /* "image 2 'wood.png'" for messages. */
 std::string image_label(const vetted_doc &doc, size_t i)
@@ -156,6 +173,9 @@ image_result read_image(const tinygltf::Model &m, const vetted_doc &doc, const f
     char msg[300];
     if (found && rad_gltf_image_mean(p, n, RAD_GLTF_MAX_TEXELS, r.mean, msg, sizeof msg) == 0) {
         r.ok = true;
+        r.mime = sniff_mime(p, n);
+        if (r.mime)
+            r.bytes.assign(p, p + n);
         return r;
     }
     if (found)
@@ -164,11 +184,52 @@ image_result read_image(const tinygltf::Model &m, const vetted_doc &doc, const f
     return r;
 }
 
-/* One material texture slot: texture index `t` (-1: none) resolved through
- * the cache of images already averaged. */
-void fill_texture(const tinygltf::Model &m, const vetted_doc &doc, const fs_context &fs, int t,
-                  std::map<size_t, image_result> &cache, rad_gltf_raw_texture &dst)
+/* Image r into raw->images (once), its index. */
+int32_t keep_image(image_result &r, rad_gltf_raw *raw)
 {
+    if (r.kept >= 0 || !r.mime)
+        return r.kept;
+    rad_gltf_raw_image *grown = static_cast<rad_gltf_raw_image *>(
+        realloc(raw->images, (raw->image_count + 1) * sizeof *raw->images));
+    if (!grown)
+        throw std::bad_alloc();
+    raw->images = grown;
+    rad_gltf_raw_image &im = raw->images[raw->image_count];
+    im = rad_gltf_raw_image{r.mime, nullptr, r.bytes.size()};
+    im.data = static_cast<unsigned char *>(malloc(r.bytes.size() ? r.bytes.size() : 1));
+    if (!im.data)
+        throw std::bad_alloc();
+    memcpy(im.data, r.bytes.data(), r.bytes.size());
+    r.kept = (int32_t)raw->image_count++;
+    std::vector<unsigned char>().swap(r.bytes);
+    return r.kept;
+}
+
+/* A read baseColorTexture's image, coordinate set, transform and sampler. */
+void keep_base(const vetted_doc &doc, const tinygltf::TextureInfo &ti, image_result &r,
+               rad_gltf_raw *raw, rad_gltf_raw_texture &dst)
+{
+    dst.image = keep_image(r, raw);
+    dst.texcoord = ti.texCoord > 0 ? (uint32_t)ti.texCoord : 0;
+    dst.transformed = ti.extensions.count("KHR_texture_transform") ? 1 : 0;
+    int64_t smp = doc.textures[(size_t)ti.index].sampler;
+    if (smp >= 0 && (size_t)smp < doc.samplers.size()) {
+        const sampler_def &d = doc.samplers[(size_t)smp];
+        dst.wrap_s = d.wrap_s;
+        dst.wrap_t = d.wrap_t;
+        dst.mag_filter = d.mag_filter;
+        dst.min_filter = d.min_filter;
+    }
+}
+
+/* One material texture slot: texture index `t` (-1: none) resolved through
+ * the cache of images already averaged; a baseColorTexture (base != NULL)
+ * also keeps its image and sampling for a bake. */
+void fill_texture(const tinygltf::Model &m, const vetted_doc &doc, const fs_context &fs, int t,
+                  std::map<size_t, image_result> &cache, const tinygltf::TextureInfo *base,
+                  rad_gltf_raw *raw, rad_gltf_raw_texture &dst)
+{
+    dst.image = -1;
     if (t < 0) {
         dst.state = RAD_GLTF_TEXTURE_NONE;
         return;
@@ -189,6 +250,8 @@ void fill_texture(const tinygltf::Model &m, const vetted_doc &doc, const fs_cont
         if (it->second.ok) {
             dst.state = RAD_GLTF_TEXTURE_READ;
             memcpy(dst.mean, it->second.mean, sizeof dst.mean);
+            if (base)
+                keep_base(doc, *base, it->second, raw, dst);
             return;
         }
         problem = it->second.problem;
@@ -208,9 +271,10 @@ void convert_textures(const tinygltf::Model &m, const vetted_doc &doc, const fs_
         if (!dst.used)
             continue;
         const tinygltf::Material &src = m.materials[i];
-        fill_texture(m, doc, fs, src.pbrMetallicRoughness.baseColorTexture.index, cache,
-                     dst.base_texture);
-        fill_texture(m, doc, fs, src.emissiveTexture.index, cache, dst.emissive_texture);
+        const tinygltf::TextureInfo &bt = src.pbrMetallicRoughness.baseColorTexture;
+        fill_texture(m, doc, fs, bt.index, cache, &bt, raw, dst.base_texture);
+        fill_texture(m, doc, fs, src.emissiveTexture.index, cache, nullptr, raw,
+                     dst.emissive_texture);
     }
 }
 

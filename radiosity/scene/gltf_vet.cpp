@@ -403,8 +403,39 @@ std::vector<texture_def> parse_textures(const nlohmann::json &doc)
             d.problem = "not a JSON object";
         else if (!json_index(o, "source", &d.source))
             d.problem = "source is not an index";
+        else if (!json_index(o, "sampler", &d.sampler))
+            d.sampler = -1; /* a malformed sampler: the defaults */
         else if (d.source < 0)
             d.problem = "no PNG or JPEG source (only an extension's image format)";
+        out.push_back(d);
+    }
+    return out;
+}
+
+/* An integer member, else 0. */
+int json_int(const nlohmann::json &o, const char *what)
+{
+    auto it = o.find(what);
+    return it != o.end() && it->is_number_integer() && it->get<int64_t>() > 0 &&
+                   it->get<int64_t>() < 65536
+               ? (int)it->get<int64_t>()
+               : 0;
+}
+
+/* The `samplers` entries (only kept textures use them, for a bake). */
+std::vector<sampler_def> parse_samplers(const nlohmann::json &doc)
+{
+    std::vector<sampler_def> out;
+    const nlohmann::json *arr = array_member(doc, "samplers");
+    for (size_t k = 0; arr && k < arr->size(); k++) {
+        const nlohmann::json &o = (*arr)[k];
+        sampler_def d;
+        if (o.is_object()) {
+            d.wrap_s = json_int(o, "wrapS");
+            d.wrap_t = json_int(o, "wrapT");
+            d.mag_filter = json_int(o, "magFilter");
+            d.min_filter = json_int(o, "minFilter");
+        }
         out.push_back(d);
     }
     return out;
@@ -465,6 +496,7 @@ vetted_doc vet_document(const void *data, size_t size, fs_context &fs)
     out.lights = parse_lights(doc);
     out.images = parse_images(doc);
     out.textures = parse_textures(doc);
+    out.samplers = parse_samplers(doc);
     out.metallic = parse_metallic(doc);
     out.animations = array_size(doc, "animations");
     out.skins = array_size(doc, "skins");

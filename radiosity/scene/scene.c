@@ -8,7 +8,10 @@
  * unique non-empty names; punctual lights finite, of non-negative
  * intensity, with unit directions and valid cones.  Once added, an element is
  * never changed, except that a polygon may be given a reflectance of its own
- * (rad_scene_set_polygon_rho), under the same rules as a material's.
+ * (rad_scene_set_polygon_rho), under the same rules as a material's, and
+ * texture coordinates (rad_scene_set_polygon_uv, finite).  Images enter
+ * only as PNG or JPEG whose bytes start with that format's signature, and a
+ * material has at most one texture, whose indices exist.
  *
  * Also holds the private name set (scene_internal.h) that keeps the
  * uniqueness checks linear in the number of names.
@@ -301,6 +304,13 @@ void rad_scene_destroy(rad_scene *s)
     free(s->cameras);
     free(s->lights);
     free(s->polygon_rho);
+    for (uint32_t k = 0; k < s->image_count; k++) {
+        free(s->images[k].mime);
+        free(s->images[k].data);
+    }
+    free(s->images);
+    free(s->textures);
+    free(s->point_uv);
     free(s->source);
     free(s);
 }
@@ -619,6 +629,9 @@ int rad_scene_add_polygon(rad_scene *s, const char *name, uint32_t object, uint3
         return failf(err, s, RAD_ERR_NOMEM, where, "%sout of memory", el);
     if (s->polygon_rho && polygon_rho_room(s, (uint64_t)s->polygon_count + 1) != 0)
         return failf(err, s, RAD_ERR_NOMEM, where, "%sout of memory", el);
+    if (s->point_uv && grow((void **)&s->point_uv, &s->point_uv_cap_,
+                            2 * ((uint64_t)s->point_count + count), sizeof *s->point_uv) != 0)
+        return failf(err, s, RAD_ERR_NOMEM, where, "%sout of memory", el);
     rad_polygon *pg = &s->polygons[s->polygon_count];
     pg->name = strdup(pname);
     if (!pg->name)
@@ -627,6 +640,8 @@ int rad_scene_add_polygon(rad_scene *s, const char *name, uint32_t object, uint3
         memcpy(s->polygon_rho + (size_t)s->polygon_count * s->band_count,
                s->materials[material].rho, s->band_count * sizeof(double));
     memcpy(s->points + s->point_count, points, (size_t)count * sizeof *points);
+    if (s->point_uv) /* until told otherwise, (0, 0) */
+        memset(s->point_uv + 2 * (size_t)s->point_count, 0, 2 * (size_t)count * sizeof(double));
     pg->first_point = s->point_count;
     pg->point_count = count;
     pg->material = material;
@@ -673,6 +688,105 @@ int rad_scene_set_polygon_rho(rad_scene *s, uint32_t polygon, const double *rho,
     }
     memcpy(s->polygon_rho + (size_t)polygon * s->band_count, rho,
            s->band_count * sizeof(double));
+    return RAD_OK;
+}
+
+/* ----------------------------------------------------------------- textures */
+
+/* The signature an encoded image of this media type starts with, or NULL
+ * for a type glTF does not allow. */
+static const char *image_signature(const char *mime, size_t *n)
+{
+    if (mime && !strcmp(mime, "image/png"))
+        return *n = 8, "\x89PNG\r\n\x1a\n";
+    if (mime && !strcmp(mime, "image/jpeg"))
+        return *n = 3, "\xff\xd8\xff";
+    return NULL;
+}
+
+int rad_scene_add_image(rad_scene *s, const char *mime, const unsigned char *data,
+                        uint64_t size, const char *where, uint32_t *index, rad_error *err)
+{
+    if (!s || (!data && size))
+        return rad_fail(err, RAD_ERR_USAGE, "rad_scene_add_image: no scene or no data");
+    size_t n = 0;
+    const char *sig = image_signature(mime, &n);
+    if (!sig)
+        return failf(err, s, RAD_ERR_INVALID, where, "image type '%.40s' is not image/png or "
+                     "image/jpeg", mime ? mime : "");
+    if (size < n || memcmp(data, sig, n) != 0)
+        return failf(err, s, RAD_ERR_INVALID, where, "image: %llu bytes that do not start as "
+                     "%s does", (unsigned long long)size, mime);
+    if (size > SIZE_MAX || grow((void **)&s->images, &s->image_cap_,
+                                (uint64_t)s->image_count + 1, sizeof *s->images) != 0)
+        return failf(err, s, RAD_ERR_NOMEM, where, "image: out of memory");
+    rad_image *im = &s->images[s->image_count];
+    im->mime = strdup(mime);
+    im->data = malloc((size_t)size);
+    if (!im->mime || !im->data) {
+        free(im->mime);
+        free(im->data);
+        return failf(err, s, RAD_ERR_NOMEM, where, "image: out of memory");
+    }
+    memcpy(im->data, data, (size_t)size);
+    im->size = size;
+    if (index)
+        *index = s->image_count;
+    s->image_count++;
+    return RAD_OK;
+}
+
+static int wrap_ok(int w)
+{
+    return w == 0 || w == RAD_WRAP_REPEAT || w == RAD_WRAP_CLAMP || w == RAD_WRAP_MIRROR;
+}
+
+int rad_scene_add_texture(rad_scene *s, const rad_texture *t, const char *where, rad_error *err)
+{
+    if (!s || !t)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_scene_add_texture: no scene or no texture");
+    if (t->material >= s->material_count || t->image >= s->image_count)
+        return failf(err, s, RAD_ERR_INVALID, where, "texture: material %u or image %u does not "
+                     "exist (%u materials, %u images)", t->material, t->image,
+                     s->material_count, s->image_count);
+    const char *mname = s->materials[t->material].name;
+    if (rad_material_texture(s, t->material))
+        return failf(err, s, RAD_ERR_INVALID, where, "material '%s': a second texture", mname);
+    if (!wrap_ok(t->wrap_s) || !wrap_ok(t->wrap_t) || t->mag_filter < 0 || t->min_filter < 0)
+        return failf(err, s, RAD_ERR_INVALID, where, "material '%s': sampler %d %d %d %d is not "
+                     "glTF's", mname, t->wrap_s, t->wrap_t, t->mag_filter, t->min_filter);
+    for (int c = 0; c < 4; c++)
+        if (!(t->factor[c] >= 0.0 && t->factor[c] <= 1.0))
+            return failf(err, s, RAD_ERR_INVALID, where, "material '%s': baseColorFactor %g "
+                         "outside [0, 1]", mname, t->factor[c]);
+    if (grow((void **)&s->textures, &s->texture_cap_, (uint64_t)s->texture_count + 1,
+             sizeof *s->textures) != 0)
+        return failf(err, s, RAD_ERR_NOMEM, where, "texture: out of memory");
+    s->textures[s->texture_count++] = *t;
+    return RAD_OK;
+}
+
+int rad_scene_set_polygon_uv(rad_scene *s, uint32_t polygon, const double *uv,
+                             const char *where, rad_error *err)
+{
+    if (!s || !uv)
+        return rad_fail(err, RAD_ERR_USAGE, "rad_scene_set_polygon_uv: no scene or no values");
+    if (polygon >= s->polygon_count)
+        return failf(err, s, RAD_ERR_USAGE, where, "polygon %u does not exist (%u polygons)",
+                     polygon, s->polygon_count);
+    const rad_polygon *pg = &s->polygons[polygon];
+    for (uint32_t k = 0; k < 2 * pg->point_count; k++)
+        if (!isfinite(uv[k]))
+            return failf(err, s, RAD_ERR_INVALID, where, "polygon '%s': texture coordinate %g "
+                         "is not finite", pg->name, uv[k]);
+    if (!s->point_uv) {
+        if (grow((void **)&s->point_uv, &s->point_uv_cap_,
+                 2 * (uint64_t)(s->point_cap_ ? s->point_cap_ : 1), sizeof *s->point_uv) != 0)
+            return failf(err, s, RAD_ERR_NOMEM, where, "polygon '%s': out of memory", pg->name);
+        memset(s->point_uv, 0, 2 * (size_t)s->point_count * sizeof *s->point_uv);
+    }
+    memcpy(s->point_uv + 2 * (size_t)pg->first_point, uv,
+           2 * (size_t)pg->point_count * sizeof *uv);
     return RAD_OK;
 }
 

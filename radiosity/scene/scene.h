@@ -50,6 +50,32 @@ static inline int rad_material_transmits(const rad_material *m, uint32_t bands)
     return 0;
 }
 
+/* An image as the input held it: the encoded bytes (PNG or JPEG, never
+ * re-encoded) and their media type. */
+typedef struct rad_image {
+    char *mime;          /* "image/png" or "image/jpeg" */
+    unsigned char *data; /* size bytes, starting with the format's signature */
+    uint64_t size;
+} rad_image;
+
+/* glTF sampler values (the specification's numbers), 0 = not given. */
+#define RAD_WRAP_REPEAT 10497
+#define RAD_WRAP_CLAMP 33071
+#define RAD_WRAP_MIRROR 33648
+
+/* Material `material`'s base-colour texture: image `image` sampled at the
+ * input's TEXCOORD_<texcoord> set (kept in the scene's point_uv), with the
+ * input's sampler and baseColorFactor.  The material's ρ stays the mean
+ * reflectance the solve uses. */
+typedef struct rad_texture {
+    uint32_t material;
+    uint32_t image;
+    uint32_t texcoord;          /* the input's set number (informative) */
+    int wrap_s, wrap_t;         /* RAD_WRAP_* or 0 */
+    int mag_filter, min_filter; /* glTF filter numbers or 0 */
+    double factor[4];           /* baseColorFactor RGBA as the input gave it */
+} rad_texture;
+
 typedef struct rad_object {
     char *name; /* glTF: node name, else mesh name, else "node<index>"; polygon file: polygon or group name */
 } rad_object;
@@ -136,6 +162,19 @@ typedef struct rad_scene {
      * Read it through rad_polygon_rho.  Set by rad_scene_set_polygon_rho. */
     double *polygon_rho;
     uint32_t polygon_rho_cap_; /* polygons polygon_rho has room for (private to scene.c) */
+    /* Base-colour textures (glTF baseColorTexture), kept for the bake: the
+     * solve reflects with the material's ρ (the texture's mean), a baked
+     * file draws the texture under the solved light.  images and textures
+     * are empty and point_uv is NULL in a scene without one. */
+    rad_image *images;
+    uint32_t image_count;
+    rad_texture *textures;   /* at most one per material */
+    uint32_t texture_count;
+    /* Texture coordinates (u, v) of each point, 2 × point_count values at
+     * [2k], [2k + 1], or NULL; points never given any hold 0.  Set per
+     * polygon by rad_scene_set_polygon_uv. */
+    double *point_uv;
+    uint32_t image_cap_, texture_cap_, point_uv_cap_; /* private to scene.c */
 } rad_scene;
 
 /* ρ per band of polygon p: its own (polygon_rho) or its material's. */
@@ -143,6 +182,15 @@ static inline const double *rad_polygon_rho(const rad_scene *s, uint32_t p)
 {
     return s->polygon_rho ? s->polygon_rho + (size_t)p * s->band_count
                           : s->materials[s->polygons[p].material].rho;
+}
+
+/* Material m's base-colour texture, or NULL. */
+static inline const rad_texture *rad_material_texture(const rad_scene *s, uint32_t m)
+{
+    for (uint32_t k = 0; k < s->texture_count; k++)
+        if (s->textures[k].material == m)
+            return &s->textures[k];
+    return NULL;
 }
 
 /* Options for loading; {0} means defaults. */
@@ -285,6 +333,19 @@ int rad_scene_set_camera_ortho(rad_scene *s, uint32_t camera, double xmag, doubl
  * transmittance τ, in every band.  The first call allocates polygon_rho. */
 int rad_scene_set_polygon_rho(rad_scene *s, uint32_t polygon, const double *rho,
                               const char *where, rad_error *err);
+
+/* Adds a copy of an encoded image: mime "image/png" or "image/jpeg" and
+ * data starting with that format's signature, size > 0.  *index may be NULL. */
+int rad_scene_add_image(rad_scene *s, const char *mime, const unsigned char *data,
+                        uint64_t size, const char *where, uint32_t *index, rad_error *err);
+/* Gives t->material the texture *t (copied): existing material and image,
+ * wrap modes RAD_WRAP_* or 0, finite factors in [0, 1], no texture yet. */
+int rad_scene_add_texture(rad_scene *s, const rad_texture *t, const char *where, rad_error *err);
+/* Sets the texture coordinates of polygon p's points: 2 × point_count
+ * finite values (u0, v0, u1, v1, ...), copied.  The first call allocates
+ * point_uv (0 elsewhere). */
+int rad_scene_set_polygon_uv(rad_scene *s, uint32_t polygon, const double *uv,
+                             const char *where, rad_error *err);
 
 /* Checks and stores a punctual light (see rad_light).  direction is
  * normalised here (it must not be zero for a spot or directional light;

@@ -36,6 +36,7 @@ const char sol_sec_tag[SEC_COUNT][4] = {
     [SEC_MATRIXREF] = {'M', 'R', 'E', 'F'},
     [SEC_BASIS] = {'B', 'A', 'S', 'I'},
     [SEC_ELEMENT_ROWS] = {'E', 'L', 'R', 'W'},
+    [SEC_TEXTURES] = {'T', 'E', 'X', 'R'},
 };
 
 const char *const sol_sec_name[SEC_COUNT] = {
@@ -57,6 +58,7 @@ const char *const sol_sec_name[SEC_COUNT] = {
     [SEC_MATRIXREF] = "MATRIXREF",
     [SEC_BASIS] = "BASIS",
     [SEC_ELEMENT_ROWS] = "ELEMENTROWS",
+    [SEC_TEXTURES] = "TEXTURES",
 };
 
 const int sol_version_sections[SOL_VERSION_SHEETS + 1] = {0, SEC_LIGHTS, SEC_ELEMENTS,
@@ -74,7 +76,7 @@ int sol_section_order(size_t q)
     if (q <= (size_t)(SEC_LAST_ANNOUNCED - SEC_LIGHTS))
         return SEC_LIGHTS + (int)q;
     q -= (size_t)(SEC_LAST_ANNOUNCED - SEC_LIGHTS) + 1;
-    static const int tail[] = {SEC_BASIS, SEC_ELEMENT_ROWS};
+    static const int tail[] = {SEC_BASIS, SEC_ELEMENT_ROWS, SEC_TEXTURES};
     return q < sizeof tail / sizeof tail[0] ? tail[q] : -1;
 }
 

@@ -1242,6 +1242,95 @@ static int parse_basis(sol_reader *r, rad_solution *s)
     return sol_check_basis(s, r->name, "section BASIS", RAD_ERR_CORRUPT, r->err);
 }
 
+/* A failure of scene.c's checks, sub, as this section's: scene.c named the
+ * scene's source file, which is not the file being read. */
+static int scene_fail(sol_reader *r, const rad_scene *sc, const rad_error *sub)
+{
+    const char *what = sub->message;
+    size_t n = strlen(sc->source);
+    if (!strncmp(what, sc->source, n) && !strncmp(what + n, ": ", 2))
+        what += n + 2;
+    if (!strncmp(what, "section TEXTURES: ", 18))
+        what += 18;
+    return sol_rfail(r, sub->code == RAD_ERR_NOMEM ? RAD_ERR_NOMEM : RAD_ERR_CORRUPT, "%s", what);
+}
+
+/* TEXTURES (version 8, write.c's emit_textures): every image, texture and
+ * coordinate through scene.c's checks; the points must be the scene's. */
+static int parse_images(sol_reader *r, rad_scene *sc)
+{
+    uint32_t n;
+    int rc = get_count(r, &n, MIN_STRING + 8u, "image", "images");
+    for (uint32_t i = 0; i < n && !rc; i++) {
+        uint64_t size;
+        if ((rc = get_str(r, "image", i)))
+            break;
+        if (!sol_get_u64(&r->c, &size) || size > r->c.left)
+            return TRUNC("image %u: truncated", i);
+        rad_error sub;
+        if (rad_scene_add_image(sc, r->str, r->c.p, size, "section TEXTURES", NULL, &sub))
+            return scene_fail(r, sc, &sub);
+        r->c.p += size;
+        r->c.left -= (size_t)size;
+    }
+    return rc;
+}
+
+/* The points' (u, v), polygon by polygon (the count checked by the caller). */
+static int parse_point_uv(sol_reader *r, rad_scene *sc)
+{
+    uint32_t most = 0;
+    for (uint32_t p = 0; p < sc->polygon_count; p++)
+        most = sc->polygons[p].point_count > most ? sc->polygons[p].point_count : most;
+    double *uv = malloc(2 * ((size_t)most + 1) * sizeof *uv);
+    if (!uv)
+        return sol_rfail(r, RAD_ERR_NOMEM, "out of memory");
+    int rc = RAD_OK;
+    for (uint32_t p = 0; p < sc->polygon_count && !rc; p++) {
+        for (uint32_t k = 0; k < 2 * sc->polygons[p].point_count; k++)
+            sol_get_f64(&r->c, &uv[k]); /* the length was checked */
+        rad_error sub;
+        if (rad_scene_set_polygon_uv(sc, p, uv, "section TEXTURES", &sub))
+            rc = scene_fail(r, sc, &sub);
+    }
+    free(uv);
+    return rc;
+}
+
+static int parse_textures(sol_reader *r, rad_solution *s)
+{
+    rad_scene *sc = s->scene;
+    uint32_t n = 0, np = 0;
+    int rc = parse_images(r, sc);
+    if (!rc)
+        rc = get_count(r, &n, 7u * 4u + 4u * 8u, "texture", "textures");
+    for (uint32_t i = 0; i < n && !rc; i++) {
+        uint32_t v[7];
+        rad_texture t;
+        int ok = 1;
+        for (int k = 0; k < 7; k++)
+            ok = ok && sol_get_u32(&r->c, &v[k]);
+        for (int k = 0; k < 4; k++)
+            ok = ok && sol_get_f64(&r->c, &t.factor[k]);
+        if (!ok)
+            return TRUNC("texture %u: truncated", i);
+        t.material = v[0], t.image = v[1], t.texcoord = v[2];
+        t.wrap_s = (int)(v[3] & 0xffff), t.wrap_t = (int)(v[4] & 0xffff);
+        t.mag_filter = (int)(v[5] & 0xffff), t.min_filter = (int)(v[6] & 0xffff);
+        rad_error sub;
+        if (v[3] > 0xffff || v[4] > 0xffff || v[5] > 0xffff || v[6] > 0xffff)
+            return TRUNC("texture %u: sampler values %u %u %u %u", i, v[3], v[4], v[5], v[6]);
+        if (rad_scene_add_texture(sc, &t, "section TEXTURES", &sub))
+            return scene_fail(r, sc, &sub);
+    }
+    if (!rc && !sol_get_u32(&r->c, &np))
+        return TRUNC("point count: truncated");
+    if (!rc && (np != sc->point_count || (uint64_t)np * 16u != r->c.left))
+        return TRUNC("%u points in %zu bytes, but the scene has %u points", np, r->c.left,
+                     sc->point_count);
+    return rc ? rc : parse_point_uv(r, sc);
+}
+
 typedef int (*parse_fn)(sol_reader *, rad_solution *);
 static const parse_fn sec_parse[SEC_COUNT] = {
     [SEC_INFO] = parse_info,
@@ -1262,6 +1351,7 @@ static const parse_fn sec_parse[SEC_COUNT] = {
     [SEC_MATRIXREF] = parse_matrixref,
     [SEC_BASIS] = parse_basis,
     [SEC_ELEMENT_ROWS] = parse_element_rows,
+    [SEC_TEXTURES] = parse_textures,
 };
 
 int sol_parse_section(sol_reader *r, int sec, rad_solution *s)

@@ -265,6 +265,9 @@ static int parse_index(const uint8_t *d, uint64_t len, const sol_head *h, const 
     if (x->at[SEC_ELEMENT_ROWS] >= 0 && h->version < SOL_VERSION_ELEMENT_ROWS)
         return rad_fail(err, RAD_ERR_CORRUPT, "%s: section ELEMENTROWS in a version %u file", name,
                         h->version);
+    if (x->at[SEC_TEXTURES] >= 0 && h->version < SOL_VERSION_TEXTURES)
+        return rad_fail(err, RAD_ERR_CORRUPT, "%s: section TEXTURES in a version %u file", name,
+                        h->version);
     if ((x->at[SEC_MATRIX] >= 0) == (x->at[SEC_MATRIXREF] >= 0))
         return rad_fail(err, RAD_ERR_CORRUPT, "%s: %s", name,
                         x->at[SEC_MATRIX] >= 0 ? "both MATRIX and MATRIXREF"

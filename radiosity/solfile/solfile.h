@@ -29,7 +29,7 @@
 /* The solution file's format versions (docs/solution-format.md): every file
  * is written as RAD_SOLFILE_VERSION; files of RAD_SOLFILE_OLDEST_VERSION
  * up to RAD_SOLFILE_VERSION are read. */
-#define RAD_SOLFILE_VERSION 7u
+#define RAD_SOLFILE_VERSION 8u
 #define RAD_SOLFILE_OLDEST_VERSION 1u
 
 /* Where a solution's F was read from: the MATRIX section of a version 6

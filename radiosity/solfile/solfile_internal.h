@@ -25,7 +25,7 @@
  * without a word, which for the last would relight the elements from their
  * patches' direct light, or taking a sheet's two sides for two unrelated
  * opaque surfaces - carries a version they refuse. */
-#define SOL_VERSION RAD_SOLFILE_VERSION /* 7 (solfile.h) */
+#define SOL_VERSION RAD_SOLFILE_VERSION /* 8 (solfile.h) */
 #define SOL_VERSION_SHEETS 5u
 /* Version 6: the sections' table and checksums in an index at the end of
  * the file (any command reads only the sections it needs, each checked on
@@ -34,9 +34,12 @@
 #define SOL_VERSION_INDEX 6u
 /* Version 7 = version 6 with the elements' row entries (F_ej) out of
  * ELEMENTS, in ELEMENTROWS: ELEMENTS keeps each row's entry count, so
- * render and report read the elements without a byte of their rows.
- * Every file is written as version 7. */
+ * render and report read the elements without a byte of their rows. */
 #define SOL_VERSION_ELEMENT_ROWS 7u
+/* Version 8 = version 7 + the TEXTURES section (the scene's base-colour
+ * textures and texture coordinates, for a bake).  Every file is written as
+ * version 8. */
+#define SOL_VERSION_TEXTURES 8u
 #define SOL_HEADER_BYTES 32u
 #define SOL_INDEX_HEAD 8u        /* u32 count, u32 version (7 on; 0 in version 6) */
 #define SOL_INDEX_ENTRY 32u      /* tag, u32 reserved, u64 offset, u64 length, u64 CRC */
@@ -74,8 +77,11 @@
  * ELEMENTROWS (version 7) is not announced either: it is there exactly
  * when ELEMENTS counts some row entry, which the reader checks against the
  * index whether it reads the section or not (RAD_PART_ELEMENT_ROWS).  It
- * is parsed last (its rows are checked against the complete elements,
- * ELEMENTINDIRECT's flags included).
+ * is parsed after BASIS (its rows are checked against the complete
+ * elements, ELEMENTINDIRECT's flags included).  TEXTURES (version 8) is
+ * not announced either: it is there exactly when the scene has a texture
+ * (a reader that skipped it would bake without it, nothing else), and is
+ * parsed last.
  *
  * Adding an optional section (docs/solution-format.md, "Adding a
  * section"): its enum entry just before SEC_ROWS (its INFO bit follows
@@ -85,10 +91,12 @@
 enum { SEC_INFO, SEC_SCENE, SEC_MESH, SEC_MATRIX, SEC_PATCHDATA, SEC_LIGHTS, SEC_ELEMENTS,
        SEC_ELEMENT_LIGHTS, SEC_CAMERAS, SEC_SURFACE, SEC_CLUSTERS, SEC_ELEMENT_INDIRECT,
        SEC_PROGRESS,
-       SEC_ROWS, SEC_IRRADIANCE, SEC_MATRIXREF, SEC_BASIS, SEC_ELEMENT_ROWS, SEC_COUNT };
+       SEC_ROWS, SEC_IRRADIANCE, SEC_MATRIXREF, SEC_BASIS, SEC_ELEMENT_ROWS, SEC_TEXTURES,
+       SEC_COUNT };
 /* Sections of versions 1-5 (the others are refused there). */
 _Static_assert(SEC_BASIS > SEC_ROWS, "BASIS is a version 6 section");
 _Static_assert(SEC_ELEMENT_ROWS > SEC_ROWS, "ELEMENTROWS is a version 7 section");
+_Static_assert(SEC_TEXTURES > SEC_ROWS, "TEXTURES is a version 8 section");
 #define SEC_COUNT_V5 SEC_ROWS
 /* The optional sections INFO announces (versions 5 and 6), one bit each
  * from LIGHTS on, in enum order: LIGHTS 1, ELEMENTS 2, ELEMENTLIGHTS 4,

@@ -691,6 +691,39 @@ static void emit_basis(sol_sink *k, const sol_write_ctx *w)
     }
 }
 
+/* TEXTURES (version 8): the images (media type, length, the bytes as the
+ * input held them), the textures (material, image, texCoord set, the
+ * sampler's wrap S and T, mag and min filter, baseColorFactor RGBA), then
+ * the (u, v) of every point, polygon by polygon (point_count first). */
+static void emit_textures(sol_sink *k, const sol_write_ctx *w)
+{
+    const rad_scene *sc = w->s->scene;
+    put_u32(k, sc->image_count);
+    for (uint32_t i = 0; i < sc->image_count; i++) {
+        put_str(k, sc->images[i].mime);
+        put_u64(k, sc->images[i].size);
+        put(k, sc->images[i].data, (size_t)sc->images[i].size);
+    }
+    put_u32(k, sc->texture_count);
+    for (uint32_t i = 0; i < sc->texture_count; i++) {
+        const rad_texture *t = &sc->textures[i];
+        put_u32(k, t->material);
+        put_u32(k, t->image);
+        put_u32(k, t->texcoord);
+        put_u32(k, (uint32_t)t->wrap_s);
+        put_u32(k, (uint32_t)t->wrap_t);
+        put_u32(k, (uint32_t)t->mag_filter);
+        put_u32(k, (uint32_t)t->min_filter);
+        for (int c = 0; c < 4; c++)
+            put_f64(k, t->factor[c]);
+    }
+    put_u32(k, sc->point_count);
+    for (uint32_t p = 0; p < sc->point_count; p++) {
+        put_f64(k, sc->point_uv ? sc->point_uv[2 * (size_t)p] : 0.0);
+        put_f64(k, sc->point_uv ? sc->point_uv[2 * (size_t)p + 1] : 0.0);
+    }
+}
+
 typedef void (*emit_fn)(sol_sink *, const sol_write_ctx *);
 static const emit_fn sec_emit[SEC_COUNT] = {
     [SEC_INFO] = emit_info,
@@ -711,6 +744,7 @@ static const emit_fn sec_emit[SEC_COUNT] = {
     [SEC_MATRIXREF] = emit_matrixref,
     [SEC_BASIS] = emit_basis,
     [SEC_ELEMENT_ROWS] = emit_element_rows,
+    [SEC_TEXTURES] = emit_textures,
 };
 
 /* Whether the file holds section i: the optional ones only when the
@@ -744,6 +778,8 @@ static int section_written(const rad_solution *s, int i)
         return rad_basis_matches(s);
     case SEC_ELEMENT_ROWS:
         return element_entries(s->elements) > 0;
+    case SEC_TEXTURES:
+        return s->scene->texture_count > 0;
     default:
         return 1;
     }

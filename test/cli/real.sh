@@ -35,14 +35,16 @@ solves() {
     fi
 }
 
-solves textured.gltf 3 "extensions KHR_texture_transform, KHR_materials_specular: ignored" \
+solves textured.gltf 4 "meshes 'floor', 'wall': primitives without the TEXCOORD set" \
+    "extensions KHR_texture_transform, KHR_materials_specular: ignored" \
     "materials 'checker floor', 'bricks', 'lamp': texture coordinates ignored" \
     "material 'checker floor': normal, occlusion and metallic-roughness textures ignored"
 solves no-material.gltf 5 "mesh 'floor': primitives without a material get glTF's default" \
     "mesh 'floor' (LINES): primitives without area (points, lines) skipped" \
     "material 'gold': metallicFactor drawn by render --gather only" "material 'leaf' (MASK): alphaMode ignored" \
     "light 'bulb': range ignored"
-solves vertex-colors.glb 2 "material 'painted': reflectance >= 1 clamped to 0.95 (--strict refuses it)" \
+solves vertex-colors.glb 3 "primitives without the TEXCOORD set of their baseColorTexture" \
+    "material 'painted': reflectance >= 1 clamped to 0.95 (--strict refuses it)" \
     "material 'label': texture coordinates ignored"
 solves ortho.gltf 1 "extensions KHR_materials_transmission, KHR_materials_volume: ignored"
 
@@ -68,7 +70,7 @@ refuses "--fov with --ortho" "--fov and --ortho exclude each other" \
 
 # --strict takes what needs no repair (the warnings about ignored things stay).
 if "$BIN" solve "$real/textured.gltf" -o "$dir/strict.sol" --strict --patch-size 1 --resolution 32 \
-       > /dev/null 2> "$dir/stderr" && [ "$(wc -l < "$dir/stderr")" -eq 3 ]; then
+       > /dev/null 2> "$dir/stderr" && [ "$(wc -l < "$dir/stderr")" -eq 4 ]; then
     ok "--strict solves textured.gltf"
 else
     bad "--strict textured.gltf: $(cat "$dir/stderr")"
