@@ -149,6 +149,9 @@ $(B)/bench/bench_scale: $(B)/obj/tools/hall.o $(B)/obj/tools/scene_gltf.o
 # bench_atrium writes the atrium (tools/atrium.c) and the hall
 $(B)/bench/bench_atrium: $(B)/obj/tools/atrium.o $(B)/obj/tools/hall.o $(B)/obj/tools/scene_gltf.o
 
+# test_room writes issue 36's closed room (tools/room.c)
+$(B)/test/test_room: $(B)/obj/tools/room.o $(B)/obj/tools/scene_gltf.o
+
 # bench_bake bakes the same hall
 $(B)/bench/bench_bake: $(B)/obj/tools/hall.o $(B)/obj/tools/scene_gltf.o
 
