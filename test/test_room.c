@@ -57,8 +57,14 @@ int main(int argc, char **argv)
     if (argc > 2)
         return 0;
     char path[256];
-    snprintf(path, sizeof path, "%s/room.gltf", d);
+    snprintf(path, sizeof path, "%s/room.gltf", getenv("ROOM_DIR") ? getenv("ROOM_DIR") : d);
     rad_solve_options opt = {0};
+    if (getenv("ROOM_ELHC"))
+        opt.element_hemicubes = 1;
+    if (getenv("ROOM_LEVELS"))
+        opt.element_levels = (uint32_t)atoi(getenv("ROOM_LEVELS"));
+    if (getenv("ROOM_PS"))
+        opt.mesh.patch_size = atof(getenv("ROOM_PS"));
     rad_error err = {0};
     if (rad_solve_scene_file(path, &opt, &solution, &err)) {
         fprintf(stderr, "  solve: %s\n", err.message);

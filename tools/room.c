@@ -31,6 +31,7 @@ static const double emit[][3] = {{0}, {0}, {0}, {1.0, 0.95, 0.85}, {0}, {0}, {0}
 #define RX 4.0
 #define RY 2.7
 #define RZ 3.0
+#define TABLE_Y 0.76 /* the table's top */
 
 /* The quad p, p + U, p + U + V, p + V as two triangles facing `facing`. */
 static void quad(obj *o, v3 p, v3 U, v3 V, v3 facing)
@@ -125,23 +126,30 @@ static int table(gs_scene *h)
     obj *o = gs_new_obj(h, "table", M_TABLE);
     if (!o)
         return -1;
-    double cx = 2.4, cz = 1.6, y0 = 0.72, y1 = 0.76;
+    double cx = 2.4, cz = 1.6, y0 = TABLE_Y - 0.04, y1 = TABLE_Y;
     cylinder(o, cx, cz, 0.55, y0, y1, 48, 1);
     for (int k = 0; k < 4; k++)
         cylinder(o, cx + (k & 1 ? 0.3 : -0.3), cz + (k & 2 ? 0.3 : -0.3), 0.025, 0.0, y0, 12, 0);
     return 0;
 }
 
+static double sq(double x) { return x * x; }
+
 /* The head's radius in unit direction u: a sphere pushed in and out. */
 static double head_radius(v3 u)
 {
-    return 1.0 + 0.10 * sin(3.0 * u.x) * cos(2.0 * u.y) + 0.08 * u.z * u.z - 0.06 * u.y * u.x;
+    /* a brow and a nose forward (+x), two eye sockets below the brow */
+    double r = 1.0 + 0.10 * sin(3.0 * u.x) * cos(2.0 * u.y) + 0.08 * u.z * u.z - 0.06 * u.y * u.x;
+    r += 0.25 * exp(-(sq(u.x - 0.95) + sq(u.y + 0.05) + sq(u.z)) / 0.02);
+    r -= 0.18 * exp(-(sq(u.x - 0.85) + sq(u.y - 0.25) + sq(u.z - 0.35)) / 0.015);
+    r -= 0.18 * exp(-(sq(u.x - 0.85) + sq(u.y - 0.25) + sq(u.z + 0.35)) / 0.015);
+    return r;
 }
 
 /* An icosphere (each of the 20 faces cut into s² triangles, pushed onto
  * the displaced sphere) of centre c and half-axes ax, flat-shaded: each
  * facet its own vertices. */
-static int head(gs_scene *h, v3 c, v3 ax, uint32_t s)
+static int head(gs_scene *h, v3 c, v3 ax, uint32_t s, double rest_y)
 {
     obj *o = gs_new_obj(h, "head", M_HEAD);
     if (!o)
@@ -174,6 +182,12 @@ static int head(gs_scene *h, v3 c, v3 ax, uint32_t s)
                     gs_tri(o, a, b, d, mid);
                 }
     }
+    /* resting on y = rest_y: its lowest corner moved there */
+    float low = INFINITY;
+    for (uint32_t k = 0; k < o->nv; k++)
+        low = fminf(low, o->v[3 * k + 1]);
+    for (uint32_t k = 0; k < o->nv; k++)
+        o->v[3 * k + 1] += (float)rest_y - low;
     return 0;
 }
 
@@ -185,8 +199,8 @@ static int build(gs_scene *h, double fine)
     obj *s = gs_new_obj(h, "sphere", M_SPHERE);
     if (!s)
         return -1;
-    uv_sphere(s, mk(0.9, 0.35, 0.9), 0.35, 32, 16);
-    if (table(h) || head(h, mk(2.5, 0.99, 1.5), mk(0.14, 0.18, 0.16), 4))
+    uv_sphere(s, mk(2.05, TABLE_Y + 0.25, 1.85), 0.25, 32, 16);
+    if (table(h) || head(h, mk(2.6, 1.0, 1.35), mk(0.14, 0.18, 0.16), 4, TABLE_Y))
         return -1;
     return gs_failed(h) ? -1 : 0;
 }
