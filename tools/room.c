@@ -18,6 +18,7 @@
 #include "scene_gltf.h"
 
 #include <math.h>
+#include <stddef.h>
 
 enum { M_FLOOR, M_WALLS, M_CEILING, M_LAMP, M_SPHERE, M_TABLE, M_HEAD };
 static const gs_material materials[] = {
@@ -205,10 +206,16 @@ static int build(gs_scene *h, double fine)
     return gs_failed(h) ? -1 : 0;
 }
 
-int room_write(const char *dir, const char *name, room_stats *stats)
+int room_write(const char *dir, const char *name, int dark, room_stats *stats)
 {
+    gs_material black[sizeof materials / sizeof materials[0]];
+    for (size_t m = 0; m < sizeof materials / sizeof materials[0]; m++) {
+        black[m] = materials[m];
+        if (m != M_SPHERE && m != M_HEAD)
+            black[m].rgb[0] = black[m].rgb[1] = black[m].rgb[2] = 0.0;
+    }
     gs_scene h = {.seed = 1,
-                  .materials = materials,
+                  .materials = dark ? black : materials,
                   .material_count = sizeof materials / sizeof materials[0],
                   .emit = &emit[0][0],
                   .generator = "tools/room.c"};

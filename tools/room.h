@@ -15,7 +15,9 @@ typedef struct room_stats {
 } room_stats;
 
 /* Writes DIR/NAME.gltf and DIR/NAME.bin; 0, or -1 with a message on
- * stderr.  The geometry is fixed (no randomness). */
-int room_write(const char *dir, const char *name, room_stats *stats);
+ * stderr.  The geometry is fixed (no randomness).  dark = 1: every
+ * material but the lamp's, the sphere's and the head's black (ρ = 0), so
+ * that those two receive the lamp's direct light only. */
+int room_write(const char *dir, const char *name, int dark, room_stats *stats);
 
 #endif /* TOOLS_ROOM_H */
