@@ -13,8 +13,8 @@
  * sphere's silhouette, counted as shadow (elements/direct.c,
  * hemicube/light_views.c).  The patches were right; the elements, which
  * are what is drawn and baked, were dark: in this room the sphere's mean
- * was 1.6 % low and the head's 1.1 %, and 2.9 % low for the sphere under
- * the lamp's direct light alone.
+ * was 2.1 % low and the head's 1.7 % (band sums), and the sphere's 2.9 %
+ * low under the lamp's direct light alone.
  *
  * The solve at the defaults takes 40-45 s of CPU (release build, load
  * average 5-6 on 2 cores): 2,905 patches, 1,620 of them on the table,
@@ -142,12 +142,19 @@ static int solve(const char *dir, int dark, rad_solution **out)
 /* ------------------------------------------------------------ tests */
 
 /* Each object's area-mean B against the path tracer's.  Measured (elements,
- * band sum, reference's standard error beside; release build):
- *   floor +0.1 % (0.15), walls +0.0 % (0.15), ceiling +0.0 % (0.15),
- *   sphere -0.1 % (0.15), table +0.9 % (0.15), head -0.5 % (0.15);
- * before the fix, sphere -1.6 %, head -1.1 %.  Bounds: the issue's 2 % on
- * each band, and 1.2 % on each object's band sum (a few standard errors
- * beyond the table's, the largest measured). */
+ * band sum; the reference's standard error of it 0.1 %; release build):
+ *   floor +0.31 %, walls +0.00 %, ceiling -0.08 %, sphere -0.50 %,
+ *   table +0.62 %, head -1.00 %;
+ * before the fix, sphere -2.1 % and head -1.7 % (their patches, which
+ * the fix leaves alone, -0.29 % and -0.55 %).  Bounds: the issue's 2 % on each band, and on each
+ * object's band sum its measured error plus 0.5 % (so that a 0.5 %
+ * regression fails): */
+static const struct {
+    const char *name;
+    double tol;
+} band_sum_tol[] = {{"floor", 0.008}, {"walls", 0.005}, {"ceiling", 0.005}, {"lamp", 1e-6},
+                    {"sphere", 0.010}, {"table", 0.011}, {"head", 0.015}};
+
 TEST(object_means_match_path_tracer)
 {
     reference r;
@@ -172,8 +179,12 @@ TEST(object_means_match_path_tracer)
             }
             printf("  %-8s elements %.6f, patches %.6f, reference %.6f ± %.2f %%: %+.2f %%\n",
                    r.name[k], se, sp, sr, 100.0 * sqrt(sx) / sr, 100.0 * (se / sr - 1.0));
-            CHECK_MSG(fabs(se / sr - 1.0) <= 0.012, "%s: band sum %.6f vs %.6f", r.name[k], se,
-                      sr);
+            double tol = 0.0;
+            for (size_t t = 0; t < sizeof band_sum_tol / sizeof band_sum_tol[0]; t++)
+                if (!strcmp(band_sum_tol[t].name, r.name[k]))
+                    tol = band_sum_tol[t].tol;
+            CHECK_MSG(fabs(se / sr - 1.0) <= tol, "%s: band sum %.6f vs %.6f, bound %.1f %%",
+                      r.name[k], se, sr, 100.0 * tol);
         }
     CHECK(matched == 7 && r.count == 7);
 }
@@ -207,8 +218,8 @@ TEST(closed_room_absorbs_what_it_emits)
 /* Under the lamp's direct light alone (everything else black), the mean
  * of a curved object's elements is its patches' mean (exact: the lamp's
  * entries of the patch rows are area averages over each facet).  Measured
- * sphere +0.1 %, head -0.2 %; before the fix -2.9 % and -0.2 %.  Bound
- * 0.6 %. */
+ * sphere +0.19 %, head -0.28 %; before the fix the sphere's was -2.9 %.
+ * Bound 0.6 %. */
 TEST(curved_elements_keep_their_direct_light)
 {
     char dir[] = "/tmp/test_room_dark_XXXXXX";
