@@ -69,7 +69,8 @@ BENCH_SRC:= $(wildcard bench/bench_*.c)
 BENCH_BIN:= $(BENCH_SRC:bench/%.c=$(B)/bench/%)
 # Programs in tools/: the reference path tracer, built with the benchmarks
 # and run by hand (its output is shipped in bench/data/, which bench_cornell
-# reads; bench/run_bench.sh runs bench_* only), and the accuracy report's
+# reads, and in test/data/room_reference.json, which test_room reads:
+# `pathtrace --objects`; bench/run_bench.sh runs bench_* only), and the accuracy report's
 # generator, built by `make report` (tools/make_report.sh).  tools/hall.c is
 # no program: bench_scale's scene generator.
 TOOL_BIN := $(B)/tools/pathtrace
