@@ -69,7 +69,8 @@ BENCH_SRC:= $(wildcard bench/bench_*.c)
 BENCH_BIN:= $(BENCH_SRC:bench/%.c=$(B)/bench/%)
 # Programs in tools/: the reference path tracer, built with the benchmarks
 # and run by hand (its output is shipped in bench/data/, which bench_cornell
-# reads; bench/run_bench.sh runs bench_* only), and the accuracy report's
+# reads, and in test/data/room_reference.json, which test_room reads:
+# `pathtrace --objects`; bench/run_bench.sh runs bench_* only), and the accuracy report's
 # generator, built by `make report` (tools/make_report.sh).  tools/hall.c is
 # no program: bench_scale's scene generator.
 TOOL_BIN := $(B)/tools/pathtrace
@@ -148,6 +149,9 @@ $(B)/test/test_render: $(B)/obj/test/exr_read.o
 $(B)/bench/bench_scale: $(B)/obj/tools/hall.o $(B)/obj/tools/scene_gltf.o
 # bench_atrium writes the atrium (tools/atrium.c) and the hall
 $(B)/bench/bench_atrium: $(B)/obj/tools/atrium.o $(B)/obj/tools/hall.o $(B)/obj/tools/scene_gltf.o
+
+# test_room writes issue 36's closed room (tools/room.c)
+$(B)/test/test_room: $(B)/obj/tools/room.o $(B)/obj/tools/scene_gltf.o
 
 # bench_bake bakes the same hall
 $(B)/bench/bench_bake: $(B)/obj/tools/hall.o $(B)/obj/tools/scene_gltf.o

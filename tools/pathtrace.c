@@ -32,6 +32,8 @@
  *             [--target T] [--seed S] [--jobs J]
  *   pathtrace --check
  *   pathtrace SCENE --image OUT.pfm [--size N] [--spp K] [--jobs J]
+ *   pathtrace SCENE --objects OUT.json [--paths P] [--target T] [--seed S]
+ *             [--jobs J]
  *
  * Each pass gives every pixel of a region one path.  A region gets at least
  * P paths (default 1e6), and more until the relative standard error of its
@@ -40,8 +42,15 @@
  * --image traces every pixel K times (default 256) and writes the image as
  * a float PFM (radiance, rows bottom-up as PFM has them): for looking at
  * where an engine's image departs from the reference, not for scores.
+ * --objects (issue 36) gives each object's area-mean outgoing radiance:
+ * points uniform over the object's area, at each the radiance leaving it
+ * by the same estimator (its E/π, plus ρ × the incident radiance by next-
+ * event estimation and continuation), until the band sum's relative
+ * standard error is T; with the incident estimate, each object's absorbed
+ * power A (1 − ρ) H and the total against the emitted power.
  * --check runs the tracer on two closed forms (a furnace and a lamp over a
- * floor) and fails when either is off by more than four standard errors.
+ * floor), and --objects on a third (a box lit by its ceiling), and
+ * fails when any is off by more than four standard errors.
  */
 #include "../radiosity/scene/scene.h"
 
@@ -269,25 +278,22 @@ static v3 cosine_dir(v3 n, rng *r)
     return add(add(mul(u, s * cos(phi)), mul(v, s * sin(phi))), mul(n, sqrt(1.0 - s2)));
 }
 
-/* One path's radiance along o + t d, per band, into L. */
-static void radiance(const world *w, v3 o, v3 d, rng *r, double *L)
+/* The light a diffuse point x of polygon `hit` reflects, per band, added
+ * to L: next-event estimation at every bounce and cosine continuation.
+ * With `incident` the first vertex reflects as if ρ were 1 (so L gains
+ * the incident radiance H/π itself, for a ρ of any value, 0 included). */
+static void scatter(const world *w, int hit, v3 x, rng *r, int incident, double *L)
 {
     const uint32_t nb = w->bands;
-    double thr[MAXB];
+    double thr[MAXB], one[MAXB];
     for (uint32_t b = 0; b < nb; b++) {
-        L[b] = 0.0;
         thr[b] = 1.0;
+        one[b] = 1.0;
     }
-    double t;
-    int front, hit = trace(w, o, d, INFINITY, &t, &front);
-    if (hit < 0 || !front)
-        return;
-    for (uint32_t b = 0; b < nb; b++)
-        L[b] = w->E[w->P[hit].material][b] / M_PI;
     for (int depth = 0;; depth++) {
         const poly *q = &w->P[hit];
-        const double *rho = w->rho[q->material];
-        v3 x = add(o, mul(d, t)), n = q->n;
+        const double *rho = depth == 0 && incident ? one : w->rho[q->material];
+        v3 n = q->n;
         double rmax = 0.0;
         for (uint32_t b = 0; b < nb; b++)
             rmax = fmax(rmax, rho[b]);
@@ -324,12 +330,30 @@ static void radiance(const world *w, v3 o, v3 d, rng *r, double *L)
             for (uint32_t b = 0; b < nb; b++)
                 thr[b] /= keep;
         }
-        o = x;
-        d = cosine_dir(n, r);
-        hit = trace(w, o, d, INFINITY, &t, &front);
+        double t;
+        int front;
+        v3 d = cosine_dir(n, r);
+        hit = trace(w, x, d, INFINITY, &t, &front);
         if (hit < 0 || !front)
             return;
+        x = add(x, mul(d, t));
     }
+}
+
+/* One path's radiance along o + t d, per band, into L: the emission of
+ * what it meets first (only there, so nothing is counted twice), then
+ * what that point reflects. */
+static void radiance(const world *w, v3 o, v3 d, rng *r, double *L)
+{
+    for (uint32_t b = 0; b < w->bands; b++)
+        L[b] = 0.0;
+    double t;
+    int front, hit = trace(w, o, d, INFINITY, &t, &front);
+    if (hit < 0 || !front)
+        return;
+    for (uint32_t b = 0; b < w->bands; b++)
+        L[b] = w->E[w->P[hit].material][b] / M_PI;
+    scatter(w, hit, add(o, mul(d, t)), r, 0, L);
 }
 
 /* ------------------------------------------------------------ camera */
@@ -488,9 +512,38 @@ static uint8_t classify(const world *w, const rad_scene *s, const cam *k, uint32
 /* Sums over paths per band, and at [MAXB] of the band sum (the quantity
  * whose standard error decides how many paths a region gets). */
 typedef struct acc {
-    double sum[MAXB + 1], sum2[MAXB + 1];
+    double sum[MAXB + 1], sum2[MAXB + 1]; /* per band, and of the band sum at [MAXB] */
+    double absorbed, absorbed2;           /* --objects: power absorbed (band sum) */
     uint64_t paths;
 } acc;
+
+/* What a job traces: `count` samples with stream `seed` into a. */
+typedef void (*work_fn)(const void *job, uint64_t count, uint64_t seed, acc *a);
+
+static void acc_add(acc *a, const acc *part)
+{
+    for (uint32_t b = 0; b <= MAXB; b++) {
+        a->sum[b] += part->sum[b];
+        a->sum2[b] += part->sum2[b];
+    }
+    a->absorbed += part->absorbed;
+    a->absorbed2 += part->absorbed2;
+    a->paths += part->paths;
+}
+
+/* One sample L (per band) into a. */
+static void acc_put(acc *a, const double *L, uint32_t bands)
+{
+    double all = 0.0;
+    for (uint32_t b = 0; b < bands; b++) {
+        a->sum[b] += L[b];
+        a->sum2[b] += L[b] * L[b];
+        all += L[b];
+    }
+    a->sum[MAXB] += all;
+    a->sum2[MAXB] += all * all;
+    a->paths++;
+}
 
 /* Traces `passes` passes over the pixels of region rg (one path a pixel a
  * pass) with stream seed, adding to a. */
@@ -506,22 +559,27 @@ static void trace_region(const world *w, const cam *k, const uint8_t *region, ui
                 if (region[(size_t)j * k->W + i] != rg)
                     continue;
                 radiance(w, k->eye, cam_dir(k, i + rnd(&r), j + rnd(&r)), &r, L);
-                double all = 0.0;
-                for (uint32_t b = 0; b < w->bands; b++) {
-                    a->sum[b] += L[b];
-                    a->sum2[b] += L[b] * L[b];
-                    all += L[b];
-                }
-                a->sum[MAXB] += all;
-                a->sum2[MAXB] += all * all;
-                a->paths++;
+                acc_put(a, L, w->bands);
             }
 }
 
-/* Runs trace_region in `jobs` processes (streams seed + 1000·job), summing
- * their accumulators through pipes. */
-static int trace_parallel(const world *w, const cam *k, const uint8_t *region, uint8_t rg,
-                          uint64_t passes, uint64_t seed, int jobs, acc *a)
+typedef struct region_job {
+    const world *w;
+    const cam *k;
+    const uint8_t *region;
+    uint8_t rg;
+} region_job;
+
+static void region_work(const void *job, uint64_t passes, uint64_t seed, acc *a)
+{
+    const region_job *j = job;
+    trace_region(j->w, j->k, j->region, j->rg, passes, seed + 7919u * j->rg, a);
+}
+
+/* Runs work in `jobs` processes (streams seed + 1000·job), summing their
+ * accumulators through pipes. */
+static int trace_parallel(work_fn work, const void *job, uint64_t passes, uint64_t seed, int jobs,
+                          acc *a)
 {
     memset(a, 0, sizeof *a);
     int fds[64][2];
@@ -535,7 +593,7 @@ static int trace_parallel(const world *w, const cam *k, const uint8_t *region, u
             return -1;
         if (pid[q] == 0) {
             acc part = {0};
-            trace_region(w, k, region, rg, mine, seed + 1000u * (uint64_t)q + 7919u * rg, &part);
+            work(job, mine, seed + 1000u * (uint64_t)q, &part);
             ssize_t put = write(fds[q][1], &part, sizeof part);
             _exit(put == (ssize_t)sizeof part ? 0 : 1);
         }
@@ -549,13 +607,8 @@ static int trace_parallel(const world *w, const cam *k, const uint8_t *region, u
         close(fds[q][0]);
         int st;
         waitpid(pid[q], &st, 0);
-        if (rc == 0) {
-            for (uint32_t b = 0; b <= MAXB; b++) {
-                a->sum[b] += part.sum[b];
-                a->sum2[b] += part.sum2[b];
-            }
-            a->paths += part.paths;
-        }
+        if (rc == 0)
+            acc_add(a, &part);
     }
     return rc;
 }
@@ -607,7 +660,8 @@ static int check_one(const char *name, const char *text, double expect, int jobs
     cam_make(&s->cameras[0], 1, 1, &k);
     uint8_t region = 0;
     acc a;
-    if (trace_parallel(&w, &k, &region, 0, 4000000, 12345, jobs, &a))
+    region_job job = {&w, &k, &region, 0};
+    if (trace_parallel(region_work, &job, 4000000, 12345, jobs, &a))
         return -1;
     double m = a.sum[0] / a.paths, se = sqrt((a.sum2[0] / a.paths - m * m) / (a.paths - 1));
     int ok = fabs(m - expect) <= 4.0 * se;
@@ -710,17 +764,16 @@ static int write_regions(const world *w, const rad_scene *s, const cam *k, uint3
     return 0;
 }
 
-/* Region g (count pixels) traced into *a: a pilot of about 1e5 paths
- * measures the spread of one path's band sum; the region then gets enough
- * paths for its mean's relative standard error to reach `target`, and at
- * least `paths`.  0, or 1 when a job failed (named on stderr). */
-static int trace_to_target(const world *w, const cam *k, const uint8_t *region, uint8_t g,
-                           uint64_t count, double paths, double target, uint64_t seed, int jobs,
-                           acc *a)
+/* A job's samples (`count` a pass: a region's pixels, or 1) traced into
+ * *a: a pilot of about 1e5 paths measures the spread of one path's band
+ * sum; the job then gets enough paths for its mean's relative standard
+ * error to reach `target`, and at least `paths`.  0, or 1 when a job failed (named on stderr). */
+static int trace_to_target(work_fn work, const void *job, uint64_t count, double paths,
+                           double target, uint64_t seed, int jobs, acc *a)
 {
     uint64_t pilot = (uint64_t)ceil(1e5 / count);
     acc more;
-    if (trace_parallel(w, k, region, g, pilot, seed, jobs, a)) {
+    if (trace_parallel(work, job, pilot, seed, jobs, a)) {
         fprintf(stderr, "pathtrace: a job failed\n");
         return 1;
     }
@@ -728,15 +781,11 @@ static int trace_to_target(const world *w, const cam *k, const uint8_t *region, 
     double need = fmax(paths, m > 0.0 ? var / (m * m * target * target) : 0.0);
     uint64_t passes = (uint64_t)ceil(need / count);
     if (passes > pilot) {
-        if (trace_parallel(w, k, region, g, passes - pilot, seed + 500u, jobs, &more)) {
+        if (trace_parallel(work, job, passes - pilot, seed + 500u, jobs, &more)) {
             fprintf(stderr, "pathtrace: a job failed\n");
             return 1;
         }
-        for (uint32_t b = 0; b <= MAXB; b++) {
-            a->sum[b] += more.sum[b];
-            a->sum2[b] += more.sum2[b];
-        }
-        a->paths += more.paths;
+        acc_add(a, &more);
     }
     return 0;
 }
@@ -814,7 +863,8 @@ static int trace_reference(const char *const pos[3], uint32_t size, double paths
             continue;
         time_t t0 = time(NULL);
         acc a;
-        if (trace_to_target(&w, &k, region, g, count[g], paths, target, seed, jobs, &a))
+        region_job job = {&w, &k, region, g};
+        if (trace_to_target(region_work, &job, count[g], paths, target, seed, jobs, &a))
             return 1;
         put_region(f, first, g, count[g], &a, w.bands, t0);
         first = 0;
@@ -829,13 +879,238 @@ static int trace_reference(const char *const pos[3], uint32_t size, double paths
     return 0;
 }
 
+/* ------------------------------------------------------------ objects */
+
+/* An object's polygons, chosen by area. */
+typedef struct object_job {
+    const world *w;
+    uint32_t object;
+    uint32_t *poly;  /* its polygons */
+    double *cdf;     /* their cumulative area share */
+    uint32_t count;
+    double area;     /* A_o */
+} object_job;
+
+/* `count` points uniform over the object's area, each one sample of the
+ * radiance leaving it (E/π + ρ × the incident radiance, the latter one
+ * estimate by next-event estimation and continuation), and of the power
+ * it absorbs, A_o Σ_b (1 − ρ_b) π L_in,b. */
+static void object_work(const void *job, uint64_t count, uint64_t seed, acc *a)
+{
+    const object_job *j = job;
+    const world *w = j->w;
+    rng r;
+    rng_seed(&r, seed + 7919u * j->object);
+    double Lin[MAXB], L[MAXB];
+    for (uint64_t n = 0; n < count; n++) {
+        double u = rnd(&r);
+        uint32_t k = 0;
+        while (k + 1 < j->count && u > j->cdf[k])
+            k++;
+        const poly *q = &w->P[j->poly[k]];
+        v3 x = sample_poly(q, &r);
+        for (uint32_t b = 0; b < w->bands; b++)
+            Lin[b] = 0.0;
+        scatter(w, (int)j->poly[k], x, &r, 1, Lin);
+        double ab = 0.0;
+        for (uint32_t b = 0; b < w->bands; b++) {
+            L[b] = w->E[q->material][b] / M_PI + w->rho[q->material][b] * Lin[b];
+            ab += j->area * (1.0 - w->rho[q->material][b]) * M_PI * Lin[b];
+        }
+        acc_put(a, L, w->bands);
+        a->absorbed += ab;
+        a->absorbed2 += ab * ab;
+    }
+}
+
+/* Mean and standard error of the mean of sums s, s2 over n samples. */
+static double mean_se(double s, double s2, uint64_t n, double *se)
+{
+    double m = s / (double)n;
+    *se = n > 1 ? sqrt(fmax(0.0, s2 / (double)n - m * m) / (double)(n - 1)) : 0.0;
+    return m;
+}
+
+/* Object o's JSON entry and stdout line; its emitted power into *emit. */
+static void put_object(FILE *f, int first, const rad_scene *s, const object_job *j,
+                       const acc *a, double *emit, time_t t0)
+{
+    const world *w = j->w;
+    uint32_t m = w->P[j->poly[0]].material;
+    double se, e = 0.0;
+    fprintf(f, "%s  {\"name\": \"%s\", \"area\": %.9g, \"rho\": [", first ? "" : ",\n",
+            s->objects[j->object].name, j->area);
+    for (uint32_t b = 0; b < w->bands; b++) {
+        fprintf(f, "%s%.6g", b ? ", " : "", w->rho[m][b]);
+        e += j->area * w->E[m][b];
+    }
+    fprintf(f, "], \"paths\": %llu, \"mean\": [", (unsigned long long)a->paths);
+    printf("%-10s %10llu paths", s->objects[j->object].name, (unsigned long long)a->paths);
+    for (uint32_t b = 0; b < w->bands; b++) {
+        fprintf(f, "%s%.9g", b ? ", " : "", mean_se(a->sum[b], a->sum2[b], a->paths, &se));
+        printf(" %.5f", a->sum[b] / (double)a->paths);
+    }
+    fprintf(f, "], \"stderr\": [");
+    for (uint32_t b = 0; b < w->bands; b++) {
+        mean_se(a->sum[b], a->sum2[b], a->paths, &se);
+        fprintf(f, "%s%.3g", b ? ", " : "", se);
+    }
+    double ms = mean_se(a->sum[MAXB], a->sum2[MAXB], a->paths, &se), sa;
+    double ab = mean_se(a->absorbed, a->absorbed2, a->paths, &sa);
+    fprintf(f, "], \"sum_relative_stderr\": %.3g, \"emitted\": %.9g, \"absorbed\": %.9g, "
+               "\"absorbed_stderr\": %.3g}",
+            ms > 0.0 ? se / ms : 0.0, e, ab, sa);
+    printf("  band sum %.3g%%, absorbed %.5f ± %.2g, %.0f s\n", ms > 0 ? 100 * se / ms : 0.0, ab,
+           sa, difftime(time(NULL), t0));
+    fflush(stdout);
+    *emit = e;
+}
+
+/* Object o's polygons into j (the caller frees j->poly, j->cdf); 0 when
+ * it has none. */
+static uint32_t object_polygons(const world *w, uint32_t o, object_job *j)
+{
+    j->count = 0;
+    j->area = 0.0;
+    for (uint32_t i = 0; i < w->np; i++)
+        if (w->P[i].object == o && w->P[i].area > 0.0) {
+            j->poly[j->count] = i;
+            j->area += w->P[i].area;
+            j->cdf[j->count++] = j->area;
+        }
+    for (uint32_t k = 0; k < j->count; k++)
+        j->cdf[k] /= j->area;
+    return j->count;
+}
+
+/* The area-mean radiance leaving each object of SCENE, with standard
+ * errors, and the power absorbed against the power emitted, as JSON into
+ * OUT (with the command line).  0; 1 when a file cannot be written or a
+ * job failed; 2 for a scene it cannot use. */
+static int trace_objects(const char *scene, const char *out, double paths, double target,
+                         uint64_t seed, int jobs, int argc, char **argv)
+{
+    rad_scene *s = NULL;
+    rad_error err;
+    world w;
+    if (rad_scene_load(scene, NULL, &s, &err)) {
+        fprintf(stderr, "pathtrace: %s\n", err.message);
+        return 2;
+    }
+    if (world_from_scene(s, &w) || !w.ne) {
+        fprintf(stderr, "pathtrace: %s: an emitter expected\n", scene);
+        return 2;
+    }
+    FILE *f = fopen(out, "w");
+    object_job j = {&w, 0, calloc(w.np, sizeof *j.poly), calloc(w.np, sizeof *j.cdf), 0, 0};
+    if (!f || !j.poly || !j.cdf) {
+        fprintf(stderr, "pathtrace: cannot write %s\n", out);
+        return 1;
+    }
+    fprintf(f, "{\n \"scene\": \"%s\",\n \"method\": \"pathtrace --objects (tools/pathtrace.c): "
+               "points uniform over each object's area; at each, E/pi plus rho times one "
+               "next-event + cosine-continuation estimate of the incident radiance, Russian "
+               "roulette after 3 bounces\",\n \"command\": \"", scene);
+    for (int a = 0; a < argc; a++)
+        fprintf(f, "%s%s", a ? " " : "", argv[a]);
+    fprintf(f, "\",\n \"units\": \"radiance per band (the engine's B/pi); power in the "
+               "scene's units (sum over bands of area times exitance)\",\n \"objects\": [\n");
+    double emitted = 0.0, absorbed = 0.0, var = 0.0;
+    int first = 1;
+    for (j.object = 0; j.object < s->object_count; j.object++) {
+        time_t t0 = time(NULL);
+        acc a;
+        double e, se;
+        if (!object_polygons(&w, j.object, &j))
+            continue;
+        if (trace_to_target(object_work, &j, 1, paths, target, seed, jobs, &a))
+            return 1;
+        put_object(f, first, s, &j, &a, &e, t0);
+        first = 0;
+        emitted += e;
+        absorbed += mean_se(a.absorbed, a.absorbed2, a.paths, &se);
+        var += se * se;
+    }
+    fprintf(f, "\n ],\n \"emitted\": %.9g,\n \"absorbed\": %.9g,\n \"absorbed_stderr\": %.3g\n}\n",
+            emitted, absorbed, sqrt(var));
+    printf("absorbed / emitted - 1 = %+.4f %% ± %.4f %%\n", 100 * (absorbed / emitted - 1),
+           100 * sqrt(var) / emitted);
+    free(j.poly);
+    free(j.cdf);
+    rad_scene_destroy(s);
+    if (fclose(f)) {
+        fprintf(stderr, "pathtrace: cannot write %s\n", out);
+        return 1;
+    }
+    return 0;
+}
+
+/* A unit cube lit by its ceiling (E = π, radiance 1) alone, its walls
+ * black, its floor of ρ = 0.5: the floor's mean radiance is ρ F, F the
+ * factor between the two unit squares one apart (Howell C-11), and it
+ * absorbs A (1 − ρ) π F.  (No emitter touches the floor: next-event
+ * samples near a shared edge, as in the furnace, have a variance too
+ * heavy-tailed for a check by standard errors.) */
+static const char *BOX =
+    "bands 1\n"
+    "material floor reflectance 0.5\n"
+    "material black reflectance 0\n"
+    "material lamp emission 3.141592653589793\n"
+    "polygon floor floor 0 0 0  0 0 1  1 0 1  1 0 0 end\n"
+    "polygon ceil lamp 0 1 0  1 1 0  1 1 1  0 1 1 end\n"
+    "polygon x0 black 0 0 0  0 1 0  0 1 1  0 0 1 end\n"
+    "polygon x1 black 1 0 0  1 0 1  1 1 1  1 1 0 end\n"
+    "polygon z0 black 0 0 0  1 0 0  1 1 0  0 1 0 end\n"
+    "polygon z1 black 0 0 1  0 1 1  1 1 1  1 0 1 end\n";
+
+/* Howell C-11: directly opposed a × b rectangles c apart. */
+static double howell_c11(double a, double b, double c)
+{
+    double X = a / c, Y = b / c, x1 = sqrt(1 + X * X), y1 = sqrt(1 + Y * Y);
+    return 2.0 / (M_PI * X * Y) *
+           (log(sqrt((1 + X * X) * (1 + Y * Y) / (1 + X * X + Y * Y))) + X * y1 * atan(X / y1) +
+            Y * x1 * atan(Y / x1) - X * atan(X) - Y * atan(Y));
+}
+
+/* --check of --objects: the box's floor, its radiance and what it absorbs. */
+static int check_objects(int jobs)
+{
+    rad_scene *s = NULL;
+    rad_error err;
+    world w;
+    if (rad_scene_parse_polyfile(BOX, strlen(BOX), "box", NULL, &s, &err) ||
+        world_from_scene(s, &w))
+        return -1;
+    uint32_t poly[MAXPTS];
+    double cdf[MAXPTS];
+    object_job j = {&w, 0, poly, cdf, 0, 0};
+    acc a;
+    if (!object_polygons(&w, 0, &j) || trace_parallel(object_work, &j, 400000, 777, jobs, &a))
+        return -1;
+    double se, sa, m = mean_se(a.sum[0], a.sum2[0], a.paths, &se);
+    double F = howell_c11(1.0, 1.0, 1.0), expect = 0.5 * F;
+    double ab = mean_se(a.absorbed, a.absorbed2, a.paths, &sa), emitted = 0.5 * M_PI * F;
+    int ok = fabs(m - expect) <= 4.0 * se && fabs(ab - emitted) <= 4.0 * sa;
+    printf("check objects  radiance %.6f, expected %.6f (%.1f standard errors); absorbed %.5f, "
+           "expected %.5f (%.1f): %s\n",
+           m, expect, fabs(m - expect) / se, ab, emitted, fabs(ab - emitted) / sa,
+           ok ? "ok" : "FAIL");
+    rad_scene_destroy(s);
+    free(w.P);
+    free(w.emit);
+    free(w.emit_cdf);
+    return ok ? 0 : -1;
+}
+
 /* ------------------------------------------------------------ main */
 
 static int usage(void)
 {
     fprintf(stderr, "usage: pathtrace SCENE REGIONS.pgm REFERENCE.json [--size N] [--paths P] "
                     "[--target T] [--seed S] [--jobs J]\n       pathtrace --check [--jobs J]\n"
-                    "       pathtrace SCENE --image OUT.pfm [--size N] [--spp K] [--jobs J]\n");
+                    "       pathtrace SCENE --image OUT.pfm [--size N] [--spp K] [--jobs J]\n"
+                    "       pathtrace SCENE --objects OUT.json [--paths P] [--target T] [--seed S] "
+                    "[--jobs J]\n");
     return 2;
 }
 
@@ -845,7 +1120,7 @@ int main(int argc, char **argv)
     double paths = 1e6, target = 5e-4;
     uint64_t seed = 1;
     int jobs = 2, check = 0;
-    const char *image = NULL;
+    const char *image = NULL, *objects = NULL;
     uint64_t spp = 256;
     const char *pos[3];
     int npos = 0;
@@ -864,6 +1139,8 @@ int main(int argc, char **argv)
             jobs = atoi(argv[++a]);
         else if (!strcmp(argv[a], "--image") && a + 1 < argc)
             image = argv[++a];
+        else if (!strcmp(argv[a], "--objects") && a + 1 < argc)
+            objects = argv[++a];
         else if (!strcmp(argv[a], "--spp") && a + 1 < argc)
             spp = strtoull(argv[++a], NULL, 10);
         else if (npos < 3 && argv[a][0] != '-')
@@ -876,10 +1153,14 @@ int main(int argc, char **argv)
     if (check) {
         int bad = check_one("furnace", FURNACE, 1.0 / (M_PI * 0.5), jobs);
         bad |= check_one("lamp", LAMP, 0.5 * howell_b3(1.0, 1.0, 0.5), jobs);
+        bad |= check_objects(jobs);
         return bad ? 1 : 0;
     }
     if (image)
         return trace_image(pos[0], image, size, spp, seed, jobs);
+    if (objects)
+        return npos == 1 ? trace_objects(pos[0], objects, paths, target, seed, jobs, argc, argv)
+                         : usage();
     if (npos != 3)
         return usage();
     return trace_reference(pos, size, paths, target, seed, jobs, argc, argv);

@@ -111,33 +111,43 @@ int gs_write(const gs_scene *h, const char *dir, const char *name)
         fprintf(stderr, "%s: cannot write %s\n", h->generator, path);
         return -1;
     }
-    /* The sun: light travels along d, a node's light shines along its -Z:
-     * the rotation taking -Z to d, q = (a × d, 1 + a·d) normalised. */
-    v3 d = h->sun, a = mk(0, 0, -1);
-    d = scl(d, 1.0 / sqrt(dot(d, d)));
-    v3 ax = cross(a, d);
-    double qw = 1.0 + dot(a, d), ql = sqrt(dot(ax, ax) + qw * qw);
+    int sun = dot(h->sun, h->sun) > 0.0;
     fprintf(f, "{\"asset\":{\"version\":\"2.0\",\"generator\":\"radiosity %s\"},\n",
             h->generator);
-    fprintf(f, "\"extensionsUsed\":[\"KHR_lights_punctual\"],\n");
-    fprintf(f, "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"name\":\"sun\","
-               "\"type\":\"directional\",\"color\":[1.0,0.95,0.85],\"intensity\":100000}]}},\n");
+    if (sun)
+        fprintf(f, "\"extensionsUsed\":[\"KHR_lights_punctual\"],\n"
+                   "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"name\":\"sun\","
+                   "\"type\":\"directional\",\"color\":[1.0,0.95,0.85],\"intensity\":100000}]}},\n");
     fprintf(f, "\"scene\":0,\"scenes\":[{\"nodes\":[");
-    for (uint32_t k = 0; k <= h->n; k++)
+    for (uint32_t k = 0; k < h->n + (uint32_t)sun; k++)
         fprintf(f, "%s%u", k ? "," : "", k);
     fprintf(f, "]}],\n\"nodes\":[");
     for (uint32_t k = 0; k < h->n; k++)
         fprintf(f, "%s{\"name\":\"%s\",\"mesh\":%u}", k ? ",\n" : "", h->o[k].name, k);
-    fprintf(f, ",\n{\"name\":\"sun\",\"rotation\":[%.9f,%.9f,%.9f,%.9f],"
-               "\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}],\n",
-            ax.x / ql, ax.y / ql, ax.z / ql, qw / ql);
+    if (sun) {
+        /* The sun: light travels along d, a node's light shines along its
+         * -Z: the rotation taking -Z to d, q = (a × d, 1 + a·d) normalised. */
+        v3 d = scl(h->sun, 1.0 / sqrt(dot(h->sun, h->sun))), a = mk(0, 0, -1);
+        v3 ax = cross(a, d);
+        double qw = 1.0 + dot(a, d), ql = sqrt(dot(ax, ax) + qw * qw);
+        fprintf(f, ",\n{\"name\":\"sun\",\"rotation\":[%.9f,%.9f,%.9f,%.9f],"
+                   "\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}}",
+                ax.x / ql, ax.y / ql, ax.z / ql, qw / ql);
+    }
+    fprintf(f, "],\n");
     fprintf(f, "\"materials\":[");
     const gs_material *materials = h->materials;
-    for (size_t m = 0; m < h->material_count; m++)
+    for (size_t m = 0; m < h->material_count; m++) {
+        static const double none[3] = {0, 0, 0};
+        const double *e = h->emit ? h->emit + 3 * m : none;
         fprintf(f, "%s{\"name\":\"%s\",\"pbrMetallicRoughness\":{\"baseColorFactor\":[%g,%g,%g,1],"
-                   "\"metallicFactor\":0}}",
+                   "\"metallicFactor\":0}",
                 m ? ",\n" : "", materials[m].name, materials[m].rgb[0], materials[m].rgb[1],
                 materials[m].rgb[2]);
+        if (e[0] > 0.0 || e[1] > 0.0 || e[2] > 0.0)
+            fprintf(f, ",\"emissiveFactor\":[%g,%g,%g]", e[0], e[1], e[2]);
+        fprintf(f, "}");
+    }
     fprintf(f, "],\n\"meshes\":[");
     for (uint32_t k = 0; k < h->n; k++)
         fprintf(f, "%s{\"name\":\"%s\",\"primitives\":[{\"attributes\":{\"POSITION\":%u},"

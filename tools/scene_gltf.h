@@ -1,7 +1,8 @@
 /* scene_gltf.h - what the benchmarks' scene generators (tools/hall.c,
  * tools/atrium.c) share: objects of triangles made in code, a jitter
  * sequence, and the writer of glTF 2.0 (JSON and one external binary
- * buffer) with a sun (KHR_lights_punctual directional light).  No engine
+ * buffer) with a sun (KHR_lights_punctual directional light) or, for a
+ * closed room lit by its own lamp, none.  No engine
  * code: the files are read back by the loader as a user's export would be.
  */
 #ifndef TOOLS_SCENE_GLTF_H
@@ -47,7 +48,9 @@ typedef struct gs_scene {
     uint64_t seed;               /* the jitter sequence's state */
     const gs_material *materials;
     uint32_t material_count;
-    v3 sun;                      /* direction the sunlight travels */
+    const double *emit;          /* material_count × 3 emissiveFactors (radiance: E = π·emit),
+                                  * or NULL: nothing emits */
+    v3 sun;                      /* direction the sunlight travels; zero: no sun */
     const char *generator;       /* "tools/hall.c": the asset's generator and messages */
 } gs_scene;
 

@@ -6,7 +6,8 @@
  * polygons, into its cells instead), and an item buffer is rendered at a point
  * just in front of each stratum's centre (hc_light_visibility: a point
  * light's cube, the same views punctual lights use).  The entry of a
- * receiving point x (normal n) for source patch j is then
+ * receiving point x (normal n: its own cell's, which in a curved cluster
+ * is not the cluster's mean normal) for source patch j is then
  *   F_xj = Σ_s F(x → σ_s) · v_s(x),
  * F(x → σ_s) the exact unoccluded point-to-polygon factor of stratum σ_s
  * (hc_ff_point_polygon), v_s(x) x's visibility in the item buffer of σ_s
@@ -168,9 +169,9 @@ typedef struct triplet {
     float v;
 } triplet;
 
-int el_direct_rows(const rad_solution *s, const el_sources *src, hc_engine *hc, uint32_t R,
-                   const hc_receiver *pts, uint32_t count, el_rows *out, uint64_t *renders,
-                   rad_error *err)
+int el_direct_rows(const el_sources *src, hc_engine *hc, uint32_t R,
+                   const hc_receiver *pts, const rad_vec3 *normal, uint32_t count, el_rows *out,
+                   uint64_t *renders, rad_error *err)
 {
     memset(out, 0, sizeof *out);
     double *acc = calloc((size_t)count + 1, sizeof *acc), *vis = malloc(((size_t)count + 1) * sizeof *vis);
@@ -191,7 +192,7 @@ int el_direct_rows(const rad_solution *s, const el_sources *src, hc_engine *hc, 
             const el_stratum *st = &src->st[q];
             uint32_t m = 0;
             for (uint32_t k = 0; k < count; k++) {
-                const rad_vec3 x = pts[k].center, nx = s->mesh->patches[pts[k].patch].normal;
+                const rad_vec3 x = pts[k].center, nx = normal[k];
                 /* One-sided: x must lie in front of the emitter. */
                 if (pts[k].patch == j || !(rad_dot(rad_sub(x, st->p[0]), st->normal) > 0.0))
                     continue;

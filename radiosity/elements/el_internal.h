@@ -70,13 +70,16 @@ void el_sources_free(el_sources *src);
 void el_rows_free(el_rows *r);
 
 /* The direct sources' entries of the points pts[0..count) (a point on its
- * patch, as a hemi-cube receiver) into *out, the caller's to free:
+ * patch, as a hemi-cube receiver, with normal[k] the normal of the cell it
+ * lies on: in a cluster of a curved surface each cell has its own, and the
+ * cluster's mean normal took 1.3 % off a sphere's elements' direct light,
+ * issue 36) into *out, the caller's to free:
  * F_xj = Σ_s F(x → σ_s) v_s(x) over the strata of each source j, v_s from
  * an item buffer of resolution R rendered at the stratum (one per stratum
  * that some point faces; *renders counts them when not NULL). */
-int el_direct_rows(const rad_solution *s, const el_sources *src, hc_engine *hc, uint32_t R,
-                   const hc_receiver *pts, uint32_t count, el_rows *out, uint64_t *renders,
-                   rad_error *err);
+int el_direct_rows(const el_sources *src, hc_engine *hc, uint32_t R,
+                   const hc_receiver *pts, const rad_vec3 *normal, uint32_t count, el_rows *out,
+                   uint64_t *renders, rad_error *err);
 
 /* --------------------------------------------- gather (element_gather.c) */
 

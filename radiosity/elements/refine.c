@@ -612,13 +612,19 @@ static int compute_rows_of(builder *b, hc_engine *hc, const uint32_t *which, uin
     if (!count)
         return RAD_OK;
     hc_receiver *r = malloc((size_t)count * sizeof *r);
-    if (!r)
+    rad_vec3 *nr = malloc((size_t)count * sizeof *nr); /* each element's own plane */
+    if (!r || !nr) {
+        free(r);
+        free(nr);
         return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    }
     for (uint32_t k = 0; k < count; k++) {
         const enode *n = &b->E[which[k]];
         double area;
-        if (rad_cell_geometry(b->V, n->v, cell_of(b, n)->normal, &r[k].center, &area) != 0) {
+        nr[k] = cell_of(b, n)->normal;
+        if (rad_cell_geometry(b->V, n->v, nr[k], &r[k].center, &area) != 0) {
             free(r);
+            free(nr);
             return rad_fail(err, RAD_ERR_INVALID, "elements: element %u has no area", which[k]);
         }
         r[k].patch = n->patch;
@@ -627,8 +633,9 @@ static int compute_rows_of(builder *b, hc_engine *hc, const uint32_t *which, uin
      * they are stored. */
     int rc = element_lights(b, hc, r, which, count, err);
     if (rc == RAD_OK && b->cheap)
-        rc = el_direct_rows(b->s, &b->src, hc, b->direct_R, r, count, &b->drow,
+        rc = el_direct_rows(&b->src, hc, b->direct_R, r, nr, count, &b->drow,
                             &b->lights_rendered, err);
+    free(nr);
     /* Interpolated elements are done; the others (all of them when not
      * cheap, else those on contact patches) get their hemi-cubes. */
     uint32_t *hw = malloc(((size_t)count + 1) * sizeof *hw), *hk = malloc(((size_t)count + 1) * sizeof *hk);
