@@ -208,7 +208,11 @@ static double sample_visibility(const hc_engine *e, hc_work *wk, const hc_light_
 
 /* Is patch k the same smooth surface as patch p, next to it: one object and
  * material, normals within the mesher's crease angle (30°, mesh.h's
- * RAD_MESH_SURFACE_COS) and centres within 1.5 × the sum of their radii?
+ * RAD_MESH_SURFACE_COS), centres within 1.5 × the sum of their radii, and
+ * the chord between the centres within 30° of p's tangent plane (on a
+ * surface that bends by at most 30° the chord leans by about half that; a
+ * parallel plate above or below p, such as a blocker over a floor of one
+ * object, leans far more and stays an occluder)?
  * A point of a curved cluster (a sphere's, a head's) lies on its own cell,
  * not on the cluster's drawn outline, and near a seam the pixels about its
  * projection show the neighbouring cluster: that neighbour continues the
@@ -219,9 +223,11 @@ static int same_surface(const hc_engine *e, uint32_t k, uint32_t p)
     if (k >= e->n)
         return 0;
     const rad_patch *a = &e->mesh->patches[p], *b = &e->mesh->patches[k];
+    const rad_vec3 chord = rad_sub(e->center[k], e->center[p]);
+    const double d = rad_length(chord);
     return a->object == b->object && a->material == b->material &&
            rad_dot(a->normal, b->normal) >= 0.86602540378443865 &&
-           rad_length(rad_sub(e->center[k], e->center[p])) <= 1.5 * (e->radius[p] + e->radius[k]);
+           d <= 1.5 * (e->radius[p] + e->radius[k]) && fabs(rad_dot(chord, a->normal)) <= 0.5 * d;
 }
 
 /* Visibility of point `at` (relative to the origin) on patch p in the item
