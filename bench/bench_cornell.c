@@ -41,6 +41,7 @@
  * keeps its full row, as it would keep its full hemi-cube.
  */
 #include "../radiosity/pipeline/pipeline.h"
+#include "bench_util.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -179,13 +180,7 @@ static void near_rule(rad_solution *s, double K)
         const uint32_t p = el->patch[e];
         const rad_vec3 c = el->mesh->patches[e].center;
         const double reach = K * sqrt(m->patches[p].area);
-        uint32_t nn = 0;
-        for (uint32_t j = 0; j < n; j++) {
-            rad_vec3 d = rad_v3(m->patches[j].center.x - c.x, m->patches[j].center.y - c.y,
-                                m->patches[j].center.z - c.z);
-            near[j] = sqrt(d.x * d.x + d.y * d.y + d.z * d.z) - sqrt(m->patches[j].area) <= reach;
-            nn += near[j];
-        }
+        const uint32_t nn = bench_near_set(m, c, reach, near);
         const rad_row r = rad_matrix_row(s->F, p);
         const uint8_t *cp = r.col;
         for (uint32_t q = 0, j = 0; q < r.count; q++) {
