@@ -30,6 +30,7 @@
 #include "../tools/hall.h"
 #include "bench_util.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -177,6 +178,34 @@ static void atrium_part(const char *dir)
     rad_solution_destroy(s);
 }
 
+/* BENCH_ATRIUM_NEAR=K: the mean near set (bench_near_set, K parent sizes)
+ * of the elements with hemi-cubes of their own, what a contact hemi-cube
+ * drawing only its near field would draw (issue 36). */
+static void near_sets(const rad_solution *s)
+{
+    const char *v = getenv("BENCH_ATRIUM_NEAR");
+    const rad_elements *el = s->elements;
+    if (!v || atof(v) <= 0 || !el)
+        return;
+    const rad_mesh *m = s->mesh;
+    uint8_t *near = malloc((size_t)m->patch_count + 1);
+    uint64_t count = 0, total = 0, most = 0;
+    for (uint32_t e = 0; near && e < el->mesh->patch_count; e++) {
+        if (el->level[e] == 0 || (el->interp && el->interp[e]))
+            continue;
+        const uint32_t p = el->patch[e];
+        const uint32_t nn = bench_near_set(m, el->mesh->patches[e].center,
+                                           atof(v) * sqrt(m->patches[p].area), near);
+        total += nn;
+        most = nn > most ? nn : most;
+        count++;
+    }
+    printf("  near %s: %llu elements with hemi-cubes, near set %.1f patches (mean), %llu at "
+           "most, of %u\n", v, (unsigned long long)count, count ? (double)total / (double)count : 0.0,
+           (unsigned long long)most, m->patch_count);
+    free(near);
+}
+
 static void hall_part(const char *dir)
 {
     char scene[4096];
@@ -198,6 +227,7 @@ static void hall_part(const char *dir)
                100.0 * el / ff,
                (unsigned long long)(s->elements ? s->elements->rows_computed : 0), wall,
                bench_load());
+        near_sets(s);
         rad_solution_destroy(s);
     }
 }

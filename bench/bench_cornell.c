@@ -21,8 +21,27 @@
  * BENCH_SVG=FILE writes the curve (worst and RMS region error against CPU
  * seconds); BENCH_PATCH_SIZE, BENCH_TOLERANCE, BENCH_EXACT_NEAR and
  * BENCH_ACCURACY set those options for every row.  Nothing here asserts anything.
+ *
+ * "near:K" (issue 36) is the defaults with a what-if applied before the
+ * render: every element that has a hemi-cube of its own (a contact one)
+ * keeps only its row's entries for the patches within K of its parent's
+ * sizes √A_p (the near field, measured from the element's centre to patch
+ * j's centre less √A_j) and takes the rest from its parent's row, scaled
+ * to the part of the hemisphere the near patches leave open:
+ *   H_e ≈ Σ_near F_ej B_j + H_far,p · O_e / O_p,
+ * O the part of the hemisphere left to far patches other than the direct
+ * sources: 1 − F_near − F_direct − (1 − Σ_j F_j), the last term what the
+ * row misses (backs of the near surfaces in a closed room, as under a
+ * block: a near-only hemi-cube would see them cover it).  The near F_ej
+ * are the full hemi-cube's (what a hemi-cube drawing only the near cells
+ * would give, but for near cells hidden behind far ones); the direct
+ * sources' entries (their own rows) are kept as they are.  An element
+ * whose parent sees little of the far field (O_p < τ O_e, τ from
+ * BENCH_NEAR_TAU, default 0.5: the parent's centre under a block, say)
+ * keeps its full row, as it would keep its full hemi-cube.
  */
 #include "../radiosity/pipeline/pipeline.h"
+#include "bench_util.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -91,6 +110,7 @@ typedef struct row {
     char label[32];
     double threshold;   /* rad_solve_options.refine_threshold */
     int hemicubes;      /* rad_solve_options.element_hemicubes */
+    double near;        /* > 0: "near:K", the near-field what-if with K */
     double seconds;     /* solve + render, the fastest run */
     double cpu;         /* CPU seconds of that run, workers included */
     uint32_t patches, elements;
@@ -110,6 +130,97 @@ static double cpu_seconds(void)
     return (double)a.ru_utime.tv_sec + (double)a.ru_stime.tv_sec + (double)b.ru_utime.tv_sec +
            (double)b.ru_stime.tv_sec +
            1e-6 * (double)(a.ru_utime.tv_usec + a.ru_stime.tv_usec + b.ru_utime.tv_usec + b.ru_stime.tv_usec);
+}
+
+/* Per band, Σ F_j B_j over a row's entries other than the direct sources'
+ * into H, the same over the j in near[] into Hn; returns O (above). */
+static double split_row(const rad_solution *s, const uint8_t *direct, const uint8_t *near,
+                        const uint32_t *col, const float *val, uint32_t cnt, double *H, double *Hn)
+{
+    const uint32_t bands = s->band_count;
+    double far = 0.0; /* Σ F_j over the far j other than the direct sources */
+    for (uint32_t b = 0; b < bands; b++)
+        H[b] = Hn[b] = 0.0;
+    for (uint32_t q = 0; q < cnt; q++) {
+        const uint32_t j = col[q];
+        if (direct && direct[j])
+            continue;
+        if (!near[j])
+            far += val[q];
+        for (uint32_t b = 0; b < bands; b++) {
+            const double fb = (double)val[q] * s->B[(size_t)j * bands + b];
+            H[b] += fb;
+            if (near[j])
+                Hn[b] += fb;
+        }
+    }
+    return far;
+}
+
+/* The near-field what-if ("near:K", top of the file) on s's elements:
+ * rewrites the B of each element with a hemi-cube row; prints to stderr how
+ * many, the mean near set and the largest change of B (band sum). */
+static void near_rule(rad_solution *s, double K)
+{
+    rad_elements *el = s->elements;
+    const rad_mesh *m = s->mesh;
+    const uint32_t n = m->patch_count, bands = s->band_count;
+    uint8_t *near = calloc(n + 1, 1);
+    uint32_t *fcol = malloc(((size_t)n + 1) * sizeof *fcol);
+    float *fval = malloc(((size_t)n + 1) * sizeof *fval);
+    if (!el || !near || !fcol || !fval)
+        die("near", "no elements, or out of memory");
+    uint64_t touched = 0, near_total = 0, kept = 0;
+    const char *te = getenv("BENCH_NEAR_TAU");
+    const double tau = te ? atof(te) : 0.5;
+    double worst = 0.0, ss = 0.0;
+    for (uint32_t e = 0; e < el->mesh->patch_count; e++) {
+        if (el->level[e] == 0 || (el->interp && el->interp[e]))
+            continue;
+        const uint32_t p = el->patch[e];
+        const rad_vec3 c = el->mesh->patches[e].center;
+        const double reach = K * sqrt(m->patches[p].area);
+        const uint32_t nn = bench_near_set(m, c, reach, near);
+        const rad_row r = rad_matrix_row(s->F, p);
+        const uint8_t *cp = r.col;
+        for (uint32_t q = 0, j = 0; q < r.count; q++) {
+            j = rad_row_next(&cp, j);
+            fcol[q] = j;
+            fval[q] = rad_row_value(&r, q);
+        }
+        double He[RAD_MAX_BANDS], Hne[RAD_MAX_BANDS], Hp[RAD_MAX_BANDS], Hnp[RAD_MAX_BANDS];
+        const double Oe = split_row(s, el->direct, near, el->col + el->row_start[e],
+                                    el->val + el->row_start[e], el->row_count[e], He, Hne);
+        const double Op = split_row(s, el->direct, near, fcol, fval, r.count, Hp, Hnp);
+        if (Op < tau * Oe) { /* the parent sees too little of the far field */
+            kept++;
+            continue;
+        }
+        const double open = Op > 0.0 ? Oe / Op : 0.0;
+        double before = 0.0, after = 0.0, patch = 0.0;
+        for (uint32_t b = 0; b < bands; b++) {
+            const size_t eb = (size_t)e * bands + b;
+            const double Ha = Hne[b] + (Hp[b] - Hnp[b]) * open;
+            before += el->B[eb];
+            el->B[eb] = fmax(0.0, el->B[eb] + s->rho[(size_t)p * bands + b] * (Ha - He[b]));
+            after += el->B[eb];
+            patch += s->B[(size_t)p * bands + b];
+        }
+        /* relative to B_e, but no less than a tenth of B_p (buried ones) */
+        const double rel = patch > 0.0 ? (after - before) / fmax(before, 0.1 * patch) : 0.0;
+        worst = fmax(worst, fabs(rel));
+        ss += rel * rel;
+        touched++;
+        near_total += nn;
+    }
+    fprintf(stderr, "near:%g: %llu elements with hemi-cubes keep them (O_p < %g O_e), %llu take the "
+            "rule: near set %.1f of %u patches (mean), B changed by %.2f %% RMS, %.2f %% at most\n",
+            K, (unsigned long long)kept, tau, (unsigned long long)touched,
+            touched ? (double)near_total / (double)touched : 0.0, n,
+            touched ? 100 * sqrt(ss / (double)touched) : 0.0, 100 * worst);
+    free(near);
+    free(fcol);
+    free(fval);
 }
 
 static void run(row *r, int repeat)
@@ -136,6 +247,13 @@ static void run(row *r, int repeat)
             rad_camera_from_scene(s->scene, NULL, side, side, &cam, &err) ||
             rad_render_solution(s, &cam, &img, &err))
             die(r->label, err.message);
+        if (r->near > 0.0) { /* the what-if, then the image again */
+            near_rule(s, r->near);
+            rn_image_destroy(img);
+            img = NULL;
+            if (rad_render_solution(s, &cam, &img, &err))
+                die(r->label, err.message);
+        }
         double t = rad_seconds() - t0;
         if (t < r->seconds) {
             r->seconds = t;
@@ -252,6 +370,10 @@ int main(void)
         memset(r, 0, sizeof *r);
         if (!strcmp(tok, "default")) {
             snprintf(r->label, sizeof r->label, "defaults");
+            r->threshold = 0.0;
+        } else if (!strncmp(tok, "near:", 5)) {
+            r->near = atof(tok + 5);
+            snprintf(r->label, sizeof r->label, "defaults, near %g", r->near);
             r->threshold = 0.0;
         } else if (!strcmp(tok, "off")) {
             snprintf(r->label, sizeof r->label, "off");

@@ -40,4 +40,19 @@ static inline void bench_print_load(const char *when)
     printf("load average %s: %.2f\n", when, bench_load());
 }
 
+/* Marks in near[m->patch_count] the patches j within `reach` of c (from c
+ * to j's centre, less √A_j: issue 36's near field of a contact element);
+ * returns how many. */
+static inline uint32_t bench_near_set(const rad_mesh *m, rad_vec3 c, double reach, uint8_t *near)
+{
+    uint32_t count = 0;
+    for (uint32_t j = 0; j < m->patch_count; j++) {
+        const rad_vec3 q = m->patches[j].center;
+        const double dx = q.x - c.x, dy = q.y - c.y, dz = q.z - c.z;
+        near[j] = sqrt(dx * dx + dy * dy + dz * dz) - sqrt(m->patches[j].area) <= reach;
+        count += near[j];
+    }
+    return count;
+}
+
 #endif /* BENCH_UTIL_H */
