@@ -203,8 +203,30 @@ static int shows_plane(const hc_engine *e, uint32_t id, uint32_t p)
 
 static int pixel_lets_through(const hc_engine *e, hc_work *wk, const hc_light_req *q,
                               const hc_view *v, uint32_t px, uint32_t py, rad_vec3 x, uint32_t j);
-static double sample_visibility(const hc_engine *e, hc_work *wk, const hc_light_req *q,
-                                const hc_view *v, rad_vec3 x, uint32_t j);
+static double pixel_visibility(const hc_engine *e, hc_work *wk, const hc_light_req *q,
+                               const hc_view *v, rad_vec3 x, uint32_t j, double X, double Y);
+
+/* Continuous pixel coordinates (X, Y) of point x in view v at resolution R
+ * (pixel k's centre at k); 0 when x is not in front of a perspective eye
+ * (X and Y are then not meaningful). */
+static int view_pixel(const hc_view *v, uint32_t R, rad_vec3 x, double *X, double *Y)
+{
+    double a, b;
+    int in_front = 1;
+    if (v->ortho) {
+        a = rad_dot(x, v->right) / v->rw;
+        b = rad_dot(x, v->up) / v->rw;
+    } else {
+        const rad_vec3 r = rad_sub(x, v->pos);
+        const double w = rad_dot(r, v->fwd);
+        in_front = w > 0.0;
+        a = rad_dot(r, v->right) / w;
+        b = rad_dot(r, v->up) / w;
+    }
+    *X = (a + 1.0) * 0.5 * R - 0.5;
+    *Y = (b + 1.0) * 0.5 * R - 0.5;
+    return in_front;
+}
 
 /* Is patch k the same smooth surface as patch p, next to it: one object and
  * material, normals within the mesher's crease angle (30°, mesh.h's
@@ -242,23 +264,12 @@ static double point_visibility(const hc_engine *e, hc_work *wk, const hc_light_r
                                const hc_view *v, rad_vec3 at, uint32_t p)
 {
     const uint32_t R = q->resolution;
-    double x, y;
-    if (v->ortho) {
-        x = rad_dot(at, v->right) / v->rw;
-        y = rad_dot(at, v->up) / v->rw;
-    } else {
-        rad_vec3 r = rad_sub(at, v->pos);
-        double w = rad_dot(r, v->fwd);
-        if (!(w > 0.0))
-            return 0.0;
-        x = rad_dot(r, v->right) / w;
-        y = rad_dot(r, v->up) / w;
-    }
-    /* Continuous pixel coordinates: pixel k's centre is at k. */
-    double X = (x + 1.0) * 0.5 * R - 0.5, Y = (y + 1.0) * 0.5 * R - 0.5;
+    double X, Y;
+    if (!view_pixel(v, R, at, &X, &Y))
+        return 0.0;
     if (!(X > -1.0 && X < (double)R && Y > -1.0 && Y < (double)R))
         return 0.0; /* outside the view (an orthographic view covers the whole scene) */
-    return sample_visibility(e, wk, q, v, at, p);
+    return pixel_visibility(e, wk, q, v, at, p, X, Y);
 }
 
 int hc_light_points(const hc_engine *e, hc_work *wk, const hc_light_req *q,
@@ -448,25 +459,13 @@ static int pixel_lets_through(const hc_engine *e, hc_work *wk, const hc_light_re
     return D <= near / rad_dot(r, v->fwd) * (1.0 + 1e-4);
 }
 
-/* Visibility of point x of patch j: the bilinear weight of the four pixel
- * centres around its projection that let the light through or show j's own
- * smooth surface (same_surface). */
-static double sample_visibility(const hc_engine *e, hc_work *wk, const hc_light_req *q,
-                                const hc_view *v, rad_vec3 x, uint32_t j)
+/* Visibility of point x of patch j at its continuous pixel coordinates
+ * (X, Y): the bilinear weight of the four pixel centres around them that
+ * let the light through or show j's own smooth surface (same_surface). */
+static double pixel_visibility(const hc_engine *e, hc_work *wk, const hc_light_req *q,
+                               const hc_view *v, rad_vec3 x, uint32_t j, double X, double Y)
 {
     const uint32_t R = q->resolution;
-    double X, Y;
-    if (v->ortho) {
-        X = rad_dot(x, v->right) / v->rw;
-        Y = rad_dot(x, v->up) / v->rw;
-    } else {
-        const rad_vec3 r = rad_sub(x, v->pos);
-        const double w = rad_dot(r, v->fwd);
-        X = rad_dot(r, v->right) / w;
-        Y = rad_dot(r, v->up) / w;
-    }
-    X = (X + 1.0) * 0.5 * R - 0.5;
-    Y = (Y + 1.0) * 0.5 * R - 0.5;
     const double fx0 = floor(X), fy0 = floor(Y), fx = X - fx0, fy = Y - fy0;
     double vis = 0.0;
     for (int dy = 0; dy < 2; dy++)
@@ -475,9 +474,8 @@ static double sample_visibility(const hc_engine *e, hc_work *wk, const hc_light_
             px = px < 0 ? 0 : px >= (long)R ? (long)R - 1 : px;
             py = py < 0 ? 0 : py >= (long)R ? (long)R - 1 : py;
             const double w = (dx ? fx : 1.0 - fx) * (dy ? fy : 1.0 - fy);
-            if (w > 0.0 && pixel_lets_through(e, wk, q, v, (uint32_t)px, (uint32_t)py, x, j))
-                vis += w;
-            else if (w > 0.0 && same_surface(e, wk->lpixels[(size_t)py * R + (size_t)px], j))
+            if (w > 0.0 && (pixel_lets_through(e, wk, q, v, (uint32_t)px, (uint32_t)py, x, j) ||
+                            same_surface(e, wk->lpixels[(size_t)py * R + (size_t)px], j)))
                 vis += w;
         }
     return vis > 1.0 ? 1.0 : vis;
@@ -515,7 +513,9 @@ static double sampled_visibility(const hc_engine *e, hc_work *wk, const hc_light
                     if (!(h > 0.0) || fabs(rad_dot(r, v->right)) > h || fabs(rad_dot(r, v->up)) > h)
                         continue;
                 }
-                const double vis = sample_visibility(e, wk, q, v, x, j);
+                double X, Y; /* in front of the eye: checked above, or an orthographic view */
+                (void)view_pixel(v, q->resolution, x, &X, &Y);
+                const double vis = pixel_visibility(e, wk, q, v, x, j, X, Y);
                 sw += w;
                 sv += w * vis;
                 lit |= vis > 0.0;

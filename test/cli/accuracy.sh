@@ -20,11 +20,12 @@ polygon B black
   0 0 0.05   0 1 0.05   1 1 0.05   1 0 0.05
 end
 R
-rel() { awk -v v="$1" 'BEGIN { printf "%.9f", v / 0.90785314 - 1 }'; }
+# rel VALUE REFERENCE: VALUE / REFERENCE - 1
+rel() { awk -v v="$1" -v r="$2" 'BEGIN { printf "%.9f", v / r - 1 }'; }
 within() { awk -v d="$1" -v lo="$2" -v hi="$3" 'BEGIN { exit !(d >= lo && d <= hi) }'; }
 for a in pixels default high; do
     f=$("$BIN" ff "$dir/near.rad" --from A --to B --accuracy "$a" 2> "$dir/err" | awk '/^F\(A -> B\)/ { print $5 }')
-    d=$(rel "${f:-0}")
+    d=$(rel "${f:-0}" 0.90785314)
     case $a in
         pixels) lo=-1; hi=-0.03 ;;
         default) lo=-0.006; hi=0.006 ;;
@@ -53,8 +54,8 @@ for a in default pixels; do
     "$BIN" ff "$dir/plates.rad" --from A --to B --accuracy "$a" > "$dir/out" 2> "$dir/err"
     fab=$(awk '/^F\(A -> B\)/ { print $5 }' "$dir/out")
     fba=$(awk '/^F\(B -> A\)/ { print $5 }' "$dir/out")
-    dab=$(awk -v v="${fab:-0}" 'BEGIN { printf "%.9f", v / 0.39918502 - 1 }')
-    dba=$(awk -v v="${fba:-0}" 'BEGIN { printf "%.9f", v / 0.026612335 - 1 }')
+    dab=$(rel "${fab:-0}" 0.39918502)
+    dba=$(rel "${fba:-0}" 0.026612335)
     if [ "$a" = default ]; then
         within "$dab" -0.009 0.009 && within "$dba" -0.009 0.009
     else
