@@ -20,7 +20,13 @@
  *             (rad_mesh's cell layer), on vertices shared across the region
  *             (points on a shared edge are computed from the edge's ends in
  *             one order, so both sides get the same numbers);
- *   patches - the pieces in one grid cell are one patch; a patch of less
+ *   feet    - where another surface stands on the region inside its
+ *             outline (a block on a floor: a polygon from in front of the
+ *             plane that reaches it), the light on the region changes
+ *             within a patch: the grid cells that line crosses are cut
+ *             into four, each a patch of its own (where a wall meets a
+ *             floor along the floor's outline, a corner, nothing is cut);
+ *   patches - the pieces in one grid cell (quarter) are one patch; a patch of less
  *             than a quarter of a grid cell, or longer than 4 × its area
  *             allows (longest side² / area > 4), joins the neighbouring
  *             patch that keeps the pair best shaped, if the pair is then no
@@ -74,11 +80,18 @@ typedef struct rwork {
     rad_patch *cell;
     uint64_t *gi;
     size_t ncell, ccell, cgi;
-    pt2 *tmp[2];
-    size_t ctmp[2];
+    pt2 *tmp[3];
+    size_t ctmp[3];
     uint64_t *ekey;
     size_t cekey;
     uint64_t climit; /* cells this region may still make */
+    size_t nekey;    /* frame(): the members' edges in ekey */
+    double tol;      /* in the plane: within this of it */
+    pt2 *oe;         /* the outline's edges in the plane, two ends each */
+    size_t noe, coe;
+    double *pbox;    /* per scene polygon its box: lo x y z, hi x y z (feet()) */
+    uint64_t *foot;  /* grid cells cut into four (sorted, unique) */
+    size_t nfoot, cfoot;
 } rwork;
 
 /* --------------------------------------------------------------- regions */
@@ -198,6 +211,7 @@ static int frame(rwork *w, const uint32_t *mem, uint32_t nm)
                             w->pos[pg->first_point + (k + 1) % pg->point_count];
     }
     qsort(w->ekey, ne, sizeof *w->ekey, u64_cmp);
+    w->nekey = ne;
     double best = -1.0;
     rad_vec3 dir = rad_v3(0, 0, 0);
     for (size_t e = 0; e < ne; e++) {
@@ -341,6 +355,32 @@ static int add_piece(rwork *w, uint32_t polygon, const pt2 *p, size_t n, uint64_
     return 0;
 }
 
+static int is_foot(const rwork *w, uint64_t g)
+{
+    return w->nfoot && bsearch(&g, w->foot, w->nfoot, sizeof *w->foot, u64_cmp) != NULL;
+}
+
+/* Piece p[0..n) of grid cell (x, y), cut into its four quarters where
+ * another surface stands (is_foot).  Its id: 4 × the cell's + the quarter. */
+static int add_quarters(rwork *w, uint32_t i, const pt2 *p, size_t n, uint64_t x, uint64_t y)
+{
+    const uint64_t g = y * w->nx + x;
+    if (!is_foot(w, g))
+        return add_piece(w, i, p, n, 4 * g);
+    if (GROW(w->tmp[2], w->ctmp[2], 2 * n + 8) != 0)
+        return -1;
+    pt2 *a = w->tmp[2], *half = w->tmp[2] + n + 4;
+    const double mid[2] = {line_at(w, 0, x) + 0.5 * w->sx, line_at(w, 1, y) + 0.5 * w->sy};
+    for (int k = 0; k < 4; k++) {
+        size_t m = clip(p, n, a, 0, mid[0], k & 1);
+        m = m >= 3 ? clip(a, m, half, 1, mid[1], k >> 1) : 0;
+        int rc = m >= 3 ? add_piece(w, i, half, m, 4 * g + (uint64_t)k) : 0;
+        if (rc != 0)
+            return rc;
+    }
+    return 0;
+}
+
 /* Clips polygon i to every grid cell its box covers. */
 static int cut_polygon(rwork *w, uint32_t i)
 {
@@ -369,11 +409,179 @@ static int cut_polygon(rwork *w, uint32_t i)
         for (uint64_t y = from[1]; ns >= 3 && y <= to[1]; y++) {
             size_t m = clip(strip, ns, a, 1, line_at(w, 1, y), 1);
             m = clip(a, m, b, 1, line_at(w, 1, y + 1), 0);
-            int rc = m >= 3 ? add_piece(w, i, b, m, y * w->nx + x) : 0;
+            int rc = m >= 3 ? add_quarters(w, i, b, m, x, y) : 0;
             if (rc != 0)
                 return rc;
         }
     }
+    return 0;
+}
+
+/* ------------------------------------------------------------- feet */
+
+/* Where polygon q meets the region's plane, in the plane's coordinates:
+ * 1 when q reaches the plane (within w->tol) from in front of it, and is
+ * not of the region's own surface (mesh.h's RAD_MESH_SURFACE_COS). */
+static int meets_plane(const rwork *w, const rad_polygon *lead, uint32_t q, pt2 *a, pt2 *b)
+{
+    const rad_polygon *pg = &w->s->polygons[q];
+    const rad_vec3 *Q = w->s->points + pg->first_point;
+    if (pg->object == lead->object && pg->material == lead->material &&
+        rad_dot(pg->normal, lead->normal) >= RAD_MESH_SURFACE_COS)
+        return 0;
+    double dmin = INFINITY, dmax = -INFINITY;
+    for (uint32_t k = 0; k < pg->point_count; k++) {
+        double d = rad_dot(rad_sub(Q[k], w->O), w->N);
+        dmin = fmin(dmin, d), dmax = fmax(dmax, d);
+    }
+    if (!(dmax > w->tol) || !(dmin <= w->tol))
+        return 0;
+    int got = 0;
+    for (uint32_t k = 0; k < pg->point_count; k++) {
+        rad_vec3 u = Q[k], v = Q[(k + 1) % pg->point_count], hit[2];
+        double du = rad_dot(rad_sub(u, w->O), w->N), dv = rad_dot(rad_sub(v, w->O), w->N);
+        int nh = 0;
+        if (fabs(du) <= w->tol)
+            hit[nh++] = u;
+        if ((du > w->tol && dv < -w->tol) || (du < -w->tol && dv > w->tol))
+            hit[nh++] = rad_add(u, rad_scale(rad_sub(v, u), du / (du - dv)));
+        for (int h = 0; h < nh; h++) {
+            pt2 p = to2d(w, hit[h]);
+            if (!got++)
+                *a = *b = p;
+            else if (hypot(p.c[0] - a->c[0], p.c[1] - a->c[1]) >
+                     hypot(b->c[0] - a->c[0], b->c[1] - a->c[1]))
+                *b = p;
+        }
+    }
+    return got > 0;
+}
+
+static double seg_dist(pt2 p, pt2 a, pt2 b)
+{
+    double dx = b.c[0] - a.c[0], dy = b.c[1] - a.c[1], l2 = dx * dx + dy * dy;
+    double t = l2 > 0.0 ? ((p.c[0] - a.c[0]) * dx + (p.c[1] - a.c[1]) * dy) / l2 : 0.0;
+    t = fmin(1.0, fmax(0.0, t));
+    return hypot(p.c[0] - a.c[0] - t * dx, p.c[1] - a.c[1] - t * dy);
+}
+
+/* Does segment ab lie along the region's outline (a corner, as where a
+ * wall meets a floor)?  Its ends and seven points between them each within
+ * w->tol of some outline edge: the outline may be many short edges. */
+static int along_outline(const rwork *w, pt2 a, pt2 b)
+{
+    for (int k = 0; k <= 8; k++) {
+        const double t = k / 8.0;
+        const pt2 p = {{a.c[0] + t * (b.c[0] - a.c[0]), a.c[1] + t * (b.c[1] - a.c[1])}};
+        size_t e = 0;
+        while (e < w->noe && seg_dist(p, w->oe[2 * e], w->oe[2 * e + 1]) > w->tol)
+            e++;
+        if (e == w->noe)
+            return 0;
+    }
+    return 1;
+}
+
+/* Appends to w->foot the grid cells segment ab crosses, column by column. */
+static int mark_cells(rwork *w, pt2 a, pt2 b)
+{
+    const double dx = b.c[0] - a.c[0];
+    double fx = floor((fmin(a.c[0], b.c[0]) - w->x0) / w->sx);
+    double tx = floor((fmax(a.c[0], b.c[0]) - w->x0) / w->sx);
+    fx = fmax(0.0, fx), tx = fmin((double)w->nx - 1.0, tx);
+    for (uint64_t x = (uint64_t)fx; fx <= tx && x <= (uint64_t)tx; x++) {
+        double lo = line_at(w, 0, x), hi = line_at(w, 0, x + 1), t0 = 0.0, t1 = 1.0;
+        if (fabs(dx) > 0.0) {
+            double ta = (lo - a.c[0]) / dx, tb = (hi - a.c[0]) / dx;
+            t0 = fmax(0.0, fmin(ta, tb)), t1 = fmin(1.0, fmax(ta, tb));
+        } else if (a.c[0] < lo || a.c[0] > hi) {
+            continue;
+        }
+        if (t0 > t1)
+            continue;
+        double y0 = a.c[1] + t0 * (b.c[1] - a.c[1]), y1 = a.c[1] + t1 * (b.c[1] - a.c[1]);
+        double f = floor((fmin(y0, y1) - w->y0) / w->sy), t = floor((fmax(y0, y1) - w->y0) / w->sy);
+        f = fmax(0.0, f), t = fmin((double)w->ny - 1.0, t);
+        for (double y = f; y <= t; y++) {
+            if (GROW(w->foot, w->cfoot, w->nfoot + 1) != 0)
+                return -1;
+            w->foot[w->nfoot++] = (uint64_t)y * w->nx + x;
+        }
+    }
+    return 0;
+}
+
+/* w->pbox, made on first use. */
+static int polygon_boxes(rwork *w)
+{
+    const rad_scene *s = w->s;
+    if (w->pbox)
+        return 0;
+    if (!(w->pbox = malloc(((size_t)s->polygon_count + 1) * 6 * sizeof *w->pbox)))
+        return -1;
+    for (uint32_t q = 0; q < s->polygon_count; q++) {
+        double *b = w->pbox + 6 * (size_t)q;
+        b[0] = b[1] = b[2] = INFINITY;
+        b[3] = b[4] = b[5] = -INFINITY;
+        for (uint32_t k = 0; k < s->polygons[q].point_count; k++) {
+            rad_vec3 p = s->points[s->polygons[q].first_point + k];
+            const double c[3] = {p.x, p.y, p.z};
+            for (int d = 0; d < 3; d++)
+                b[d] = fmin(b[d], c[d]), b[d + 3] = fmax(b[d + 3], c[d]);
+        }
+    }
+    return 0;
+}
+
+/* The region's grid box in space, widened by w->tol: lo, hi. */
+static void region_box(const rwork *w, double *box)
+{
+    box[0] = box[1] = box[2] = INFINITY;
+    box[3] = box[4] = box[5] = -INFINITY;
+    for (int k = 0; k < 4; k++) {
+        rad_vec3 p = rad_add(w->O, rad_add(rad_scale(w->U, k & 1 ? w->x1 : w->x0),
+                                           rad_scale(w->V, k & 2 ? w->y1 : w->y0)));
+        const double c[3] = {p.x, p.y, p.z};
+        for (int d = 0; d < 3; d++)
+            box[d] = fmin(box[d], c[d] - w->tol), box[d + 3] = fmax(box[d + 3], c[d] + w->tol);
+    }
+}
+
+/* The region's outline in the plane (w->oe, from frame()'s edges), then
+ * w->foot: the grid cells where another surface stands on the region
+ * (polygons whose box misses the region's are passed over). */
+static int feet(rwork *w, const rad_polygon *lead)
+{
+    w->noe = w->nfoot = 0;
+    double box[6];
+    if (polygon_boxes(w) != 0)
+        return -1;
+    region_box(w, box);
+    for (size_t e = 0; e < w->nekey; e++) {
+        uint64_t rev = w->ekey[e] << 32 | w->ekey[e] >> 32;
+        if (bsearch(&rev, w->ekey, w->nekey, sizeof *w->ekey, u64_cmp))
+            continue;
+        if (GROW(w->oe, w->coe, 2 * w->noe + 2) != 0)
+            return -1;
+        w->oe[2 * w->noe] = to2d(w, w->s->points[w->first[w->ekey[e] >> 32]]);
+        w->oe[2 * w->noe++ + 1] = to2d(w, w->s->points[w->first[w->ekey[e] & 0xffffffffu]]);
+    }
+    for (uint32_t q = 0; q < w->s->polygon_count; q++) {
+        const double *pb = w->pbox + 6 * (size_t)q;
+        if (pb[0] > box[3] || pb[1] > box[4] || pb[2] > box[5] || pb[3] < box[0] ||
+            pb[4] < box[1] || pb[5] < box[2])
+            continue;
+        pt2 a = {{0.0, 0.0}}, b = a;
+        if (meets_plane(w, lead, q, &a, &b) && !along_outline(w, a, b) && mark_cells(w, a, b) != 0)
+            return -1;
+    }
+    if (w->nfoot)
+        qsort(w->foot, w->nfoot, sizeof *w->foot, u64_cmp);
+    size_t k = 0;
+    for (size_t e = 0; e < w->nfoot; e++)
+        if (k == 0 || w->foot[e] != w->foot[k - 1])
+            w->foot[k++] = w->foot[e];
+    w->nfoot = k;
     return 0;
 }
 
@@ -426,29 +634,52 @@ static uint32_t cand_find(const cand *cd, uint32_t n, uint64_t g)
     return lo < n && cd[lo].g == g ? lo : RAD_NONE;
 }
 
+/* Do boxes a and b share a stretch of edge (not just a corner)? */
+static int touching(const cand *a, const cand *b, double eps)
+{
+    int overlap = 0;
+    for (int d = 0; d < 2; d++) {
+        double gap = fmax(a->lo[d], b->lo[d]) - fmin(a->hi[d], b->hi[d]);
+        if (gap > eps)
+            return 0;
+        overlap |= gap < -eps;
+    }
+    return overlap;
+}
+
+/* The candidate sliver c joins best: of its grid cell's other quarters and
+ * its four neighbours' pieces, one it touches that keeps the pair within
+ * the size and the shape bound (the best shaped), or RAD_NONE. */
+static uint32_t sliver_partner(const rwork *w, const cand *cd, uint32_t n, uint32_t *up, uint32_t c)
+{
+    const double longmax = REGION_LONGEST * w->size * (1 + 1e-9), eps = 1e-9 * w->size;
+    uint64_t g = cd[c].g / 4, x = g % w->nx;
+    uint64_t nb[5] = {g, x > 0 ? g - 1 : UINT64_MAX, x + 1 < w->nx ? g + 1 : UINT64_MAX,
+                      g >= w->nx ? g - w->nx : UINT64_MAX, g + w->nx};
+    uint32_t best = RAD_NONE;
+    double best_r = INFINITY;
+    for (int k = 0; k < 20; k++) {
+        uint32_t d = nb[k / 4] == UINT64_MAX ? RAD_NONE : cand_find(cd, n, 4 * nb[k / 4] + k % 4);
+        if (d == RAD_NONE || (d = mesh_uf_find(up, d)) == c || !touching(&cd[d], &cd[c], eps))
+            continue;
+        cand u = cand_union(&cd[d], &cd[c]);
+        double ul, ur = cand_ratio(&u, &ul);
+        if (ul <= longmax && ur <= REGION_RATIO * (1 + 1e-9) &&
+            (ur < best_r || (ur == best_r && d < best)))
+            best = d, best_r = ur;
+    }
+    return best;
+}
+
 /* Slivers and long pieces join a grid neighbour (see the top of the file). */
 static void merge_slivers(const rwork *w, cand *cd, uint32_t n, uint32_t *up)
 {
-    const double cellarea = w->sx * w->sy, longmax = REGION_LONGEST * w->size * (1 + 1e-9);
     for (uint32_t c = 0; c < n; c++) {
+        const double cellarea = w->sx * w->sy * (is_foot(w, cd[c].g / 4) ? 0.25 : 1.0);
         double len, r = cand_ratio(&cd[c], &len);
         if (up[c] != c || (cd[c].area >= REGION_SLIVER * cellarea && r <= REGION_RATIO))
             continue;
-        uint64_t g = cd[c].g, x = g % w->nx;
-        uint64_t nb[4] = {x > 0 ? g - 1 : UINT64_MAX, x + 1 < w->nx ? g + 1 : UINT64_MAX,
-                          g >= w->nx ? g - w->nx : UINT64_MAX, g + w->nx};
-        uint32_t best = RAD_NONE;
-        double best_r = INFINITY;
-        for (int k = 0; k < 4; k++) {
-            uint32_t d = nb[k] == UINT64_MAX ? RAD_NONE : cand_find(cd, n, nb[k]);
-            if (d == RAD_NONE || (d = mesh_uf_find(up, d)) == c)
-                continue;
-            cand u = cand_union(&cd[d], &cd[c]);
-            double ul, ur = cand_ratio(&u, &ul);
-            if (ul <= longmax && ur <= REGION_RATIO * (1 + 1e-9) &&
-                (ur < best_r || (ur == best_r && d < best)))
-                best = d, best_r = ur;
-        }
+        uint32_t best = sliver_partner(w, cd, n, up, c);
         if (best != RAD_NONE) {
             up[c] = best;
             cd[best] = cand_union(&cd[best], &cd[c]);
@@ -579,6 +810,8 @@ static int mesh_region(rwork *w, const uint32_t *mem, uint32_t nm, int only_spli
     if (frame(w, mem, nm) != 0)
         return -1;
     grid(w, mem, nm);
+    if (feet(w, &w->s->polygons[mem[0]]) != 0)
+        return -1;
     /* 2^27 grid cells in one region: beyond any patch limit */
     /* a grid of more cells than the limit allows cells (a convex region
      * covers most of its grid): refused before cutting */
@@ -834,11 +1067,12 @@ int mesh_regions_build(const rad_scene *s, const uint32_t *pos, const uint32_t *
         return RAD_OK; /* no size to mesh by: every polygon on its own */
     const double tol = REGION_PLANE_TOL * rad_length(rad_sub(hi, lo));
     uint32_t nreg = 0;
-    rwork w = {.s = s, .pos = pos, .first = first, .npos = npos, .size = size};
+    rwork w = {.s = s, .pos = pos, .first = first, .npos = npos, .size = size, .tol = tol};
     int rc = find_regions(s, pos, first, npos, mode, tol, out->of, &nreg);
     if (rc == 0)
         rc = take_regions(&w, mode, nreg, out);
-    free(w.raw), free(w.cell), free(w.gi), free(w.tmp[0]), free(w.tmp[1]), free(w.ekey);
+    free(w.raw), free(w.cell), free(w.gi), free(w.tmp[0]), free(w.tmp[1]), free(w.tmp[2]);
+    free(w.ekey), free(w.oe), free(w.foot), free(w.pbox);
     if (rc == 0)
         return RAD_OK;
     double estimate = out->estimate;
