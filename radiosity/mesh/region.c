@@ -24,10 +24,12 @@
  *             outline (a block on a floor: a polygon from in front of the
  *             plane that reaches it), the light on the region changes
  *             within a patch: the grid cells that line crosses are cut
- *             into four, each a patch of its own (where a wall meets a
- *             floor along the floor's outline, a corner, nothing is cut);
- *   patches - the pieces in one grid cell (quarter) are one patch; a patch of less
- *             than a quarter of a grid cell, or longer than 4 × its area
+ *             into REGION_FOOT × REGION_FOOT parts, each a patch of its
+ *             own (where a wall meets a floor along the floor's outline,
+ *             a corner, nothing is cut);
+ *   patches - the pieces in one grid cell (or part) are one patch; a
+ *             patch of less than a quarter of its cell (part), or longer
+ *             than 4 × its area
  *             allows (longest side² / area > 4), joins the neighbouring
  *             patch that keeps the pair best shaped, if the pair is then no
  *             longer than 2 × size and longest side² / area <= 4.
@@ -56,6 +58,12 @@
 #define REGION_RATIO 4.0
 #define REGION_LONGEST 2.0
 #define REGION_SLIVER 0.25
+/* Where another surface stands on a region, a grid cell is cut into
+ * REGION_FOOT × REGION_FOOT patches. */
+#define REGION_FOOT 2
+/* A contact nearer the region's outline than this share of the size is a
+ * corner, not a foot. */
+#define REGION_CORNER 0.1
 
 typedef struct pt2 {
     double c[2];
@@ -360,21 +368,32 @@ static int is_foot(const rwork *w, uint64_t g)
     return w->nfoot && bsearch(&g, w->foot, w->nfoot, sizeof *w->foot, u64_cmp) != NULL;
 }
 
-/* Piece p[0..n) of grid cell (x, y), cut into its four quarters where
- * another surface stands (is_foot).  Its id: 4 × the cell's + the quarter. */
-static int add_quarters(rwork *w, uint32_t i, const pt2 *p, size_t n, uint64_t x, uint64_t y)
+/* Line j of REGION_FOOT between grid lines i and i + 1 along axis. */
+static double sub_line(const rwork *w, int axis, uint64_t i, int j)
 {
-    const uint64_t g = y * w->nx + x;
+    if (j == REGION_FOOT)
+        return line_at(w, axis, i + 1);
+    return line_at(w, axis, i) + (axis ? w->sy : w->sx) * (double)j / REGION_FOOT;
+}
+
+/* Piece p[0..n) of grid cell (x, y), cut into REGION_FOOT² parts where
+ * another surface stands (is_foot).  Its id: REGION_FOOT² × the cell's +
+ * the part's. */
+static int add_parts(rwork *w, uint32_t i, const pt2 *p, size_t n, uint64_t x, uint64_t y)
+{
+    const uint64_t g = y * w->nx + x, parts = REGION_FOOT * REGION_FOOT;
     if (!is_foot(w, g))
-        return add_piece(w, i, p, n, 4 * g);
-    if (GROW(w->tmp[2], w->ctmp[2], 2 * n + 8) != 0)
+        return add_piece(w, i, p, n, parts * g);
+    if (GROW(w->tmp[2], w->ctmp[2], 3 * (n + 8)) != 0)
         return -1;
-    pt2 *a = w->tmp[2], *half = w->tmp[2] + n + 4;
-    const double mid[2] = {line_at(w, 0, x) + 0.5 * w->sx, line_at(w, 1, y) + 0.5 * w->sy};
-    for (int k = 0; k < 4; k++) {
-        size_t m = clip(p, n, a, 0, mid[0], k & 1);
-        m = m >= 3 ? clip(a, m, half, 1, mid[1], k >> 1) : 0;
-        int rc = m >= 3 ? add_piece(w, i, half, m, 4 * g + (uint64_t)k) : 0;
+    pt2 *a = w->tmp[2], *b = a + n + 8, *c = b + n + 8;
+    for (int k = 0; k < (int)parts; k++) {
+        const int u = k % REGION_FOOT, v = k / REGION_FOOT;
+        size_t m = clip(p, n, a, 0, sub_line(w, 0, x, u), 1);
+        m = m >= 3 ? clip(a, m, b, 0, sub_line(w, 0, x, u + 1), 0) : 0;
+        m = m >= 3 ? clip(b, m, a, 1, sub_line(w, 1, y, v), 1) : 0;
+        m = m >= 3 ? clip(a, m, c, 1, sub_line(w, 1, y, v + 1), 0) : 0;
+        int rc = m >= 3 ? add_piece(w, i, c, m, parts * g + (uint64_t)k) : 0;
         if (rc != 0)
             return rc;
     }
@@ -409,7 +428,7 @@ static int cut_polygon(rwork *w, uint32_t i)
         for (uint64_t y = from[1]; ns >= 3 && y <= to[1]; y++) {
             size_t m = clip(strip, ns, a, 1, line_at(w, 1, y), 1);
             m = clip(a, m, b, 1, line_at(w, 1, y + 1), 0);
-            int rc = m >= 3 ? add_quarters(w, i, b, m, x, y) : 0;
+            int rc = m >= 3 ? add_parts(w, i, b, m, x, y) : 0;
             if (rc != 0)
                 return rc;
         }
@@ -465,20 +484,62 @@ static double seg_dist(pt2 p, pt2 a, pt2 b)
     return hypot(p.c[0] - a.c[0] - t * dx, p.c[1] - a.c[1] - t * dy);
 }
 
-/* Does segment ab lie along the region's outline (a corner, as where a
- * wall meets a floor)?  Its ends and seven points between them each within
- * w->tol of some outline edge: the outline may be many short edges. */
-static int along_outline(const rwork *w, pt2 a, pt2 b)
+/* Is p inside member polygon q (convex, counter-clockwise about the
+ * region's normal), not just on its edge? */
+static int in_member(const rwork *w, uint32_t q, pt2 p)
+{
+    const rad_polygon *pg = &w->s->polygons[q];
+    pt2 a = to2d(w, point_of(w, pg->first_point + pg->point_count - 1));
+    for (uint32_t k = 0; k < pg->point_count; k++) {
+        pt2 b = to2d(w, point_of(w, pg->first_point + k));
+        double len = hypot(b.c[0] - a.c[0], b.c[1] - a.c[1]);
+        if (len > 0.0 && tri2(a, b, p) <= 0.5 * w->tol * len)
+            return 0;
+        a = b;
+    }
+    return 1;
+}
+
+/* Does segment ab stand inside the region: one of its ends or seven points
+ * between them inside a member and farther than REGION_CORNER × size from
+ * the outline (so a wall meeting a floor along the floor's edge, a corner,
+ * does not, even a wall some tenths of a millimetre off it as the Cornell
+ * box's published red wall)? */
+static int stands_inside(const rwork *w, const uint32_t *mem, uint32_t nm, pt2 a, pt2 b)
 {
     for (int k = 0; k <= 8; k++) {
         const double t = k / 8.0;
         const pt2 p = {{a.c[0] + t * (b.c[0] - a.c[0]), a.c[1] + t * (b.c[1] - a.c[1])}};
         size_t e = 0;
-        while (e < w->noe && seg_dist(p, w->oe[2 * e], w->oe[2 * e + 1]) > w->tol)
+        while (e < w->noe && seg_dist(p, w->oe[2 * e], w->oe[2 * e + 1]) > REGION_CORNER * w->size)
             e++;
-        if (e == w->noe)
-            return 0;
+        for (uint32_t m = 0; e == w->noe && m < nm; m++)
+            if (in_member(w, mem[m], p))
+                return 1;
     }
+    return 0;
+}
+
+/* Clips segment ab to the grid's box; 0 when nothing is left. */
+static int clip_to_box(const rwork *w, pt2 *a, pt2 *b)
+{
+    double t0 = 0.0, t1 = 1.0;
+    const double lo[2] = {w->x0, w->y0}, hi[2] = {w->x1, w->y1};
+    for (int d = 0; d < 2; d++) {
+        double dd = b->c[d] - a->c[d];
+        if (dd == 0.0) {
+            if (a->c[d] < lo[d] || a->c[d] > hi[d])
+                return 0;
+            continue;
+        }
+        double ta = (lo[d] - a->c[d]) / dd, tb = (hi[d] - a->c[d]) / dd;
+        t0 = fmax(t0, fmin(ta, tb)), t1 = fmin(t1, fmax(ta, tb));
+    }
+    if (t0 > t1)
+        return 0;
+    pt2 p = *a, q = *b;
+    for (int d = 0; d < 2; d++)
+        a->c[d] = p.c[d] + t0 * (q.c[d] - p.c[d]), b->c[d] = p.c[d] + t1 * (q.c[d] - p.c[d]);
     return 1;
 }
 
@@ -550,8 +611,9 @@ static void region_box(const rwork *w, double *box)
 /* The region's outline in the plane (w->oe, from frame()'s edges), then
  * w->foot: the grid cells where another surface stands on the region
  * (polygons whose box misses the region's are passed over). */
-static int feet(rwork *w, const rad_polygon *lead)
+static int feet(rwork *w, const uint32_t *mem, uint32_t nm)
 {
+    const rad_polygon *lead = &w->s->polygons[mem[0]];
     w->noe = w->nfoot = 0;
     double box[6];
     if (polygon_boxes(w) != 0)
@@ -572,7 +634,8 @@ static int feet(rwork *w, const rad_polygon *lead)
             pb[4] < box[1] || pb[5] < box[2])
             continue;
         pt2 a = {{0.0, 0.0}}, b = a;
-        if (meets_plane(w, lead, q, &a, &b) && !along_outline(w, a, b) && mark_cells(w, a, b) != 0)
+        if (meets_plane(w, lead, q, &a, &b) && clip_to_box(w, &a, &b) &&
+            stands_inside(w, mem, nm, a, b) && mark_cells(w, a, b) != 0)
             return -1;
     }
     if (w->nfoot)
@@ -647,19 +710,20 @@ static int touching(const cand *a, const cand *b, double eps)
     return overlap;
 }
 
-/* The candidate sliver c joins best: of its grid cell's other quarters and
+/* The candidate sliver c joins best: of its grid cell's other parts and
  * its four neighbours' pieces, one it touches that keeps the pair within
  * the size and the shape bound (the best shaped), or RAD_NONE. */
 static uint32_t sliver_partner(const rwork *w, const cand *cd, uint32_t n, uint32_t *up, uint32_t c)
 {
     const double longmax = REGION_LONGEST * w->size * (1 + 1e-9), eps = 1e-9 * w->size;
-    uint64_t g = cd[c].g / 4, x = g % w->nx;
+    const uint64_t parts = REGION_FOOT * REGION_FOOT, g = cd[c].g / parts, x = g % w->nx;
     uint64_t nb[5] = {g, x > 0 ? g - 1 : UINT64_MAX, x + 1 < w->nx ? g + 1 : UINT64_MAX,
                       g >= w->nx ? g - w->nx : UINT64_MAX, g + w->nx};
     uint32_t best = RAD_NONE;
     double best_r = INFINITY;
-    for (int k = 0; k < 20; k++) {
-        uint32_t d = nb[k / 4] == UINT64_MAX ? RAD_NONE : cand_find(cd, n, 4 * nb[k / 4] + k % 4);
+    for (uint64_t k = 0; k < 5 * parts; k++) {
+        uint32_t d = nb[k / parts] == UINT64_MAX ? RAD_NONE
+                                                  : cand_find(cd, n, parts * nb[k / parts] + k % parts);
         if (d == RAD_NONE || (d = mesh_uf_find(up, d)) == c || !touching(&cd[d], &cd[c], eps))
             continue;
         cand u = cand_union(&cd[d], &cd[c]);
@@ -675,7 +739,9 @@ static uint32_t sliver_partner(const rwork *w, const cand *cd, uint32_t n, uint3
 static void merge_slivers(const rwork *w, cand *cd, uint32_t n, uint32_t *up)
 {
     for (uint32_t c = 0; c < n; c++) {
-        const double cellarea = w->sx * w->sy * (is_foot(w, cd[c].g / 4) ? 0.25 : 1.0);
+        const double cellarea = w->sx * w->sy /
+                                (is_foot(w, cd[c].g / (REGION_FOOT * REGION_FOOT))
+                                     ? REGION_FOOT * REGION_FOOT : 1.0);
         double len, r = cand_ratio(&cd[c], &len);
         if (up[c] != c || (cd[c].area >= REGION_SLIVER * cellarea && r <= REGION_RATIO))
             continue;
@@ -810,7 +876,7 @@ static int mesh_region(rwork *w, const uint32_t *mem, uint32_t nm, int only_spli
     if (frame(w, mem, nm) != 0)
         return -1;
     grid(w, mem, nm);
-    if (feet(w, &w->s->polygons[mem[0]]) != 0)
+    if (feet(w, mem, nm) != 0)
         return -1;
     /* 2^27 grid cells in one region: beyond any patch limit */
     /* a grid of more cells than the limit allows cells (a convex region
