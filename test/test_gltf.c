@@ -22,46 +22,9 @@
 
 /* ------------------------------------------------------------ text buffer */
 
-typedef struct text {
-    char *s;
-    size_t len, cap;
-} text;
-
-static void tx_add(text *t, const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    int n = vsnprintf(NULL, 0, fmt, ap);
-    va_end(ap);
-    if (n < 0)
-        abort();
-    if (t->len + (size_t)n + 1 > t->cap) {
-        size_t cap = (t->cap ? t->cap * 2 : 1024) + (size_t)n + 1;
-        t->s = realloc(t->s, cap);
-        if (!t->s)
-            abort();
-        t->cap = cap;
-    }
-    va_start(ap, fmt);
-    vsnprintf(t->s + t->len, (size_t)n + 1, fmt, ap);
-    va_end(ap);
-    t->len += (size_t)n;
-}
-
-static void tx_base64(text *t, const unsigned char *d, size_t n)
-{
-    static const char al[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    for (size_t k = 0; k < n; k += 3) {
-        uint32_t v = (uint32_t)d[k] << 16;
-        if (k + 1 < n)
-            v |= (uint32_t)d[k + 1] << 8;
-        if (k + 2 < n)
-            v |= d[k + 2];
-        char q[5] = {al[v >> 18 & 63], al[v >> 12 & 63], k + 1 < n ? al[v >> 6 & 63] : '=',
-                     k + 2 < n ? al[v & 63] : '=', 0};
-        tx_add(t, "%s", q);
-    }
-}
+typedef test_text text;
+#define tx_add test_text_add
+#define tx_base64 test_text_base64
 
 /* ------------------------------------------------------------ binary blob */
 

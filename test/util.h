@@ -8,6 +8,7 @@
 #include "../radiosity/pipeline/pipeline.h"
 
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -48,6 +49,49 @@ static inline int test_copy_row(const rad_matrix *from, rad_matrix *to, uint32_t
     const float *val;
     uint32_t cnt = test_row(from, i, 0, &col, &val);
     return rad_matrix_set_row(to, i, cnt, col, val, err);
+}
+
+/* A growing text buffer (NUL-terminated; free s), printf-style appends,
+ * and base64 for glTF data URIs; abort on OOM. */
+typedef struct test_text {
+    char *s;
+    size_t len, cap;
+} test_text;
+
+static inline void test_text_add(test_text *t, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    int n = vsnprintf(NULL, 0, fmt, ap);
+    va_end(ap);
+    if (n < 0)
+        abort();
+    if (t->len + (size_t)n + 1 > t->cap) {
+        size_t cap = (t->cap ? t->cap * 2 : 1024) + (size_t)n + 1;
+        t->s = realloc(t->s, cap);
+        if (!t->s)
+            abort();
+        t->cap = cap;
+    }
+    va_start(ap, fmt);
+    vsnprintf(t->s + t->len, (size_t)n + 1, fmt, ap);
+    va_end(ap);
+    t->len += (size_t)n;
+}
+
+static inline void test_text_base64(test_text *t, const unsigned char *d, size_t n)
+{
+    static const char al[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    for (size_t k = 0; k < n; k += 3) {
+        uint32_t v = (uint32_t)d[k] << 16;
+        if (k + 1 < n)
+            v |= (uint32_t)d[k + 1] << 8;
+        if (k + 2 < n)
+            v |= d[k + 2];
+        char q[5] = {al[v >> 18 & 63], al[v >> 12 & 63], k + 1 < n ? al[v >> 6 & 63] : '=',
+                     k + 2 < n ? al[v & 63] : '=', 0};
+        test_text_add(t, "%s", q);
+    }
 }
 
 /* Parses polygon-file text (`name` in messages) and solves it as opt says

@@ -68,7 +68,7 @@ typedef struct builder {
     rad_vec3 *V;
     uint8_t *Vb;
     uint32_t *Vsurf;
-    uint8_t *outline;  /* per polygon: its edges on its surface's outline, one bit each */
+    uint8_t *outline;  /* per cell of the patch mesh: its edges on its surface's outline, one bit each */
     uint32_t nv, cap_v;
     el_vtable t;
     /* elements */
@@ -102,19 +102,20 @@ static const rad_patch *cell_of(const builder *b, const enode *n)
     return m->cell_first ? &m->cells[n->cell] : &m->patches[n->cell];
 }
 
-/* Is p on an edge of polygon poly's outline (the edges of its surface's
- * outline: a small polygon of a clustered surface shares the others with
- * its neighbours)?  Decides the boundary flag of a new vertex (the
+/* Is p on an edge of the patch mesh's cell `cell` that lies on its
+ * surface's outline (no other cell runs that edge the other way)?  A cell
+ * of a planar region need not follow its polygon's edges, so the cell's
+ * own edges are tested.  Decides the boundary flag of a new vertex (the
  * renderer extrapolates outline vertices). */
-static int on_outline(const builder *b, uint32_t poly, rad_vec3 p)
+static int on_outline(const builder *b, uint32_t cell, rad_vec3 p)
 {
-    const rad_scene *sc = b->s->scene;
-    const rad_polygon *pg = &sc->polygons[poly];
-    const rad_vec3 *P = sc->points + pg->first_point;
-    for (uint32_t k = 0; k < pg->point_count; k++) {
-        if (k < 8 && !((b->outline[poly] >> k) & 1u))
+    const rad_mesh *m = b->s->mesh;
+    const rad_patch *c = m->cell_first ? &m->cells[cell] : &m->patches[cell];
+    const int n = rad_patch_corners(c);
+    for (int k = 0; k < n; k++) {
+        if (!((b->outline[cell] >> k) & 1u))
             continue;
-        rad_vec3 a = P[k], b = P[(k + 1) % pg->point_count], ab = rad_sub(b, a);
+        rad_vec3 a = m->vertices[c->v[k]], ab = rad_sub(m->vertices[c->v[(k + 1) % n]], a);
         double len2 = rad_dot(ab, ab);
         if (!(len2 > 0.0))
             continue;
@@ -129,8 +130,9 @@ static int on_outline(const builder *b, uint32_t poly, rad_vec3 p)
 }
 
 /* The vertex at p on surface surf, made when missing; RAD_NONE on OOM.
- * poly: the polygon on whose outline it may lie, RAD_NONE when it cannot. */
-static uint32_t vertex_at(builder *b, uint32_t surf, rad_vec3 p, uint32_t poly)
+ * cell: the patch mesh's cell on whose outline it may lie, RAD_NONE when it
+ * cannot. */
+static uint32_t vertex_at(builder *b, uint32_t surf, rad_vec3 p, uint32_t cell)
 {
     uint32_t v = b->nv ? el_vt_find(&b->t, surf, p) : RAD_NONE;
     if (v != RAD_NONE)
@@ -155,7 +157,7 @@ static uint32_t vertex_at(builder *b, uint32_t surf, rad_vec3 p, uint32_t poly)
     v = b->nv++;
     b->V[v] = p;
     b->Vsurf[v] = surf;
-    b->Vb[v] = poly != RAD_NONE && on_outline(b, poly, p);
+    b->Vb[v] = cell != RAD_NONE && on_outline(b, cell, p);
     if (el_vt_insert(&b->t, v) != 0)
         return RAD_NONE;
     return v;
@@ -204,7 +206,7 @@ static int add_element(builder *b, const uint32_t v[4], uint32_t patch, uint32_t
 static int split(builder *b, uint32_t e, int kid_state)
 {
     enode n = b->E[e];
-    const uint32_t surf = b->Vsurf[n.v[0]], poly = cell_of(b, &n)->polygon;
+    const uint32_t surf = b->Vsurf[n.v[0]];
     uint32_t c[4];
     memcpy(c, n.v, sizeof c);
     int corners = c[3] == RAD_NONE ? 3 : 4;
@@ -213,7 +215,7 @@ static int split(builder *b, uint32_t e, int kid_state)
         uint32_t a = c[k], z = c[(k + 1) % corners];
         /* Only a el_midpoint between two outline vertices can be on the outline. */
         m[k] = vertex_at(b, surf, el_midpoint(b->V[a], b->V[z]),
-                         b->Vb[a] && b->Vb[z] ? poly : RAD_NONE);
+                         b->Vb[a] && b->Vb[z] ? n.cell : RAD_NONE);
         if (m[k] == RAD_NONE)
             return -1;
     }
@@ -1056,38 +1058,32 @@ done:
     return rc;
 }
 
-/* b->outline: per polygon, bit k set when its edge k lies on its surface's
- * outline.  Every edge does, except where a cell of another polygon runs
- * the same two mesh vertices the other way: a small polygon of a clustered
- * surface is one cell whose corners are its points in order, and shares
- * such edges with its neighbours.  -1 on OOM. */
+/* b->outline: per cell of the patch mesh (its patches when it has no cell
+ * layer), bit k set when the cell's edge k lies on its surface's outline:
+ * no other cell runs the same two mesh vertices the other way (cells of a
+ * clustered surface or a planar region share their vertices; a polygon
+ * meshed alone shares its own).  -1 on OOM. */
 static int outline_masks(builder *b)
 {
     const rad_mesh *m = b->s->mesh;
-    const uint32_t npoly = b->s->scene->polygon_count;
-    b->outline = malloc((size_t)npoly + 1);
+    const uint32_t nc = m->cell_first ? m->cell_count : m->patch_count;
+    const rad_patch *cells = m->cell_first ? m->cells : m->patches;
+    b->outline = malloc((size_t)nc + 1);
     if (!b->outline)
         return -1;
-    memset(b->outline, 0xff, (size_t)npoly + 1);
-    if (!m->cell_first)
-        return 0; /* no clusters: no vertex is shared across polygons */
-    const uint32_t nc = m->cell_count;
+    memset(b->outline, 0xff, (size_t)nc + 1);
     size_t cap = 16;
     while (cap < 8 * (size_t)nc + 2)
         cap *= 2;
     uint64_t *key = malloc(cap * sizeof *key);
-    uint32_t *poly = malloc(cap * sizeof *poly);
-    if (!key || !poly) {
-        free(key);
-        free(poly);
+    if (!key)
         return -1;
-    }
     for (size_t h = 0; h < cap; h++)
         key[h] = UINT64_MAX;
     /* pass 0 enters every directed edge, pass 1 looks for each one's reverse */
     for (int pass = 0; pass < 2; pass++)
         for (uint32_t c = 0; c < nc; c++) {
-            const rad_patch *cell = &m->cells[c];
+            const rad_patch *cell = &cells[c];
             const int n = rad_patch_corners(cell);
             for (int k = 0; k < n; k++) {
                 uint64_t a = cell->v[k], z = cell->v[(k + 1) % n];
@@ -1095,16 +1091,13 @@ static int outline_masks(builder *b)
                 size_t h = (size_t)((want * 0x9E3779B97F4A7C15ull) >> 20) & (cap - 1);
                 while (key[h] != UINT64_MAX && key[h] != want)
                     h = (h + 1) & (cap - 1);
-                if (!pass) {
+                if (!pass)
                     key[h] = want;
-                    poly[h] = cell->polygon;
-                } else if (key[h] == want && poly[h] != cell->polygon && k < 8) {
-                    b->outline[cell->polygon] &= (uint8_t)~(1u << k);
-                }
+                else if (key[h] == want)
+                    b->outline[c] &= (uint8_t)~(1u << k);
             }
         }
     free(key);
-    free(poly);
     return 0;
 }
 

@@ -26,7 +26,8 @@
  *
  * A surface of one polygon is left off the cluster path: such a polygon is
  * meshed exactly as before.  Everything is deterministic: points are
- * matched by exact position, ties go to the lowest index.
+ * matched by their weld ids (weld.c: within 1e-6 of the scene's diagonal),
+ * ties go to the lowest index.
  */
 #include "mesh_internal.h"
 
@@ -49,17 +50,6 @@ static uint64_t mix(uint64_t h)
     h ^= h >> 33;
     h *= 0xc4ceb9fe1a85ec53ull;
     h ^= h >> 33;
-    return h;
-}
-
-static uint64_t pos_hash(rad_vec3 p)
-{
-    /* +0.0 makes -0 and 0 the same key. */
-    double c[3] = {p.x + 0.0, p.y + 0.0, p.z + 0.0};
-    uint64_t w[3], h = 0x9E3779B97F4A7C15ull;
-    memcpy(w, c, sizeof w);
-    for (int k = 0; k < 3; k++)
-        h = mix(h ^ w[k]);
     return h;
 }
 
@@ -113,7 +103,7 @@ static int edge_cmp(const void *a, const void *b)
     return x->polygon < y->polygon ? -1 : x->polygon > y->polygon;
 }
 
-static uint32_t find(uint32_t *up, uint32_t x)
+uint32_t mesh_uf_find(uint32_t *up, uint32_t x)
 {
     while (up[x] != x) {
         up[x] = up[up[x]];
@@ -126,8 +116,8 @@ static uint32_t find(uint32_t *up, uint32_t x)
  * index of their set. */
 static void join(uint32_t *up, uint32_t a, uint32_t b)
 {
-    a = find(up, a);
-    b = find(up, b);
+    a = mesh_uf_find(up, a);
+    b = mesh_uf_find(up, b);
     if (a < b)
         up[b] = a;
     else if (b < a)
@@ -139,7 +129,7 @@ typedef struct work {
     const rad_scene *s;
     const uint8_t *elig;
     uint32_t np;
-    uint32_t *pos;     /* scene point -> position id (eligible polygons' points) */
+    const uint32_t *pos; /* scene point -> its weld id (mesh_weld) */
     uint32_t *nb;      /* 4 per polygon: the neighbour across edge k, RAD_NONE */
     uint32_t *surf;    /* union-find over polygons: surfaces */
     uint32_t *cl;      /* polygon -> BFS cluster */
@@ -155,19 +145,6 @@ static int compatible(const rad_scene *s, uint32_t p, uint32_t q)
            rad_dot(a->normal, b->normal) >= CLUSTER_COS;
 }
 
-typedef struct pos_ctx {
-    const rad_vec3 *points;
-    const uint32_t *first; /* id -> the first point holding it */
-    rad_vec3 p;
-} pos_ctx;
-
-static int same_pos(const void *ctx, uint32_t id)
-{
-    const pos_ctx *c = ctx;
-    rad_vec3 q = c->points[c->first[id]];
-    return q.x == c->p.x && q.y == c->p.y && q.z == c->p.z;
-}
-
 typedef struct key_ctx {
     const uint64_t *keys;
     uint64_t key;
@@ -177,43 +154,6 @@ static int same_key(const void *ctx, uint32_t id)
 {
     const key_ctx *c = ctx;
     return c->keys[id] == c->key;
-}
-
-/* Position ids: equal coordinates, equal id. */
-static int positions(work *w)
-{
-    const rad_scene *s = w->s;
-    size_t count = 0;
-    for (uint32_t i = 0; i < w->np; i++)
-        if (w->elig[i])
-            count += s->polygons[i].point_count;
-    table t;
-    if (table_init(&t, count) != 0)
-        return -1;
-    w->pos = malloc(((size_t)s->point_count + 1) * sizeof *w->pos);
-    /* the first point holding each id, to compare coordinates */
-    uint32_t *first = malloc((count + 1) * sizeof *first), ids = 0;
-    if (!w->pos || !first) {
-        free(t.slot);
-        free(first);
-        return -1;
-    }
-    for (uint32_t i = 0; i < w->np; i++) {
-        const rad_polygon *pg = &s->polygons[i];
-        if (!w->elig[i])
-            continue;
-        for (uint32_t k = 0; k < pg->point_count; k++) {
-            const uint32_t pt = pg->first_point + k;
-            const pos_ctx ctx = {s->points, first, s->points[pt]};
-            int made;
-            w->pos[pt] = intern(&t, pos_hash(ctx.p), same_pos, &ctx, &ids, &made);
-            if (made)
-                first[w->pos[pt]] = pt;
-        }
-    }
-    free(t.slot);
-    free(first);
-    return 0;
 }
 
 /* nb: each eligible polygon's neighbour across each edge (the lowest
@@ -289,7 +229,7 @@ static void grid_key(const work *w, uint32_t i, int64_t key[3])
 /* The cluster path: eligible polygons of surfaces with two or more. */
 static int on_path(const work *w, const uint32_t *surf_size, uint32_t i)
 {
-    return w->elig[i] && surf_size[find(w->surf, i)] > 1;
+    return w->elig[i] && surf_size[mesh_uf_find(w->surf, i)] > 1;
 }
 
 /* Breadth-first clusters: from the lowest polygon not yet taken, its
@@ -385,7 +325,7 @@ static int merge_slivers(work *w, uint32_t *up)
             mem[start[w->cl[i] + 1]++] = i;
     const double sliver = SLIVER_AREA * w->size * w->size, extent = MERGE_EXTENT * w->size;
     for (uint32_t c = 0; c < nc; c++) {
-        if (ci[c].area >= sliver || ci[c].grew || find(up, c) != c)
+        if (ci[c].area >= sliver || ci[c].grew || mesh_uf_find(up, c) != c)
             continue;
         uint32_t best = RAD_NONE;
         for (uint32_t m = start[c]; m < start[c + 1]; m++)
@@ -393,7 +333,7 @@ static int merge_slivers(work *w, uint32_t *up)
                 uint32_t q = w->nb[4 * (size_t)mem[m] + e];
                 if (q == RAD_NONE)
                     continue;
-                uint32_t d = find(up, w->cl[q]);
+                uint32_t d = mesh_uf_find(up, w->cl[q]);
                 if (d == c || (best != RAD_NONE && (ci[d].area > ci[best].area ||
                                                     (ci[d].area == ci[best].area && d > best))))
                     continue;
@@ -438,7 +378,7 @@ static int number(work *w, uint32_t *up, mesh_clusters *out)
         out->of[i] = RAD_NONE;
         if (w->cl[i] == RAD_NONE)
             continue;
-        uint32_t r = find(up, w->cl[i]);
+        uint32_t r = mesh_uf_find(up, w->cl[i]);
         if (label[r] == RAD_NONE)
             label[r] = count++;
         out->of[i] = label[r];
@@ -485,7 +425,7 @@ static int vertices(work *w, mesh_clusters *out)
         if (out->of[i] == RAD_NONE)
             continue;
         const rad_polygon *pg = &s->polygons[i];
-        uint64_t surf = find(w->surf, i);
+        uint64_t surf = mesh_uf_find(w->surf, i);
         for (uint32_t k = 0; k < pg->point_count; k++) {
             const uint32_t pt = pg->first_point + k;
             const key_ctx ctx = {keys, surf << 32 | w->pos[pt]};
@@ -518,11 +458,11 @@ void mesh_clusters_free(mesh_clusters *c)
     memset(c, 0, sizeof *c);
 }
 
-int mesh_cluster(const rad_scene *s, const uint8_t *eligible, double size, mesh_clusters *out,
-                 rad_error *err)
+int mesh_cluster(const rad_scene *s, const uint8_t *eligible, const uint32_t *pos, double size,
+                 mesh_clusters *out, rad_error *err)
 {
     memset(out, 0, sizeof *out);
-    work w = {.s = s, .elig = eligible, .np = s->polygon_count, .size = size};
+    work w = {.s = s, .elig = eligible, .np = s->polygon_count, .size = size, .pos = pos};
     rad_vec3 hi;
     uint32_t *surf_size = NULL, *up = NULL;
     int rc = -1;
@@ -537,20 +477,19 @@ int mesh_cluster(const rad_scene *s, const uint8_t *eligible, double size, mesh_
         rc = 0;
         goto done;
     }
-    if (positions(&w) != 0 || neighbours(&w) != 0)
+    if (neighbours(&w) != 0)
         goto done;
     surf_size = calloc((size_t)w.np + 1, sizeof *surf_size);
     if (!surf_size)
         goto done;
     for (uint32_t i = 0; i < w.np; i++)
         if (w.elig[i])
-            surf_size[find(w.surf, i)]++;
+            surf_size[mesh_uf_find(w.surf, i)]++;
     if (grow(&w, surf_size) != 0 || !(up = malloc(((size_t)w.ncl + 1) * sizeof *up)) ||
         merge_slivers(&w, up) != 0 || number(&w, up, out) != 0 || vertices(&w, out) != 0)
         goto done;
     rc = 0;
 done:
-    free(w.pos);
     free(w.nb);
     free(w.surf);
     free(w.cl);

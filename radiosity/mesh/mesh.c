@@ -19,6 +19,11 @@
  * patch of several cells, in the place of its first polygon; its cells'
  * vertices are shared across its surface.  The mesh then has a cell layer
  * (rad.h), in which every other patch is its own single cell.
+ *
+ * Planar regions (region.c) and curved surfaces of narrow facets
+ * (smooth.c) are meshed whole before that, and placed as a cluster is, in
+ * the place of their lowest polygon, their cells' vertices shared across
+ * their polygons.
  */
 #include "mesh_internal.h"
 
@@ -208,19 +213,6 @@ static uint64_t add_sat(uint64_t a, uint64_t b)
     return a > UINT64_MAX - b ? UINT64_MAX : a + b;
 }
 
-/* Cells along an edge of length len for a target patch edge `size`.  The
- * 1e-9 keeps an edge of exactly k·size from becoming k+1 cells through
- * rounding.  UINT64_MAX when the count would not fit a uint32. */
-static uint64_t divisions(double len, double size)
-{
-    if (!(size > 0.0) || !isfinite(size))
-        return 1;
-    double q = len / size;
-    if (!(q <= 4294967295.0))
-        return UINT64_MAX;
-    double c = ceil(q - 1e-9);
-    return c < 1.0 ? 1 : (uint64_t)c;
-}
 
 double rad_mesh_default_patch_size(const rad_scene *scene)
 {
@@ -278,8 +270,8 @@ static split polygon_split(const rad_scene *s, const rad_polygon *pg, double opt
         } else {
             double lu = fmax(rad_length(rad_sub(p[1], p[0])), rad_length(rad_sub(p[2], p[3])));
             double lv = fmax(rad_length(rad_sub(p[2], p[1])), rad_length(rad_sub(p[3], p[0])));
-            r.nu = divisions(lu, size);
-            r.nv = divisions(lv, size);
+            r.nu = mesh_divisions(lu, size);
+            r.nv = mesh_divisions(lv, size);
         }
         if (r.nu == UINT64_MAX || r.nv == UINT64_MAX) {
             r.patches = r.vertices = UINT64_MAX;
@@ -301,7 +293,7 @@ static split polygon_split(const rad_scene *s, const rad_polygon *pg, double opt
             for (uint32_t i = 0; i < n; i++)
                 longest = fmax(longest, rad_length(rad_sub(p[i], c)));
         }
-        k = divisions(longest, size);
+        k = mesh_divisions(longest, size);
     }
     r.nu = r.nv = k;
     if (k == UINT64_MAX) {
@@ -332,24 +324,111 @@ static int transmits(const rad_scene *scene, const rad_polygon *pg)
            rad_material_transmits(&scene->materials[pg->material], scene->band_count);
 }
 
-/* What rad_mesh_build and rad_mesh_count share: which polygons are grouped
- * (eligible: one cell at this size, no subdivision of its own, opaque;
- * grouped: eligible with a neighbour of its kind, see cluster.c) and the
- * totals.  `cells` counts the cell layer's cells when there is one (some
- * polygon grouped), else 0. */
+/* What rad_mesh_build and rad_mesh_count share: the weld, the planar
+ * regions (region.c), which polygons are grouped into clusters (eligible:
+ * one cell at this size, no subdivision of its own, opaque, not in a
+ * region; grouped: eligible with a neighbour of its kind, see cluster.c)
+ * and the totals.  `cells` counts the cell layer's cells when there is one
+ * (some polygon grouped or in a region), else 0. */
 typedef struct plan {
     double opt_size, def_size;
+    uint32_t *pos, *first, npos; /* weld ids (mesh_weld) */
+    mesh_regions rg;
     mesh_clusters cl;
     uint64_t patches, vertices, cells;
 } plan;
 
-static int make_plan(const rad_scene *scene, const rad_mesh_options *opt, plan *pl,
-                     rad_error *err)
+static void plan_free(plan *pl)
+{
+    free(pl->pos);
+    free(pl->first);
+    mesh_regions_free(&pl->rg);
+    mesh_clusters_free(&pl->cl);
+}
+
+/* Weld points within 1e-6 of the scene's diagonal. */
+#define MESH_WELD 1e-6
+
+static int distinct_points(const plan *pl, const rad_polygon *pg)
+{
+    for (uint32_t a = 0; a < pg->point_count; a++)
+        for (uint32_t b = 0; b < a; b++)
+            if (pl->pos[pg->first_point + a] == pl->pos[pg->first_point + b])
+                return 0;
+    return 1;
+}
+
+/* How polygon pg may enter a planar region (mesh_internal.h). */
+static uint8_t region_mode(const rad_scene *scene, const plan *pl, const rad_polygon *pg)
+{
+    if (!polygon_ok(scene, pg) || pg->object >= scene->object_count ||
+        pg->material >= scene->material_count || transmits(scene, pg) ||
+        (!(pl->opt_size > 0.0) && pg->subdiv_u > 0) || !distinct_points(pl, pg))
+        return MESH_REGION_OFF;
+    split sp = polygon_split(scene, pg, pl->opt_size, pl->def_size);
+    if (sp.patches == 1)
+        return MESH_REGION_SMALL;
+    const rad_vec3 *p = scene->points + pg->first_point;
+    if (pg->point_count > 4)
+        return MESH_REGION_SPLIT;
+    double longest = 0.0;
+    for (uint32_t k = 0; k < pg->point_count; k++)
+        longest = fmax(longest, rad_length(rad_sub(p[(k + 1) % pg->point_count], p[k])));
+    if (pg->point_count == 3) /* its k² cells have its shape */
+        return longest * longest > 4.0 * (1 + 1e-9) * pg->area ? MESH_REGION_SPLIT
+                                                               : MESH_REGION_ALONE;
+    double lu = fmax(rad_length(rad_sub(p[1], p[0])), rad_length(rad_sub(p[2], p[3])));
+    double lv = fmax(rad_length(rad_sub(p[2], p[1])), rad_length(rad_sub(p[3], p[0])));
+    double cu = lu / (double)sp.nu, cv = lv / (double)sp.nv;
+    return fmax(cu, cv) > 4.0 * (1 + 1e-9) * fmin(cu, cv) ? MESH_REGION_SPLIT : MESH_REGION_ALONE;
+}
+
+/* The weld and the planar regions. */
+static int plan_regions(const rad_scene *scene, const rad_mesh_options *opt, int estimate,
+                        plan *pl, rad_error *err)
+{
+    const char *src = scene->source ? scene->source : "<memory>";
+    const uint32_t np = scene->polygon_count;
+    pl->pos = malloc(((size_t)scene->point_count + 1) * sizeof *pl->pos);
+    pl->first = malloc(((size_t)scene->point_count + 1) * sizeof *pl->first);
+    uint8_t *mode = calloc((size_t)np + 1, 1);
+    rad_vec3 lo, hi;
+    double eps = rad_scene_bounds(scene, &lo, &hi) ? MESH_WELD * rad_length(rad_sub(hi, lo)) : 0;
+    if (!pl->pos || !pl->first || !mode ||
+        mesh_weld(scene, eps, pl->pos, pl->first, &pl->npos) != 0) {
+        free(mode);
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: mesh: out of memory", src);
+    }
+    for (uint32_t i = 0; i < np && !(opt && opt->no_clusters); i++)
+        mode[i] = region_mode(scene, pl, &scene->polygons[i]);
+    uint64_t limit = opt && opt->max_patches ? opt->max_patches : RAD_MESH_DEFAULT_MAX_PATCHES;
+    int rc = mesh_regions_build(scene, pl->pos, pl->first, pl->npos, mode,
+                                pl->opt_size > 0.0 ? pl->opt_size : pl->def_size, limit, estimate,
+                                &pl->rg, err);
+    free(mode);
+    return rc;
+}
+
+/* estimate: planar regions counted by area (no cutting), for a patch
+ * size search. */
+static int make_plan(const rad_scene *scene, const rad_mesh_options *opt, int estimate,
+                     plan *pl, rad_error *err)
 {
     memset(pl, 0, sizeof *pl);
     pl->opt_size = opt && opt->patch_size > 0.0 ? opt->patch_size : 0.0;
     pl->def_size = rad_mesh_default_patch_size(scene);
     const uint32_t np = scene->polygon_count;
+    int rc = plan_regions(scene, opt, estimate, pl, err);
+    if (rc != RAD_OK || pl->rg.overflow) {
+        /* too many: the regions' estimate, at least past the limit */
+        uint64_t limit = opt && opt->max_patches ? opt->max_patches : RAD_MESH_DEFAULT_MAX_PATCHES;
+        double e = pl->rg.estimate;
+        pl->patches = pl->vertices = rc != RAD_OK ? UINT64_MAX
+                                     : e >= 1.8e19 ? UINT64_MAX
+                                     : e > (double)limit ? (uint64_t)e
+                                     : limit + 1;
+        return rc;
+    }
     uint8_t *eligible = calloc((size_t)np + 1, 1);
     if (!eligible)
         return rad_fail(err, RAD_ERR_NOMEM, "%s: mesh: out of memory",
@@ -358,19 +437,20 @@ static int make_plan(const rad_scene *scene, const rad_mesh_options *opt, plan *
         const rad_polygon *pg = &scene->polygons[i];
         if (!polygon_ok(scene, pg) || pg->object >= scene->object_count ||
             pg->material >= scene->material_count || transmits(scene, pg) ||
-            (!(pl->opt_size > 0.0) && pg->subdiv_u > 0))
+            (!(pl->opt_size > 0.0) && pg->subdiv_u > 0) || pl->rg.of[i] != RAD_NONE ||
+            !distinct_points(pl, pg))
             continue;
         eligible[i] = polygon_split(scene, pg, pl->opt_size, pl->def_size).patches == 1;
     }
-    int rc = mesh_cluster(scene, eligible, pl->opt_size > 0.0 ? pl->opt_size : pl->def_size,
-                          &pl->cl, err);
+    rc = mesh_cluster(scene, eligible, pl->pos, pl->opt_size > 0.0 ? pl->opt_size : pl->def_size,
+                      &pl->cl, err);
     free(eligible);
     if (rc != RAD_OK)
         return rc;
     uint64_t tp = 0, tv = 0;
     for (uint32_t i = 0; i < np; i++) {
         const rad_polygon *pg = &scene->polygons[i];
-        if (!polygon_ok(scene, pg) || pl->cl.of[i] != RAD_NONE)
+        if (!polygon_ok(scene, pg) || pl->cl.of[i] != RAD_NONE || pl->rg.of[i] != RAD_NONE)
             continue;
         split sp = polygon_split(scene, pg, pl->opt_size, pl->def_size);
         /* a transmitting sheet has a back side of as many cells again */
@@ -378,29 +458,54 @@ static int make_plan(const rad_scene *scene, const rad_mesh_options *opt, plan *
         tp = add_sat(tp, mul_sat(sides, sp.patches));
         tv = add_sat(tv, mul_sat(sides, sp.vertices));
     }
-    pl->cells = pl->cl.count ? add_sat(tp, pl->cl.first[pl->cl.count]) : 0;
-    pl->patches = add_sat(tp, pl->cl.count);
-    pl->vertices = add_sat(tv, pl->cl.vkeys);
+    pl->cells = pl->cl.count || pl->rg.count
+                    ? add_sat(add_sat(tp, pl->cl.first[pl->cl.count]), pl->rg.cells)
+                    : 0;
+    pl->patches = add_sat(add_sat(tp, pl->cl.count), pl->rg.patches);
+    if (estimate)
+        pl->patches = add_sat(pl->patches, pl->rg.estimate >= 1.8e19 ? UINT64_MAX
+                                                                     : (uint64_t)pl->rg.estimate);
+    pl->vertices = add_sat(add_sat(tv, pl->cl.vkeys), pl->rg.vertices);
     return RAD_OK;
+}
+
+static uint64_t plan_count(const rad_scene *scene, const rad_mesh_options *opt, int estimate)
+{
+    plan pl;
+    int rc = make_plan(scene, opt, estimate, &pl, NULL);
+    uint64_t n = rc == RAD_OK ? pl.patches : UINT64_MAX;
+    plan_free(&pl);
+    return n;
 }
 
 double rad_mesh_size_for(const rad_scene *scene, const rad_mesh_options *opt, uint64_t limit)
 {
     rad_mesh_options o = opt ? *opt : (rad_mesh_options){0};
     double size = effective_default(scene, &o);
-    uint64_t n = rad_mesh_count(scene, &o);
     if (!(size > 0.0) || limit == 0)
         return size;
-    /* N falls about as 1/size²: start there, then grow by 10 % until the
-     * mesher agrees (clusters and whole polygons round differently). */
-    if (n > limit)
-        size *= n == UINT64_MAX ? 1e6 : sqrt((double)n / (double)limit);
-    for (int k = 0; k < 64; k++) {
+    /* Planar regions counted by their area first (cutting them at a size
+     * far too small would cost what the limit guards against), then the
+     * mesher's exact count; N falls about as 1/size²: start there, then grow
+     * by 10 % until it agrees (clusters and whole polygons round
+     * differently). */
+    for (int exact = 0; exact < 2; exact++) {
         o.patch_size = size;
-        n = rad_mesh_count(scene, &o);
-        if (n <= limit)
-            break;
-        size *= n == UINT64_MAX ? 10.0 : 1.1;
+        uint64_t n = plan_count(scene, &o, !exact);
+        for (int k = 0; k < 64 && n == UINT64_MAX; k++) { /* too many to count: coarser */
+            size *= 4.0;
+            o.patch_size = size;
+            n = plan_count(scene, &o, !exact);
+        }
+        if (n > limit)
+            size *= sqrt((double)n / (double)limit);
+        for (int k = 0; k < 64; k++) {
+            o.patch_size = size;
+            n = plan_count(scene, &o, !exact);
+            if (n <= limit)
+                break;
+            size *= n == UINT64_MAX ? 10.0 : 1.1;
+        }
     }
     return size;
 }
@@ -409,11 +514,7 @@ uint64_t rad_mesh_count(const rad_scene *scene, const rad_mesh_options *opt)
 {
     if (!scene)
         return 0;
-    plan pl;
-    if (make_plan(scene, opt, &pl, NULL) != RAD_OK)
-        return UINT64_MAX;
-    mesh_clusters_free(&pl.cl);
-    return pl.patches;
+    return plan_count(scene, opt, 0);
 }
 
 /* ---------------------------------------------------------------- building */
@@ -433,23 +534,6 @@ static uint32_t add_vertex(builder *b, rad_vec3 p, int boundary)
     return k;
 }
 
-int rad_cell_geometry(const rad_vec3 *V, const uint32_t v[4], rad_vec3 n, rad_vec3 *center,
-                      double *area)
-{
-    double a1 = 0.5 * rad_dot(rad_cross(rad_sub(V[v[1]], V[v[0]]), rad_sub(V[v[2]], V[v[0]])), n);
-    rad_vec3 c = rad_scale(rad_add(rad_add(V[v[0]], V[v[1]]), V[v[2]]), a1 / 3.0);
-    double a = a1;
-    if (v[3] != RAD_NONE) {
-        double a2 = 0.5 * rad_dot(rad_cross(rad_sub(V[v[2]], V[v[0]]), rad_sub(V[v[3]], V[v[0]])), n);
-        c = rad_add(c, rad_scale(rad_add(rad_add(V[v[0]], V[v[2]]), V[v[3]]), a2 / 3.0));
-        a += a2;
-    }
-    if (!(a > 0.0) || !isfinite(a))
-        return -1;
-    *area = a;
-    *center = rad_scale(c, 1.0 / a);
-    return 0;
-}
 
 /* Appends a patch; area and centre from its corners projected on the
  * polygon normal (so a polygon within the planarity tolerance still tiles
@@ -657,8 +741,6 @@ static void build_cluster(builder *b, const mesh_clusters *cl, uint32_t k, uint3
     const rad_scene *s = b->s;
     rad_mesh *m = b->m;
     const uint32_t c0 = b->nc;
-    double area = 0.0;
-    rad_vec3 sum_n = rad_v3(0, 0, 0), sum_c = rad_v3(0, 0, 0);
     m->cell_first[b->np] = c0;
     for (uint32_t q = cl->first[k]; q < cl->first[k + 1]; q++) {
         const uint32_t i = cl->member[q];
@@ -679,33 +761,59 @@ static void build_cluster(builder *b, const mesh_clusters *cl, uint32_t k, uint3
             *bad = 1;
             return;
         }
-        area += c->area;
-        sum_n = rad_add(sum_n, rad_scale(c->normal, c->area));
-        sum_c = rad_add(sum_c, rad_scale(c->center, c->area));
     }
-    rad_patch *p = &m->patches[b->np++];
-    if (b->nc - c0 == 1) {
-        *p = m->cells[c0];
-        return;
-    }
-    rad_vec3 centroid = rad_scale(sum_c, 1.0 / area), at = centroid;
-    uint32_t home = c0;
-    double best = INFINITY;
-    for (uint32_t c = c0; c < b->nc; c++) {
-        rad_vec3 q;
-        double d2 = rad_cell_nearest(m->vertices, m->cells[c].v, centroid, &q);
-        if (d2 < best) {
-            best = d2;
-            home = c;
-            at = q;
-        }
-    }
-    *p = m->cells[home];
-    p->center = at;
-    p->normal = rad_normalize(sum_n);
-    p->area = area;
-    if (!(rad_length(sum_n) > 0.0))
+    if (mesh_patch_of_cells(m->vertices, &m->cells[c0], b->nc - c0, &m->patches[b->np++]) != 0)
         *bad = 1;
+}
+
+
+/* Polygon i on its own: a grid of quads, a subdivided triangle or a fan;
+ * its back side when it transmits; each patch its own cell when the mesh
+ * has a cell layer. */
+static void build_polygon(builder *b, const plan *pl, uint32_t i, uint32_t *g, int *bad)
+{
+    const rad_scene *scene = b->s;
+    rad_mesh *m = b->m;
+    const rad_polygon *pg = &scene->polygons[i];
+    const rad_vec3 *p = scene->points + pg->first_point;
+    split sp = polygon_split(scene, pg, pl->opt_size, pl->def_size);
+    uint32_t first_patch = b->np, first_vertex = b->nv;
+    b->polygon = i;
+    if (pg->point_count == 4)
+        build_quad(b, p, (uint32_t)sp.nu, (uint32_t)sp.nv, bad);
+    else if (pg->point_count == 3)
+        build_triangle(b, p, (uint32_t)sp.nu, g, bad);
+    else
+        build_fan(b, p, pg->point_count, (uint32_t)sp.nu, g, pg->normal, bad);
+    if (!*bad && transmits(scene, pg))
+        build_back_side(b, first_patch, first_vertex, bad);
+    for (uint32_t q = first_patch; m->cells && !*bad && q < b->np; q++) {
+        m->cell_first[q] = b->nc;
+        m->cells[b->nc++] = m->patches[q];
+    }
+}
+
+/* Region r of the plan (region.c made it): its vertices, then its patches
+ * and their cells, copied with the vertex indices moved to the mesh's. */
+static void build_region(builder *b, const mesh_regions *rg, uint32_t r)
+{
+    rad_mesh *m = b->m;
+    const uint32_t v0 = rg->vfirst[r], shift = b->nv;
+    for (uint32_t v = v0; v < rg->vfirst[r + 1]; v++)
+        add_vertex(b, rg->V[v], rg->Vb[v]);
+    for (uint32_t p = rg->pfirst[r]; p < rg->pfirst[r + 1]; p++) {
+        m->cell_first[b->np] = b->nc;
+        for (uint32_t c = rg->cfirst[p]; c < rg->cfirst[p + 1]; c++) {
+            rad_patch *q = &m->cells[b->nc++];
+            *q = rg->cell[c];
+            for (int k = 0; k < rad_patch_corners(q); k++)
+                q->v[k] = q->v[k] - v0 + shift;
+        }
+        rad_patch *q = &m->patches[b->np++];
+        *q = rg->patch[p];
+        for (int k = 0; k < rad_patch_corners(q); k++)
+            q->v[k] = q->v[k] - v0 + shift;
+    }
 }
 
 int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh **out,
@@ -726,13 +834,15 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
     }
     uint32_t limit = opt && opt->max_patches ? opt->max_patches : RAD_MESH_DEFAULT_MAX_PATCHES;
     plan pl;
-    int rc = make_plan(scene, opt, &pl, err);
-    if (rc != RAD_OK)
+    int rc = make_plan(scene, opt, 0, &pl, err);
+    if (rc != RAD_OK) {
+        plan_free(&pl);
         return rc;
+    }
     const uint64_t np = pl.patches, nv = pl.vertices;
     double size = effective_default(scene, opt);
     if (np > limit || nv >= UINT32_MAX || pl.cells > UINT32_MAX || np == 0) {
-        mesh_clusters_free(&pl.cl);
+        plan_free(&pl);
         if (np == 0)
             return rad_fail(err, RAD_ERR_INVALID, "%s: mesh: the scene has no polygons", src);
         if (np <= limit)
@@ -755,7 +865,7 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
     uint64_t kmax = 0;
     for (uint32_t i = 0; i < scene->polygon_count; i++) {
         const rad_polygon *pg = &scene->polygons[i];
-        if (pg->point_count != 4 && pl.cl.of[i] == RAD_NONE) {
+        if (pg->point_count != 4 && pl.cl.of[i] == RAD_NONE && pl.rg.of[i] == RAD_NONE) {
             split sp = polygon_split(scene, pg, pl.opt_size, pl.def_size);
             if (sp.nu > kmax)
                 kmax = sp.nu;
@@ -771,7 +881,7 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
         free(g);
         free(vmap);
         rad_mesh_destroy(m);
-        mesh_clusters_free(&pl.cl);
+        plan_free(&pl);
         return rad_fail(err, RAD_ERR_NOMEM,
                         "%s: mesh: out of memory for %llu patches and %llu vertices", src,
                         (unsigned long long)np, (unsigned long long)nv);
@@ -782,33 +892,21 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
     int bad = 0;
     for (uint32_t i = 0; i < scene->polygon_count && !bad; i++) {
         const rad_polygon *pg = &scene->polygons[i];
-        const uint32_t k = pl.cl.of[i];
-        if (k != RAD_NONE) { /* grouped: the cluster in its first polygon's place */
+        const uint32_t k = pl.cl.of[i], r = pl.rg.of[i];
+        if (r != RAD_NONE) { /* a planar region in its first polygon's place */
+            if (pl.rg.lead[r] == i)
+                build_region(&b, &pl.rg, r);
+        } else if (k != RAD_NONE) { /* grouped: the cluster in its first polygon's place */
             if (pl.cl.member[pl.cl.first[k]] == i)
                 build_cluster(&b, &pl.cl, k, vmap, &bad);
         } else {
-            const rad_vec3 *p = scene->points + pg->first_point;
-            split sp = polygon_split(scene, pg, pl.opt_size, pl.def_size);
-            uint32_t first_patch = b.np, first_vertex = b.nv;
-            b.polygon = i;
-            if (pg->point_count == 4)
-                build_quad(&b, p, (uint32_t)sp.nu, (uint32_t)sp.nv, &bad);
-            else if (pg->point_count == 3)
-                build_triangle(&b, p, (uint32_t)sp.nu, g, &bad);
-            else
-                build_fan(&b, p, pg->point_count, (uint32_t)sp.nu, g, pg->normal, &bad);
-            if (!bad && transmits(scene, pg))
-                build_back_side(&b, first_patch, first_vertex, &bad);
-            for (uint32_t q = first_patch; m->cells && !bad && q < b.np; q++) {
-                m->cell_first[q] = b.nc;
-                m->cells[b.nc++] = m->patches[q];
-            }
+            build_polygon(&b, &pl, i, g, &bad);
         }
         if (bad) {
             free(g);
             free(vmap);
             rad_mesh_destroy(m);
-            mesh_clusters_free(&pl.cl);
+            plan_free(&pl);
             return rad_fail(err, RAD_ERR_INVALID,
                             "%s: polygon '%s': a patch has no area at this subdivision "
                             "(the polygon is too thin); use a larger patch size",
@@ -819,7 +917,7 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
         m->cell_first[np] = b.nc;
     free(g);
     free(vmap);
-    mesh_clusters_free(&pl.cl);
+    plan_free(&pl);
     RAD_ASSERT(b.nv == nv && b.np == np && b.nc == pl.cells);
     rc = rad_mesh_link_twins(m, scene, err);
     if (rc != RAD_OK) {

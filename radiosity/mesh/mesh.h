@@ -16,6 +16,12 @@
  * cell layer).  So the patch size sets the patch count whatever the
  * triangles' size.  A small polygon without such a neighbour is meshed on
  * its own, as any polygon.
+ *
+ * Before both, points within 1e-6 of the scene's diagonal are welded
+ * (weld.c), and coplanar neighbouring polygons of one object and material
+ * are meshed as one planar region on a grid of the patch size (region.c);
+ * narrow regions of a curved surface are meshed across their facets
+ * (smooth.c).  docs/surfaces.md has the rules.
  */
 #ifndef RAD_MESH_H
 #define RAD_MESH_H
@@ -42,8 +48,9 @@ typedef struct rad_mesh_options {
     double patch_size;
     /* Refuse to build more patches than this; 0 = RAD_MESH_DEFAULT_MAX_PATCHES. */
     uint32_t max_patches;
-    /* 1 = never group small polygons into clusters: every polygon gets its
-     * own patches (one patch per triangle of a modeller's export). */
+    /* 1 = never group polygons (clusters, planar regions, curved
+     * surfaces): every polygon gets its own patches (one patch per
+     * triangle of a modeller's export). */
     int no_clusters;
 } rad_mesh_options;
 
@@ -61,7 +68,9 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
 int rad_mesh_link_twins(rad_mesh *m, const rad_scene *scene, rad_error *err);
 
 /* Number of patches rad_mesh_build would make, without allocating them;
- * UINT64_MAX if it overflows (or memory for the grouping runs out). */
+ * UINT64_MAX if it overflows (or memory for the grouping runs out).  Past
+ * 1.5 × max_patches, planar regions are not cut and the count is their
+ * estimate (area / grid cell): more than the limit, not exact. */
 uint64_t rad_mesh_count(const rad_scene *scene, const rad_mesh_options *opt);
 
 /* A patch size (scene units) at which rad_mesh_build makes at most `limit`

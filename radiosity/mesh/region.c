@@ -1,0 +1,1157 @@
+/* region.c - coplanar polygons meshed as one planar region (mesh_internal.h).
+ *
+ * A disk written as a 256-sided polygon or a fan of 254 triangles, a wall
+ * of slivers, an unwelded export or a T-junctioned floor is one flat
+ * surface; meshing each polygon on its own makes the triangulation, not
+ * the patch size, set the patch count.  Here:
+ *
+ *   regions - polygons of one object and material that share a (welded)
+ *             point and lie in the plane of the region's first polygon
+ *             (normals within ~1°, every point within 1e-5 of the scene's
+ *             diagonal of that plane) form a region, grown breadth-first
+ *             from its lowest polygon;
+ *   grid    - the region gets a grid in its plane, its u axis along the
+ *             longest outline edge, over the region's bounding rectangle:
+ *             the short side in ceil(L / size) equal steps s, the long side
+ *             in equal steps of at most min(size, 2 s); so a grid cell is at
+ *             most size wide and at most twice as long as it is wide;
+ *   pieces  - every polygon is clipped to every grid cell it covers; a
+ *             piece becomes one quad cell or a fan of triangle cells
+ *             (rad_mesh's cell layer), on vertices shared across the region
+ *             (points on a shared edge are computed from the edge's ends in
+ *             one order, so both sides get the same numbers);
+ *   feet    - where another surface stands on the region inside its
+ *             outline (a block on a floor: a polygon from in front of the
+ *             plane that reaches it), the light on the region changes
+ *             within a patch: the grid cells that line crosses are cut
+ *             into REGION_FOOT × REGION_FOOT parts, each a patch of its
+ *             own (where a wall meets a floor along the floor's outline,
+ *             a corner, nothing is cut);
+ *   patches - the pieces in one grid cell (or part) are one patch; a
+ *             patch of less than a quarter of its cell (part), or longer
+ *             than 4 × its area
+ *             allows (longest side² / area > 4), joins the neighbouring
+ *             patch that keeps the pair best shaped, if the pair is then no
+ *             longer than 2 × size and longest side² / area <= 4.
+ *
+ * So a patch is about size × size whatever the polygons (longest side of
+ * its box in the grid's frame <= 2 × size, longest side² / area <= 4),
+ * except where the region itself is smaller.  Each patch is planar: its
+ * normal is the region's (its first polygon's), its area the sum of its
+ * cells', its centre their area centroid moved onto the nearest cell
+ * (mesh_patch_of_cells).  Vertex positions are the region's plane at the
+ * points' (u, v): a polygon within the planarity tolerance is flattened.
+ */
+#include "mesh_internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+/* Normals of one region agree within about 1.1° (cos). */
+#define REGION_COS 0.9998
+/* Points of one region lie within this share of the scene's diagonal of
+ * the first polygon's plane. */
+#define REGION_PLANE_TOL 1e-5
+/* Patch shape: longest side² / area at most this; merged patches at most
+ * REGION_LONGEST × size long; smaller than REGION_SLIVER of a grid cell
+ * is a sliver to merge. */
+#define REGION_RATIO 4.0
+#define REGION_LONGEST 2.0
+#define REGION_SLIVER 0.25
+/* Where another surface stands on a region, a grid cell is cut into
+ * REGION_FOOT × REGION_FOOT patches. */
+#define REGION_FOOT 2
+/* A contact nearer the region's outline than this share of the size is a
+ * corner, not a foot. */
+#define REGION_CORNER 0.1
+
+typedef struct pt2 {
+    double c[2];
+} pt2;
+
+#define GROW(arr, cap, need) mesh_grow((void **)&(arr), &(cap), (need), sizeof *(arr))
+
+/* One region's scratch, reused. */
+typedef struct rwork {
+    const rad_scene *s;
+    const uint32_t *pos, *first; /* weld ids, their positions' points */
+    uint32_t npos;
+    double size;
+    /* frame and grid */
+    rad_vec3 O, U, V, N;
+    double x0, y0, x1, y1, sx, sy;
+    uint64_t nx, ny;
+    /* raw piece corners (before merging equal ones) */
+    pt2 *raw;
+    size_t nraw, craw;
+    /* cells: corners index raw (then unique ids), grid cell per cell */
+    rad_patch *cell;
+    uint64_t *gi;
+    size_t ncell, ccell, cgi;
+    pt2 *tmp[3];
+    size_t ctmp[3];
+    uint64_t *ekey;
+    size_t cekey;
+    uint64_t climit; /* cells this region may still make */
+    size_t nekey;    /* frame(): the members' edges in ekey */
+    double tol;      /* in the plane: within this of it */
+    pt2 *oe;         /* the outline's edges in the plane, two ends each */
+    size_t noe, coe;
+    double *pbox;    /* per scene polygon its box: lo x y z, hi x y z (feet()) */
+    uint64_t *foot;  /* grid cells cut into four (sorted, unique) */
+    size_t nfoot, cfoot;
+} rwork;
+
+/* --------------------------------------------------------------- regions */
+
+static int in_plane(const rad_scene *s, const uint32_t *pos, const uint32_t *first,
+                    uint32_t lead, uint32_t q, double tol)
+{
+    const rad_polygon *a = &s->polygons[lead], *b = &s->polygons[q];
+    if (a->object != b->object || a->material != b->material ||
+        rad_dot(a->normal, b->normal) < REGION_COS)
+        return 0;
+    rad_vec3 o = s->points[first[pos[a->first_point]]];
+    for (uint32_t k = 0; k < b->point_count; k++) {
+        rad_vec3 p = s->points[first[pos[b->first_point + k]]];
+        if (fabs(rad_dot(rad_sub(p, o), a->normal)) > tol)
+            return 0;
+    }
+    return 1;
+}
+
+/* Region per polygon (of[], RAD_NONE where mode is 0), numbered by lowest
+ * polygon; *count regions.  inc/ifirst: weld id -> polygons (CSR). */
+static int find_regions(const rad_scene *s, const uint32_t *pos, const uint32_t *first,
+                        uint32_t npos, const uint8_t *mode, double tol, uint32_t *of,
+                        uint32_t *count)
+{
+    const uint32_t np = s->polygon_count;
+    uint32_t *ifirst = calloc((size_t)npos + 2, sizeof *ifirst);
+    uint32_t *stamp = malloc(((size_t)npos + 1) * sizeof *stamp);
+    uint32_t *queue = malloc(((size_t)np + 1) * sizeof *queue);
+    size_t ninc = 0;
+    for (uint32_t i = 0; i < np; i++)
+        ninc += mode[i] ? s->polygons[i].point_count : 0;
+    uint32_t *inc = malloc((ninc + 1) * sizeof *inc);
+    if (!ifirst || !stamp || !queue || !inc) {
+        free(ifirst), free(stamp), free(queue), free(inc);
+        return -1;
+    }
+    for (uint32_t i = 0; i < np; i++)
+        for (uint32_t k = 0; mode[i] && k < s->polygons[i].point_count; k++)
+            ifirst[pos[s->polygons[i].first_point + k] + 2]++;
+    for (uint32_t j = 0; j < npos; j++)
+        ifirst[j + 2] += ifirst[j + 1];
+    for (uint32_t i = 0; i < np; i++)
+        for (uint32_t k = 0; mode[i] && k < s->polygons[i].point_count; k++)
+            inc[ifirst[pos[s->polygons[i].first_point + k] + 1]++] = i;
+    for (uint32_t j = 0; j < npos; j++)
+        stamp[j] = RAD_NONE;
+    for (uint32_t i = 0; i < np; i++)
+        of[i] = RAD_NONE;
+    *count = 0;
+    for (uint32_t i = 0; i < np; i++) {
+        if (!mode[i] || of[i] != RAD_NONE)
+            continue;
+        uint32_t r = (*count)++, head = 0, tail = 0;
+        of[i] = r;
+        queue[tail++] = i;
+        while (head < tail) {
+            const rad_polygon *pg = &s->polygons[queue[head++]];
+            for (uint32_t k = 0; k < pg->point_count; k++) {
+                uint32_t id = pos[pg->first_point + k];
+                if (stamp[id] == r)
+                    continue; /* its polygons were all looked at for this region */
+                stamp[id] = r;
+                for (uint32_t e = ifirst[id]; e < ifirst[id + 1]; e++) {
+                    uint32_t q = inc[e];
+                    if (of[q] == RAD_NONE && in_plane(s, pos, first, i, q, tol)) {
+                        of[q] = r;
+                        queue[tail++] = q;
+                    }
+                }
+            }
+        }
+    }
+    free(ifirst), free(stamp), free(queue), free(inc);
+    return 0;
+}
+
+/* ------------------------------------------------------------ the grid */
+
+static rad_vec3 point_of(const rwork *w, uint32_t pt)
+{
+    return w->s->points[w->first[w->pos[pt]]];
+}
+
+static pt2 to2d(const rwork *w, rad_vec3 p)
+{
+    rad_vec3 d = rad_sub(p, w->O);
+    pt2 r = {{rad_dot(d, w->U), rad_dot(d, w->V)}};
+    return r;
+}
+
+static int u64_cmp(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Frame: normal of the lead polygon, u along the region's longest outline
+ * edge (an edge no other member runs the other way). */
+static int frame(rwork *w, const uint32_t *mem, uint32_t nm)
+{
+    const rad_scene *s = w->s;
+    const rad_polygon *lead = &s->polygons[mem[0]];
+    w->N = lead->normal;
+    w->O = point_of(w, lead->first_point);
+    size_t ne = 0;
+    for (uint32_t m = 0; m < nm; m++)
+        ne += s->polygons[mem[m]].point_count;
+    if (GROW(w->ekey, w->cekey, ne + 1) != 0)
+        return -1;
+    ne = 0;
+    for (uint32_t m = 0; m < nm; m++) {
+        const rad_polygon *pg = &s->polygons[mem[m]];
+        for (uint32_t k = 0; k < pg->point_count; k++)
+            w->ekey[ne++] = (uint64_t)w->pos[pg->first_point + k] << 32 |
+                            w->pos[pg->first_point + (k + 1) % pg->point_count];
+    }
+    qsort(w->ekey, ne, sizeof *w->ekey, u64_cmp);
+    w->nekey = ne;
+    double best = -1.0;
+    rad_vec3 dir = rad_v3(0, 0, 0);
+    for (size_t e = 0; e < ne; e++) {
+        uint64_t rev = w->ekey[e] << 32 | w->ekey[e] >> 32;
+        if (bsearch(&rev, w->ekey, ne, sizeof *w->ekey, u64_cmp))
+            continue;
+        rad_vec3 a = s->points[w->first[w->ekey[e] >> 32]];
+        rad_vec3 b = s->points[w->first[w->ekey[e] & 0xffffffffu]];
+        rad_vec3 d = rad_sub(b, a);
+        d = rad_sub(d, rad_scale(w->N, rad_dot(d, w->N)));
+        if (rad_length(d) > best) {
+            best = rad_length(d);
+            dir = d;
+        }
+    }
+    if (!(best > 0.0)) /* cannot happen for a polygon of positive area */
+        dir = rad_sub(point_of(w, lead->first_point + 1), w->O);
+    w->U = rad_normalize(dir);
+    w->V = rad_cross(w->N, w->U);
+    return 0;
+}
+
+/* Steps along the short side of the box, then the long one (see the top). */
+static void grid(rwork *w, const uint32_t *mem, uint32_t nm)
+{
+    w->x0 = w->y0 = INFINITY;
+    w->x1 = w->y1 = -INFINITY;
+    for (uint32_t m = 0; m < nm; m++) {
+        const rad_polygon *pg = &w->s->polygons[mem[m]];
+        for (uint32_t k = 0; k < pg->point_count; k++) {
+            pt2 p = to2d(w, point_of(w, pg->first_point + k));
+            w->x0 = fmin(w->x0, p.c[0]), w->x1 = fmax(w->x1, p.c[0]);
+            w->y0 = fmin(w->y0, p.c[1]), w->y1 = fmax(w->y1, p.c[1]);
+        }
+    }
+    double lx = w->x1 - w->x0, ly = w->y1 - w->y0;
+    double shortside = fmin(lx, ly), longside = fmax(lx, ly);
+    uint64_t ns = mesh_divisions(shortside, w->size);
+    double ss = ns == UINT64_MAX ? 0.0 : shortside / (double)ns;
+    uint64_t nl = mesh_divisions(longside, fmin(w->size, 2.0 * ss));
+    double sl = nl == UINT64_MAX ? 0.0 : longside / (double)nl;
+    if (lx <= ly) {
+        w->nx = ns, w->sx = ss, w->ny = nl, w->sy = sl;
+    } else {
+        w->nx = nl, w->sx = sl, w->ny = ns, w->sy = ss;
+    }
+}
+
+/* ------------------------------------------------------------- clipping */
+
+/* The point of segment ab on the line c[axis] = at, computed from the end
+ * that sorts first, so that both polygons of a shared edge get the same. */
+static pt2 isect(pt2 a, pt2 b, int axis, double at)
+{
+    if (a.c[0] > b.c[0] || (a.c[0] == b.c[0] && a.c[1] > b.c[1])) {
+        pt2 t = a;
+        a = b;
+        b = t;
+    }
+    double t = (at - a.c[axis]) / (b.c[axis] - a.c[axis]);
+    pt2 r;
+    r.c[axis] = at;
+    r.c[1 - axis] = a.c[1 - axis] + t * (b.c[1 - axis] - a.c[1 - axis]);
+    return r;
+}
+
+/* Sutherland-Hodgman against one half-plane: keep c[axis] >= at (ge) or <=. */
+static size_t clip(const pt2 *in, size_t n, pt2 *out, int axis, double at, int ge)
+{
+    size_t m = 0;
+    for (size_t k = 0; k < n; k++) {
+        pt2 a = in[k], b = in[(k + 1) % n];
+        int ia = ge ? a.c[axis] >= at : a.c[axis] <= at;
+        int ib = ge ? b.c[axis] >= at : b.c[axis] <= at;
+        if (ia)
+            out[m++] = a;
+        if (ia != ib)
+            out[m++] = isect(a, b, axis, at);
+    }
+    return m;
+}
+
+static double line_at(const rwork *w, int axis, uint64_t i)
+{
+    if (axis == 0)
+        return i >= w->nx ? w->x1 : w->x0 + (double)i * w->sx;
+    return i >= w->ny ? w->y1 : w->y0 + (double)i * w->sy;
+}
+
+static double tri2(pt2 a, pt2 b, pt2 c)
+{
+    return 0.5 * ((b.c[0] - a.c[0]) * (c.c[1] - a.c[1]) - (c.c[0] - a.c[0]) * (b.c[1] - a.c[1]));
+}
+
+/* One cell on raw corners r[0..k) (k = 3 or 4), of grid cell g. */
+static int add_cell(rwork *w, const rad_polygon *pg, uint32_t polygon, const uint32_t *r, int k,
+                    uint64_t g)
+{
+    if (w->ncell >= w->climit)
+        return -3;
+    if (GROW(w->cell, w->ccell, w->ncell + 1) != 0 || GROW(w->gi, w->cgi, w->ncell + 1) != 0)
+        return -1;
+    rad_patch *c = &w->cell[w->ncell];
+    memset(c, 0, sizeof *c);
+    for (int q = 0; q < 4; q++)
+        c->v[q] = q < k ? r[q] : RAD_NONE;
+    c->polygon = polygon;
+    c->object = pg->object;
+    c->material = pg->material;
+    c->normal = w->N;
+    w->gi[w->ncell++] = g;
+    return 0;
+}
+
+/* A convex piece p[0..n) of grid cell g: one quad, or a fan of triangles
+ * without the ones of no area (corners on one line). */
+static int add_piece(rwork *w, uint32_t polygon, const pt2 *p, size_t n, uint64_t g)
+{
+    const rad_polygon *pg = &w->s->polygons[polygon];
+    const double tiny = 1e-12 * w->sx * w->sy;
+    size_t m = 0;
+    uint32_t base = (uint32_t)w->nraw;
+    if (GROW(w->raw, w->craw, w->nraw + n + 1) != 0)
+        return -1;
+    m = mesh_ring_unique(p, n, &w->raw[base], sizeof *p);
+    if (m < 3)
+        return 0;
+    w->nraw += m;
+    const pt2 *q = &w->raw[base];
+    if (m == 4 && tri2(q[0], q[1], q[2]) > tiny && tri2(q[0], q[2], q[3]) > tiny) {
+        uint32_t r[4] = {base, base + 1, base + 2, base + 3};
+        return add_cell(w, pg, polygon, r, 4, g);
+    }
+    for (size_t t = 1; t + 1 < m; t++)
+        if (tri2(q[0], q[t], q[t + 1]) > tiny) {
+            uint32_t r[3] = {base, base + (uint32_t)t, base + (uint32_t)t + 1};
+            int rc = add_cell(w, pg, polygon, r, 3, g);
+            if (rc != 0)
+                return rc;
+        }
+    return 0;
+}
+
+static int is_foot(const rwork *w, uint64_t g)
+{
+    return w->nfoot && bsearch(&g, w->foot, w->nfoot, sizeof *w->foot, u64_cmp) != NULL;
+}
+
+/* Line j of REGION_FOOT between grid lines i and i + 1 along axis. */
+static double sub_line(const rwork *w, int axis, uint64_t i, int j)
+{
+    if (j == REGION_FOOT)
+        return line_at(w, axis, i + 1);
+    return line_at(w, axis, i) + (axis ? w->sy : w->sx) * (double)j / REGION_FOOT;
+}
+
+/* Piece p[0..n) of grid cell (x, y), cut into REGION_FOOT² parts where
+ * another surface stands (is_foot).  Its id: REGION_FOOT² × the cell's +
+ * the part's. */
+static int add_parts(rwork *w, uint32_t i, const pt2 *p, size_t n, uint64_t x, uint64_t y)
+{
+    const uint64_t g = y * w->nx + x, parts = REGION_FOOT * REGION_FOOT;
+    if (!is_foot(w, g))
+        return add_piece(w, i, p, n, parts * g);
+    if (GROW(w->tmp[2], w->ctmp[2], 3 * (n + 8)) != 0)
+        return -1;
+    pt2 *a = w->tmp[2], *b = a + n + 8, *c = b + n + 8;
+    for (int k = 0; k < (int)parts; k++) {
+        const int u = k % REGION_FOOT, v = k / REGION_FOOT;
+        size_t m = clip(p, n, a, 0, sub_line(w, 0, x, u), 1);
+        m = m >= 3 ? clip(a, m, b, 0, sub_line(w, 0, x, u + 1), 0) : 0;
+        m = m >= 3 ? clip(b, m, a, 1, sub_line(w, 1, y, v), 1) : 0;
+        m = m >= 3 ? clip(a, m, c, 1, sub_line(w, 1, y, v + 1), 0) : 0;
+        int rc = m >= 3 ? add_piece(w, i, c, m, parts * g + (uint64_t)k) : 0;
+        if (rc != 0)
+            return rc;
+    }
+    return 0;
+}
+
+/* Clips polygon i to every grid cell its box covers. */
+static int cut_polygon(rwork *w, uint32_t i)
+{
+    const rad_polygon *pg = &w->s->polygons[i];
+    const size_t n = pg->point_count, cap = n + 8;
+    if (GROW(w->tmp[0], w->ctmp[0], 2 * cap) != 0 || GROW(w->tmp[1], w->ctmp[1], 2 * cap) != 0)
+        return -1;
+    pt2 *P = w->tmp[0], *strip = w->tmp[0] + cap, *a = w->tmp[1], *b = w->tmp[1] + cap;
+    double lo[2] = {INFINITY, INFINITY}, hi[2] = {-INFINITY, -INFINITY};
+    for (size_t k = 0; k < n; k++) {
+        P[k] = to2d(w, point_of(w, pg->first_point + (uint32_t)k));
+        for (int d = 0; d < 2; d++)
+            lo[d] = fmin(lo[d], P[k].c[d]), hi[d] = fmax(hi[d], P[k].c[d]);
+    }
+    const double step[2] = {w->sx, w->sy}, org[2] = {w->x0, w->y0};
+    const uint64_t cnt[2] = {w->nx, w->ny};
+    uint64_t from[2], to[2];
+    for (int d = 0; d < 2; d++) {
+        double f = floor((lo[d] - org[d]) / step[d]), t = floor((hi[d] - org[d]) / step[d]);
+        from[d] = f < 0 ? 0 : f >= (double)cnt[d] ? cnt[d] - 1 : (uint64_t)f;
+        to[d] = t < 0 ? 0 : t >= (double)cnt[d] ? cnt[d] - 1 : (uint64_t)t;
+    }
+    for (uint64_t x = from[0]; x <= to[0]; x++) {
+        size_t ns = clip(P, n, a, 0, line_at(w, 0, x), 1);
+        ns = clip(a, ns, strip, 0, line_at(w, 0, x + 1), 0);
+        for (uint64_t y = from[1]; ns >= 3 && y <= to[1]; y++) {
+            size_t m = clip(strip, ns, a, 1, line_at(w, 1, y), 1);
+            m = clip(a, m, b, 1, line_at(w, 1, y + 1), 0);
+            int rc = m >= 3 ? add_parts(w, i, b, m, x, y) : 0;
+            if (rc != 0)
+                return rc;
+        }
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------- feet */
+
+/* Where polygon q meets the region's plane, in the plane's coordinates:
+ * 1 when q reaches the plane (within w->tol) from in front of it, and is
+ * not of the region's own surface (mesh.h's RAD_MESH_SURFACE_COS). */
+static int meets_plane(const rwork *w, const rad_polygon *lead, uint32_t q, pt2 *a, pt2 *b)
+{
+    const rad_polygon *pg = &w->s->polygons[q];
+    const rad_vec3 *Q = w->s->points + pg->first_point;
+    if (pg->object == lead->object && pg->material == lead->material &&
+        rad_dot(pg->normal, lead->normal) >= RAD_MESH_SURFACE_COS)
+        return 0;
+    double dmin = INFINITY, dmax = -INFINITY;
+    for (uint32_t k = 0; k < pg->point_count; k++) {
+        double d = rad_dot(rad_sub(Q[k], w->O), w->N);
+        dmin = fmin(dmin, d), dmax = fmax(dmax, d);
+    }
+    if (!(dmax > w->tol) || !(dmin <= w->tol))
+        return 0;
+    int got = 0;
+    for (uint32_t k = 0; k < pg->point_count; k++) {
+        rad_vec3 u = Q[k], v = Q[(k + 1) % pg->point_count], hit[2];
+        double du = rad_dot(rad_sub(u, w->O), w->N), dv = rad_dot(rad_sub(v, w->O), w->N);
+        int nh = 0;
+        if (fabs(du) <= w->tol)
+            hit[nh++] = u;
+        if ((du > w->tol && dv < -w->tol) || (du < -w->tol && dv > w->tol))
+            hit[nh++] = rad_add(u, rad_scale(rad_sub(v, u), du / (du - dv)));
+        for (int h = 0; h < nh; h++) {
+            pt2 p = to2d(w, hit[h]);
+            if (!got++)
+                *a = *b = p;
+            else if (hypot(p.c[0] - a->c[0], p.c[1] - a->c[1]) >
+                     hypot(b->c[0] - a->c[0], b->c[1] - a->c[1]))
+                *b = p;
+        }
+    }
+    return got > 0;
+}
+
+static double seg_dist(pt2 p, pt2 a, pt2 b)
+{
+    double dx = b.c[0] - a.c[0], dy = b.c[1] - a.c[1], l2 = dx * dx + dy * dy;
+    double t = l2 > 0.0 ? ((p.c[0] - a.c[0]) * dx + (p.c[1] - a.c[1]) * dy) / l2 : 0.0;
+    t = fmin(1.0, fmax(0.0, t));
+    return hypot(p.c[0] - a.c[0] - t * dx, p.c[1] - a.c[1] - t * dy);
+}
+
+/* Is p inside member polygon q (convex, counter-clockwise about the
+ * region's normal), not just on its edge? */
+static int in_member(const rwork *w, uint32_t q, pt2 p)
+{
+    const rad_polygon *pg = &w->s->polygons[q];
+    pt2 a = to2d(w, point_of(w, pg->first_point + pg->point_count - 1));
+    for (uint32_t k = 0; k < pg->point_count; k++) {
+        pt2 b = to2d(w, point_of(w, pg->first_point + k));
+        double len = hypot(b.c[0] - a.c[0], b.c[1] - a.c[1]);
+        if (len > 0.0 && tri2(a, b, p) <= 0.5 * w->tol * len)
+            return 0;
+        a = b;
+    }
+    return 1;
+}
+
+/* Does segment ab stand inside the region: one of its ends or seven points
+ * between them inside a member and farther than REGION_CORNER × size from
+ * the outline (so a wall meeting a floor along the floor's edge, a corner,
+ * does not, even a wall some tenths of a millimetre off it as the Cornell
+ * box's published red wall)? */
+static int stands_inside(const rwork *w, const uint32_t *mem, uint32_t nm, pt2 a, pt2 b)
+{
+    for (int k = 0; k <= 8; k++) {
+        const double t = k / 8.0;
+        const pt2 p = {{a.c[0] + t * (b.c[0] - a.c[0]), a.c[1] + t * (b.c[1] - a.c[1])}};
+        size_t e = 0;
+        while (e < w->noe && seg_dist(p, w->oe[2 * e], w->oe[2 * e + 1]) > REGION_CORNER * w->size)
+            e++;
+        for (uint32_t m = 0; e == w->noe && m < nm; m++)
+            if (in_member(w, mem[m], p))
+                return 1;
+    }
+    return 0;
+}
+
+/* Clips segment ab to the grid's box; 0 when nothing is left. */
+static int clip_to_box(const rwork *w, pt2 *a, pt2 *b)
+{
+    double t0 = 0.0, t1 = 1.0;
+    const double lo[2] = {w->x0, w->y0}, hi[2] = {w->x1, w->y1};
+    for (int d = 0; d < 2; d++) {
+        double dd = b->c[d] - a->c[d];
+        if (dd == 0.0) {
+            if (a->c[d] < lo[d] || a->c[d] > hi[d])
+                return 0;
+            continue;
+        }
+        double ta = (lo[d] - a->c[d]) / dd, tb = (hi[d] - a->c[d]) / dd;
+        t0 = fmax(t0, fmin(ta, tb)), t1 = fmin(t1, fmax(ta, tb));
+    }
+    if (t0 > t1)
+        return 0;
+    pt2 p = *a, q = *b;
+    for (int d = 0; d < 2; d++)
+        a->c[d] = p.c[d] + t0 * (q.c[d] - p.c[d]), b->c[d] = p.c[d] + t1 * (q.c[d] - p.c[d]);
+    return 1;
+}
+
+/* Appends to w->foot the grid cells segment ab crosses, column by column. */
+static int mark_cells(rwork *w, pt2 a, pt2 b)
+{
+    const double dx = b.c[0] - a.c[0];
+    double fx = floor((fmin(a.c[0], b.c[0]) - w->x0) / w->sx);
+    double tx = floor((fmax(a.c[0], b.c[0]) - w->x0) / w->sx);
+    fx = fmax(0.0, fx), tx = fmin((double)w->nx - 1.0, tx);
+    for (uint64_t x = (uint64_t)fx; fx <= tx && x <= (uint64_t)tx; x++) {
+        double lo = line_at(w, 0, x), hi = line_at(w, 0, x + 1), t0 = 0.0, t1 = 1.0;
+        if (fabs(dx) > 0.0) {
+            double ta = (lo - a.c[0]) / dx, tb = (hi - a.c[0]) / dx;
+            t0 = fmax(0.0, fmin(ta, tb)), t1 = fmin(1.0, fmax(ta, tb));
+        } else if (a.c[0] < lo || a.c[0] > hi) {
+            continue;
+        }
+        if (t0 > t1)
+            continue;
+        double y0 = a.c[1] + t0 * (b.c[1] - a.c[1]), y1 = a.c[1] + t1 * (b.c[1] - a.c[1]);
+        double f = floor((fmin(y0, y1) - w->y0) / w->sy), t = floor((fmax(y0, y1) - w->y0) / w->sy);
+        f = fmax(0.0, f), t = fmin((double)w->ny - 1.0, t);
+        for (double y = f; y <= t; y++) {
+            if (GROW(w->foot, w->cfoot, w->nfoot + 1) != 0)
+                return -1;
+            w->foot[w->nfoot++] = (uint64_t)y * w->nx + x;
+        }
+    }
+    return 0;
+}
+
+/* w->pbox, made on first use. */
+static int polygon_boxes(rwork *w)
+{
+    const rad_scene *s = w->s;
+    if (w->pbox)
+        return 0;
+    if (!(w->pbox = malloc(((size_t)s->polygon_count + 1) * 6 * sizeof *w->pbox)))
+        return -1;
+    for (uint32_t q = 0; q < s->polygon_count; q++) {
+        double *b = w->pbox + 6 * (size_t)q;
+        b[0] = b[1] = b[2] = INFINITY;
+        b[3] = b[4] = b[5] = -INFINITY;
+        for (uint32_t k = 0; k < s->polygons[q].point_count; k++) {
+            rad_vec3 p = s->points[s->polygons[q].first_point + k];
+            const double c[3] = {p.x, p.y, p.z};
+            for (int d = 0; d < 3; d++)
+                b[d] = fmin(b[d], c[d]), b[d + 3] = fmax(b[d + 3], c[d]);
+        }
+    }
+    return 0;
+}
+
+/* The region's grid box in space, widened by w->tol: lo, hi. */
+static void region_box(const rwork *w, double *box)
+{
+    box[0] = box[1] = box[2] = INFINITY;
+    box[3] = box[4] = box[5] = -INFINITY;
+    for (int k = 0; k < 4; k++) {
+        rad_vec3 p = rad_add(w->O, rad_add(rad_scale(w->U, k & 1 ? w->x1 : w->x0),
+                                           rad_scale(w->V, k & 2 ? w->y1 : w->y0)));
+        const double c[3] = {p.x, p.y, p.z};
+        for (int d = 0; d < 3; d++)
+            box[d] = fmin(box[d], c[d] - w->tol), box[d + 3] = fmax(box[d + 3], c[d] + w->tol);
+    }
+}
+
+/* The region's outline in the plane (w->oe, from frame()'s edges), then
+ * w->foot: the grid cells where another surface stands on the region
+ * (polygons whose box misses the region's are passed over). */
+static int feet(rwork *w, const uint32_t *mem, uint32_t nm)
+{
+    const rad_polygon *lead = &w->s->polygons[mem[0]];
+    w->noe = w->nfoot = 0;
+    double box[6];
+    if (polygon_boxes(w) != 0)
+        return -1;
+    region_box(w, box);
+    for (size_t e = 0; e < w->nekey; e++) {
+        uint64_t rev = w->ekey[e] << 32 | w->ekey[e] >> 32;
+        if (bsearch(&rev, w->ekey, w->nekey, sizeof *w->ekey, u64_cmp))
+            continue;
+        if (GROW(w->oe, w->coe, 2 * w->noe + 2) != 0)
+            return -1;
+        w->oe[2 * w->noe] = to2d(w, w->s->points[w->first[w->ekey[e] >> 32]]);
+        w->oe[2 * w->noe++ + 1] = to2d(w, w->s->points[w->first[w->ekey[e] & 0xffffffffu]]);
+    }
+    for (uint32_t q = 0; q < w->s->polygon_count; q++) {
+        const double *pb = w->pbox + 6 * (size_t)q;
+        if (pb[0] > box[3] || pb[1] > box[4] || pb[2] > box[5] || pb[3] < box[0] ||
+            pb[4] < box[1] || pb[5] < box[2])
+            continue;
+        pt2 a = {{0.0, 0.0}}, b = a;
+        if (meets_plane(w, lead, q, &a, &b) && clip_to_box(w, &a, &b) &&
+            stands_inside(w, mem, nm, a, b) && mark_cells(w, a, b) != 0)
+            return -1;
+    }
+    if (w->nfoot)
+        qsort(w->foot, w->nfoot, sizeof *w->foot, u64_cmp);
+    size_t k = 0;
+    for (size_t e = 0; e < w->nfoot; e++)
+        if (k == 0 || w->foot[e] != w->foot[k - 1])
+            w->foot[k++] = w->foot[e];
+    w->nfoot = k;
+    return 0;
+}
+
+/* ------------------------------------------------------- one region's mesh */
+
+typedef struct gcell {
+    uint64_t g;
+    uint32_t c;
+} gcell;
+
+static int gcell_cmp(const void *a, const void *b)
+{
+    const gcell *x = a, *y = b;
+    if (x->g != y->g)
+        return x->g < y->g ? -1 : 1;
+    return x->c < y->c ? -1 : x->c > y->c;
+}
+
+typedef struct cand {
+    uint64_t g;
+    double area;
+    double lo[2], hi[2];
+} cand;
+
+static double cand_ratio(const cand *c, double *longest)
+{
+    *longest = fmax(c->hi[0] - c->lo[0], c->hi[1] - c->lo[1]);
+    return *longest * *longest / c->area;
+}
+
+static cand cand_union(const cand *a, const cand *b)
+{
+    cand u = *a;
+    u.area += b->area;
+    for (int d = 0; d < 2; d++)
+        u.lo[d] = fmin(a->lo[d], b->lo[d]), u.hi[d] = fmax(a->hi[d], b->hi[d]);
+    return u;
+}
+
+static uint32_t cand_find(const cand *cd, uint32_t n, uint64_t g)
+{
+    uint32_t lo = 0, hi = n;
+    while (lo < hi) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (cd[mid].g < g)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < n && cd[lo].g == g ? lo : RAD_NONE;
+}
+
+/* Do boxes a and b share a stretch of edge (not just a corner)? */
+static int touching(const cand *a, const cand *b, double eps)
+{
+    int overlap = 0;
+    for (int d = 0; d < 2; d++) {
+        double gap = fmax(a->lo[d], b->lo[d]) - fmin(a->hi[d], b->hi[d]);
+        if (gap > eps)
+            return 0;
+        overlap |= gap < -eps;
+    }
+    return overlap;
+}
+
+/* The candidate sliver c joins best: of its grid cell's other parts and
+ * its four neighbours' pieces, one it touches that keeps the pair within
+ * the size and the shape bound (the best shaped), or RAD_NONE. */
+static uint32_t sliver_partner(const rwork *w, const cand *cd, uint32_t n, uint32_t *up, uint32_t c)
+{
+    const double longmax = REGION_LONGEST * w->size * (1 + 1e-9), eps = 1e-9 * w->size;
+    const uint64_t parts = REGION_FOOT * REGION_FOOT, g = cd[c].g / parts, x = g % w->nx;
+    uint64_t nb[5] = {g, x > 0 ? g - 1 : UINT64_MAX, x + 1 < w->nx ? g + 1 : UINT64_MAX,
+                      g >= w->nx ? g - w->nx : UINT64_MAX, g + w->nx};
+    uint32_t best = RAD_NONE;
+    double best_r = INFINITY;
+    for (uint64_t k = 0; k < 5 * parts; k++) {
+        uint32_t d = nb[k / parts] == UINT64_MAX ? RAD_NONE
+                                                  : cand_find(cd, n, parts * nb[k / parts] + k % parts);
+        if (d == RAD_NONE || (d = mesh_uf_find(up, d)) == c || !touching(&cd[d], &cd[c], eps))
+            continue;
+        cand u = cand_union(&cd[d], &cd[c]);
+        double ul, ur = cand_ratio(&u, &ul);
+        if (ul <= longmax && ur <= REGION_RATIO * (1 + 1e-9) &&
+            (ur < best_r || (ur == best_r && d < best)))
+            best = d, best_r = ur;
+    }
+    return best;
+}
+
+/* Slivers and long pieces join a grid neighbour (see the top of the file). */
+static void merge_slivers(const rwork *w, cand *cd, uint32_t n, uint32_t *up)
+{
+    for (uint32_t c = 0; c < n; c++) {
+        const double cellarea = w->sx * w->sy /
+                                (is_foot(w, cd[c].g / (REGION_FOOT * REGION_FOOT))
+                                     ? REGION_FOOT * REGION_FOOT : 1.0);
+        double len, r = cand_ratio(&cd[c], &len);
+        if (up[c] != c || (cd[c].area >= REGION_SLIVER * cellarea && r <= REGION_RATIO))
+            continue;
+        uint32_t best = sliver_partner(w, cd, n, up, c);
+        if (best != RAD_NONE) {
+            up[c] = best;
+            cd[best] = cand_union(&cd[best], &cd[c]);
+        }
+    }
+}
+
+/* Raw corners -> unique ids (equal after rounding to 1e-7 of the size;
+ * urep: an id's first raw corner); cells renumbered onto them, those that
+ * lose a corner dropped. */
+static int unique_corners(rwork *w, uint32_t *uid, uint32_t *urep, uint32_t *nu)
+{
+    const double q = 1e-7 * w->size;
+    mesh_key *k = malloc((w->nraw + 1) * sizeof *k);
+    if (!k)
+        return -1;
+    for (size_t r = 0; r < w->nraw; r++) {
+        k[r].k[0] = llround((w->raw[r].c[0] - w->x0) / q);
+        k[r].k[1] = llround((w->raw[r].c[1] - w->y0) / q);
+        k[r].k[2] = 0;
+        k[r].r = (uint32_t)r;
+    }
+    qsort(k, w->nraw, sizeof *k, mesh_key_cmp);
+    *nu = 0;
+    for (size_t e = 0; e < w->nraw; e++) {
+        if (e == 0 || k[e].k[0] != k[e - 1].k[0] || k[e].k[1] != k[e - 1].k[1])
+            urep[(*nu)++] = k[e].r;
+        uid[k[e].r] = *nu - 1;
+    }
+    free(k);
+    size_t kept = 0;
+    const double tiny = 1e-12 * w->sx * w->sy;
+    for (size_t c = 0; c < w->ncell; c++) {
+        rad_patch cl = w->cell[c];
+        int n = rad_patch_corners(&cl);
+        pt2 q[4];
+        for (int a = 0; a < n; a++) {
+            cl.v[a] = uid[cl.v[a]];
+            q[a] = w->raw[urep[cl.v[a]]];
+        }
+        /* merged corners may have left a half without area: keep the rest */
+        int h1 = tri2(q[0], q[1], q[2]) > tiny, h2 = n == 4 && tri2(q[0], q[2], q[3]) > tiny;
+        if (n == 4 && h1 != h2) {
+            if (h2)
+                cl.v[1] = cl.v[2], cl.v[2] = cl.v[3];
+            cl.v[3] = RAD_NONE;
+        } else if (n == 4 && !h1) {
+            continue;
+        } else if (n == 3 && !h1) {
+            continue;
+        }
+        w->cell[kept] = cl;
+        w->gi[kept++] = w->gi[c];
+    }
+    w->ncell = kept;
+    return 0;
+}
+
+/* Candidate patches (one per grid cell holding cells) in grid order, their
+ * sizes from the 2D cells; ci[k]: the candidate of sorted cell gc[k]. */
+static cand *candidates(const rwork *w, const gcell *gc, const uint32_t *urep, uint32_t *ci,
+                        uint32_t *count)
+{
+    cand *cd = malloc((w->ncell + 1) * sizeof *cd);
+    if (!cd)
+        return NULL;
+    uint32_t n = 0;
+    for (size_t k = 0; k < w->ncell; k++) {
+        if (k == 0 || gc[k].g != gc[k - 1].g)
+            cd[n++] = (cand){gc[k].g, 0.0, {INFINITY, INFINITY}, {-INFINITY, -INFINITY}};
+        cand *c = &cd[n - 1];
+        const rad_patch *cl = &w->cell[gc[k].c];
+        const int corners = rad_patch_corners(cl);
+        pt2 p[4];
+        for (int a = 0; a < corners; a++) {
+            p[a] = w->raw[urep[cl->v[a]]];
+            for (int d = 0; d < 2; d++)
+                c->lo[d] = fmin(c->lo[d], p[a].c[d]), c->hi[d] = fmax(c->hi[d], p[a].c[d]);
+        }
+        c->area += tri2(p[0], p[1], p[2]) + (corners == 4 ? tri2(p[0], p[2], p[3]) : 0.0);
+        ci[k] = n - 1;
+    }
+    *count = n;
+    return cd;
+}
+
+
+
+/* The region's cells in grid order, numbered by patch (merged candidates
+ * share their root's number, in order of first appearance), on their
+ * unique corners placed in the region's plane; appended to out. */
+static int emit(rwork *w, const gcell *gc, const uint32_t *ci, uint32_t *up, uint32_t ncand,
+                const uint32_t *urep, uint32_t nu, mesh_regions *out, uint32_t *np)
+{
+    uint32_t *pnum = malloc(((size_t)ncand + 1) * sizeof *pnum);
+    uint32_t *of = malloc((w->ncell + 1) * sizeof *of);
+    rad_patch *cells = malloc((w->ncell + 1) * sizeof *cells);
+    rad_vec3 *pos = malloc(((size_t)nu + 1) * sizeof *pos);
+    int rc = -1;
+    if (pnum && of && cells && pos) {
+        *np = 0;
+        for (uint32_t c = 0; c < ncand; c++)
+            pnum[c] = RAD_NONE;
+        for (uint32_t c = 0; c < ncand; c++)
+            if (pnum[mesh_uf_find(up, c)] == RAD_NONE)
+                pnum[mesh_uf_find(up, c)] = (*np)++;
+        for (size_t k = 0; k < w->ncell; k++) {
+            of[k] = pnum[mesh_uf_find(up, ci[k])];
+            cells[k] = w->cell[gc[k].c];
+        }
+        for (uint32_t u = 0; u < nu; u++) {
+            pt2 q = w->raw[urep[u]];
+            pos[u] = rad_add(w->O, rad_add(rad_scale(w->U, q.c[0]), rad_scale(w->V, q.c[1])));
+        }
+        rc = mesh_regions_emit(out, cells, w->ncell, of, *np, pos, nu);
+    }
+    free(pnum), free(of), free(cells), free(pos);
+    return rc;
+}
+
+/* Meshes one region's members into out (see the top of the file); with
+ * only_split, a region of one patch is left alone (returns 1).  RAD_OK; -1
+ * out of memory; -2 a cell without area; -3 too many cells. */
+static int mesh_region(rwork *w, const uint32_t *mem, uint32_t nm, int only_split,
+                       mesh_regions *out, uint32_t *np)
+{
+    w->nraw = w->ncell = 0;
+    if (frame(w, mem, nm) != 0)
+        return -1;
+    grid(w, mem, nm);
+    if (feet(w, mem, nm) != 0)
+        return -1;
+    /* 2^27 grid cells in one region: beyond any patch limit */
+    /* a grid of more cells than the limit allows cells (a convex region
+     * covers most of its grid): refused before cutting */
+    w->climit = out->cell_limit > out->cells ? out->cell_limit - out->cells : 0;
+    double area = 0.0;
+    for (uint32_t m = 0; m < nm; m++)
+        area += w->s->polygons[mem[m]].area;
+    if (mesh_regions_over(out, area / (w->sx * w->sy)) || w->nx == UINT64_MAX ||
+        w->ny == UINT64_MAX || (double)w->nx * (double)w->ny > 4.0 * (double)w->climit)
+        return -3;
+    for (uint32_t m = 0; m < nm; m++) {
+        int rc = cut_polygon(w, mem[m]);
+        if (rc != 0)
+            return rc;
+    }
+    if (w->nraw >= UINT32_MAX || w->ncell >= UINT32_MAX)
+        return -3;
+    uint32_t *uid = malloc((w->nraw + 1) * sizeof *uid);
+    uint32_t *urep = malloc((w->nraw + 1) * sizeof *urep);
+    gcell *gc = malloc((w->ncell + 1) * sizeof *gc);
+    uint32_t *ci = malloc((w->ncell + 1) * sizeof *ci), nu = 0, ncand = 0;
+    uint32_t *up = NULL;
+    cand *cd = NULL;
+    int rc = -1;
+    if (!uid || !urep || !gc || !ci || unique_corners(w, uid, urep, &nu) != 0)
+        goto done;
+    for (size_t k = 0; k < w->ncell; k++)
+        gc[k] = (gcell){w->gi[k], (uint32_t)k};
+    qsort(gc, w->ncell, sizeof *gc, gcell_cmp);
+    if (!(cd = candidates(w, gc, urep, ci, &ncand)) ||
+        !(up = malloc(((size_t)ncand + 1) * sizeof *up)))
+        goto done;
+    for (uint32_t c = 0; c < ncand; c++)
+        up[c] = c;
+    merge_slivers(w, cd, ncand, up);
+    uint32_t roots = 0;
+    for (uint32_t c = 0; c < ncand; c++)
+        roots += up[c] == c;
+    if (roots == 0 || (only_split && roots == 1)) {
+        rc = 1;
+        goto done;
+    }
+    rc = emit(w, gc, ci, up, ncand, urep, nu, out, np);
+done:
+    free(uid), free(urep), free(gc), free(ci), free(up), free(cd);
+    return rc;
+}
+
+/* ------------------------------------------------------------ the result */
+
+
+void mesh_regions_free(mesh_regions *r)
+{
+    if (!r)
+        return;
+    free(r->of), free(r->lead), free(r->pfirst), free(r->vfirst), free(r->patch);
+    free(r->cfirst), free(r->cell), free(r->V), free(r->Vb);
+    memset(r, 0, sizeof *r);
+}
+
+/* The members of every region, grouped (counting sort over of[]). */
+static int members(const mesh_regions *r, uint32_t np, uint32_t nreg, uint32_t **first,
+                   uint32_t **mem)
+{
+    *first = calloc((size_t)nreg + 2, sizeof **first);
+    *mem = malloc(((size_t)np + 1) * sizeof **mem);
+    if (!*first || !*mem)
+        return -1;
+    for (uint32_t i = 0; i < np; i++)
+        if (r->of[i] != RAD_NONE)
+            (*first)[r->of[i] + 2]++;
+    for (uint32_t k = 0; k < nreg; k++)
+        (*first)[k + 2] += (*first)[k + 1];
+    for (uint32_t i = 0; i < np; i++)
+        if (r->of[i] != RAD_NONE)
+            (*mem)[(*first)[r->of[i] + 1]++] = i;
+    return 0;
+}
+
+/* Whether region of nm members is meshed here: a lone polygon only when
+ * meshing it on its own would be poor; several, unless all are small and
+ * they make one patch (the clusters then take them, curved neighbours
+ * included).  0 no, 1 yes, 2 yes if it makes more than one patch. */
+static int wanted(const uint8_t *mode, const uint32_t *mem, uint32_t nm)
+{
+    if (nm == 1)
+        return mode[mem[0]] == MESH_REGION_SPLIT;
+    for (uint32_t m = 0; m < nm; m++)
+        if (mode[mem[m]] != MESH_REGION_SMALL)
+            return 1;
+    return 2;
+}
+
+/* Narrow regions (the short side of their box under the size) that share
+ * a point, of one object and material with lead normals within 30°, are
+ * one curved surface: surf[r] its lowest region (union-find), for regions
+ * with want[r] (some member larger than one cell) only; others point to
+ * themselves. */
+static int curved_surfaces(rwork *w, const uint32_t *first, const uint32_t *mem,
+                           const uint8_t *want, uint32_t nreg, uint32_t *surf)
+{
+    const rad_scene *s = w->s;
+    uint8_t *narrow = calloc((size_t)nreg + 1, 1);
+    uint32_t *owner = malloc(((size_t)w->npos + 1) * sizeof *owner);
+    if (!narrow || !owner) {
+        free(narrow), free(owner);
+        return -1;
+    }
+    for (uint32_t j = 0; j < w->npos; j++)
+        owner[j] = RAD_NONE;
+    for (uint32_t r = 0; r < nreg; r++) {
+        surf[r] = r;
+        if (!want[r])
+            continue;
+        if (frame(w, mem + first[r], first[r + 1] - first[r]) != 0) {
+            free(narrow), free(owner);
+            return -1;
+        }
+        grid(w, mem + first[r], first[r + 1] - first[r]);
+        narrow[r] = fmin(w->x1 - w->x0, w->y1 - w->y0) < w->size;
+    }
+    for (uint32_t r = 0; r < nreg; r++) {
+        const rad_polygon *lead = &s->polygons[mem[first[r]]];
+        for (uint32_t m = first[r]; narrow[r] && m < first[r + 1]; m++) {
+            const rad_polygon *pg = &s->polygons[mem[m]];
+            for (uint32_t k = 0; k < pg->point_count; k++) {
+                uint32_t id = w->pos[pg->first_point + k], o = owner[id];
+                if (o == RAD_NONE) {
+                    owner[id] = r;
+                    continue;
+                }
+                const rad_polygon *ol = &s->polygons[mem[first[o]]];
+                if (o != r && ol->object == lead->object && ol->material == lead->material &&
+                    rad_dot(ol->normal, lead->normal) >= RAD_MESH_SURFACE_COS) {
+                    uint32_t a = mesh_uf_find(surf, o), b = mesh_uf_find(surf, r);
+                    surf[a > b ? a : b] = a > b ? b : a;
+                }
+            }
+        }
+    }
+    for (uint32_t r = 0; r < nreg; r++)
+        surf[r] = mesh_uf_find(surf, r);
+    free(narrow), free(owner);
+    return 0;
+}
+
+/* Region r's members, or with a curved surface of several regions (at its
+ * lowest region) all of theirs, meshed into out; *skip when r is part of a
+ * surface meshed at another region.  rc as mesh_region. */
+static int mesh_one(rwork *w, const uint8_t *mode, const uint32_t *first, const uint32_t *mem,
+                    const uint32_t *surf, const uint32_t *ssize, uint32_t r, uint32_t nreg,
+                    mesh_regions *out, uint32_t *got)
+{
+    const uint32_t *m = mem + first[r], nm = first[r + 1] - first[r];
+    if (ssize[surf[r]] < 2)
+        return mesh_region(w, m, nm, wanted(mode, m, nm) == 2, out, got);
+    /* the surface's polygons, region by region */
+    uint32_t total = 0, k = 0;
+    for (uint32_t q = r; q < nreg; q++)
+        total += surf[q] == r ? first[q + 1] - first[q] : 0;
+    uint32_t *all = malloc(((size_t)total + 1) * sizeof *all);
+    if (!all)
+        return -1;
+    for (uint32_t q = r; q < nreg; q++)
+        for (uint32_t e = first[q]; surf[q] == r && e < first[q + 1]; e++)
+            all[k++] = mem[e];
+    uint32_t p0 = out->patches;
+    int rc = mesh_smooth_mesh(w->s, w->pos, w->first, all, total, w->size, out);
+    *got = out->patches - p0;
+    free(all);
+    return rc;
+}
+
+static int take_regions(rwork *w, const uint8_t *mode, uint32_t nreg, mesh_regions *out)
+{
+    const uint32_t np = w->s->polygon_count;
+    uint32_t *first = NULL, *mem = NULL, *keep = malloc(((size_t)nreg + 1) * sizeof *keep);
+    uint32_t *surf = malloc(((size_t)nreg + 1) * sizeof *surf);
+    uint32_t *ssize = calloc((size_t)nreg + 1, sizeof *ssize);
+    uint8_t *want = calloc((size_t)nreg + 1, 1);
+    int rc = keep && surf && ssize && want ? members(out, np, nreg, &first, &mem) : -1;
+    if (rc == 0 && (!(out->lead = malloc(((size_t)nreg + 1) * sizeof *out->lead)) ||
+                    !(out->pfirst = malloc(((size_t)nreg + 2) * sizeof *out->pfirst)) ||
+                    !(out->vfirst = malloc(((size_t)nreg + 2) * sizeof *out->vfirst))))
+        rc = -1;
+    /* want: 0 left to the clusters or meshed alone, 1 taken, 2 taken if
+     * it makes more than one patch, 3 only as part of a curved surface */
+    for (uint32_t r = 0; r < nreg && rc == 0; r++) {
+        want[r] = (uint8_t)wanted(mode, mem + first[r], first[r + 1] - first[r]);
+        for (uint32_t e = first[r]; !want[r] && e < first[r + 1]; e++)
+            want[r] = mode[mem[e]] != MESH_REGION_SMALL ? 3 : 0;
+    }
+    if (rc == 0)
+        rc = curved_surfaces(w, first, mem, want, nreg, surf);
+    for (uint32_t r = 0; r < nreg && rc == 0; r++)
+        ssize[surf[r]] += want[r] != 0;
+    out->count = 0;
+    for (uint32_t r = 0; r < nreg && rc == 0; r++) {
+        uint32_t v0 = out->vertices, p0 = out->patches, got = 0;
+        keep[r] = RAD_NONE;
+        if (ssize[surf[r]] >= 2 && surf[r] != r) { /* meshed with its surface */
+            keep[r] = keep[surf[r]];
+            continue;
+        }
+        if (!want[r] || (want[r] == 3 && ssize[surf[r]] < 2))
+            continue;
+        rc = mesh_one(w, mode, first, mem, surf, ssize, r, nreg, out, &got);
+        if (rc == 1) {
+            rc = 0;
+            continue;
+        }
+        if (rc == -3 && out->estimate_only) { /* counted in out->estimate */
+            rc = 0;
+            keep[r] = MESH_REGION_ESTIMATED;
+            continue;
+        }
+        if (rc != 0)
+            break;
+        keep[r] = out->count;
+        out->lead[out->count] = mem[first[r]];
+        out->pfirst[out->count] = p0;
+        out->vfirst[out->count++] = v0;
+    }
+    if (rc == 0) {
+        out->pfirst[out->count] = out->patches;
+        out->vfirst[out->count] = out->vertices;
+        for (uint32_t i = 0; i < np; i++)
+            if (out->of[i] != RAD_NONE)
+                out->of[i] = keep[out->of[i]] == MESH_REGION_ESTIMATED && out->estimate_only
+                                 ? MESH_REGION_ESTIMATED
+                                 : keep[out->of[i]];
+    }
+    free(first), free(mem), free(keep), free(surf), free(ssize), free(want);
+    return rc;
+}
+
+int mesh_regions_build(const rad_scene *s, const uint32_t *pos, const uint32_t *first,
+                       uint32_t npos, const uint8_t *mode, double size, uint64_t max_patches,
+                       int estimate_only, mesh_regions *out, rad_error *err)
+{
+    memset(out, 0, sizeof *out);
+    out->estimate_only = estimate_only;
+    out->cell_limit = 16 * max_patches + 1000000;
+    out->patch_limit = max_patches;
+    const char *src = s->source ? s->source : "<memory>";
+    rad_vec3 lo, hi;
+    out->of = malloc(((size_t)s->polygon_count + 1) * sizeof *out->of);
+    if (!out->of)
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: mesh: out of memory", src);
+    for (uint32_t i = 0; i < s->polygon_count; i++)
+        out->of[i] = RAD_NONE;
+    if (!(size > 0.0) || !isfinite(size) || !rad_scene_bounds(s, &lo, &hi))
+        return RAD_OK; /* no size to mesh by: every polygon on its own */
+    const double tol = REGION_PLANE_TOL * rad_length(rad_sub(hi, lo));
+    uint32_t nreg = 0;
+    rwork w = {.s = s, .pos = pos, .first = first, .npos = npos, .size = size, .tol = tol};
+    int rc = find_regions(s, pos, first, npos, mode, tol, out->of, &nreg);
+    if (rc == 0)
+        rc = take_regions(&w, mode, nreg, out);
+    free(w.raw), free(w.cell), free(w.gi), free(w.tmp[0]), free(w.tmp[1]), free(w.tmp[2]);
+    free(w.ekey), free(w.oe), free(w.foot), free(w.pbox);
+    if (rc == 0)
+        return RAD_OK;
+    double estimate = out->estimate;
+    mesh_regions_free(out);
+    if (rc == -3) {
+        out->overflow = 1;
+        out->estimate = estimate;
+        return RAD_OK;
+    }
+    if (rc == -2)
+        return rad_fail(err, RAD_ERR_INVALID,
+                        "%s: mesh: a planar region has a cell without area at this patch size; "
+                        "use a larger patch size", src);
+    return rad_fail(err, RAD_ERR_NOMEM, "%s: mesh: out of memory while meshing planar regions",
+                    src);
+}
