@@ -170,10 +170,10 @@ TEST(default_patch_size)
 {
     rad_vec3 q[4] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
     rad_scene *s = scene1(q, 4, 0, 0);
-    /* bounding-box diagonal / 24 = √2/24 */
-    CHECK_REL(rad_mesh_default_patch_size(s), sqrt(2.0) / 24.0, 1e-15);
-    /* ceil(1 / (√2/24)) = ceil(16.97) = 17 per side */
-    CHECK(rad_mesh_count(s, NULL) == 17 * 17);
+    /* bounding-box diagonal / 34 = √2/34 */
+    CHECK_REL(rad_mesh_default_patch_size(s), sqrt(2.0) / 34.0, 1e-15);
+    /* ceil(1 / (√2/34)) = ceil(24.04) = 25 per side */
+    CHECK(rad_mesh_count(s, NULL) == 25 * 25);
     rad_scene_destroy(s);
 }
 

@@ -219,7 +219,7 @@ double rad_mesh_default_patch_size(const rad_scene *scene)
     rad_vec3 lo, hi;
     if (!rad_scene_bounds(scene, &lo, &hi))
         return 0.0;
-    double d = rad_length(rad_sub(hi, lo)) / 24.0;
+    double d = rad_length(rad_sub(hi, lo)) / RAD_MESH_DIAGONAL_DIVISIONS;
     return isfinite(d) ? d : 0.0;
 }
 

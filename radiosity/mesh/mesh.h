@@ -37,13 +37,18 @@
  * one object and material whose normals agree within it are one surface
  * (cluster.c); where they meet, the surface bends, no other surface meets
  * it (elements/contact.c). */
+/* The default patch edge is the scene's bounding-box diagonal divided by
+ * this.  34 (it was 24 while triangulated inputs were meshed about four
+ * times finer than asked): report/hemicube.md, section 2, has the sweep. */
+#define RAD_MESH_DIAGONAL_DIVISIONS 34.0
+
 #define RAD_MESH_SURFACE_COS 0.86602540378443865
 
 /* {0} means defaults. */
 typedef struct rad_mesh_options {
     /* Target patch edge length in scene units.  0 = the polygons' own
      * subdivision parameters, and for polygons without one, the default
-     * (scene bounding-box diagonal / 24). A positive value overrides the
+     * (scene bounding-box diagonal / 34). A positive value overrides the
      * polygons' parameters. */
     double patch_size;
     /* Refuse to build more patches than this; 0 = RAD_MESH_DEFAULT_MAX_PATCHES. */

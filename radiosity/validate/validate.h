@@ -87,7 +87,7 @@ typedef struct rad_val_case {
      * `solve` its rows at their defaults (exact near entries,
      * hc_options.weak HC_WEAK_SURFACE for F_AB, HC_WEAK_ON for a solve or
      * the row sums; subdiv 0: the default patch size, the scene's
-     * diagonal / 24); RAD_VAL_ACCURATE the
+     * diagonal / 34); RAD_VAL_ACCURATE the
      * same with the accurate setting (HC_WEAK_HIGH, `--accuracy high`). */
     uint32_t engine;
 } rad_val_case;
