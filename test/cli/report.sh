@@ -37,7 +37,7 @@ fi
 # the patch size used is shown even when it was the default (issue 36): the
 # room's bounds are the unit cube, so diagonal / 34 = sqrt(3) / 34
 if "$BIN" report "$dir/opaque.sol" | grep -q "^patch size: 0.0509427 scene units" &&
-   "$BIN" report "$dir/opaque.sol" --json | grep -q '"patch_size": 0.0509426702'; then
+   "$BIN" report "$dir/opaque.sol" --json | grep -q '"patch_size": 0.0509426708'; then
     passed=$((passed + 1)); echo "ok   default patch size shown: $("$BIN" report "$dir/opaque.sol" | grep '^patch size')"
 else
     failed=$((failed + 1)); echo "FAIL default patch size: $("$BIN" report "$dir/opaque.sol" 2>&1 | grep -i 'patch')"
