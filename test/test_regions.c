@@ -364,9 +364,17 @@ TEST(faceted_cylinder)
                    "meshing each polygon alone)\n",
                    sides[c], m->patch_count, m->patch_count / budget, budget,
                    (unsigned long long)rad_mesh_count(s, &alone));
-            /* measured 1.51 × (24 sides, facets wider than a patch: each its
-             * own region) and 1.08 × (48 and 192 sides: one curved surface) */
-            CHECK_MSG(m->patch_count <= (sides[c] < 48 ? 1.6 : 1.15) * budget,
+            /* Measured at the default size (diagonal / 34): 1.11 × (24
+             * sides, facets wider than a patch: each its own region; 1.51 ×
+             * at / 24) and 1.16 × (48 and 192 sides: one curved surface cut
+             * by smooth.c's cubes; side 1.18 ×, caps 1.09 ×).  The curved
+             * count moves with where the cube grid falls on the cylinder:
+             * 1.08 / 1.09 / 1.14 / 1.08 / 1.12 / 1.16 / 1.10 / 1.13 × at
+             * diagonal / 24, 28, 30, 32, 33, 34, 35, 36 (48 sides; 192
+             * sides the same within 0.04), so the bound is 1.25 ×, above
+             * that spread; meshing each polygon alone, as main does, makes
+             * 7.8 × (48 sides) and 30 × (192). */
+            CHECK_MSG(m->patch_count <= (sides[c] < 48 ? 1.6 : 1.25) * budget,
                       "%u sides: %u patches", sides[c], m->patch_count);
         }
         rad_mesh_destroy(m);
