@@ -5,8 +5,8 @@
  *
  * Invariant: the scene is solved with every row computed and no elements,
  * as cli_ff.c does for any scene; only this file's caller parses options.
- * With exact factors and without --patch-size, the patch edge is the
- * scene's diagonal / VS3_DIAGONAL_DIVISIONS.
+ * With exact factors and without --patch-size, patches are
+ * VS3_PATCH_SCALE times the mesher's default edge.
  */
 #include "cli.h"
 
@@ -15,16 +15,11 @@
 
 /* With every patch an exact target (ff's default for .vs3), error comes
  * only from sampling each source patch at its centre, and the work grows
- * as the square of the patch count: an edge of the scene's diagonal / 6
- * (4 times the mesher's default edge while that was diagonal / 24) keeps
- * the test scenes within 0.2 % of their references at a tenth of a second
- * to half a second of CPU (report/view3d.md), where the mesher's default
- * edge takes 10-15 s.  Its own number, not a multiple of the mesher's
- * default: at 4 × diagonal / 34 the unit squares with a centred screen
- * (test/cli/view3d.sh) got 5 patches a side and F was 2.3 % low, the
- * centre sampling's error moving with where the centres fall against the
- * screen's shadow (4 a side: +0.02 %; 6: +0.19 %; 7: -1.2 %). */
-#define VS3_DIAGONAL_DIVISIONS 6.0
+ * as the square of the patch count: patches VS3_PATCH_SCALE times the
+ * mesher's default edge keep the test scenes within 0.15 % of their
+ * references at a tenth of a second to half a second of CPU
+ * (report/view3d.md), where the default edge takes 10-15 s. */
+#define VS3_PATCH_SCALE 4.0
 
 static void print_matrix(const rad_vs3 *m, const rad_vs3_factors *f)
 {
@@ -55,8 +50,7 @@ int cli_ff_view3d(const char *in, const rad_solve_options *opt, int matrix, cons
     rad_solve_options o = *opt;
     if (rad_vs3_load(in, &opt->load, &sc, &m, &err) == RAD_OK && o.exact_all &&
         o.mesh.patch_size <= 0)
-        o.mesh.patch_size = rad_mesh_default_patch_size(sc) * RAD_MESH_DIAGONAL_DIVISIONS /
-                            VS3_DIAGONAL_DIVISIONS;
+        o.mesh.patch_size = VS3_PATCH_SCALE * rad_mesh_default_patch_size(sc);
     if (err.code || rad_solve_scene(sc, &o, &s, &err) ||
         rad_vs3_factors_compute(s, m, &f, &err) ||
         (out && rad_view3d_write(out, m, f, &err)))

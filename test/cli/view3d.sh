@@ -12,7 +12,7 @@
 # file; standard errors <= 6.0e-5, at most 0.066 % of any factor >= 0.01).
 # Every reported factor >= 0.01 must lie within TOL = 0.5 % of its
 # reference.  Measured at ff's defaults for .vs3 (every patch an exact
-# target, patch edge the scene's diagonal / 6): cube 3e-7 relative,
+# target, patches 4 × the mesher's default edge): cube 3e-7 relative,
 # obstruction 0.06 %, window 0.04 %, L-room 0.20 % worst (east -> inner-y,
 # 0.13991 against 0.13963 ± 0.00003: the source patches' centre sampling,
 # 0.05 % at --patch-size 0.125); counting pixels
