@@ -70,6 +70,8 @@ int cli_ff(int argc, char **argv)
     rad_solution *s = NULL;
     opt.all_rows = 1; /* every row: F_BA needs B's rows even where B is black */
     opt.surface_factors = 1; /* F_AB is an area average over A (docs/limits.md) */
+    if (opt.mesh.divisions <= 0.0)
+        opt.mesh.divisions = RAD_MESH_FACTOR_DIVISIONS; /* its own default edge (mesh.h) */
     opt.refine_threshold = RAD_REFINE_OFF; /* form factors need no elements */
     opt.element_levels = 0;
     opt.load.allow_no_emitter = 1;

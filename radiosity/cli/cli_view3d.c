@@ -6,7 +6,7 @@
  * Invariant: the scene is solved with every row computed and no elements,
  * as cli_ff.c does for any scene; only this file's caller parses options.
  * With exact factors and without --patch-size, patches are
- * VS3_PATCH_SCALE times the mesher's default edge.
+ * VS3_PATCH_SCALE times a factor query's default edge (mesh.h).
  */
 #include "cli.h"
 
@@ -15,8 +15,8 @@
 
 /* With every patch an exact target (ff's default for .vs3), error comes
  * only from sampling each source patch at its centre, and the work grows
- * as the square of the patch count: patches VS3_PATCH_SCALE times the
- * mesher's default edge keep the test scenes within 0.15 % of their
+ * as the square of the patch count: patches VS3_PATCH_SCALE times a
+ * factor query's default edge keep the test scenes within 0.15 % of their
  * references at a tenth of a second to half a second of CPU
  * (report/view3d.md), where the default edge takes 10-15 s. */
 #define VS3_PATCH_SCALE 4.0
@@ -50,7 +50,7 @@ int cli_ff_view3d(const char *in, const rad_solve_options *opt, int matrix, cons
     rad_solve_options o = *opt;
     if (rad_vs3_load(in, &opt->load, &sc, &m, &err) == RAD_OK && o.exact_all &&
         o.mesh.patch_size <= 0)
-        o.mesh.patch_size = VS3_PATCH_SCALE * rad_mesh_default_patch_size(sc);
+        o.mesh.patch_size = VS3_PATCH_SCALE * rad_mesh_patch_size(sc, &o.mesh);
     if (err.code || rad_solve_scene(sc, &o, &s, &err) ||
         rad_vs3_factors_compute(s, m, &f, &err) ||
         (out && rad_view3d_write(out, m, f, &err)))

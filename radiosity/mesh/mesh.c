@@ -214,13 +214,26 @@ static uint64_t add_sat(uint64_t a, uint64_t b)
 }
 
 
-double rad_mesh_default_patch_size(const rad_scene *scene)
+/* The default edge: the diagonal / opt's divisions (the option unset or
+ * not set for a patch size). */
+static double diagonal_size(const rad_scene *scene, const rad_mesh_options *opt)
 {
     rad_vec3 lo, hi;
     if (!rad_scene_bounds(scene, &lo, &hi))
         return 0.0;
-    double d = rad_length(rad_sub(hi, lo)) / RAD_MESH_DIAGONAL_DIVISIONS;
+    const double k = opt && opt->divisions > 0.0 ? opt->divisions : RAD_MESH_DIAGONAL_DIVISIONS;
+    double d = rad_length(rad_sub(hi, lo)) / k;
     return isfinite(d) ? d : 0.0;
+}
+
+double rad_mesh_default_patch_size(const rad_scene *scene)
+{
+    return diagonal_size(scene, NULL);
+}
+
+double rad_mesh_patch_size(const rad_scene *scene, const rad_mesh_options *opt)
+{
+    return opt && opt->patch_size > 0.0 ? opt->patch_size : diagonal_size(scene, opt);
 }
 
 static int polygon_ok(const rad_scene *s, const rad_polygon *pg)
@@ -312,11 +325,6 @@ static split polygon_split(const rad_scene *s, const rad_polygon *pg, double opt
     return r;
 }
 
-static double effective_default(const rad_scene *scene, const rad_mesh_options *opt)
-{
-    double opt_size = opt ? opt->patch_size : 0.0;
-    return opt_size > 0.0 ? opt_size : rad_mesh_default_patch_size(scene);
-}
 
 static int transmits(const rad_scene *scene, const rad_polygon *pg)
 {
@@ -416,7 +424,7 @@ static int make_plan(const rad_scene *scene, const rad_mesh_options *opt, int es
 {
     memset(pl, 0, sizeof *pl);
     pl->opt_size = opt && opt->patch_size > 0.0 ? opt->patch_size : 0.0;
-    pl->def_size = rad_mesh_default_patch_size(scene);
+    pl->def_size = diagonal_size(scene, opt);
     const uint32_t np = scene->polygon_count;
     int rc = plan_regions(scene, opt, estimate, pl, err);
     if (rc != RAD_OK || pl->rg.overflow) {
@@ -481,7 +489,7 @@ static uint64_t plan_count(const rad_scene *scene, const rad_mesh_options *opt, 
 double rad_mesh_size_for(const rad_scene *scene, const rad_mesh_options *opt, uint64_t limit)
 {
     rad_mesh_options o = opt ? *opt : (rad_mesh_options){0};
-    double size = effective_default(scene, &o);
+    double size = rad_mesh_patch_size(scene, &o);
     if (!(size > 0.0) || limit == 0)
         return size;
     /* Planar regions counted by their area first (cutting them at a size
@@ -840,7 +848,7 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
         return rc;
     }
     const uint64_t np = pl.patches, nv = pl.vertices;
-    double size = effective_default(scene, opt);
+    double size = rad_mesh_patch_size(scene, opt);
     if (np > limit || nv >= UINT32_MAX || pl.cells > UINT32_MAX || np == 0) {
         plan_free(&pl);
         if (np == 0)

@@ -41,6 +41,13 @@
  * this.  34 (it was 24 while triangulated inputs were meshed about four
  * times finer than asked): report/hemicube.md, section 2, has the sweep. */
 #define RAD_MESH_DIAGONAL_DIVISIONS 34.0
+/* ... and for a factor query (`ff`, validate's catalog: rad_solve_options.
+ * surface_factors), 24.  F_AB between a few plain surfaces gains nothing
+ * from finer patches, and the near-surface rules of hemicube/rows.c reach
+ * a set number of patch diameters: at / 34 they reach less far, and two
+ * catalog pairs (squares 0.05 and 0.1 apart) went from -0.25 %/-0.34 % to
+ * -0.61 %/-0.78 % (report/hemicube.md, section 2). */
+#define RAD_MESH_FACTOR_DIVISIONS 24.0
 
 #define RAD_MESH_SURFACE_COS 0.86602540378443865
 
@@ -51,6 +58,9 @@ typedef struct rad_mesh_options {
      * (scene bounding-box diagonal / 34). A positive value overrides the
      * polygons' parameters. */
     double patch_size;
+    /* The default patch edge is the scene's bounding-box diagonal / this;
+     * 0 = RAD_MESH_DIAGONAL_DIVISIONS. */
+    double divisions;
     /* Refuse to build more patches than this; 0 = RAD_MESH_DEFAULT_MAX_PATCHES. */
     uint32_t max_patches;
     /* 1 = never group polygons (clusters, planar regions, curved
@@ -84,8 +94,13 @@ uint64_t rad_mesh_count(const rad_scene *scene, const rad_mesh_options *opt);
  * --patch-size.  A polygon's own subdivision is overridden by it. */
 double rad_mesh_size_for(const rad_scene *scene, const rad_mesh_options *opt, uint64_t limit);
 
-/* The patch edge length used when neither the option nor a polygon sets one. */
+/* The patch edge length used when neither the option nor a polygon sets one
+ * (the diagonal / RAD_MESH_DIAGONAL_DIVISIONS). */
 double rad_mesh_default_patch_size(const rad_scene *scene);
+
+/* The edge opt asks for: its patch_size, else the diagonal / its divisions
+ * (opt may be NULL: the defaults). */
+double rad_mesh_patch_size(const rad_scene *scene, const rad_mesh_options *opt);
 
 /* Centre (area centroid) and area of the cell with corners V[v[0..3]]
  * (v[3] == RAD_NONE: a triangle), measured projected on the unit normal n.

@@ -944,8 +944,7 @@ int rad_solve_scene(rad_scene *scene, const rad_solve_options *opt, rad_solution
         return rc;
     /* The size the mesher used: the option, else the scene's default (a
      * polygon's own subdivision parameters aside), so `report` shows it. */
-    s->patch_size = opt->mesh.patch_size > 0.0 ? opt->mesh.patch_size
-                                               : rad_mesh_default_patch_size(scene);
+    s->patch_size = rad_mesh_patch_size(scene, &opt->mesh);
     s->stages[RAD_STAGE_MESH].seconds = mesh_seconds;
 
     run c;

@@ -740,14 +740,21 @@ int rad_validate_case(const rad_val_case *cin, rad_val_result *out, rad_error *e
     rc = build_scene(&c, out->name, &s, &A, &B, err);
     if (rc)
         return rc;
-    uint64_t count = rad_mesh_count(s, NULL);
+    const int solve = c.config == RAD_VAL_CLOSED_CUBE || c.config == RAD_VAL_PLATES ||
+                      c.config == RAD_VAL_CUBE_LAMP;
+    /* F_AB as `ff` computes it (surface_factors), a solve's rows as
+     * `solve` does: the factor query's default patch edge (mesh.h), its
+     * near-surface rule (below) */
+    const int surface = !solve && c.config != RAD_VAL_ENCLOSURE && c.config != RAD_VAL_ELEMENT;
+    const rad_mesh_options mo = {.divisions = surface ? RAD_MESH_FACTOR_DIVISIONS : 0.0};
+    uint64_t count = rad_mesh_count(s, &mo);
     if (count > VAL_MAX_PATCHES) {
         rad_scene_destroy(s);
         return rad_fail(err, RAD_ERR_LIMIT, "validate: %s: %llu patches (more than %u)", out->name,
                         (unsigned long long)count, VAL_MAX_PATCHES);
     }
     rad_mesh *m = NULL;
-    rc = rad_mesh_build(s, NULL, &m, err);
+    rc = rad_mesh_build(s, &mo, &m, err);
     if (rc) {
         rad_scene_destroy(s);
         return rc;
@@ -759,8 +766,6 @@ int rad_validate_case(const rad_val_case *cin, rad_val_result *out, rad_error *e
 
     /* Which rows: the "from" surface's for a form factor, all for a solve
      * or for the row sums of the enclosure. */
-    int solve = c.config == RAD_VAL_CLOSED_CUBE || c.config == RAD_VAL_PLATES ||
-                c.config == RAD_VAL_CUBE_LAMP;
     uint32_t *rows = malloc((n ? n : 1) * sizeof *rows);
     rad_matrix *F = rad_matrix_create(n);
     hc_engine *hc = NULL;
@@ -775,9 +780,6 @@ int rad_validate_case(const rad_val_case *cin, rad_val_result *out, rad_error *e
     hc_options ho = {.resolution = c.resolution, .processes = c.processes, .gl = c.gl};
     if (c.engine != RAD_VAL_BARE) { /* as the pipeline sets them (pipeline.c) */
         ho.exact_near = 1;
-        /* F_AB as `ff` computes it (surface_factors), a solve's rows as
-         * `solve` does */
-        const int surface = !solve && c.config != RAD_VAL_ENCLOSURE && c.config != RAD_VAL_ELEMENT;
         ho.weak = c.engine == RAD_VAL_ACCURATE ? HC_WEAK_HIGH
                   : surface                    ? HC_WEAK_SURFACE
                                                : HC_WEAK_ON;
