@@ -608,10 +608,14 @@ static double lamp_seen(rad_vec3 x, double *whole)
  * over the floor pixels in the block's shadow (some of the lamp hidden),
  * over its penumbra alone and over the lit floor, against ρ E F/π with the
  * exact visible part of the lamp at each pixel's point.  The issue asks for
- * 2 %; measured +0.04 % (shadow), -0.12 % (penumbra), -0.03 % (lit), so
- * 0.5 % each.  Patches alone (no elements): shadow +40 %, penumbra +12 %,
- * lit -1.1 %.  Cost: about
- * 1 s of CPU. */
+ * 2 %.  At the default edge (diagonal / 34) measured +0.72 % (shadow),
+ * +0.30 % (penumbra), -0.04 % (lit).  The shadow's figure moves with where
+ * the element edges fall against it: +0.04, +1.60, -1.53, +0.54, +0.02,
+ * +0.72, -0.38, +1.16 % at diagonal / 24, 26, 28, 30, 32, 34, 36, 38 (the
+ * penumbra and the lit floor stay within 0.5 %), so its bound is the
+ * issue's 2 % and the other two keep 0.5 %.  Patches alone (no elements):
+ * shadow +40 %, penumbra +12 %, lit -1.1 % (at / 24).  Cost: about 1 s of
+ * CPU. */
 TEST(block_shadow_at_defaults)
 {
     rad_solution *s = test_solve_text(block_scene_text(), "block.rad",
@@ -661,7 +665,7 @@ TEST(block_shadow_at_defaults)
         CHECK(count[c] > 500);
         printf("  %-9s %6u pixels: mean L %.6f, exact %.6f (%+.2f %%)\n", what[c], count[c],
                got[c] / count[c], want[c] / count[c], 100 * (got[c] / want[c] - 1));
-        CHECK_REL(got[c], want[c], 5e-3);
+        CHECK_REL(got[c], want[c], c == 0 ? 2e-2 : 5e-3);
     }
     rn_image_destroy(img);
     rad_solution_destroy(s);
