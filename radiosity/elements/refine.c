@@ -471,7 +471,7 @@ static int edge_visibility(builder *b, hc_engine *hc, const hc_light *hl, const 
             continue;
         rad_vec3 p[4];
         const int corners = element_corners(b, &b->E[at[k]], p);
-        const rad_vec3 nx = b->s->mesh->patches[lit[k].patch].normal;
+        const rad_vec3 nx = cell_of(b, &b->E[at[k]])->normal; /* its own cell's plane */
         for (uint32_t a = 0; a < EL_VIS_SAMPLES; a++)
             for (uint32_t c = 0; c < EL_VIS_SAMPLES; c++, q++) {
                 double jac;
@@ -568,7 +568,7 @@ static int element_lights(builder *b, hc_engine *hc, const hc_receiver *r, const
         uint32_t m = 0;
         for (uint32_t k = 0; k < count; k++) {
             const enode *n = &b->E[which[k]];
-            const rad_vec3 nx = b->s->mesh->patches[r[k].patch].normal;
+            const rad_vec3 nx = cell_of(b, n)->normal; /* its own cell's plane */
             rad_vec3 p[4], c;
             double area = 0.0, d = 0.0;
             const int corners = element_corners(b, n, p);
