@@ -695,6 +695,21 @@ static double longest_edge(const builder *b, const enode *n)
     return l;
 }
 
+/* Is n a level-0 element, one cell, of a patch whose cells bend
+ * (hc_row_cubes)?  Such a cell, left whole, would show its patch's B, the
+ * mean over cells that face up to 60° apart: where the light falls off
+ * across the patch the bright cells kept the mean while the dark ones,
+ * probed and split, went below it (test_room's sphere: its elements'
+ * direct light 1.9 % under its patches').  It may split whatever its
+ * size, and its probes, gathered already, become its leaves whatever the
+ * estimate. */
+static int bent_cell(const builder *b, const enode *n)
+{
+    const rad_mesh *pm = b->s->mesh;
+    return n->level == 0 && pm->cell_first && pm->cell_first[n->patch + 1] - pm->cell_first[n->patch] > 1 &&
+           hc_row_cubes(pm, n->patch) > 1;
+}
+
 /* May leaf n split: a reflecting patch (a black one's B is its emission
  * whatever it receives), children not below the size floor. */
 static int may_split(const builder *b, const enode *n, const double *min_edge)
@@ -704,8 +719,8 @@ static int may_split(const builder *b, const enode *n, const double *min_edge)
     int reflects = 0;
     for (uint32_t c = 0; c < b->bands; c++)
         reflects |= b->s->rho[(size_t)n->patch * b->bands + c] > 0.0;
-    return reflects &&
-           (!min_edge || 0.5 * longest_edge(b, n) >= min_edge[n->patch] * (1.0 - 1e-9));
+    return reflects && (!min_edge || bent_cell(b, n) ||
+                        0.5 * longest_edge(b, n) >= min_edge[n->patch] * (1.0 - 1e-9));
 }
 
 /* Frees a rad_elements of leaves_to_elements (below) made with `borrow`:
@@ -1039,7 +1054,7 @@ static int refine_adaptive(builder *b, const rad_refine_options *opt, const doub
         uint32_t splits = 0;
         for (uint32_t e = 0; e < b->ne; e++) {
             enode *n = &b->E[e];
-            if (n->state != NODE_LEAF || n->kids == RAD_NONE || !(eps[e] > T))
+            if (n->state != NODE_LEAF || n->kids == RAD_NONE || !(eps[e] > T || bent_cell(b, n)))
                 continue;
             promote(b, e);
             /* Across or beside a contact line the error is a line's, and
