@@ -228,6 +228,17 @@ static int view_pixel(const hc_view *v, uint32_t R, rad_vec3 x, double *X, doubl
     return in_front;
 }
 
+/* Do patch p's cells bend: does one face away from its mean normal?
+ * (Two faces of a block, or planar patches meeting at a crease, stay
+ * apart: one may shadow the other.) */
+static int bent(const hc_engine *e, uint32_t p)
+{
+    for (uint32_t a = e->cfirst[p]; a < e->cfirst[p + 1]; a++)
+        if (rad_dot(e->mesh->cells[a].normal, e->mesh->patches[p].normal) < 1.0 - 1e-6)
+            return 1;
+    return 0;
+}
+
 /* Are bent patches p and k neighbours on one surface: do a cell of each
  * share a corner (the mesher welds the facets' points)?  Two patches of a
  * curved surface meshed across its facets (radiosity/mesh/smooth.c) each
@@ -239,7 +250,7 @@ static int view_pixel(const hc_view *v, uint32_t R, rad_vec3 x, double *X, doubl
 static int bent_neighbours(const hc_engine *e, uint32_t p, uint32_t k)
 {
     if (!e->mesh->cell_first || e->cfirst[p + 1] - e->cfirst[p] < 2 ||
-        e->cfirst[k + 1] - e->cfirst[k] < 2)
+        e->cfirst[k + 1] - e->cfirst[k] < 2 || !bent(e, p) || !bent(e, k))
         return 0;
     const rad_patch *C = e->mesh->cells;
     for (uint32_t a = e->cfirst[p]; a < e->cfirst[p + 1]; a++)
