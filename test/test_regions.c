@@ -428,8 +428,10 @@ static rad_scene *lit_half_cylinder(rad_vec3 lamp[4])
     int bad = 0;
     for (uint32_t k = 0; k < 96 && !bad; k++) {
         const double a0 = 2.0 * M_PI * k / 96, a1 = 2.0 * M_PI * (k + 1) / 96;
-        rad_vec3 q[4] = {rad_v3(0.5 * cos(a0), 0.5 * sin(a0), 0), rad_v3(0.5 * cos(a1), 0.5 * sin(a1), 0),
-                         rad_v3(0.5 * cos(a1), 0.5 * sin(a1), 2), rad_v3(0.5 * cos(a0), 0.5 * sin(a0), 2)};
+        rad_vec3 q[4] = {rad_v3(0.5 * cos(a0), 0.5 * sin(a0), 0),
+                         rad_v3(0.5 * cos(a1), 0.5 * sin(a1), 0),
+                         rad_v3(0.5 * cos(a1), 0.5 * sin(a1), 2),
+                         rad_v3(0.5 * cos(a0), 0.5 * sin(a0), 2)};
         bad = rad_scene_add_polygon(s, "side", oc, mg, q, 4, 0, 0, NULL, NULL, NULL);
     }
     /* In the plane x = 0.55, facing -x, from y = 0.6 to 1.4: the facets
@@ -503,8 +505,8 @@ TEST(bent_patch_rows)
             worst = fmax(worst, fabs(f / ref - 1.0));
     }
     for (uint32_t p = 0; s && p + 1 < s->polygon_count; p++)
-        facets += s->polygons[p].area * hc_ff_polygon_polygon(s->points + s->polygons[p].first_point,
-                                                           4, lamp, 4, 16);
+        facets += s->polygons[p].area *
+                  hc_ff_polygon_polygon(s->points + s->polygons[p].first_point, 4, lamp, 4, 16);
     printf("  %u cylinder patches (%u bent, %u hemi-cubes): worst lamp entry %.2f %% off "
            "(of patches over 1 %% of the largest), Σ A_i F_i,lamp %+.3f %% (cells) %+.3f %% "
            "(facets)\n",

@@ -706,7 +706,8 @@ static double longest_edge(const builder *b, const enode *n)
 static int bent_cell(const builder *b, const enode *n)
 {
     const rad_mesh *pm = b->s->mesh;
-    return n->level == 0 && pm->cell_first && pm->cell_first[n->patch + 1] - pm->cell_first[n->patch] > 1 &&
+    return n->level == 0 && pm->cell_first &&
+           pm->cell_first[n->patch + 1] - pm->cell_first[n->patch] > 1 &&
            hc_row_cubes(pm, n->patch) > 1;
 }
 
