@@ -205,6 +205,13 @@ static inline void hc_load_corners(const hc_engine *e, uint32_t cell, rad_vec3 p
         p[k] = rad_v3(q[3 * k], q[3 * k + 1], q[3 * k + 2]);
 }
 
+/* The normal of cell `cell` of patch j: a bent patch's cells each have
+ * their own (radiosity/mesh/smooth.c), a one-cell patch its own. */
+static inline rad_vec3 hc_cell_normal(const hc_engine *e, uint32_t j, uint32_t cell)
+{
+    return e->mesh->cell_first ? e->mesh->cells[cell].normal : e->mesh->patches[j].normal;
+}
+
 /* pool_lights.c: reads the len bytes of worker k's error text (the worker
  * has exited), marks the engine broken and fails with that text. */
 int hc_pool_error(hc_engine *e, uint32_t k, uint32_t len, rad_error *err);
@@ -456,6 +463,11 @@ typedef struct hc_work {
     hc_point_req *vpts; /* HC_VIS_CHUNK: the points of a visibility request */
     double *vis;       /* HC_VIS_CHUNK: their visibilities */
     hc_reply out;      /* replies not yet sent */
+    /* A bent patch's row (row_samples.c): */
+    double *racc;      /* n: Σ_s (A_s / A_i) F_sj, zero between rows */
+    uint32_t *rcell;   /* ncell: a patch's cells, sample by sample */
+    uint8_t *rgroup;   /* ncell: each cell's sample */
+    const struct hc_sample *smp; /* the sample of the row being computed */
 } hc_work;
 
 /* worker.c: the worker process's body, from the fork to its _exit. */
@@ -481,9 +493,28 @@ static inline void hc_push_range(const hc_work *w, int *first, int *count, int *
 /* Allocates the exact entries' scratch of w (when e->any_exact); 0, or -1
  * with msg set. */
 int hc_rows_init(const hc_engine *e, hc_work *w, char *msg);
+/* Where one hemi-cube of a row of patch i sits: its centre c and axis n
+ * (relative to the origin), and the cells of i it stands for, over which
+ * its area-averaged exact entries are taken (cells[0..ncell), area their
+ * sum; cells NULL: all of i's).  point: a point receiver (an element),
+ * whose exact entries are point factors only. */
+typedef struct hc_sample {
+    rad_vec3 c, n;
+    const uint32_t *cells;
+    uint32_t ncell;
+    double area;
+    int point;
+} hc_sample;
+/* Computes the hemi-cube row of patch i from sample s into w->col/w->val
+ * (F_sj: its cells' part of the row); returns the entry count, or -1 with
+ * msg set on a GL error. */
+long hc_row_sample(const hc_engine *e, hc_work *w, uint32_t i, const hc_sample *s, char *msg);
 /* Computes row i into w->col/w->val; returns the entry count, or -1 with
  * msg set on a GL error.  `at` (relative to the origin) moves the cube from
- * i's centre to a point of i: an element's row F_ej (hc_compute_points). */
+ * i's centre to a point of i: an element's row F_ej (hc_compute_points),
+ * about the normal of the cell of i that holds it.  Without `at`, the row
+ * of a patch whose cells bend (row_samples.c): the area-weighted mean of
+ * hc_row_cubes(i) samples' rows, one for a planar patch. */
 long hc_row(const hc_engine *e, hc_work *w, uint32_t i, const rad_vec3 *at, char *msg);
 
 /* --------------------------------------------------------- light_views.c */
@@ -509,6 +540,10 @@ double hc_point_to_patch(const hc_engine *e, rad_vec3 c, rad_vec3 n, uint32_t j)
  * leaves by; at the centre a closed room absorbed 0.3-0.8 % more than its
  * lamp emitted), and column.c's factor for its receivers. */
 double hc_area_factor(const hc_engine *e, uint32_t i, uint32_t j, int near);
+/* The same averaged over the cells cells[0..ncell) of i only (of summed
+ * area `area`): a sample's part of a bent patch's row (row_samples.c). */
+double hc_cells_factor(const hc_engine *e, uint32_t i, const uint32_t *cells, uint32_t ncell,
+                       double area, uint32_t j, int near);
 
 /* ------------------------------------------------------------ analytic.c */
 

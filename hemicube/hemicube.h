@@ -296,6 +296,11 @@ double hc_ff_point_polygon(rad_vec3 p, rad_vec3 n, const rad_vec3 *poly, uint32_
 double hc_ff_polygon_polygon(const rad_vec3 *a, uint32_t na, const rad_vec3 *b, uint32_t nb,
                              uint32_t subdiv);
 
+/* How many hemi-cubes the row of patch i of mesh m costs (row_samples.c):
+ * 1 for a planar patch, up to 4 for a patch whose cells bend (each group
+ * of its cells within 12° of one normal gets a cube of its own). */
+uint32_t hc_row_cubes(const rad_mesh *m, uint32_t i);
+
 /* ---------------------------------------------------------------------------
  * MPI ranks (hemicube/mpi_ranks.c): linked into the radiosity-mpi program
  * only, never into libradiosity.a, so nothing else needs MPI's libraries.

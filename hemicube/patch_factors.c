@@ -97,11 +97,15 @@ double hc_point_to_patch(const hc_engine *e, rad_vec3 c, rad_vec3 n, uint32_t j)
 
 /* F from patch i to patch j, unoccluded, by area averages over i's cells
  * (F_ij = Σ_c (A_c / A_i) Σ_d F_cd) with `sub`² sub-triangles, to j's
- * outline where outline_applies. */
-static double patch_to_patch(const hc_engine *e, uint32_t i, uint32_t j, uint32_t sub)
+ * outline where outline_applies; over cells[0..ncell) of i (summed area
+ * `area`) instead when cells is not NULL. */
+static double patch_to_patch(const hc_engine *e, uint32_t i, const uint32_t *cells,
+                             uint32_t ncell, double area, uint32_t j, uint32_t sub)
 {
     double f = 0.0;
-    for (uint32_t ci = e->cfirst[i]; ci < e->cfirst[i + 1]; ci++) {
+    const uint32_t count = cells ? ncell : e->cfirst[i + 1] - e->cfirst[i];
+    for (uint32_t k = 0; k < count; k++) {
+        const uint32_t ci = cells ? cells[k] : e->cfirst[i] + k;
         rad_vec3 pi[4];
         hc_load_corners(e, ci, pi);
         const uint32_t np = e->ncorner[ci];
@@ -116,8 +120,7 @@ static double patch_to_patch(const hc_engine *e, uint32_t i, uint32_t j, uint32_
                 fc += hc_ff_polygon_polygon(pi, np, pj, e->ncorner[cj], sub);
             }
         }
-        f += e->cfirst[i + 1] - e->cfirst[i] == 1 ? fc
-                                                    : fc * cell_area(e, ci) / e->mesh->patches[i].area;
+        f += count == 1 ? fc : fc * cell_area(e, ci) / area;
     }
     return f;
 }
@@ -137,5 +140,12 @@ static uint32_t average_subdiv(const hc_engine *e, uint32_t i, uint32_t j, rad_v
 
 double hc_area_factor(const hc_engine *e, uint32_t i, uint32_t j, int near)
 {
-    return patch_to_patch(e, i, j, average_subdiv(e, i, j, e->center[i], near ? 2.0 : 1.0));
+    return hc_cells_factor(e, i, NULL, 0, e->mesh->patches[i].area, j, near);
+}
+
+double hc_cells_factor(const hc_engine *e, uint32_t i, const uint32_t *cells, uint32_t ncell,
+                       double area, uint32_t j, int near)
+{
+    return patch_to_patch(e, i, cells, ncell, area, j,
+                          average_subdiv(e, i, j, e->center[i], near ? 2.0 : 1.0));
 }

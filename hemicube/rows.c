@@ -468,7 +468,7 @@ static int focused_visibility(const hc_engine *e, hc_work *wk, const uint32_t *j
 static uint32_t exact_factors(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 c,
                               uint32_t ncand)
 {
-    const rad_vec3 nn = e->mesh->patches[i].normal;
+    const hc_sample *s = wk->smp;
     uint32_t per_residue[32] = {0}, passes = 0;
     for (uint32_t k = 0; k < ncand; k++) {
         hc_cand *cd = &wk->cand[k];
@@ -478,9 +478,9 @@ static uint32_t exact_factors(const hc_engine *e, hc_work *wk, uint32_t i, rad_v
         cd->px = 0;
         double ex;
         if (cd->near || cd->area) {
-            ex = hc_area_factor(e, i, j, cd->near == 1);
+            ex = hc_cells_factor(e, i, s->cells, s->ncell, s->area, j, cd->near == 1);
         } else {
-            ex = hc_point_to_patch(e, c, nn, j);
+            ex = hc_point_to_patch(e, c, s->n, j);
         }
         cd->exact = ex > 0.0 && isfinite(ex) ? ex : 0.0;
         cd->pass = UINT32_MAX;
@@ -547,7 +547,8 @@ static void visibilities(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 c
                          uint32_t nfront, double near)
 {
     const uint32_t R = e->R;
-    const rad_vec3 nn = e->mesh->patches[i].normal;
+    const rad_vec3 nn = wk->smp->n;
+    (void)i;
     for (uint32_t k = 0; k < ncand; k++) {
         hc_cand *cd = &wk->cand[k];
         cd->vis = cd->occ > 0.0 ? fmin(1.0, cd->occ / cd->free) : cd->free;
@@ -847,19 +848,20 @@ static int renormalise(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 c, 
     return 0;
 }
 
-/* Such a receiver (`at`) is a point, so exact entries are the point-to-
- * polygon factor only (no near area averages over i). */
-long hc_row(const hc_engine *e, hc_work *wk, uint32_t i, const rad_vec3 *at, char *msg)
+/* A point receiver's exact entries are the point-to-polygon factor only
+ * (no near area averages over i). */
+long hc_row_sample(const hc_engine *e, hc_work *wk, uint32_t i, const hc_sample *s, char *msg)
 {
     const uint32_t n = e->n, R = e->R;
     const rad_patch *pi = &e->mesh->patches[i];
-    rad_vec3 nn = pi->normal, u, v;
+    rad_vec3 nn = s->n, u, v;
     hc_basis(nn, &u, &v);
-    const rad_vec3 c = at ? *at : e->center[i];
-    const int near_ok = e->opt.exact_near && !at;
+    const rad_vec3 c = s->c;
+    const int near_ok = e->opt.exact_near && !s->point;
     uint32_t nfront = 0;
     int nr[5] = {0, 0, 0, 0, 0};
-    const uint32_t ncand = cull(e, wk, i, c, nn, u, v, near_ok, !at, &nfront, nr);
+    wk->smp = s;
+    const uint32_t ncand = cull(e, wk, i, c, nn, u, v, near_ok, !s->point, &nfront, nr);
 
     hc_gl_atlas_begin(wk->gl, R, c);
     const double near = 1e-4 * sqrt(pi->area);

@@ -63,7 +63,10 @@ static int worker_setup(const hc_engine *e, hc_work *wk, char *msg)
              (wk->acc = hc_alloc(n, sizeof *wk->acc, msg)) &&
              (wk->front = hc_alloc(n, sizeof *wk->front, msg)) &&
              (wk->col = hc_alloc(n, sizeof *wk->col, msg)) &&
-             (wk->val = hc_alloc(n, sizeof *wk->val, msg));
+             (wk->val = hc_alloc(n, sizeof *wk->val, msg)) &&
+             (wk->racc = hc_alloc(n, sizeof *wk->racc, msg)) &&
+             (wk->rcell = hc_alloc((size_t)e->ncell + 1, sizeof *wk->rcell, msg)) &&
+             (wk->rgroup = hc_alloc((size_t)e->ncell + 1, sizeof *wk->rgroup, msg));
     for (int f = 0; ok && f < 5; f++)
         ok = (wk->first[f] = hc_alloc(n, sizeof *wk->first[f], msg)) &&
              (wk->count[f] = hc_alloc(n, sizeof *wk->count[f], msg));

@@ -410,6 +410,131 @@ TEST(curved_furnace)
     rad_solution_destroy(sol);
 }
 
+/* A convex cylinder of 96 narrow facets (radius 0.5, no caps) meshed at
+ * patch size 0.25 into bent patches spanning several facets, and a square
+ * lamp beside it whose plane passes by the cylinder's side, so that it
+ * lies across the horizon of the facets near its terminator (issue 36).
+ * Nothing occludes, so each patch's lamp entry Σ_j∈lamp F_ij must be the
+ * area-weighted facet-wise factor Σ_c (a_c / A_i) F_c,lamp over its cells,
+ * computed here independently by hc_ff_polygon_polygon to the lamp's one
+ * polygon (the lamp's entries exact, as a solve marks emitters: then only
+ * the visibility comes from the cubes).  The old rule, one hemi-cube at
+ * the patch's centre about its mean normal, lost the lamp wherever it lay
+ * wholly below that plane. */
+static rad_scene *lit_half_cylinder(rad_vec3 lamp[4])
+{
+    rad_scene *s = rad_scene_create(1, "bent");
+    const double grey = 0.5, black = 0.0, none = 0.0, one = 1.0;
+    uint32_t mg, ml, oc, ol;
+    if (!s || rad_scene_add_material(s, "grey", &grey, &none, NULL, NULL, &mg, NULL) ||
+        rad_scene_add_material(s, "lamp", &black, &one, NULL, NULL, &ml, NULL) ||
+        rad_scene_add_object(s, "cylinder", NULL, &oc, NULL) ||
+        rad_scene_add_object(s, "lamp", NULL, &ol, NULL)) {
+        rad_scene_destroy(s);
+        return NULL;
+    }
+    int bad = 0;
+    for (uint32_t k = 0; k < 96 && !bad; k++) {
+        const double a0 = 2.0 * M_PI * k / 96, a1 = 2.0 * M_PI * (k + 1) / 96;
+        rad_vec3 q[4] = {rad_v3(0.5 * cos(a0), 0.5 * sin(a0), 0),
+                         rad_v3(0.5 * cos(a1), 0.5 * sin(a1), 0),
+                         rad_v3(0.5 * cos(a1), 0.5 * sin(a1), 2),
+                         rad_v3(0.5 * cos(a0), 0.5 * sin(a0), 2)};
+        bad = rad_scene_add_polygon(s, "side", oc, mg, q, 4, 0, 0, NULL, NULL, NULL);
+    }
+    /* In the plane x = 0.55, facing -x, from y = 0.6 to 1.4: the facets
+     * facing +y see its upper part only. */
+    lamp[0] = rad_v3(0.55, 0.6, 0.8), lamp[1] = rad_v3(0.55, 0.6, 1.2);
+    lamp[2] = rad_v3(0.55, 1.4, 1.2), lamp[3] = rad_v3(0.55, 1.4, 0.8);
+    if (bad || rad_scene_add_polygon(s, "lamp", ol, ml, lamp, 4, 0, 0, NULL, NULL, NULL)) {
+        rad_scene_destroy(s);
+        return NULL;
+    }
+    return s;
+}
+
+/* patch i's lamp factor, area-weighted over its cells (no hemi-cube) */
+static double cells_to_lamp(const rad_mesh *m, uint32_t i, const rad_vec3 lamp[4])
+{
+    const rad_patch *cells;
+    const uint32_t k = rad_patch_cells(m, i, &cells);
+    double f = 0.0;
+    for (uint32_t c = 0; c < k; c++) {
+        rad_vec3 p[4];
+        const uint32_t nc = rad_patch_corners(&cells[c]);
+        for (uint32_t q = 0; q < nc; q++)
+            p[q] = m->vertices[cells[c].v[q]];
+        f += cells[c].area * hc_ff_polygon_polygon(p, nc, lamp, 4, 16);
+    }
+    return f / m->patches[i].area;
+}
+
+TEST(bent_patch_rows)
+{
+    rad_vec3 lamp[4];
+    rad_scene *s = lit_half_cylinder(lamp);
+    CHECK(s != NULL);
+    rad_mesh_options mo = {.patch_size = 0.25};
+    rad_mesh *m = NULL;
+    rad_error err = {0};
+    CHECK_MSG(s && rad_mesh_build(s, &mo, &m, &err) == RAD_OK, "%s", err.message);
+    const uint32_t n = m ? m->patch_count : 0;
+    uint8_t *exact = calloc(n + 1, 1);
+    uint32_t *rows = malloc((n + 1) * sizeof *rows), *col = malloc((n + 1) * sizeof *col);
+    float *val = malloc((n + 1) * sizeof *val);
+    rad_matrix *F = rad_matrix_create(n);
+    hc_engine *e = NULL;
+    CHECK(m && exact && rows && col && val && F);
+    uint32_t nr = 0, bent = 0, cubes = 0;
+    for (uint32_t i = 0; m && i < n; i++) {
+        exact[i] = m->patches[i].object == 1; /* the lamp's, exact as a solve marks emitters */
+        if (m->patches[i].object == 0) {
+            rows[nr++] = i;
+            bent += hc_row_cubes(m, i) > 1;
+            cubes += hc_row_cubes(m, i);
+        }
+    }
+    hc_options ho = {.exact = exact, .processes = 1};
+    CHECK_MSG(m && hc_create(m, &ho, &e, &err) == RAD_OK &&
+                  hc_compute_rows(e, rows, nr, F, &err) == RAD_OK,
+              "%s", err.message);
+    double worst = 0.0, top = 0.0, sum = 0.0, sum_ref = 0.0, facets = 0.0;
+    for (uint32_t r = 0; e && r < nr; r++)
+        top = fmax(top, cells_to_lamp(m, rows[r], lamp));
+    for (uint32_t r = 0; e && r < nr; r++) {
+        const uint32_t i = rows[r], cnt = rad_matrix_get_row(F, i, col, val);
+        double f = 0.0;
+        for (uint32_t q = 0; q < cnt; q++)
+            f += m->patches[col[q]].object == 1 ? val[q] : 0.0;
+        const double ref = cells_to_lamp(m, i, lamp);
+        sum += m->patches[i].area * f;
+        sum_ref += m->patches[i].area * ref;
+        if (ref > 0.01 * top)
+            worst = fmax(worst, fabs(f / ref - 1.0));
+    }
+    for (uint32_t p = 0; s && p + 1 < s->polygon_count; p++)
+        facets += s->polygons[p].area *
+                  hc_ff_polygon_polygon(s->points + s->polygons[p].first_point, 4, lamp, 4, 16);
+    printf("  %u cylinder patches (%u bent, %u hemi-cubes): worst lamp entry %.2f %% off "
+           "(of patches over 1 %% of the largest), Σ A_i F_i,lamp %+.3f %% (cells) %+.3f %% "
+           "(facets)\n",
+           nr, bent, cubes, 100.0 * worst, 100.0 * (sum / sum_ref - 1.0),
+           100.0 * (sum / facets - 1.0));
+    CHECK(bent > 0 && facets > 0.0);
+    CHECK_REL(sum_ref, facets, 1e-6); /* the cells are the facets, cut */
+    /* measured 2.68 % and -0.030 %; the old rule 33.95 % and -0.257 % */
+    CHECK_MSG(worst <= 0.08, "worst %.4f", worst);
+    CHECK_MSG(fabs(sum / facets - 1.0) <= 1e-3, "%.6f vs %.6f", sum, facets);
+    hc_destroy(e);
+    rad_matrix_destroy(F);
+    free(exact);
+    free(rows);
+    free(col);
+    free(val);
+    rad_mesh_destroy(m);
+    rad_scene_destroy(s);
+}
+
 /* A patch size far too small is refused at once, not tried (the regions
  * are counted by area before they are cut), and the size it advises fits. */
 TEST(far_too_small_size)
@@ -442,6 +567,7 @@ int main(void)
 {
     RUN(far_too_small_size);
     RUN(curved_furnace);
+    RUN(bent_patch_rows);
     RUN(faceted_cylinder);
     RUN(floor_variants);
     RUN(disk_pair_polygons);

@@ -16,15 +16,15 @@
  * was 2.1 % low and the head's 1.7 % (band sums), and the sphere's 2.9 %
  * low under the lamp's direct light alone.
  *
- * What is left (not fixed here): a cluster's row is one hemi-cube at its
- * home cell, about the cluster's mean normal, so a lamp wholly or partly
- * below that plane gets no or too little of the exact entry that its
- * tilted cells see.  The lamp's entries, area-weighted over the sphere's
- * patch rows, against the unoccluded cell-by-cell integral: -0.55 % with
- * clusters, 0.00 % with every facet a patch; over the head's: -1.60 % and
- * -0.42 % (the rest is the head's own shadow).  Near the terminator a
- * sphere cluster's entry is 9-100 % low.  That is most of the sphere's
- * and the head's remaining error below.
+ * Then (issue 36's mesher, radiosity/mesh/smooth.c) the sphere and the
+ * head became patches across their facets, not planar: one hemi-cube at
+ * a patch's centre about its mean normal made them dark (sphere -2.05 %,
+ * head -1.94 %).  A bent patch's row is now the area-weighted mean of up
+ * to 4 cubes, one per group of its cells within 12° of one normal
+ * (hemicube/row_samples.c); its cells always split once into elements
+ * (elements/refine.c's bent_cell); bent neighbours sharing a corner do
+ * not shadow each other's elements (hemicube/light_views.c).  Measured
+ * after: sphere -0.31 %, head -0.17 %; dark sphere +0.23 %, head +0.39 %.
  *
  * The solve at the defaults takes 40-45 s of CPU (release build, load
  * average 5-6 on 2 cores): 2,905 patches, 1,620 of them on the table,

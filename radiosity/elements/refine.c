@@ -471,7 +471,7 @@ static int edge_visibility(builder *b, hc_engine *hc, const hc_light *hl, const 
             continue;
         rad_vec3 p[4];
         const int corners = element_corners(b, &b->E[at[k]], p);
-        const rad_vec3 nx = b->s->mesh->patches[lit[k].patch].normal;
+        const rad_vec3 nx = cell_of(b, &b->E[at[k]])->normal; /* its own cell's plane */
         for (uint32_t a = 0; a < EL_VIS_SAMPLES; a++)
             for (uint32_t c = 0; c < EL_VIS_SAMPLES; c++, q++) {
                 double jac;
@@ -568,7 +568,7 @@ static int element_lights(builder *b, hc_engine *hc, const hc_receiver *r, const
         uint32_t m = 0;
         for (uint32_t k = 0; k < count; k++) {
             const enode *n = &b->E[which[k]];
-            const rad_vec3 nx = b->s->mesh->patches[r[k].patch].normal;
+            const rad_vec3 nx = cell_of(b, n)->normal; /* its own cell's plane */
             rad_vec3 p[4], c;
             double area = 0.0, d = 0.0;
             const int corners = element_corners(b, n, p);
@@ -695,6 +695,22 @@ static double longest_edge(const builder *b, const enode *n)
     return l;
 }
 
+/* Is n a level-0 element, one cell, of a patch whose cells bend
+ * (hc_row_cubes)?  Such a cell, left whole, would show its patch's B, the
+ * mean over cells that face up to 60° apart: where the light falls off
+ * across the patch the bright cells kept the mean while the dark ones,
+ * probed and split, went below it (test_room's sphere: its elements'
+ * direct light 1.9 % under its patches').  It may split whatever its
+ * size, and its probes, gathered already, become its leaves whatever the
+ * estimate. */
+static int bent_cell(const builder *b, const enode *n)
+{
+    const rad_mesh *pm = b->s->mesh;
+    return n->level == 0 && pm->cell_first &&
+           pm->cell_first[n->patch + 1] - pm->cell_first[n->patch] > 1 &&
+           hc_row_cubes(pm, n->patch) > 1;
+}
+
 /* May leaf n split: a reflecting patch (a black one's B is its emission
  * whatever it receives), children not below the size floor. */
 static int may_split(const builder *b, const enode *n, const double *min_edge)
@@ -704,8 +720,8 @@ static int may_split(const builder *b, const enode *n, const double *min_edge)
     int reflects = 0;
     for (uint32_t c = 0; c < b->bands; c++)
         reflects |= b->s->rho[(size_t)n->patch * b->bands + c] > 0.0;
-    return reflects &&
-           (!min_edge || 0.5 * longest_edge(b, n) >= min_edge[n->patch] * (1.0 - 1e-9));
+    return reflects && (!min_edge || bent_cell(b, n) ||
+                        0.5 * longest_edge(b, n) >= min_edge[n->patch] * (1.0 - 1e-9));
 }
 
 /* Frees a rad_elements of leaves_to_elements (below) made with `borrow`:
@@ -1039,7 +1055,7 @@ static int refine_adaptive(builder *b, const rad_refine_options *opt, const doub
         uint32_t splits = 0;
         for (uint32_t e = 0; e < b->ne; e++) {
             enode *n = &b->E[e];
-            if (n->state != NODE_LEAF || n->kids == RAD_NONE || !(eps[e] > T))
+            if (n->state != NODE_LEAF || n->kids == RAD_NONE || !(eps[e] > T || bent_cell(b, n)))
                 continue;
             promote(b, e);
             /* Across or beside a contact line the error is a line's, and
