@@ -391,12 +391,22 @@ static int clip_to_face(const hc_view *v, const rad_vec3 *p, int np, rad_vec3 ou
     return np;
 }
 
+/* The normal of the engine's cell `cell` of patch j: the mesh's cell's
+ * (the engine's cells are the mesh's, in order), which is the patch's own
+ * for a planar patch; a curved patch's or a shared patch of small parts'
+ * cells face their own ways (mesh/parts.c: a closed part's back faces
+ * must not count as facing the light). */
+static rad_vec3 cell_normal(const hc_engine *e, uint32_t j, uint32_t cell)
+{
+    return e->mesh->cell_first ? e->mesh->cells[cell].normal : e->mesh->patches[j].normal;
+}
+
 /* Φ°_j of part q: the closed form over j's cells that face the light. */
 static double unoccluded_power(const hc_engine *e, const hc_light_req *q, const hc_view *v, uint32_t j)
 {
-    const rad_vec3 nj = e->mesh->patches[j].normal;
     double phi = 0.0;
     for (uint32_t cell = e->cfirst[j]; cell < e->cfirst[j + 1]; cell++) {
+        const rad_vec3 nj = cell_normal(e, j, cell);
         rad_vec3 p[4], c[16];
         hc_load_corners(e, cell, p);
         const int np = e->ncorner[cell];
@@ -486,10 +496,10 @@ static double pixel_visibility(const hc_engine *e, hc_work *wk, const hc_light_r
 static double sampled_visibility(const hc_engine *e, hc_work *wk, const hc_light_req *q,
                                  const hc_view *v, uint32_t j, uint32_t k, int *mixed)
 {
-    const rad_vec3 nj = e->mesh->patches[j].normal;
     double sw = 0.0, sv = 0.0;
     int lit = 0, dark = 0;
     for (uint32_t cell = e->cfirst[j]; cell < e->cfirst[j + 1]; cell++) {
+        const rad_vec3 nj = cell_normal(e, j, cell);
         rad_vec3 p[4];
         hc_load_corners(e, cell, p);
         const int quad = e->ncorner[cell] == 4;
