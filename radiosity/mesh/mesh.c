@@ -787,9 +787,7 @@ static void build_cluster(builder *b, const mesh_clusters *cl, uint32_t k, uint3
 
 /* Shared patch t of small parts (parts.c), appended: each member polygon
  * one cell on vertices of its own (a part's faces never average together,
- * all on the outline), the patch made of them as a cluster's is but with
- * its home cell's normal: closed parts' normals cancel, and its hemi-cube
- * sits on that cell. */
+ * all on the outline), the patch made of them as a cluster's is. */
 static void build_parts(builder *b, const mesh_parts *pt, uint32_t t, int *bad)
 {
     const rad_scene *s = b->s;
@@ -812,9 +810,8 @@ static void build_parts(builder *b, const mesh_parts *pt, uint32_t t, int *bad)
             return;
         }
     }
-    rad_patch *p = &m->patches[b->np++];
-    (void)mesh_patch_of_cells(m->vertices, &m->cells[c0], b->nc - c0, p);
-    p->normal = s->polygons[p->polygon].normal;
+    if (mesh_patch_of_cells(m->vertices, &m->cells[c0], b->nc - c0, &m->patches[b->np++]) != 0)
+        *bad = 1;
 }
 
 /* Polygon i on its own: a grid of quads, a subdivided triangle or a fan;

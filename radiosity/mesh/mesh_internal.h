@@ -42,9 +42,11 @@ int mesh_weld(const rad_scene *s, double eps, uint32_t *id, uint32_t *first, uin
 /* Small parts (parts.c): a part (polygons of one object sharing welded
  * points) whose bounding box's diagonal is under this × the patch size,
  * each polygon one cell, touching no other polygon, shares a patch with
- * the small parts of its object and material in its cube of the patch
- * size grid (docs/surfaces.md). */
+ * the small parts of its object and material in its cube of a grid of
+ * MESH_PART_GRID × the patch size whose normals lie within 30°
+ * (docs/surfaces.md). */
 #define MESH_PART_SMALL 0.1
+#define MESH_PART_GRID 2.0
 
 typedef struct mesh_parts {
     uint32_t count;   /* shared patches */

@@ -9,21 +9,24 @@
  * four corners, does not transmit and has no subdivision of its own), and
  * no other polygon shares a point with it.
  *
- * The polygons of the small parts of one object and material whose centres
- * lie in one cube of a grid of the patch size over the scene (smooth.c's
- * grid) are the cells of one shared patch: its ρ and E are the material's,
- * its area the sum of its cells', its centre on the cell nearest their area
- * centroid (mesh_patch_of_cells) and its normal that cell's (the normals of
- * closed parts sum to nothing), so its row is one hemi-cube there, as a
- * non-planar patch's is.  Each cell keeps its polygon and
+ * The polygons of the small parts of one object and material whose parts'
+ * centres lie in one cube of a grid over the scene's bounds, of side
+ * MESH_PART_GRID × the patch size (a patch's longest extent), and whose
+ * normals lie within 30° of the first one's, are the cells of one shared
+ * patch (so a closed part's faces go to up to six of them, one per side:
+ * its row, one hemi-cube about that side's normal, sees what those faces
+ * see).  Its ρ and E are the material's, its area the sum of its cells',
+ * its normal their area-weighted mean and its centre on the cell nearest
+ * their area centroid (mesh_patch_of_cells), as a non-planar patch's.
+ * Each cell keeps its polygon and
  * its own vertices (a part's faces never average together), and is drawn
  * with the shared patch's id, so the parts still occlude.  A part's own B
  * comes from the elements (elements/refine.c: the cells of a shared patch
  * are leaves with their own direct light).
  *
  * Invariant: every polygon of a small part is in exactly one shared patch;
- * a shared patch's cells have one object, one material and their parts'
- * centres in one grid cube.
+ * a shared patch's cells have one object, one material, their parts'
+ * centres in one grid cube and normals within 30° of its first cell's.
  */
 #include "mesh_internal.h"
 
@@ -140,28 +143,40 @@ static uint32_t small_parts(const rad_scene *s, uint32_t *up, const uint8_t *sma
         part_key *k = &key[n++];
         k->object = s->polygons[i].object;
         k->material = s->polygons[i].material;
-        k->cube[0] = (int64_t)floor(c.x / size);
-        k->cube[1] = (int64_t)floor(c.y / size);
-        k->cube[2] = (int64_t)floor(c.z / size);
+        const double g = MESH_PART_GRID * size;
+        k->cube[0] = (int64_t)floor(c.x / g);
+        k->cube[1] = (int64_t)floor(c.y / g);
+        k->cube[2] = (int64_t)floor(c.z / g);
         k->polygon = i;
     }
     return n;
 }
 
 /* The shared patches of the n sorted keys: runs of one object, material and
- * cube; (patch, polygon) pairs into pair, the count returned. */
-static uint32_t group_by_cube(const part_key *key, uint32_t n, uint32_t *pair)
+ * cube, split by normal (within 30° of a patch's first cell's); (patch,
+ * polygon) pairs into pair, the count returned. */
+static uint32_t group_by_normal(const rad_scene *s, const part_key *key, uint32_t n,
+                                uint32_t *lead, uint32_t *pair)
 {
     uint32_t patches = 0;
-    for (uint32_t q = 0; q < n; q++) {
-        if (q > 0 && (key[q].object != key[q - 1].object ||
-                      key[q].material != key[q - 1].material ||
-                      memcmp(key[q].cube, key[q - 1].cube, sizeof key[q].cube) != 0))
-            patches++;
-        pair[2 * (size_t)q] = patches;
-        pair[2 * (size_t)q + 1] = key[q].polygon;
+    for (uint32_t a = 0, z; a < n; a = z) {
+        for (z = a + 1; z < n && key[z].object == key[a].object &&
+                        key[z].material == key[a].material &&
+                        !memcmp(key[z].cube, key[a].cube, sizeof key[a].cube);)
+            z++;
+        const uint32_t first = patches;
+        for (uint32_t q = a; q < z; q++) {
+            const rad_vec3 nq = s->polygons[key[q].polygon].normal;
+            uint32_t p = first;
+            while (p < patches && rad_dot(s->polygons[lead[p]].normal, nq) < RAD_MESH_SURFACE_COS)
+                p++;
+            if (p == patches)
+                lead[patches++] = key[q].polygon;
+            pair[2 * (size_t)q] = p;
+            pair[2 * (size_t)q + 1] = key[q].polygon;
+        }
     }
-    return n ? patches + 1 : 0;
+    return patches;
 }
 
 int mesh_parts_find(const rad_scene *s, const uint32_t *pos, uint32_t npos, const uint8_t *small,
@@ -174,14 +189,15 @@ int mesh_parts_find(const rad_scene *s, const uint32_t *pos, uint32_t npos, cons
     uint8_t *bad = malloc((size_t)np + 1);
     rad_vec3 *lo = malloc(((size_t)np + 1) * sizeof *lo), *hi = malloc(((size_t)np + 1) * sizeof *hi);
     part_key *key = malloc(((size_t)np + 1) * sizeof *key);
+    uint32_t *lead = malloc(((size_t)np + 1) * sizeof *lead);
     uint32_t *pair = malloc(((size_t)np + 1) * 2 * sizeof *pair);
     out->of = malloc(((size_t)np + 1) * sizeof *out->of);
-    int rc = up && owner && bad && lo && hi && key && pair && out->of ? 0 : -1;
+    int rc = up && owner && bad && lo && hi && key && pair && lead && out->of ? 0 : -1;
     if (rc == 0) {
         join_parts(s, pos, npos, small, up, owner, bad);
         const uint32_t n = small_parts(s, up, small, bad, size, lo, hi, key);
         qsort(key, n, sizeof *key, part_key_cmp);
-        out->count = group_by_cube(key, n, pair);
+        out->count = group_by_normal(s, key, n, lead, pair);
         qsort(pair, n, 2 * sizeof *pair, pair_cmp);
         out->first = calloc((size_t)out->count + 1, sizeof *out->first);
         out->member = malloc(((size_t)n + 1) * sizeof *out->member);
@@ -204,6 +220,7 @@ int mesh_parts_find(const rad_scene *s, const uint32_t *pos, uint32_t npos, cons
     free(lo);
     free(hi);
     free(key);
+    free(lead);
     free(pair);
     if (rc != 0)
         mesh_parts_free(out);
