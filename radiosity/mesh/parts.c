@@ -24,7 +24,11 @@
  * comes from the elements (elements/refine.c: the cells of a shared patch
  * are leaves with their own direct light).
  *
- * Invariant: every polygon of a small part is in exactly one shared patch;
+ * A group of one polygon is left to be meshed as before (a patch of its
+ * own; a scene of nothing else keeps no cell layer).
+ *
+ * Invariant: every other polygon of a small part is in exactly one shared
+ * patch of two or more cells;
  * a shared patch's cells have one object, one material, their parts'
  * centres in one grid cube and normals within 30° of its first cell's.
  */
@@ -179,6 +183,33 @@ static uint32_t group_by_normal(const rad_scene *s, const part_key *key, uint32_
     return patches;
 }
 
+/* Drops the groups of one polygon from the n sorted pairs (that polygon is
+ * meshed as before: a patch of its own, and a mesh of nothing else keeps
+ * no cell layer), numbering the others anew in order; num: scratch of
+ * `groups` entries.  Returns the pairs kept; their groups into *count. */
+static uint32_t drop_singles(uint32_t *pair, uint32_t n, uint32_t groups, uint32_t *num,
+                             uint32_t *count)
+{
+    for (uint32_t g = 0; g < groups; g++)
+        num[g] = 0;
+    for (uint32_t q = 0; q < n; q++)
+        num[pair[2 * (size_t)q]]++;
+    uint32_t kept = 0;
+    for (uint32_t g = 0; g < groups; g++)
+        num[g] = num[g] > 1 ? kept++ : RAD_NONE;
+    uint32_t m = 0;
+    for (uint32_t q = 0; q < n; q++) {
+        const uint32_t g = num[pair[2 * (size_t)q]];
+        if (g == RAD_NONE)
+            continue;
+        pair[2 * (size_t)m] = g;
+        pair[2 * (size_t)m + 1] = pair[2 * (size_t)q + 1];
+        m++;
+    }
+    *count = kept;
+    return m;
+}
+
 int mesh_parts_find(const rad_scene *s, const uint32_t *pos, uint32_t npos, const uint8_t *small,
                     double size, mesh_parts *out)
 {
@@ -195,10 +226,11 @@ int mesh_parts_find(const rad_scene *s, const uint32_t *pos, uint32_t npos, cons
     int rc = up && owner && bad && lo && hi && key && pair && lead && out->of ? 0 : -1;
     if (rc == 0) {
         join_parts(s, pos, npos, small, up, owner, bad);
-        const uint32_t n = small_parts(s, up, small, bad, size, lo, hi, key);
+        uint32_t n = small_parts(s, up, small, bad, size, lo, hi, key);
         qsort(key, n, sizeof *key, part_key_cmp);
-        out->count = group_by_normal(s, key, n, lead, pair);
+        uint32_t groups = group_by_normal(s, key, n, lead, pair);
         qsort(pair, n, 2 * sizeof *pair, pair_cmp);
+        n = drop_singles(pair, n, groups, lead, &out->count);
         out->first = calloc((size_t)out->count + 1, sizeof *out->first);
         out->member = malloc(((size_t)n + 1) * sizeof *out->member);
         if (!out->first || !out->member)
