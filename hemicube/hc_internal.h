@@ -206,7 +206,9 @@ static inline void hc_load_corners(const hc_engine *e, uint32_t cell, rad_vec3 p
 }
 
 /* The normal of cell `cell` of patch j: a bent patch's cells each have
- * their own (radiosity/mesh/smooth.c), a one-cell patch its own. */
+ * their own (radiosity/mesh/smooth.c), and so do a shared patch's of small
+ * parts (mesh/parts.c: a closed part's back faces must not count as facing
+ * a light); a one-cell patch's is its own. */
 static inline rad_vec3 hc_cell_normal(const hc_engine *e, uint32_t j, uint32_t cell)
 {
     return e->mesh->cell_first ? e->mesh->cells[cell].normal : e->mesh->patches[j].normal;

@@ -477,6 +477,20 @@ static double sample_weight(const hc_light_req *q, const hc_view *v, rad_vec3 r,
  * beyond x, like the wall a floor tile meets); when it shows nothing
  * (depth cleared: the ray misses everything, as beside a floor's outer
  * edge) or a back side farther than x. */
+/* Do all of patch k's cells lie in its plane?  Not a curved patch's, nor a
+ * shared patch's of small parts (mesh/parts.c): its centre and normal say
+ * nothing of where the cell a pixel shows lies, and the depth decides. */
+static int planar_patch(const hc_engine *e, uint32_t k)
+{
+    const rad_patch *pk = &e->mesh->patches[k], *c;
+    const uint32_t n = rad_patch_cells(e->mesh, k, &c);
+    for (uint32_t q = 0; q < n && n > 1; q++)
+        if (rad_dot(c[q].normal, pk->normal) < 1.0 - 1e-6 ||
+            fabs(rad_dot(rad_sub(c[q].center, pk->center), pk->normal)) > 1e-6 * e->bradius + e->tol)
+            return 0;
+    return 1;
+}
+
 static int pixel_lets_through(const hc_engine *e, hc_work *wk, const hc_light_req *q,
                               const hc_view *v, uint32_t px, uint32_t py, rad_vec3 x, uint32_t j)
 {
@@ -485,7 +499,7 @@ static int pixel_lets_through(const hc_engine *e, hc_work *wk, const hc_light_re
         return 1;
     const rad_vec3 r = rad_sub(x, v->pos);
     const double dist = v->ortho ? e->bradius : rad_length(r);
-    if (id < e->n)
+    if (id < e->n && planar_patch(e, id))
         return rad_dot(rad_sub(x, e->center[id]), e->mesh->patches[id].normal) >= -1e-4 * dist;
     const double D = hc_gl_read_depth(wk->gl, px, py);
     if (!(D > 0.0))

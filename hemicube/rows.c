@@ -78,6 +78,12 @@
  * covering about ten pixels). */
 #define HC_SMALL_PIXELS 64.0
 #define HC_SMALL_MAX 1024u
+
+/* Most cells a patch may have on either side of an exact entry, which
+ * costs a polygon pair per cell pair: far above a region's, a cluster's or
+ * a curved patch's few dozen; a shared patch of small parts (hundreds of
+ * cells spread over its grid cube, mesh/parts.c) keeps its pixels. */
+#define HC_EXACT_MAX_CELLS 64u
 /* Where the hemi-cube is weak (hc_options.weak, docs/limits.md), by
  * HC_WEAK_OFF, _ON, _HIGH, _SURFACE: a far polygon narrower on the cube than
  * weak_thin pixels is thin (a pixel count's error goes as its boundary
@@ -750,7 +756,10 @@ static uint32_t cull(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 c, ra
                              small_polygon(e, wk, j, c, nn, u, v, pixel);
                 nsmall += last_small ? e->poly_patches[q] : 0;
             }
-            const int small = last_small && !is_near && !marked;
+            const int costly = e->cfirst[i + 1] - e->cfirst[i] > HC_EXACT_MAX_CELLS ||
+                               e->cfirst[j + 1] - e->cfirst[j] > HC_EXACT_MAX_CELLS;
+            is_near = costly ? 0 : is_near;
+            const int small = last_small && !is_near && !marked && !costly;
             if (is_near || marked || small) {
                 hc_cand *cd = &wk->cand[ncand++];
                 cd->j = j;

@@ -568,11 +568,13 @@ static int element_lights(builder *b, hc_engine *hc, const hc_receiver *r, const
         uint32_t m = 0;
         for (uint32_t k = 0; k < count; k++) {
             const enode *n = &b->E[which[k]];
-            const rad_vec3 nx = cell_of(b, n)->normal; /* its own cell's plane */
+            /* its cell's plane: a curved patch's or a shared patch's
+             * cells face their own ways */
+            const rad_vec3 nx = cell_of(b, n)->normal;
             rad_vec3 p[4], c;
             double area = 0.0, d = 0.0;
             const int corners = element_corners(b, n, p);
-            if (rad_cell_geometry(b->V, n->v, cell_of(b, n)->normal, &c, &area) == 0 && area > 0.0)
+            if (rad_cell_geometry(b->V, n->v, nx, &c, &area) == 0 && area > 0.0)
                 d = hc_light_polygon(&hl, p, (uint32_t)corners, nx) / area;
             b->h[(size_t)which[k] * nl + l] = 0.0f;
             if (d > 0.0 && isfinite(d)) {
@@ -1189,6 +1191,60 @@ static int level_zero(builder *b, const rad_refine_options *opt, double *min_edg
     return rc;
 }
 
+/* Is patch i a shared patch of small parts (mesh/parts.c): several cells
+ * of which no two share a vertex?  (A cluster's, a region's and a curved
+ * surface's cells share the vertices of their seams.) */
+static int parts_patch(const rad_mesh *m, uint32_t i, uint32_t *seen_by)
+{
+    const rad_patch *c;
+    const uint32_t n = rad_patch_cells(m, i, &c);
+    int apart = n > 1;
+    for (uint32_t a = 0; a < n; a++)
+        for (int k = 0; k < rad_patch_corners(&c[a]); k++) {
+            apart &= seen_by[c[a].v[k]] != i;
+            seen_by[c[a].v[k]] = i;
+        }
+    return apart;
+}
+
+/* The cells of a shared patch of small parts are the parts' own faces: each
+ * level-0 element of one is split at once, and its children (settled: not
+ * probed further) get rows as any element does - their own direct light
+ * and, when interpolated, the patch's indirect light - so that each part
+ * shows its own B, lit or in shadow, without a hemi-cube of its own (unless
+ * another surface touches it).  Adaptive: their rows now; uniform: with the
+ * other leaves'. */
+static int split_parts(builder *b, hc_engine *hc, int uniform, rad_error *err)
+{
+    const rad_mesh *pm = b->s->mesh;
+    const uint32_t ne = b->ne;
+    uint8_t *shared = malloc((size_t)pm->patch_count + 1);
+    uint32_t *seen_by = malloc(((size_t)pm->vertex_count + 1) * sizeof *seen_by);
+    if (!shared || !seen_by) {
+        free(shared);
+        free(seen_by);
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    }
+    for (uint32_t v = 0; v < pm->vertex_count; v++)
+        seen_by[v] = RAD_NONE;
+    for (uint32_t i = 0; i < pm->patch_count; i++)
+        shared[i] = pm->cell_first && parts_patch(pm, i, seen_by);
+    free(seen_by);
+    int rc = RAD_OK;
+    for (uint32_t e = 0; e < ne && rc == RAD_OK; e++) {
+        if (!shared[b->E[e].patch] || !may_split(b, &b->E[e], NULL))
+            continue;
+        if (split(b, e, NODE_LEAF) != 0)
+            rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+        for (uint32_t k = 0; k < 4 && rc == RAD_OK; k++)
+            b->E[b->E[e].kids + k].settled = 1;
+    }
+    free(shared);
+    if (rc == RAD_OK && !uniform && b->ne > ne)
+        rc = compute_from(b, hc, ne, 0, err);
+    return rc;
+}
+
 int rad_elements_refine(rad_solution *s, hc_engine *hc, const rad_refine_options *options,
                         rad_error *err)
 {
@@ -1235,7 +1291,8 @@ int rad_elements_refine(rad_solution *s, hc_engine *hc, const rad_refine_options
         rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
         goto done;
     }
-    if ((rc = level_zero(&b, &opt, min_edge, err)) != RAD_OK)
+    if ((rc = level_zero(&b, &opt, min_edge, err)) != RAD_OK ||
+        (rc = split_parts(&b, hc, uniform, err)) != RAD_OK)
         goto done;
     /* Errors are relative to the brightest reflecting (non-emitting) patch
      * per band: emitters would make any threshold meaningless. */

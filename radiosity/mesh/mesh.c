@@ -343,6 +343,7 @@ typedef struct plan {
     uint32_t *pos, *first, npos; /* weld ids (mesh_weld) */
     mesh_regions rg;
     mesh_clusters cl;
+    mesh_parts pt; /* small parts' shared patches (parts.c) */
     uint64_t patches, vertices, cells;
 } plan;
 
@@ -352,6 +353,7 @@ static void plan_free(plan *pl)
     free(pl->first);
     mesh_regions_free(&pl->rg);
     mesh_clusters_free(&pl->cl);
+    mesh_parts_free(&pl->pt);
 }
 
 /* Weld points within 1e-6 of the scene's diagonal. */
@@ -399,19 +401,32 @@ static int plan_regions(const rad_scene *scene, const rad_mesh_options *opt, int
     const uint32_t np = scene->polygon_count;
     pl->pos = malloc(((size_t)scene->point_count + 1) * sizeof *pl->pos);
     pl->first = malloc(((size_t)scene->point_count + 1) * sizeof *pl->first);
-    uint8_t *mode = calloc((size_t)np + 1, 1);
+    uint8_t *mode = calloc((size_t)np + 1, 1), *small = calloc((size_t)np + 1, 1);
     rad_vec3 lo, hi;
     double eps = rad_scene_bounds(scene, &lo, &hi) ? MESH_WELD * rad_length(rad_sub(hi, lo)) : 0;
-    if (!pl->pos || !pl->first || !mode ||
+    if (!pl->pos || !pl->first || !mode || !small ||
         mesh_weld(scene, eps, pl->pos, pl->first, &pl->npos) != 0) {
         free(mode);
+        free(small);
         return rad_fail(err, RAD_ERR_NOMEM, "%s: mesh: out of memory", src);
     }
     for (uint32_t i = 0; i < np && !(opt && opt->no_clusters); i++)
         mode[i] = region_mode(scene, pl, &scene->polygons[i]);
+    /* Small parts first: their polygons go nowhere else. */
+    const double size = pl->opt_size > 0.0 ? pl->opt_size : pl->def_size;
+    for (uint32_t i = 0; i < np; i++)
+        small[i] = mode[i] == MESH_REGION_SMALL;
+    if (mesh_parts_find(scene, pl->pos, pl->npos, small, size, &pl->pt) != 0) {
+        free(mode);
+        free(small);
+        return rad_fail(err, RAD_ERR_NOMEM, "%s: mesh: out of memory", src);
+    }
+    for (uint32_t i = 0; i < np; i++)
+        if (pl->pt.of[i] != RAD_NONE)
+            mode[i] = MESH_REGION_OFF;
+    free(small);
     uint64_t limit = opt && opt->max_patches ? opt->max_patches : RAD_MESH_DEFAULT_MAX_PATCHES;
-    int rc = mesh_regions_build(scene, pl->pos, pl->first, pl->npos, mode,
-                                pl->opt_size > 0.0 ? pl->opt_size : pl->def_size, limit, estimate,
+    int rc = mesh_regions_build(scene, pl->pos, pl->first, pl->npos, mode, size, limit, estimate,
                                 &pl->rg, err);
     free(mode);
     return rc;
@@ -446,7 +461,7 @@ static int make_plan(const rad_scene *scene, const rad_mesh_options *opt, int es
         if (!polygon_ok(scene, pg) || pg->object >= scene->object_count ||
             pg->material >= scene->material_count || transmits(scene, pg) ||
             (!(pl->opt_size > 0.0) && pg->subdiv_u > 0) || pl->rg.of[i] != RAD_NONE ||
-            !distinct_points(pl, pg))
+            pl->pt.of[i] != RAD_NONE || !distinct_points(pl, pg))
             continue;
         eligible[i] = polygon_split(scene, pg, pl->opt_size, pl->def_size).patches == 1;
     }
@@ -458,7 +473,8 @@ static int make_plan(const rad_scene *scene, const rad_mesh_options *opt, int es
     uint64_t tp = 0, tv = 0;
     for (uint32_t i = 0; i < np; i++) {
         const rad_polygon *pg = &scene->polygons[i];
-        if (!polygon_ok(scene, pg) || pl->cl.of[i] != RAD_NONE || pl->rg.of[i] != RAD_NONE)
+        if (!polygon_ok(scene, pg) || pl->cl.of[i] != RAD_NONE || pl->rg.of[i] != RAD_NONE ||
+            pl->pt.of[i] != RAD_NONE)
             continue;
         split sp = polygon_split(scene, pg, pl->opt_size, pl->def_size);
         /* a transmitting sheet has a back side of as many cells again */
@@ -466,14 +482,16 @@ static int make_plan(const rad_scene *scene, const rad_mesh_options *opt, int es
         tp = add_sat(tp, mul_sat(sides, sp.patches));
         tv = add_sat(tv, mul_sat(sides, sp.vertices));
     }
-    pl->cells = pl->cl.count || pl->rg.count
-                    ? add_sat(add_sat(tp, pl->cl.first[pl->cl.count]), pl->rg.cells)
+    const uint64_t part_cells = pl->pt.count ? pl->pt.first[pl->pt.count] : 0;
+    pl->cells = pl->cl.count || pl->rg.count || pl->pt.count
+                    ? add_sat(add_sat(add_sat(tp, pl->cl.first[pl->cl.count]), pl->rg.cells),
+                              part_cells)
                     : 0;
-    pl->patches = add_sat(add_sat(tp, pl->cl.count), pl->rg.patches);
+    pl->patches = add_sat(add_sat(add_sat(tp, pl->cl.count), pl->rg.patches), pl->pt.count);
     if (estimate)
         pl->patches = add_sat(pl->patches, pl->rg.estimate >= 1.8e19 ? UINT64_MAX
                                                                      : (uint64_t)pl->rg.estimate);
-    pl->vertices = add_sat(add_sat(tv, pl->cl.vkeys), pl->rg.vertices);
+    pl->vertices = add_sat(add_sat(add_sat(tv, pl->cl.vkeys), pl->rg.vertices), pl->pt.points);
     return RAD_OK;
 }
 
@@ -775,6 +793,35 @@ static void build_cluster(builder *b, const mesh_clusters *cl, uint32_t k, uint3
 }
 
 
+/* Shared patch t of small parts (parts.c), appended: each member polygon
+ * one cell on vertices of its own (a part's faces never average together,
+ * all on the outline), the patch made of them as a cluster's is. */
+static void build_parts(builder *b, const mesh_parts *pt, uint32_t t, int *bad)
+{
+    const rad_scene *s = b->s;
+    rad_mesh *m = b->m;
+    const uint32_t c0 = b->nc;
+    m->cell_first[b->np] = c0;
+    for (uint32_t q = pt->first[t]; q < pt->first[t + 1]; q++) {
+        const uint32_t i = pt->member[q];
+        const rad_polygon *pg = &s->polygons[i];
+        rad_patch *c = &m->cells[b->nc++];
+        c->v[3] = RAD_NONE;
+        for (uint32_t j = 0; j < pg->point_count; j++)
+            c->v[j] = add_vertex(b, s->points[pg->first_point + j], 1);
+        c->polygon = i;
+        c->object = pg->object;
+        c->material = pg->material;
+        c->normal = pg->normal;
+        if (rad_cell_geometry(m->vertices, c->v, c->normal, &c->center, &c->area) != 0) {
+            *bad = 1;
+            return;
+        }
+    }
+    if (mesh_patch_of_cells(m->vertices, &m->cells[c0], b->nc - c0, &m->patches[b->np++]) != 0)
+        *bad = 1;
+}
+
 /* Polygon i on its own: a grid of quads, a subdivided triangle or a fan;
  * its back side when it transmits; each patch its own cell when the mesh
  * has a cell layer. */
@@ -873,7 +920,8 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
     uint64_t kmax = 0;
     for (uint32_t i = 0; i < scene->polygon_count; i++) {
         const rad_polygon *pg = &scene->polygons[i];
-        if (pg->point_count != 4 && pl.cl.of[i] == RAD_NONE && pl.rg.of[i] == RAD_NONE) {
+        if (pg->point_count != 4 && pl.cl.of[i] == RAD_NONE && pl.rg.of[i] == RAD_NONE &&
+            pl.pt.of[i] == RAD_NONE) {
             split sp = polygon_split(scene, pg, pl.opt_size, pl.def_size);
             if (sp.nu > kmax)
                 kmax = sp.nu;
@@ -900,8 +948,11 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
     int bad = 0;
     for (uint32_t i = 0; i < scene->polygon_count && !bad; i++) {
         const rad_polygon *pg = &scene->polygons[i];
-        const uint32_t k = pl.cl.of[i], r = pl.rg.of[i];
-        if (r != RAD_NONE) { /* a planar region in its first polygon's place */
+        const uint32_t k = pl.cl.of[i], r = pl.rg.of[i], t = pl.pt.of[i];
+        if (t != RAD_NONE) { /* a shared patch of small parts, in its first polygon's place */
+            if (pl.pt.member[pl.pt.first[t]] == i)
+                build_parts(&b, &pl.pt, t, &bad);
+        } else if (r != RAD_NONE) { /* a planar region in its first polygon's place */
             if (pl.rg.lead[r] == i)
                 build_region(&b, &pl.rg, r);
         } else if (k != RAD_NONE) { /* grouped: the cluster in its first polygon's place */

@@ -39,6 +39,31 @@ uint32_t mesh_uf_find(uint32_t *up, uint32_t x);
  * arrays hold point_count entries.  0, or -1 out of memory. */
 int mesh_weld(const rad_scene *s, double eps, uint32_t *id, uint32_t *first, uint32_t *count);
 
+/* Small parts (parts.c): a part (polygons of one object sharing welded
+ * points) whose bounding box's diagonal is under this × the patch size,
+ * each polygon one cell, touching no other polygon, shares a patch with
+ * the small parts of its object and material in its cube of a grid of
+ * MESH_PART_GRID × the patch size whose normals lie within 30°
+ * (docs/surfaces.md). */
+#define MESH_PART_SMALL 0.1
+#define MESH_PART_GRID 2.0
+
+typedef struct mesh_parts {
+    uint32_t count;   /* shared patches */
+    uint32_t *of;     /* polygon -> its shared patch, RAD_NONE when meshed otherwise */
+    uint32_t *first;  /* count + 1: patch k's polygons are member[first[k] .. first[k+1]) */
+    uint32_t *member; /* ascending within a patch */
+    uint64_t points;  /* the members' corners: each cell has vertices of its own */
+} mesh_parts;
+
+/* Finds the small parts among the candidates (small[i] = 1: one cell at
+ * this size, opaque, no subdivision of its own: MESH_REGION_SMALL) and
+ * groups them; pos/npos from mesh_weld.  *out zeroed first; free with
+ * mesh_parts_free.  0, or -1 out of memory. */
+int mesh_parts_find(const rad_scene *s, const uint32_t *pos, uint32_t npos, const uint8_t *small,
+                    double size, mesh_parts *out);
+void mesh_parts_free(mesh_parts *p);
+
 /* How a polygon may enter a planar region (region.c), decided by mesh.c. */
 enum {
     MESH_REGION_OFF = 0, /* never: transmits, keeps its own subdivision, or degenerate */
