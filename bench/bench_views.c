@@ -29,7 +29,6 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-extern char **environ;
 
 static int fail(const char *what, const rad_error *err)
 {
@@ -75,41 +74,22 @@ static int make_solution(const char *model, uint32_t target, int synthetic, cons
     return rc ? fail(path, &err) : 0;
 }
 
-typedef struct run_stats {
-    double wall, cpu, peak_mib;
-} run_stats;
+typedef bench_run run_stats;
 
 /* Runs argv three times; the fastest wall time, its CPU, the largest RSS. */
 static int measure(char *const argv[], run_stats *out)
 {
     *out = (run_stats){INFINITY, 0, 0};
     for (int rep = 0; rep < 3; rep++) {
-        posix_spawn_file_actions_t fa;
-        posix_spawn_file_actions_init(&fa);
-        posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
-        pid_t pid;
-        double t0 = rad_seconds();
-        int rc = posix_spawn(&pid, argv[0], &fa, NULL, argv, environ);
-        posix_spawn_file_actions_destroy(&fa);
-        if (rc) {
-            fprintf(stderr, "bench_views: cannot run %s: %s\n", argv[0], strerror(rc));
+        bench_run r;
+        if (bench_spawn(argv, NULL, &r) != 0)
             return 1;
+        if (r.wall < out->wall) {
+            out->wall = r.wall;
+            out->cpu = r.cpu;
         }
-        int status = 0;
-        struct rusage ru;
-        if (wait4(pid, &status, 0, &ru) != pid || !WIFEXITED(status) || WEXITSTATUS(status)) {
-            fprintf(stderr, "bench_views: %s %s failed\n", argv[0], argv[1]);
-            return 1;
-        }
-        double wall = rad_seconds() - t0;
-        double cpu = ru.ru_utime.tv_sec + 1e-6 * ru.ru_utime.tv_usec + ru.ru_stime.tv_sec +
-                     1e-6 * ru.ru_stime.tv_usec;
-        if (wall < out->wall) {
-            out->wall = wall;
-            out->cpu = cpu;
-        }
-        if (ru.ru_maxrss / 1024.0 > out->peak_mib)
-            out->peak_mib = ru.ru_maxrss / 1024.0;
+        if (r.peak_mib > out->peak_mib)
+            out->peak_mib = r.peak_mib;
     }
     return 0;
 }

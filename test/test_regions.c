@@ -5,100 +5,24 @@
  * one polygon, as welded, unwelded and T-junctioned triangles makes as
  * many patches and the same light; a cylinder of narrow facets with fanned
  * caps meshes to about area / size² patches across its facets (smooth.c)
- * and keeps a furnace's B = E / (1 - ρ).  Scenes are written by the test.
+ * and keeps a furnace's B = E / (1 - ρ).  Scenes are written by the test
+ * (the disks by tools/disks.c).
  * Cost: about 5 s (release) on the 2-core machine under a load of 10. */
 #include "../radiosity/mesh/mesh_internal.h"
 #include "../radiosity/pipeline/pipeline.h"
+#include "../tools/disks.h"
 #include "test.h"
 #include "util.h"
 
 
 typedef test_text text;
 #define tx_add test_text_add
-#define tx_base64 test_text_base64
 
 /* ------------------------------------------------------------- the disks */
 
-#define SIDES 256
-/* Coaxial unit disks one apart: F = (X - sqrt(X² - 4)) / 2, X = 3. */
-static const double disk_F = 0.38196601125010515;
-
-static rad_vec3 disk_point(uint32_t k, double z, int down)
-{
-    double a = 2.0 * M_PI * (down ? SIDES - k : k) / SIDES;
-    return rad_v3(cos(a), sin(a), z);
-}
-
-/* Disk A at z = 0 facing +z, B at z = 1 facing -z, each one polygon. */
-static char *disks_polyfile(void)
-{
-    text t = {0};
-    tx_add(&t, "bands 1\nmaterial grey reflectance 0.5\n");
-    for (int d = 0; d < 2; d++) {
-        tx_add(&t, "polygon %s grey\n", d ? "B" : "A");
-        for (uint32_t k = 0; k < SIDES; k++) {
-            rad_vec3 p = disk_point(k, d, d);
-            tx_add(&t, "  %.17g %.17g %.17g\n", p.x, p.y, p.z);
-        }
-        tx_add(&t, "end\n");
-    }
-    return t.s;
-}
-
-/* The same disks in glTF, each a mesh of one fan of SIDES - 2 triangles
- * from its first point, as exporters write a disk. */
-static char *disks_gltf(size_t *size)
-{
-    const uint32_t ntri = SIDES - 2;
-    const size_t pos_bytes = 2 * SIDES * 12, idx_bytes = 2 * ntri * 3 * 4;
-    unsigned char *b = malloc(pos_bytes + idx_bytes);
-    if (!b)
-        abort();
-    size_t n = 0;
-    for (int d = 0; d < 2; d++)
-        for (uint32_t k = 0; k < SIDES; k++) {
-            rad_vec3 p = disk_point(k, d, d);
-            float f[3] = {(float)p.x, (float)p.y, (float)p.z};
-            memcpy(b + n, f, sizeof f);
-            n += sizeof f;
-        }
-    for (int d = 0; d < 2; d++)
-        for (uint32_t k = 1; k + 1 < SIDES; k++) {
-            uint32_t tri[3] = {0, k, k + 1};
-            memcpy(b + n, tri, sizeof tri);
-            n += sizeof tri;
-        }
-    text t = {0};
-    tx_add(&t, "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0,1]}],"
-               "\"nodes\":[{\"name\":\"A\",\"mesh\":0},{\"name\":\"B\",\"mesh\":1}],"
-               "\"materials\":[{\"name\":\"grey\",\"pbrMetallicRoughness\":"
-               "{\"baseColorFactor\":[0.5,0.5,0.5,1]}}],\"meshes\":[");
-    for (int d = 0; d < 2; d++)
-        tx_add(&t, "%s{\"primitives\":[{\"attributes\":{\"POSITION\":%d},\"indices\":%d,"
-                   "\"material\":0}]}",
-               d ? "," : "", 2 * d, 2 * d + 1);
-    tx_add(&t, "],\"accessors\":[");
-    for (int d = 0; d < 2; d++)
-        tx_add(&t,
-               "%s{\"bufferView\":%d,\"componentType\":5126,\"count\":%u,\"type\":\"VEC3\","
-               "\"min\":[-1,-1,%d],\"max\":[1,1,%d]},"
-               "{\"bufferView\":%d,\"componentType\":5125,\"count\":%u,\"type\":\"SCALAR\"}",
-               d ? "," : "", 2 * d, SIDES, d, d, 2 * d + 1, 3 * ntri);
-    tx_add(&t, "],\"bufferViews\":[");
-    for (int d = 0; d < 2; d++)
-        tx_add(&t,
-               "%s{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu},"
-               "{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}",
-               d ? "," : "", d * pos_bytes / 2, pos_bytes / 2, pos_bytes + d * idx_bytes / 2,
-               idx_bytes / 2);
-    tx_add(&t, "],\"buffers\":[{\"byteLength\":%zu,\"uri\":\"data:application/octet-stream;base64,",
-           pos_bytes + idx_bytes);
-    tx_base64(&t, b, pos_bytes + idx_bytes);
-    tx_add(&t, "\"}]}");
-    free(b);
-    *size = t.len;
-    return t.s;
-}
+/* tools/disks.c writes the pair (shared with bench/bench_disks.c) */
+#define SIDES DISKS_SIDES
+static const double disk_F = DISKS_CLOSED_FORM;
 
 static uint32_t object_named(const rad_scene *s, const char *name)
 {
@@ -145,7 +69,7 @@ static void check_disks(rad_scene *scene, const char *what, double tol)
 
 TEST(disk_pair_polygons)
 {
-    char *text = disks_polyfile();
+    char *text = disks_polyfile(0);
     rad_scene *scene = NULL;
     rad_error err = {0};
     rad_load_options lo = {.allow_no_emitter = 1};
@@ -160,7 +84,7 @@ TEST(disk_pair_polygons)
 TEST(disk_pair_fans)
 {
     size_t size = 0;
-    char *doc = disks_gltf(&size);
+    char *doc = disks_gltf(0, &size);
     rad_scene *scene = NULL;
     rad_error err = {0};
     rad_load_options lo = {.allow_no_emitter = 1};
@@ -539,7 +463,7 @@ TEST(bent_patch_rows)
  * are counted by area before they are cut), and the size it advises fits. */
 TEST(far_too_small_size)
 {
-    char *text = disks_polyfile();
+    char *text = disks_polyfile(0);
     rad_scene *s = NULL;
     rad_error err = {0};
     rad_load_options lo = {.allow_no_emitter = 1};

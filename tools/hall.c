@@ -313,18 +313,39 @@ static int build(gs_scene *h, double fine)
     return gs_failed(h) ? -1 : 0;
 }
 
-int hall_write(const char *dir, const char *name, double fine, hall_stats *stats)
+/* build, then every object's triangles split in four (hall_write_split) */
+static int build_split(gs_scene *h, double fine)
+{
+    if (build(h, fine) != 0)
+        return -1;
+    for (uint32_t k = 0; k < h->n; k++)
+        gs_split4(&h->o[k]);
+    return gs_failed(h) ? -1 : 0;
+}
+
+static int write_with(int (*make)(gs_scene *, double), const char *dir, const char *name,
+                      double fine, hall_stats *stats)
 {
     gs_scene h = {.seed = 12345,
                   .materials = materials,
                   .material_count = sizeof materials / sizeof materials[0],
                   .sun = mk(0.3, -0.55, 1.0),
                   .generator = "tools/hall.c"};
-    int rc = gs_make(&h, build, fine, dir, name);
+    int rc = gs_make(&h, make, fine, dir, name);
     if (stats) {
         stats->triangles = gs_triangles(&h);
         stats->objects = h.n;
     }
     gs_free(&h);
     return rc;
+}
+
+int hall_write(const char *dir, const char *name, double fine, hall_stats *stats)
+{
+    return write_with(build, dir, name, fine, stats);
+}
+
+int hall_write_split(const char *dir, const char *name, double fine, hall_stats *stats)
+{
+    return write_with(build_split, dir, name, fine, stats);
 }

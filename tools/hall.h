@@ -20,4 +20,9 @@ typedef struct hall_stats {
  * that).  0 on success, -1 with a message on stderr. */
 int hall_write(const char *dir, const char *name, double fine, hall_stats *stats);
 
+/* The same hall with every triangle then re-tessellated into four the way
+ * exporters write them (fans, slivers, T-junctions, unwelded copies:
+ * gs_split4 in scene_gltf.h): the same surfaces, four times the triangles. */
+int hall_write_split(const char *dir, const char *name, double fine, hall_stats *stats);
+
 #endif /* TOOLS_HALL_H */

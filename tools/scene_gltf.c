@@ -83,6 +83,57 @@ void gs_tri(obj *o, uint32_t a, uint32_t b, uint32_t c, v3 facing)
 
 /* ---------------------------------------------------------------- writing */
 
+/* p + (q - p) · s, computed from the stored floats. */
+static v3 along(const obj *o, uint32_t p, uint32_t q, double s)
+{
+    v3 a = gs_vat(o, p);
+    return add(a, scl(sub(gs_vat(o, q), a), s));
+}
+
+/* Triangle a, b, c cut at its edges' midpoints; `own`: every small
+ * triangle on its own copies of its points. */
+static void split_mid(obj *o, uint32_t a, uint32_t b, uint32_t c, v3 n, int own)
+{
+    const v3 p[6] = {gs_vat(o, a), gs_vat(o, b), gs_vat(o, c), along(o, a, b, 0.5),
+                     along(o, b, c, 0.5), along(o, c, a, 0.5)};
+    static const int tri[4][3] = {{0, 3, 5}, {3, 1, 4}, {5, 4, 2}, {3, 4, 5}};
+    uint32_t k[6] = {a, b, c, 0, 0, 0};
+    for (int i = 3; !own && i < 6; i++)
+        k[i] = gs_vert(o, p[i]);
+    for (int t = 0; t < 4; t++) {
+        uint32_t q[3];
+        for (int i = 0; i < 3; i++)
+            q[i] = own ? gs_vert(o, p[tri[t][i]]) : k[tri[t][i]];
+        gs_tri(o, q[0], q[1], q[2], n);
+    }
+}
+
+void gs_split4(obj *o)
+{
+    const uint32_t nt = o->nt;
+    uint32_t *old = malloc((size_t)nt * 3 * sizeof *old);
+    if (!old) {
+        o->failed = 1;
+        return;
+    }
+    memcpy(old, o->t, (size_t)nt * 3 * sizeof *old);
+    o->nt = 0;
+    for (uint32_t t = 0; t < nt && !o->failed; t++) {
+        const uint32_t a = old[3 * t], b = old[3 * t + 1], c = old[3 * t + 2];
+        const v3 n = cross(sub(gs_vat(o, b), gs_vat(o, a)), sub(gs_vat(o, c), gs_vat(o, a)));
+        if (t % 3 == 0) { /* a fan from a onto b..c cut in four */
+            uint32_t q[5] = {b, 0, 0, 0, c};
+            for (int i = 1; i < 4; i++)
+                q[i] = gs_vert(o, along(o, b, c, 0.25 * i));
+            for (int i = 0; i < 4; i++)
+                gs_tri(o, a, q[i], q[i + 1], n);
+        } else {
+            split_mid(o, a, b, c, n, t % 3 == 2);
+        }
+    }
+    free(old);
+}
+
 int gs_write(const gs_scene *h, const char *dir, const char *name)
 {
     char path[4096];

@@ -64,6 +64,13 @@ v3 gs_vat(const obj *o, uint32_t k);
 /* Triangle a, b, c, turned to face `facing` (its front is where it runs
  * counter-clockwise). */
 void gs_tri(obj *o, uint32_t a, uint32_t b, uint32_t c, v3 facing);
+/* Re-tessellates every triangle of o into four as exporters write them,
+ * the surface unchanged: in turn a fan from one corner onto its opposite
+ * edge cut in four (slivers, T-junctions with the neighbour across it), the
+ * midpoint split with shared points, and the midpoint split with every
+ * small triangle on its own copies of its points (unwelded).  The points
+ * on an edge are the same floats whichever triangle makes them. */
+void gs_split4(obj *o);
 /* Writes DIR/NAME.gltf and DIR/NAME.bin; 0, or -1 with a message on stderr. */
 int gs_write(const gs_scene *h, const char *dir, const char *name);
 /* Builds h with build(h, fine) (fine <= 0: 1) and writes DIR/NAME.gltf
