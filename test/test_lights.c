@@ -20,6 +20,7 @@
  */
 #include "../radiosity/pipeline/pipeline.h"
 #include "test.h"
+#include "util.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -42,17 +43,6 @@ static rad_scene *new_scene(void)
     rad_scene *s = rad_scene_create(1, "lights-test");
     CHECK(s != NULL);
     return s;
-}
-
-/* Material of reflectance rho (no emission); returns its index. */
-static uint32_t material(rad_scene *s, const char *name, double rho)
-{
-    double zero = 0.0;
-    uint32_t m = RAD_NONE;
-    rad_error e;
-    int rc = rad_scene_add_material(s, name, &rho, &zero, NULL, NULL, &m, &e);
-    CHECK_MSG(rc == RAD_OK, "%s", e.message);
-    return m;
 }
 
 /* An axis-aligned horizontal square [-h,h]² at height z facing up (+z),
@@ -179,7 +169,7 @@ static double mean_irradiance(double x0, double x1, double y0, double y1, double
 TEST(point_light_above_floor)
 {
     rad_scene *s = new_scene();
-    uint32_t m = material(s, "grey", 0.5);
+    uint32_t m = test_material(s, "grey", 0.5);
     floor_square(s, "floor", 2.0, 0.0, 20, m);
     light(s, "bulb", RAD_LIGHT_POINT, 3.0, rad_v3(0, 0, 1), rad_v3(0, 0, -1), 0, 0);
     CHECK(rad_scene_check(s, 1, NULL) == RAD_OK); /* a light alone is an emitter */
@@ -234,7 +224,7 @@ TEST(point_light_above_floor)
 TEST(point_light_shadow_of_a_box)
 {
     rad_scene *s = new_scene();
-    uint32_t grey = material(s, "grey", 0.5), black = material(s, "black", 0.0);
+    uint32_t grey = test_material(s, "grey", 0.5), black = test_material(s, "black", 0.0);
     floor_square(s, "floor", 2.0, 0.0, 20, grey);
     box(s, "box", rad_v3(-0.35, -0.35, 0.5), rad_v3(0.35, 0.35, 1.0), black);
     light(s, "bulb", RAD_LIGHT_POINT, 1.0, rad_v3(0, 0, 2), rad_v3(0, 0, -1), 0, 0);
@@ -281,7 +271,7 @@ TEST(point_light_shadow_of_a_box)
 static rad_scene *spot_scene(double h, uint32_t n)
 {
     rad_scene *s = new_scene();
-    uint32_t m = material(s, "grey", 0.5);
+    uint32_t m = test_material(s, "grey", 0.5);
     floor_square(s, "floor", h, 0.0, n, m);
     light(s, "spot", RAD_LIGHT_SPOT, 2.0, rad_v3(0, 0, 1), rad_v3(0, 0, -1), SPOT_INNER, SPOT_OUTER);
     return s;
@@ -344,7 +334,7 @@ TEST(directional_light_tilted_plane)
 {
     const double a = 30.0 * M_PI / 180.0;
     rad_scene *s = new_scene();
-    uint32_t m = material(s, "grey", 0.5), o;
+    uint32_t m = test_material(s, "grey", 0.5), o;
     CHECK(rad_scene_add_object(s, "plane", NULL, &o, NULL) == RAD_OK);
     rad_vec3 p[4] = {{-0.5, -0.5 * cos(a), -0.5 * sin(a)},
                      {0.5, -0.5 * cos(a), -0.5 * sin(a)},
@@ -383,7 +373,7 @@ TEST(directional_light_tilted_plane)
 TEST(directional_light_shadow)
 {
     rad_scene *s = new_scene();
-    uint32_t grey = material(s, "grey", 0.5), black = material(s, "black", 0.0);
+    uint32_t grey = test_material(s, "grey", 0.5), black = test_material(s, "black", 0.0);
     floor_square(s, "floor", 1.0, 0.0, 10, grey);
     floor_square(s, "blocker", 0.3, 0.5, 1, black);
     rad_vec3 d = rad_normalize(rad_v3(0.5, 0, -1));
@@ -420,7 +410,7 @@ TEST(directional_light_shadow)
 TEST(relight_punctual_light)
 {
     rad_scene *s = new_scene();
-    uint32_t m = material(s, "grey", 0.5);
+    uint32_t m = test_material(s, "grey", 0.5);
     floor_square(s, "floor", 1.0, 0.0, 6, m);
     light(s, "bulb", RAD_LIGHT_POINT, 1.0, rad_v3(0.2, 0.1, 0.8), rad_v3(0, 0, -1), 0, 0);
     rad_solution *sol = solve(s, 0) /* the default resolution */;
@@ -610,7 +600,7 @@ static double element_mean(const rad_elements *el, uint32_t e, double h, double 
 TEST(elements_point_light_irradiance)
 {
     rad_scene *s = new_scene();
-    uint32_t m = material(s, "grey", 0.5);
+    uint32_t m = test_material(s, "grey", 0.5);
     floor_square(s, "floor", 1.0, 0.0, 10, m);
     light(s, "bulb", RAD_LIGHT_POINT, 3.0, rad_v3(0, 0, 1), rad_v3(0, 0, -1), 0, 0);
     rad_solution *sol = solve_elements(s, 2, 0.0, 0.0);
@@ -639,7 +629,7 @@ TEST(elements_point_light_irradiance)
 static rad_scene *box_shadow_scene(void)
 {
     rad_scene *s = new_scene();
-    uint32_t grey = material(s, "grey", 0.5), black = material(s, "black", 0.0);
+    uint32_t grey = test_material(s, "grey", 0.5), black = test_material(s, "black", 0.0);
     floor_square(s, "floor", 1.4, 0.0, 14, grey);
     box(s, "box", rad_v3(-0.33, -0.33, 0.5), rad_v3(0.33, 0.33, 1.0), black);
     light(s, "bulb", RAD_LIGHT_POINT, 1.0, rad_v3(0, 0, 2), rad_v3(0, 0, -1), 0, 0);
@@ -783,7 +773,7 @@ TEST(elements_spot_cone_edge)
 TEST(elements_directional_shadow_edge)
 {
     rad_scene *s = new_scene();
-    uint32_t grey = material(s, "grey", 0.5), black = material(s, "black", 0.0), o;
+    uint32_t grey = test_material(s, "grey", 0.5), black = test_material(s, "black", 0.0), o;
     floor_square(s, "floor", 1.0, 0.0, 10, grey);
     CHECK(rad_scene_add_object(s, "blocker", NULL, &o, NULL) == RAD_OK);
     const double bx = 0.02, by = 0.013;
@@ -883,7 +873,7 @@ TEST(elements_refinement_follows_light_edge)
 TEST(elements_relight_and_round_trip)
 {
     rad_scene *s = new_scene();
-    uint32_t grey = material(s, "grey", 0.5), black = material(s, "black", 0.0);
+    uint32_t grey = test_material(s, "grey", 0.5), black = test_material(s, "black", 0.0);
     floor_square(s, "floor", 1.0, 0.0, 6, grey);
     box(s, "box", rad_v3(-0.2, -0.2, 0.3), rad_v3(0.2, 0.2, 0.5), black);
     light(s, "bulb", RAD_LIGHT_POINT, 1.0, rad_v3(0.2, 0.1, 1.5), rad_v3(0, 0, -1), 0, 0);
@@ -1150,7 +1140,7 @@ TEST(scene_light_rules)
     CHECK(rad_scene_find_light(s, "b") == 1 && rad_scene_find_light(s, "c") == RAD_NONE);
     /* lights of intensity 0 are no emitters */
     rad_scene *z = new_scene();
-    uint32_t m = material(z, "grey", 0.5);
+    uint32_t m = test_material(z, "grey", 0.5);
     floor_square(z, "floor", 1.0, 0.0, 1, m);
     double zero = 0.0;
     CHECK(rad_scene_add_light(z, "dark", RAD_LIGHT_POINT, &zero, o, down, 0, 0, NULL, NULL, &e) ==
@@ -1220,7 +1210,7 @@ TEST(polyfile_lights)
 TEST(point_light_cos3_at_defaults)
 {
     rad_scene *s = new_scene();
-    floor_square(s, "floor", 1.0, 0.0, 0, material(s, "grey", 0.5)); /* default patches */
+    floor_square(s, "floor", 1.0, 0.0, 0, test_material(s, "grey", 0.5)); /* default patches */
     light(s, "bulb", RAD_LIGHT_POINT, 1.0, rad_v3(0, 0, 1), rad_v3(0, 0, -1), 0, 0);
     rad_solution *sol = NULL;
     rad_error e = {0};
@@ -1284,7 +1274,7 @@ TEST(punctual_tiles_exact)
     }
     for (int spot = 0; spot < 2; spot++) {
         rad_scene *s = new_scene();
-        uint32_t grey = material(s, "grey", 0.5), black = material(s, "black", 0.0);
+        uint32_t grey = test_material(s, "grey", 0.5), black = test_material(s, "black", 0.0);
         floor_square(s, "floor", 2.0, 0.0, 20, grey);
         box(s, "box", rad_v3(lo[0], lo[1], lo[2]), rad_v3(hi[0], hi[1], hi[2]), black);
         light(s, "lamp", spot ? RAD_LIGHT_SPOT : RAD_LIGHT_POINT, 2.0, rad_v3(0, 0, 1),
@@ -1361,7 +1351,7 @@ TEST(elements_grazing_exact)
         const rad_vec3 pos = spot ? rad_v3(-1.8, 0, h) : rad_v3(0, 0, h);
         const rad_vec3 ax = rad_normalize(rad_v3(1, 0, -0.25));
         rad_scene *s = new_scene();
-        uint32_t grey = material(s, "grey", 0.5), black = material(s, "black", 0.0);
+        uint32_t grey = test_material(s, "grey", 0.5), black = test_material(s, "black", 0.0);
         floor_square(s, "floor", 2.0, 0.0, 8, grey);
         if (!spot)
             box(s, "box", rad_v3(lo[0], lo[1], lo[2]), rad_v3(hi[0], hi[1], hi[2]), black);

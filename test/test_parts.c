@@ -18,6 +18,7 @@
  */
 #include "../radiosity/pipeline/pipeline.h"
 #include "test.h"
+#include "util.h"
 
 #include <math.h>
 
@@ -34,16 +35,6 @@ enum { COLS = 40, ROWS = 25, PARTS = COLS * ROWS };
 #define INTENSITY 10.0
 
 static const rad_vec3 LIGHT = {2.0, 2.0, 1.45};
-
-static uint32_t material(rad_scene *s, const char *name, double rho)
-{
-    double zero = 0.0;
-    uint32_t m = RAD_NONE;
-    rad_error e;
-    int rc = rad_scene_add_material(s, name, &rho, &zero, NULL, NULL, &m, &e);
-    CHECK_MSG(rc == RAD_OK, "%s", e.message);
-    return m;
-}
 
 static uint32_t object(rad_scene *s, const char *name)
 {
@@ -87,11 +78,11 @@ static rad_scene *room(int with_parts)
 {
     rad_scene *s = rad_scene_create(1, "parts-test");
     CHECK(s != NULL);
-    uint32_t grey = material(s, "grey", 0.5), black = material(s, "black", 0.0);
+    uint32_t grey = test_material(s, "grey", 0.5), black = test_material(s, "black", 0.0);
     box(s, object(s, "room"), grey, rad_v3(0, 0, 0), rad_v3(4, 4, 3), 1);
     box(s, object(s, "board"), black, rad_v3(1.0, 1.0, 1.2), rad_v3(1.05, 1.75, 1.7), 0);
     if (with_parts) {
-        uint32_t ma = material(s, "A", RHO_A), mb = material(s, "B", RHO_B);
+        uint32_t ma = test_material(s, "A", RHO_A), mb = test_material(s, "B", RHO_B);
         uint32_t oa = object(s, "partsA"), ob = object(s, "partsB");
         for (int col = 0; col < COLS; col++)
             for (int row = 0; row < ROWS; row++) {

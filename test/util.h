@@ -6,6 +6,7 @@
 #define TEST_UTIL_H
 
 #include "../radiosity/pipeline/pipeline.h"
+#include "test.h"
 
 #include <math.h>
 #include <stdarg.h>
@@ -215,6 +216,17 @@ static inline void test_dense_solve(double *A, double *x, uint32_t n)
             v -= A[(size_t)c * n + k] * x[k];
         x[c] = v / A[(size_t)c * n + c];
     }
+}
+
+/* A material of reflectance rho in every band, no emission; its index. */
+static inline uint32_t test_material(rad_scene *s, const char *name, double rho)
+{
+    double zero = 0.0;
+    uint32_t m = RAD_NONE;
+    rad_error e;
+    int rc = rad_scene_add_material(s, name, &rho, &zero, NULL, NULL, &m, &e);
+    CHECK_MSG(rc == RAD_OK, "%s", e.message);
+    return m;
 }
 
 #endif /* TEST_UTIL_H */

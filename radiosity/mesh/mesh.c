@@ -755,60 +755,38 @@ int rad_mesh_link_twins(rad_mesh *m, const rad_scene *scene, rad_error *err)
     return RAD_OK;
 }
 
-/* Cluster k of the plan as one patch (appended) and its cells: each member
- * polygon one cell on the surface's shared vertices (vmap: vertex key ->
- * mesh vertex, made on first use); the patch's area is the cells', its
- * normal their area-weighted mean, its centre their area centroid moved
- * onto the nearest cell (its home: the patch carries that cell's corners
- * and polygon).  A cluster of one polygon is exactly that cell. */
-static void build_cluster(builder *b, const mesh_clusters *cl, uint32_t k, uint32_t *vmap,
-                          int *bad)
+/* Polygons member[0..count) as one patch (appended) and its cells, one
+ * cell each; the patch's area is the cells', its normal their
+ * area-weighted mean, its centre their area centroid moved onto the
+ * nearest cell (its home: the patch carries that cell's corners and
+ * polygon).  With cl, the cells stand on the surface's shared vertices
+ * (vmap: vertex key -> mesh vertex, made on first use): a cluster (a
+ * cluster of one polygon is exactly that cell).  Without, each cell on
+ * vertices of its own, all on the outline: a shared patch of small parts
+ * (parts.c), whose faces never average together. */
+static void build_grouped(builder *b, const uint32_t *member, uint32_t count,
+                          const mesh_clusters *cl, uint32_t *vmap, int *bad)
 {
     const rad_scene *s = b->s;
     rad_mesh *m = b->m;
     const uint32_t c0 = b->nc;
     m->cell_first[b->np] = c0;
-    for (uint32_t q = cl->first[k]; q < cl->first[k + 1]; q++) {
-        const uint32_t i = cl->member[q];
+    for (uint32_t q = 0; q < count; q++) {
+        const uint32_t i = member[q];
         const rad_polygon *pg = &s->polygons[i];
         rad_patch *c = &m->cells[b->nc++];
         c->v[3] = RAD_NONE;
         for (uint32_t j = 0; j < pg->point_count; j++) {
+            const rad_vec3 pt = s->points[pg->first_point + j];
+            if (!cl) {
+                c->v[j] = add_vertex(b, pt, 1);
+                continue;
+            }
             uint32_t key = cl->vkey[pg->first_point + j];
             if (vmap[key] == RAD_NONE)
-                vmap[key] = add_vertex(b, s->points[pg->first_point + j], cl->vboundary[key]);
+                vmap[key] = add_vertex(b, pt, cl->vboundary[key]);
             c->v[j] = vmap[key];
         }
-        c->polygon = i;
-        c->object = pg->object;
-        c->material = pg->material;
-        c->normal = pg->normal;
-        if (rad_cell_geometry(m->vertices, c->v, c->normal, &c->center, &c->area) != 0) {
-            *bad = 1;
-            return;
-        }
-    }
-    if (mesh_patch_of_cells(m->vertices, &m->cells[c0], b->nc - c0, &m->patches[b->np++]) != 0)
-        *bad = 1;
-}
-
-
-/* Shared patch t of small parts (parts.c), appended: each member polygon
- * one cell on vertices of its own (a part's faces never average together,
- * all on the outline), the patch made of them as a cluster's is. */
-static void build_parts(builder *b, const mesh_parts *pt, uint32_t t, int *bad)
-{
-    const rad_scene *s = b->s;
-    rad_mesh *m = b->m;
-    const uint32_t c0 = b->nc;
-    m->cell_first[b->np] = c0;
-    for (uint32_t q = pt->first[t]; q < pt->first[t + 1]; q++) {
-        const uint32_t i = pt->member[q];
-        const rad_polygon *pg = &s->polygons[i];
-        rad_patch *c = &m->cells[b->nc++];
-        c->v[3] = RAD_NONE;
-        for (uint32_t j = 0; j < pg->point_count; j++)
-            c->v[j] = add_vertex(b, s->points[pg->first_point + j], 1);
         c->polygon = i;
         c->object = pg->object;
         c->material = pg->material;
@@ -951,13 +929,15 @@ int rad_mesh_build(const rad_scene *scene, const rad_mesh_options *opt, rad_mesh
         const uint32_t k = pl.cl.of[i], r = pl.rg.of[i], t = pl.pt.of[i];
         if (t != RAD_NONE) { /* a shared patch of small parts, in its first polygon's place */
             if (pl.pt.member[pl.pt.first[t]] == i)
-                build_parts(&b, &pl.pt, t, &bad);
+                build_grouped(&b, pl.pt.member + pl.pt.first[t], pl.pt.first[t + 1] - pl.pt.first[t],
+                              NULL, NULL, &bad);
         } else if (r != RAD_NONE) { /* a planar region in its first polygon's place */
             if (pl.rg.lead[r] == i)
                 build_region(&b, &pl.rg, r);
         } else if (k != RAD_NONE) { /* grouped: the cluster in its first polygon's place */
             if (pl.cl.member[pl.cl.first[k]] == i)
-                build_cluster(&b, &pl.cl, k, vmap, &bad);
+                build_grouped(&b, pl.cl.member + pl.cl.first[k], pl.cl.first[k + 1] - pl.cl.first[k],
+                              &pl.cl, vmap, &bad);
         } else {
             build_polygon(&b, &pl, i, g, &bad);
         }
