@@ -231,7 +231,7 @@ static double patch_tol(const dg *d, uint32_t j);
 static rad_vec3 vpos(const dg *d, uint32_t g);
 
 /* The directed edges of cell c as its corners give them, less any whose
- * two ends were merged into one vertex. */
+ * two ends were merged into one vertex (a sliver's). */
 static int raw_edges(const dg *d, uint32_t c, uint32_t a[4], uint32_t b[4])
 {
     int m = d->e->ncorner[c], n = 0;
@@ -240,7 +240,7 @@ static int raw_edges(const dg *d, uint32_t c, uint32_t a[4], uint32_t b[4])
         b[n] = d->cv[(size_t)c * 4 + (k + 1) % m];
         n += a[n] != b[n];
     }
-    return n;
+    return n >= 3 ? n : 0; /* a triangle of two corners: no area, no edges */
 }
 
 /* The vertices strictly inside edge a -> b through which other edges run
