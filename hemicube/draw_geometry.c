@@ -28,6 +28,15 @@
  * kept for its neighbours too, which are checked again.  So a patch is
  * drawn either exactly or within the tolerance, and neighbours always meet.
  *
+ * Outlines are found on the cells' edges: a cell edge whose reverse no
+ * cell of the patch runs.  Two things made inner edges look like outline
+ * (a patch of an exporter's triangles then had no single outline loop and
+ * was drawn cell by cell): corners of one point computed twice a rounding
+ * step apart (merged here within HC_DRAW_MERGE of the cells' diagonal),
+ * and T-junctions the region cutter keeps from its input (a triangle's
+ * edge against two of its neighbour's: split_edges cuts the long edge at
+ * the vertices the other side runs through).
+ *
  * RADIOSITY_DRAW_EVERY_CELL=1 in the environment draws every cell (the
  * reference the simplified drawing is tested against).
  */
@@ -57,6 +66,7 @@ typedef struct dg {
     const hc_engine *e;
     uint32_t nv;          /* global vertices */
     uint32_t *cv;         /* ncell × 4: corner -> global vertex */
+    uint32_t *cef, *cea, *ceb; /* cell c's edges cea -> ceb from cef[c] */
     double *pos;          /* nv × 3 */
     /* Outline edges of every patch, grouped by patch: ea -> eb, e of patch
      * ep; partner: the patch owning eb -> ea, or RAD_NONE. */
@@ -95,31 +105,93 @@ static size_t table_size(size_t n)
     return cap;
 }
 
-/* Global vertices: every cell corner numbered by its exact position. */
+/* Corners closer than this share of the cells' diagonal are one vertex:
+ * the region cutter rounds each point to a grid (1e-7 of the patch size),
+ * and two computations of one point that straddle a rounding step, or
+ * land in two regions' frames, differ by about that; numbered apart they
+ * make inner edges look like outline. */
+#define HC_DRAW_MERGE 1e-7
+
+typedef struct vgrid {
+    double eps;
+    size_t cap;
+    uint32_t *slot;  /* vertex + 1, 0 empty */
+    int64_t *key;    /* per vertex: its grid cell, 3 words */
+} vgrid;
+
+static size_t vgrid_hash(const vgrid *v, const int64_t k[3])
+{
+    uint64_t h = 0x9E3779B97F4A7C15ull;
+    for (int a = 0; a < 3; a++)
+        h = mix(h, (uint64_t)k[a]);
+    return (size_t)h & (v->cap - 1);
+}
+
+/* The vertex within eps of p in the 27 grid cells about its own, or
+ * RAD_NONE. */
+static uint32_t vgrid_find(const dg *d, const vgrid *v, const double *p, const int64_t k[3])
+{
+    for (int q = 0; q < 27; q++) {
+        int64_t c[3] = {k[0] + q % 3 - 1, k[1] + q / 3 % 3 - 1, k[2] + q / 9 - 1};
+        for (size_t h = vgrid_hash(v, c); v->slot[h]; h = (h + 1) & (v->cap - 1)) {
+            uint32_t g = v->slot[h] - 1;
+            const int64_t *gk = v->key + 3 * (size_t)g;
+            const double *gp = d->pos + 3 * (size_t)g;
+            if (gk[0] == c[0] && gk[1] == c[1] && gk[2] == c[2] && fabs(gp[0] - p[0]) <= v->eps &&
+                fabs(gp[1] - p[1]) <= v->eps && fabs(gp[2] - p[2]) <= v->eps)
+                return g;
+        }
+    }
+    return RAD_NONE;
+}
+
+static double corner_diagonal(const hc_engine *e)
+{
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t k = 0; k < (size_t)e->ncell * 4; k++)
+        for (int a = 0; a < 3; a++)
+            lo[a] = fmin(lo[a], e->corner[3 * k + a]), hi[a] = fmax(hi[a], e->corner[3 * k + a]);
+    double d2 = 0.0;
+    for (int a = 0; a < 3; a++)
+        d2 += hi[a] > lo[a] ? (hi[a] - lo[a]) * (hi[a] - lo[a]) : 0.0;
+    return sqrt(d2);
+}
+
+/* Global vertices: every cell corner numbered by its position, corners
+ * within HC_DRAW_MERGE of the diagonal one vertex (the first one's). */
 static int number_vertices(dg *d, char *msg)
 {
     const hc_engine *e = d->e;
-    size_t nc = (size_t)e->ncell * 4, cap = table_size(nc);
-    uint32_t *slot = calloc(cap, sizeof *slot);
+    size_t nc = (size_t)e->ncell * 4;
+    vgrid v = {.eps = HC_DRAW_MERGE * corner_diagonal(e), .cap = table_size(nc)};
+    v.slot = calloc(v.cap, sizeof *v.slot);
+    v.key = malloc((nc * 3 + 1) * sizeof *v.key);
     d->cv = malloc(nc * sizeof *d->cv);
     d->pos = malloc(nc * 3 * sizeof *d->pos);
-    if (!slot || !d->cv || !d->pos) {
-        free(slot);
+    if (!v.slot || !v.key || !d->cv || !d->pos) {
+        free(v.slot), free(v.key);
         snprintf(msg, HC_MAX_MSG, "hemi-cube: out of memory for the draw geometry");
         return -1;
     }
+    const double cell = v.eps > 0.0 ? 2.0 * v.eps : 1.0;
     for (size_t k = 0; k < nc; k++) {
         const double *p = e->corner + 3 * k;
-        size_t h = hash_words(p, 6) & (cap - 1);
-        while (slot[h] && memcmp(d->pos + 3 * (size_t)(slot[h] - 1), p, 3 * sizeof *p) != 0)
-            h = (h + 1) & (cap - 1);
-        if (!slot[h]) {
-            memcpy(d->pos + 3 * (size_t)d->nv, p, 3 * sizeof *p);
-            slot[h] = ++d->nv;
+        int64_t key[3];
+        for (int a = 0; a < 3; a++)
+            key[a] = (int64_t)floor(p[a] / cell);
+        uint32_t g = vgrid_find(d, &v, p, key);
+        if (g == RAD_NONE) {
+            g = d->nv++;
+            memcpy(d->pos + 3 * (size_t)g, p, 3 * sizeof *p);
+            memcpy(v.key + 3 * (size_t)g, key, sizeof key);
+            size_t h = vgrid_hash(&v, key);
+            while (v.slot[h])
+                h = (h + 1) & (v.cap - 1);
+            v.slot[h] = g + 1;
         }
-        d->cv[k] = slot[h] - 1;
+        d->cv[k] = g;
     }
-    free(slot);
+    free(v.slot), free(v.key);
     return 0;
 }
 
@@ -155,15 +227,152 @@ static void etab_free(etab *t)
     free(t->a), free(t->b), free(t->val);
 }
 
-/* The directed edges of cell c: its corners' global vertices in order. */
-static int cell_edges(const dg *d, uint32_t c, uint32_t a[4], uint32_t b[4])
+static double patch_tol(const dg *d, uint32_t j);
+static rad_vec3 vpos(const dg *d, uint32_t g);
+
+/* The directed edges of cell c as its corners give them, less any whose
+ * two ends were merged into one vertex (a sliver's). */
+static int raw_edges(const dg *d, uint32_t c, uint32_t a[4], uint32_t b[4])
 {
-    int m = d->e->ncorner[c];
+    int m = d->e->ncorner[c], n = 0;
     for (int k = 0; k < m; k++) {
-        a[k] = d->cv[(size_t)c * 4 + k];
-        b[k] = d->cv[(size_t)c * 4 + (k + 1) % m];
+        a[n] = d->cv[(size_t)c * 4 + k];
+        b[n] = d->cv[(size_t)c * 4 + (k + 1) % m];
+        n += a[n] != b[n];
     }
-    return m;
+    return n >= 3 ? n : 0; /* a triangle of two corners: no area, no edges */
+}
+
+/* The vertices strictly inside edge a -> b through which other edges run
+ * back from b to a (x1 -> a, x2 -> x1, ..., b -> xk, each on the segment
+ * within tol), into X[0..max); their count, 0 when there is no such chain.
+ * back: edges whose reverse no cell has, listed by their end (bfirst,
+ * bfrom); t: every cell edge. */
+static uint32_t t_chain(const dg *d, const etab *t, const uint32_t *bfirst, const uint32_t *bfrom,
+                        uint32_t a, uint32_t b, double tol, uint32_t *X, uint32_t max)
+{
+    const rad_vec3 pa = vpos(d, a), ab = rad_sub(vpos(d, b), pa);
+    const double l2 = rad_dot(ab, ab);
+    uint32_t cur = a, k = 0;
+    double at = 0.0;
+    while (k < max && l2 > 0.0) {
+        if (k > 0 && t->val[etab_find(t, b, cur)] != RAD_NONE)
+            return k;
+        uint32_t next = RAD_NONE;
+        double best = 1.0;
+        for (uint32_t q = bfirst[cur]; q < bfirst[cur + 1]; q++) {
+            rad_vec3 ap = rad_sub(vpos(d, bfrom[q]), pa);
+            double u = rad_dot(ap, ab) / l2;
+            rad_vec3 off = rad_sub(ap, rad_scale(ab, u));
+            if (u > at && u < best && rad_dot(off, off) <= tol * tol)
+                best = u, next = bfrom[q];
+        }
+        if (next == RAD_NONE)
+            return 0;
+        X[k++] = next, cur = next, at = best;
+    }
+    return 0;
+}
+
+/* Edges whose reverse no cell has, listed by their end vertex (CSR). */
+static int back_edges(const dg *d, const etab *t, uint32_t **bfirst, uint32_t **bfrom)
+{
+    const hc_engine *e = d->e;
+    *bfirst = calloc((size_t)d->nv + 2, sizeof **bfirst);
+    *bfrom = malloc(((size_t)e->ncell * 4 + 1) * sizeof **bfrom);
+    if (!*bfirst || !*bfrom)
+        return -1;
+    for (int pass = 0; pass < 2; pass++)
+        for (uint32_t c = 0; c < e->ncell; c++) {
+            uint32_t a[4], b[4];
+            int m = raw_edges(d, c, a, b);
+            for (int k = 0; k < m; k++) {
+                if (t->val[etab_find(t, b[k], a[k])] != RAD_NONE)
+                    continue;
+                if (pass == 0)
+                    (*bfirst)[b[k] + 2]++;
+                else
+                    (*bfrom)[(*bfirst)[b[k] + 1]++] = a[k];
+            }
+            if (pass == 0 && c + 1 == e->ncell)
+                for (uint32_t g = 0; g < d->nv; g++)
+                    (*bfirst)[g + 2] += (*bfirst)[g + 1];
+        }
+    return 0;
+}
+
+
+static int grow_edges(dg *d, size_t *cap, size_t need)
+{
+    size_t c = *cap;
+    while (c < need)
+        c *= 2;
+    uint32_t *a = realloc(d->cea, c * sizeof *a);
+    if (a)
+        d->cea = a;
+    uint32_t *b = a ? realloc(d->ceb, c * sizeof *b) : NULL;
+    if (b)
+        d->ceb = b;
+    if (!a || !b)
+        return -1;
+    *cap = c;
+    return 0;
+}
+
+/* Every cell's directed edges into d->cea/ceb (cell c's from cef[c]), an
+ * edge split where other cells run back along it through vertices it
+ * lacks: a T-junction (an input triangle's edge against two of its
+ * neighbour's, which the region cutter keeps as they are), so that the
+ * line is inner on both sides, not outline. */
+static int split_edges(dg *d)
+{
+    const hc_engine *e = d->e;
+    etab t;
+    uint32_t *bfirst = NULL, *bfrom = NULL, X[64];
+    size_t cap = (size_t)e->ncell * 4 + 1, n = 0;
+    int rc = etab_init(&t, cap);
+    d->cef = malloc(((size_t)e->ncell + 1) * sizeof *d->cef);
+    d->cea = malloc(cap * sizeof *d->cea), d->ceb = malloc(cap * sizeof *d->ceb);
+    for (uint32_t c = 0; !rc && c < e->ncell; c++) {
+        uint32_t a[4], b[4];
+        int m = raw_edges(d, c, a, b);
+        for (int k = 0; k < m; k++) {
+            size_t h = etab_find(&t, a[k], b[k]);
+            t.a[h] = a[k], t.b[h] = b[k], t.val[h] = 0;
+        }
+    }
+    if (rc || !d->cef || !d->cea || !d->ceb || back_edges(d, &t, &bfirst, &bfrom) != 0)
+        rc = -1;
+    for (uint32_t j = 0; !rc && j < e->n; j++)
+        for (uint32_t c = e->cfirst[j]; !rc && c < e->cfirst[j + 1]; c++) {
+            uint32_t a[4], b[4];
+            int m = raw_edges(d, c, a, b);
+            d->cef[c] = (uint32_t)n;
+            for (int k = 0; k < m && !rc; k++) {
+                uint32_t nx = t.val[etab_find(&t, b[k], a[k])] != RAD_NONE ? 0
+                              : t_chain(d, &t, bfirst, bfrom, a[k], b[k],
+                                        1e-4 * patch_tol(d, j), X, 64);
+                if (n + nx + 1 > cap && grow_edges(d, &cap, n + nx + 1) != 0) {
+                    rc = -1;
+                    break;
+                }
+                uint32_t from = a[k];
+                for (uint32_t q = 0; q < nx; q++)
+                    d->cea[n] = from, d->ceb[n++] = X[q], from = X[q];
+                d->cea[n] = from, d->ceb[n++] = b[k];
+            }
+        }
+    if (!rc)
+        d->cef[e->ncell] = (uint32_t)n;
+    etab_free(&t), free(bfirst), free(bfrom);
+    return rc;
+}
+
+/* The directed edges of cell c (split at T-junctions): from cea[*first]. */
+static uint32_t cell_edges(const dg *d, uint32_t c, uint32_t *first)
+{
+    *first = d->cef[c];
+    return d->cef[c + 1] - d->cef[c];
 }
 
 /* Every cell's edges into t, valued by patch (an edge run twice in one
@@ -173,12 +382,11 @@ static void fill_cell_edges(const dg *d, etab *t)
     const hc_engine *e = d->e;
     for (uint32_t j = 0; j < e->n; j++)
         for (uint32_t c = e->cfirst[j]; c < e->cfirst[j + 1]; c++) {
-            uint32_t a[4], b[4];
-            int m = cell_edges(d, c, a, b);
-            for (int k = 0; k < m; k++) {
-                size_t h = etab_find(t, a[k], b[k]);
+            uint32_t f, m = cell_edges(d, c, &f);
+            for (uint32_t k = f; k < f + m; k++) {
+                size_t h = etab_find(t, d->cea[k], d->ceb[k]);
                 if (t->val[h] == RAD_NONE) {
-                    t->a[h] = a[k], t->b[h] = b[k], t->val[h] = j;
+                    t->a[h] = d->cea[k], t->b[h] = d->ceb[k], t->val[h] = j;
                 } else {
                     t->val[h] |= 0x80000000u;
                 }
@@ -192,7 +400,7 @@ static int outline_edges(dg *d, char *msg)
 {
     const hc_engine *e = d->e;
     etab t;
-    size_t cap = (size_t)e->ncell * 4;
+    size_t cap = (size_t)d->cef[e->ncell] + 1;
     d->efirst = malloc(((size_t)e->n + 1) * sizeof *d->efirst);
     d->ea = malloc(cap * sizeof *d->ea);
     d->eb = malloc(cap * sizeof *d->eb);
@@ -207,16 +415,16 @@ static int outline_edges(dg *d, char *msg)
     for (uint32_t j = 0; j < e->n; j++) {
         d->efirst[j] = d->ne;
         for (uint32_t c = e->cfirst[j]; c < e->cfirst[j + 1]; c++) {
-            uint32_t a[4], b[4];
-            int m = cell_edges(d, c, a, b);
-            for (int k = 0; k < m; k++) {
-                uint32_t own = t.val[etab_find(&t, a[k], b[k])];
-                uint32_t rev = t.val[etab_find(&t, b[k], a[k])];
+            uint32_t f, m = cell_edges(d, c, &f);
+            for (uint32_t k = f; k < f + m; k++) {
+                const uint32_t a = d->cea[k], b = d->ceb[k];
+                uint32_t own = t.val[etab_find(&t, a, b)];
+                uint32_t rev = t.val[etab_find(&t, b, a)];
                 if (own & 0x80000000u)
                     d->simple[j] = 0; /* an edge run twice one way: not a surface */
                 if (rev == j)
                     continue; /* inner edge */
-                d->ea[d->ne] = a[k], d->eb[d->ne] = b[k];
+                d->ea[d->ne] = a, d->eb[d->ne] = b;
                 d->epartner[d->ne++] = (rev & 0x80000000u) ? RAD_NONE : rev;
             }
         }
@@ -712,6 +920,7 @@ static int emit_all(const dg *d, hc_draw *out, int *vfirst, int *vcount, char *m
 
 static void dg_free(dg *d)
 {
+    free(d->cef), free(d->cea), free(d->ceb);
     free(d->cv), free(d->pos), free(d->efirst), free(d->ea), free(d->eb), free(d->epartner);
     free(d->simple), free(d->keep), free(d->loop), free(d->lfirst), free(d->llen), free(d->apex);
     free(d->T), free(d->left);
@@ -732,6 +941,10 @@ static int prepare(dg *d, char *msg)
     }
     for (uint32_t j = 0; !rc && j < e->n; j++)
         d->simple[j] = e->cfirst[j + 1] - e->cfirst[j] > 1;
+    if (!rc && split_edges(d) != 0) {
+        snprintf(msg, HC_MAX_MSG, "hemi-cube: out of memory for the draw geometry");
+        rc = -1;
+    }
     if (!rc)
         rc = outline_edges(d, msg);
     uint32_t *next = rc ? NULL : malloc(((size_t)d->nv + 1) * sizeof *next);

@@ -93,7 +93,8 @@ typedef struct rwork {
     uint64_t *ekey;
     size_t cekey;
     uint64_t climit; /* cells this region may still make */
-    size_t nekey;    /* frame(): the members' edges in ekey */
+    size_t nekey;    /* frame(): the members' edges in ekey, then the same
+                      * keyed by end (t_junction) */
     double tol;      /* in the plane: within this of it */
     pt2 *oe;         /* the outline's edges in the plane, two ends each */
     size_t noe, coe;
@@ -198,8 +199,36 @@ static int u64_cmp(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
+/* 1 when member edge ekey[e] has a T-junction: another member's edge x ->
+ * a ends at its start a from a point x strictly inside it (an exporter's
+ * midpoint split leaves a triangle's edge against two of its neighbour's).
+ * Such an edge is inner, not outline, though no member runs it back.
+ * back: the members' edges keyed end << 32 | start, sorted. */
+static int t_junction(const rwork *w, const uint64_t *back, size_t ne, size_t e)
+{
+    const uint32_t a = (uint32_t)(w->ekey[e] >> 32), b = (uint32_t)w->ekey[e];
+    const rad_vec3 pa = w->s->points[w->first[a]], ab = rad_sub(w->s->points[w->first[b]], pa);
+    const double l2 = rad_dot(ab, ab);
+    size_t lo = 0, hi = ne;
+    while (lo < hi) { /* the first edge ending at a */
+        size_t mid = lo + (hi - lo) / 2;
+        if (back[mid] >> 32 < a)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    for (; lo < ne && back[lo] >> 32 == a && l2 > 0.0; lo++) {
+        rad_vec3 ap = rad_sub(w->s->points[w->first[(uint32_t)back[lo]]], pa);
+        double u = rad_dot(ap, ab) / l2;
+        rad_vec3 off = rad_sub(ap, rad_scale(ab, u));
+        if (u > 1e-9 && u < 1.0 - 1e-9 && rad_dot(off, off) <= 1e-12 * l2)
+            return 1;
+    }
+    return 0;
+}
+
 /* Frame: normal of the lead polygon, u along the region's longest outline
- * edge (an edge no other member runs the other way). */
+ * edge (an edge no other member runs the other way, nor is a T-junction's). */
 static int frame(rwork *w, const uint32_t *mem, uint32_t nm)
 {
     const rad_scene *s = w->s;
@@ -209,7 +238,7 @@ static int frame(rwork *w, const uint32_t *mem, uint32_t nm)
     size_t ne = 0;
     for (uint32_t m = 0; m < nm; m++)
         ne += s->polygons[mem[m]].point_count;
-    if (GROW(w->ekey, w->cekey, ne + 1) != 0)
+    if (GROW(w->ekey, w->cekey, 2 * ne + 1) != 0)
         return -1;
     ne = 0;
     for (uint32_t m = 0; m < nm; m++) {
@@ -222,9 +251,13 @@ static int frame(rwork *w, const uint32_t *mem, uint32_t nm)
     w->nekey = ne;
     double best = -1.0;
     rad_vec3 dir = rad_v3(0, 0, 0);
+    uint64_t *back = w->ekey + ne; /* the edges keyed by end, then start */
+    for (size_t e = 0; e < ne; e++)
+        back[e] = w->ekey[e] << 32 | w->ekey[e] >> 32;
+    qsort(back, ne, sizeof *back, u64_cmp);
     for (size_t e = 0; e < ne; e++) {
         uint64_t rev = w->ekey[e] << 32 | w->ekey[e] >> 32;
-        if (bsearch(&rev, w->ekey, ne, sizeof *w->ekey, u64_cmp))
+        if (bsearch(&rev, w->ekey, ne, sizeof *w->ekey, u64_cmp) || t_junction(w, back, ne, e))
             continue;
         rad_vec3 a = s->points[w->first[w->ekey[e] >> 32]];
         rad_vec3 b = s->points[w->first[w->ekey[e] & 0xffffffffu]];
@@ -621,7 +654,8 @@ static int feet(rwork *w, const uint32_t *mem, uint32_t nm)
     region_box(w, box);
     for (size_t e = 0; e < w->nekey; e++) {
         uint64_t rev = w->ekey[e] << 32 | w->ekey[e] >> 32;
-        if (bsearch(&rev, w->ekey, w->nekey, sizeof *w->ekey, u64_cmp))
+        if (bsearch(&rev, w->ekey, w->nekey, sizeof *w->ekey, u64_cmp) ||
+            t_junction(w, w->ekey + w->nekey, w->nekey, e))
             continue;
         if (GROW(w->oe, w->coe, 2 * w->noe + 2) != 0)
             return -1;
