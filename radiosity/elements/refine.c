@@ -69,6 +69,7 @@ typedef struct builder {
     uint8_t *Vb;
     uint32_t *Vsurf;
     uint8_t *outline;  /* per cell of the patch mesh: its edges on its surface's outline, one bit each */
+    uint8_t *bent;     /* per patch: 1 when its cells bend (hc_row_cubes > 1), found once */
     uint32_t nv, cap_v;
     el_vtable t;
     /* elements */
@@ -707,10 +708,20 @@ static double longest_edge(const builder *b, const enode *n)
  * estimate. */
 static int bent_cell(const builder *b, const enode *n)
 {
+    return n->level == 0 && b->bent[n->patch];
+}
+
+/* b->bent for every patch: grouping a patch's cells by normal costs a pass
+ * over them, so it is done once here, not at each may_split. */
+static int find_bent(builder *b, rad_error *err)
+{
     const rad_mesh *pm = b->s->mesh;
-    return n->level == 0 && pm->cell_first &&
-           pm->cell_first[n->patch + 1] - pm->cell_first[n->patch] > 1 &&
-           hc_row_cubes(pm, n->patch) > 1;
+    b->bent = calloc((size_t)pm->patch_count + 1, 1);
+    if (!b->bent)
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    for (uint32_t i = 0; pm->cell_first && i < pm->patch_count; i++)
+        b->bent[i] = pm->cell_first[i + 1] - pm->cell_first[i] > 1 && hc_row_cubes(pm, i) > 1;
+    return RAD_OK;
 }
 
 /* May leaf n split: a reflecting patch (a black one's B is its emission
@@ -1291,7 +1302,7 @@ int rad_elements_refine(rad_solution *s, hc_engine *hc, const rad_refine_options
         rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
         goto done;
     }
-    if ((rc = level_zero(&b, &opt, min_edge, err)) != RAD_OK ||
+    if ((rc = find_bent(&b, err)) != RAD_OK || (rc = level_zero(&b, &opt, min_edge, err)) != RAD_OK ||
         (rc = split_parts(&b, hc, uniform, err)) != RAD_OK)
         goto done;
     /* Errors are relative to the brightest reflecting (non-emitting) patch
@@ -1325,6 +1336,7 @@ done:
     free(b.Vb);
     free(b.Vsurf);
     free(b.outline);
+    free(b.bent);
     free(b.t.slot);
     free(b.E);
     free(b.B);
