@@ -900,6 +900,327 @@ static int emit(rwork *w, const gcell *gc, const uint32_t *ci, uint32_t *up, uin
     return rc;
 }
 
+/* ------------------------------------------------------- joining pieces */
+
+/* The pieces of one grid cell (or part) are joined into as few cells as
+ * their union allows (see the top of the file): the directed edges that
+ * two pieces run both ways cancel, the rest must chain into one simple
+ * loop of the pieces' area; a loop corner on a grid line between two
+ * stretches of it is dropped where the grid cell on the line's other side
+ * drops it too (and no kept piece uses it), so neighbours stay conforming;
+ * the loop is then one quad, a fan of quads about its first corner when
+ * it is convex, else ear clipped into triangles.  Anything else keeps the
+ * grid cell's pieces as they are. */
+
+typedef struct join {
+    rwork *w;
+    const uint32_t *urep;
+    uint8_t *vote, *keep; /* per unique corner: loops that may drop it, uses that keep it */
+    uint64_t *e;          /* edge scratch */
+    size_t ce;
+    rad_patch *cell;      /* the joined layer, grid cell by grid cell */
+    uint64_t *gi;
+    size_t n, cc, cg;
+} join;
+
+static pt2 upt(const join *j, uint32_t u)
+{
+    return j->w->raw[j->urep[u]];
+}
+
+static double cell_area2d(const join *j, const rad_patch *cl)
+{
+    const pt2 a = upt(j, cl->v[0]), b = upt(j, cl->v[1]), c = upt(j, cl->v[2]);
+    return tri2(a, b, c) + (cl->v[3] != RAD_NONE ? tri2(a, c, upt(j, cl->v[3])) : 0.0);
+}
+
+/* 1 when cells of polygons a and b of one region may be one cell: nothing
+ * but the region's plane is theirs (ρ of their own alike, no texture whose
+ * coordinates each polygon maps its own way). */
+static int same_look(const rad_scene *s, uint32_t a, uint32_t b)
+{
+    if (a == b)
+        return 1;
+    if (s->polygon_rho &&
+        memcmp(rad_polygon_rho(s, a), rad_polygon_rho(s, b), s->band_count * sizeof(double)) != 0)
+        return 0;
+    for (uint32_t t = 0; s->point_uv && t < s->texture_count; t++)
+        if (s->textures[t].material == s->polygons[a].material)
+            return 0;
+    return 1;
+}
+
+/* Do segments ab and cd meet (touching counts)? */
+static int segs_meet(pt2 a, pt2 b, pt2 c, pt2 d)
+{
+    const double o1 = tri2(a, b, c), o2 = tri2(a, b, d), o3 = tri2(c, d, a), o4 = tri2(c, d, b);
+    if ((o1 > 0.0 && o2 > 0.0) || (o1 < 0.0 && o2 < 0.0) || (o3 > 0.0 && o4 > 0.0) ||
+        (o3 < 0.0 && o4 < 0.0))
+        return 0;
+    for (int k = 0; k < 2; k++)
+        if (fmax(a.c[k], b.c[k]) < fmin(c.c[k], d.c[k]) ||
+            fmax(c.c[k], d.c[k]) < fmin(a.c[k], b.c[k]))
+            return 0;
+    return 1;
+}
+
+/* 1 when loop lp[0..m) is simple: no two edges but neighbours meet. */
+static int loop_simple(const join *j, const uint32_t *lp, size_t m)
+{
+    for (size_t a = 0; a < m; a++)
+        for (size_t b = a + 2; b < m; b++)
+            if ((a > 0 || b + 1 < m) && segs_meet(upt(j, lp[a]), upt(j, lp[(a + 1) % m]),
+                                                   upt(j, lp[b]), upt(j, lp[(b + 1) % m])))
+                return 0;
+    return 1;
+}
+
+/* Loops longer than this keep their pieces (the checks are quadratic). */
+#define JOIN_MAX_LOOP 512
+
+/* The union of group gc[k0..k1)'s cells as one loop lp[0..*m), counter-
+ * clockwise: 0 when clean, 1 when not (keep the pieces), -1 no memory. */
+static int group_loop(join *j, const gcell *gc, size_t k0, size_t k1, uint32_t *lp, size_t *m)
+{
+    const rwork *w = j->w;
+    size_t n = 0, r = 0;
+    double area = 0.0, got = 0.0;
+    if (GROW(j->e, j->ce, 8 * (k1 - k0) + 1) != 0)
+        return -1;
+    for (size_t k = k0; k < k1; k++) {
+        const rad_patch *cl = &w->cell[gc[k].c];
+        const int nc = rad_patch_corners(cl);
+        if (!same_look(w->s, w->cell[gc[k0].c].polygon, cl->polygon))
+            return 1;
+        for (int a = 0; a < nc; a++)
+            j->e[n++] = (uint64_t)cl->v[a] << 32 | cl->v[(a + 1) % nc];
+        area += cell_area2d(j, cl);
+    }
+    uint64_t *E = j->e, *K = j->e + n; /* K: the edges no piece runs back */
+    qsort(E, n, sizeof *E, u64_cmp);
+    for (size_t k = 0; k < n; k++) {
+        uint64_t rev = E[k] << 32 | E[k] >> 32;
+        if (k + 1 < n && E[k + 1] == E[k])
+            return 1; /* two pieces overlap */
+        if (!bsearch(&rev, E, n, sizeof *E, u64_cmp))
+            K[r++] = E[k];
+    }
+    for (size_t k = 1; k < r; k++)
+        if (K[k] >> 32 == K[k - 1] >> 32)
+            return 1; /* the loop touches itself at a corner */
+    if (r < 3 || r > JOIN_MAX_LOOP)
+        return 1;
+    size_t cur = 0;
+    *m = 0;
+    do { /* chain from the first edge: each corner starts one edge */
+        const uint64_t to = K[cur] & 0xffffffffu;
+        size_t lo = 0, hi = r;
+        if (*m == r)
+            return 1; /* a corner two edges lead to: not one loop */
+        lp[(*m)++] = (uint32_t)(K[cur] >> 32);
+        while (lo < hi) {
+            size_t mid = lo + (hi - lo) / 2;
+            if (K[mid] >> 32 < to)
+                lo = mid + 1;
+            else
+                hi = mid;
+        }
+        if (lo == r || K[lo] >> 32 != to)
+            return 1; /* an edge that leads nowhere */
+        cur = lo;
+    } while (cur != 0);
+    if (*m != r)
+        return 1; /* more than one loop: holes, or pieces apart */
+    for (size_t k = 1; k + 1 < *m; k++)
+        got += tri2(upt(j, lp[0]), upt(j, lp[k]), upt(j, lp[k + 1]));
+    if (!(area > 0.0) || fabs(got - area) > 1e-9 * area)
+        return 1;
+    return loop_simple(j, lp, *m) ? 0 : 1;
+}
+
+/* Is p a point of a grid line between two stretches of it (a, p, b in
+ * line along x or y, a and b on either side)? */
+static int on_line_between(pt2 a, pt2 p, pt2 b, double eps)
+{
+    for (int d = 0; d < 2; d++)
+        if (fabs(a.c[d] - p.c[d]) <= eps && fabs(b.c[d] - p.c[d]) <= eps &&
+            (a.c[1 - d] - p.c[1 - d]) * (b.c[1 - d] - p.c[1 - d]) < 0.0)
+            return 1;
+    return 0;
+}
+
+/* Appends a cell on corners v[0..k) of grid cell g, else as tmpl. */
+static int join_put(join *j, const rad_patch *tmpl, uint64_t g, const uint32_t *v, int k)
+{
+    if (GROW(j->cell, j->cc, j->n + 1) != 0 || GROW(j->gi, j->cg, j->n + 1) != 0)
+        return -1;
+    rad_patch c = *tmpl;
+    for (int q = 0; q < 4; q++)
+        c.v[q] = q < k ? v[q] : RAD_NONE;
+    j->cell[j->n] = c;
+    j->gi[j->n++] = g;
+    return 0;
+}
+
+/* Is none of loop q[0..m)'s corners but a, b, c in or on triangle abc? */
+static int ear_empty(const join *j, const uint32_t *q, size_t m, size_t a, size_t b, size_t c,
+                     double tiny)
+{
+    const pt2 A = upt(j, q[a]), B = upt(j, q[b]), C = upt(j, q[c]);
+    for (size_t k = 0; k < m; k++) {
+        const pt2 p = upt(j, q[k]);
+        if (k != a && k != b && k != c && tri2(A, B, p) >= -tiny && tri2(B, C, p) >= -tiny &&
+            tri2(C, A, p) >= -tiny)
+            return 0;
+    }
+    return 1;
+}
+
+/* Simple loop q[0..m) (counter-clockwise; q is used up) into cells of
+ * grid cell g: one quad or triangle, a fan of quads (and a triangle) when
+ * convex, else ear clipped triangles.  0, 1 when it cannot, -1 no memory. */
+static int cut_loop(join *j, const rad_patch *tmpl, uint64_t g, uint32_t *q, size_t m)
+{
+    const double tiny = 1e-12 * j->w->sx * j->w->sy;
+    int convex = 1;
+    for (size_t k = 0; k < m && convex; k++)
+        convex = tri2(upt(j, q[(k + m - 1) % m]), upt(j, q[k]), upt(j, q[(k + 1) % m])) > tiny;
+    for (size_t k = 1; convex && k + 1 < m; k += 2) {
+        const uint32_t v[4] = {q[0], q[k], q[k + 1], k + 2 < m ? q[k + 2] : RAD_NONE};
+        if (join_put(j, tmpl, g, v, k + 2 < m ? 4 : 3) != 0)
+            return -1;
+    }
+    for (size_t i = 0, tries = 0; !convex && m > 3; tries++) {
+        const size_t a = (i + m - 1) % m, c = (i + 1) % m;
+        if (tries > m)
+            return 1; /* no ear: not simple after all */
+        if (tri2(upt(j, q[a]), upt(j, q[i]), upt(j, q[c])) > tiny && ear_empty(j, q, m, a, i, c, tiny)) {
+            const uint32_t v[3] = {q[a], q[i], q[c]};
+            if (join_put(j, tmpl, g, v, 3) != 0)
+                return -1;
+            memmove(q + i, q + i + 1, (m - i - 1) * sizeof *q);
+            m--, tries = 0;
+            i = i >= m ? 0 : i;
+        } else {
+            i = c;
+        }
+    }
+    if (!convex && !(tri2(upt(j, q[0]), upt(j, q[1]), upt(j, q[2])) > tiny))
+        return 1;
+    return !convex && join_put(j, tmpl, g, q, 3) != 0 ? -1 : 0;
+}
+
+/* Votes and keeps of the unique corners: a joined group's loop corner on a
+ * grid line between two stretches votes to drop, any other use keeps. */
+static void count_uses(join *j, const gcell *gc, const size_t *gb, const size_t *lb,
+                       const uint32_t *lv, const uint8_t *joined, size_t ng, uint32_t nu)
+{
+    const double eps = 1e-9 * j->w->size;
+    memset(j->vote, 0, nu), memset(j->keep, 0, nu);
+    for (size_t g = 0; g < ng; g++) {
+        const size_t m = lb[g + 1] - lb[g];
+        for (size_t k = 0; joined[g] && k < m; k++) {
+            const uint32_t *l = lv + lb[g];
+            if (on_line_between(upt(j, l[(k + m - 1) % m]), upt(j, l[k]), upt(j, l[(k + 1) % m]), eps))
+                j->vote[l[k]] += j->vote[l[k]] < 255;
+            else
+                j->keep[l[k]] = 1;
+        }
+        for (size_t k = gb[g]; !joined[g] && k < gb[g + 1]; k++) {
+            const rad_patch *cl = &j->w->cell[gc[k].c];
+            for (int a = 0; a < rad_patch_corners(cl); a++)
+                j->keep[cl->v[a]] = 1;
+        }
+    }
+}
+
+/* Group gc[k0..k1), joined along its loop l[0..m) less the corners both
+ * sides drop (q: room for m), or as its pieces.  0, 1 when the joined cells
+ * fail (none appended; *dropped whether corners were dropped), -1. */
+static int put_group(join *j, const gcell *gc, size_t k0, size_t k1, const uint32_t *l, size_t m,
+                     int joined, uint32_t *q, int *dropped)
+{
+    const size_t n0 = j->n;
+    rad_patch tmpl = j->w->cell[gc[k0].c];
+    double area = 0.0, got = 0.0;
+    size_t mq = 0;
+    for (size_t k = k0; k < k1; k++) {
+        const rad_patch *cl = &j->w->cell[gc[k].c];
+        area += cell_area2d(j, cl);
+        tmpl.polygon = cl->polygon < tmpl.polygon ? cl->polygon : tmpl.polygon;
+        if (!joined && join_put(j, cl, gc[k].g, cl->v, rad_patch_corners(cl)) != 0)
+            return -1;
+    }
+    if (!joined)
+        return 0;
+    for (size_t k = 0; k < m; k++)
+        if (j->vote[l[k]] != 2 || j->keep[l[k]])
+            q[mq++] = l[k];
+    *dropped = mq < m;
+    int rc = mq >= 3 ? cut_loop(j, &tmpl, gc[k0].g, q, mq) : 1;
+    for (size_t c = n0; rc == 0 && c < j->n; c++)
+        got += cell_area2d(j, &j->cell[c]);
+    if (rc == 0 && (j->n - n0 >= k1 - k0 || fabs(got - area) > 1e-9 * area))
+        rc = 1; /* no fewer cells, or not the pieces' area */
+    if (rc == 1)
+        j->n = n0;
+    return rc;
+}
+
+/* The pieces of each grid cell joined (see above): w->cell and w->gi
+ * replaced, in grid order, gc renumbered onto them.  0, or -1 no memory. */
+static int join_pieces(rwork *w, const uint32_t *urep, uint32_t nu, gcell *gc)
+{
+    join j = {.w = w, .urep = urep};
+    size_t ng = 0, nl = 0;
+    for (size_t k = 0; k < w->ncell; k++)
+        ng += k == 0 || gc[k].g != gc[k - 1].g;
+    size_t *gb = malloc((ng + 1) * sizeof *gb), *lb = malloc((ng + 1) * sizeof *lb);
+    uint32_t *lv = malloc((4 * w->ncell + 1) * sizeof *lv), *q = malloc((4 * w->ncell + 1) * sizeof *q);
+    uint8_t *joined = malloc(ng + 1);
+    j.vote = malloc((size_t)nu + 1), j.keep = malloc((size_t)nu + 1);
+    int rc = gb && lb && lv && q && joined && j.vote && j.keep ? 0 : -1;
+    for (size_t k = 0, g = 0; rc == 0 && k <= w->ncell; k++)
+        if (k == w->ncell || k == 0 || gc[k].g != gc[k - 1].g)
+            gb[g++] = k;
+    for (size_t g = 0; rc == 0 && g < ng; g++) {
+        size_t m = 0;
+        lb[g] = nl;
+        int got = gb[g + 1] - gb[g] >= 2 ? group_loop(&j, gc, gb[g], gb[g + 1], lv + nl, &m) : 1;
+        rc = got < 0 ? -1 : 0;
+        joined[g] = got == 0;
+        nl += got == 0 ? m : 0;
+    }
+    if (rc == 0)
+        lb[ng] = nl;
+    for (int again = rc == 0; again;) { /* a failed group with dropped corners: anew */
+        again = 0;
+        j.n = 0;
+        count_uses(&j, gc, gb, lb, lv, joined, ng, nu);
+        for (size_t g = 0; rc == 0 && g < ng; g++) {
+            int dropped = 0, r = put_group(&j, gc, gb[g], gb[g + 1], lv + lb[g], lb[g + 1] - lb[g],
+                                           joined[g], q, &dropped);
+            if (r == 1) {
+                joined[g] = 0;
+                again |= dropped;
+                r = again ? 0 : put_group(&j, gc, gb[g], gb[g + 1], NULL, 0, 0, q, &dropped);
+            }
+            rc = r < 0 ? -1 : 0;
+        }
+        again &= rc == 0;
+    }
+    if (rc == 0) {
+        free(w->cell), free(w->gi);
+        w->cell = j.cell, w->gi = j.gi, w->ccell = j.cc, w->cgi = j.cg, w->ncell = j.n;
+        j.cell = NULL, j.gi = NULL;
+        for (size_t k = 0; k < w->ncell; k++)
+            gc[k] = (gcell){w->gi[k], (uint32_t)k};
+    }
+    free(gb), free(lb), free(lv), free(q), free(joined), free(j.vote), free(j.keep), free(j.e);
+    free(j.cell), free(j.gi);
+    return rc;
+}
+
 /* Meshes one region's members into out (see the top of the file); with
  * only_split, a region of one patch is left alone (returns 1).  RAD_OK; -1
  * out of memory; -2 a cell without area; -3 too many cells. */
@@ -941,6 +1262,8 @@ static int mesh_region(rwork *w, const uint32_t *mem, uint32_t nm, int only_spli
     for (size_t k = 0; k < w->ncell; k++)
         gc[k] = (gcell){w->gi[k], (uint32_t)k};
     qsort(gc, w->ncell, sizeof *gc, gcell_cmp);
+    if (join_pieces(w, urep, nu, gc) != 0)
+        goto done;
     if (!(cd = candidates(w, gc, urep, ci, &ncand)) ||
         !(up = malloc(((size_t)ncand + 1) * sizeof *up)))
         goto done;
