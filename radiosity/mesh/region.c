@@ -15,11 +15,27 @@
  *             the short side in ceil(L / size) equal steps s, the long side
  *             in equal steps of at most min(size, 2 s); so a grid cell is at
  *             most size wide and at most twice as long as it is wide;
- *   pieces  - every polygon is clipped to every grid cell it covers; a
- *             piece becomes one quad cell or a fan of triangle cells
- *             (rad_mesh's cell layer), on vertices shared across the region
- *             (points on a shared edge are computed from the edge's ends in
- *             one order, so both sides get the same numbers);
+ *   pieces  - every polygon is clipped to every grid cell it covers, on
+ *             vertices shared across the region (points on a shared edge
+ *             are computed from the edge's ends in one order, so both
+ *             sides get the same numbers);
+ *   cells   - the pieces of one grid cell (or part) are joined, so that
+ *             the cells follow the grid, not the triangulation (a fan disk
+ *             has the cells of its polygon): the edges two pieces run both
+ *             ways cancel, the rest must chain into one simple loop of the
+ *             pieces' area; a corner on a grid line between two stretches
+ *             of it is dropped where the grid cell across the line drops
+ *             it too; the loop is one quad, a fan of quads when convex, or
+ *             ear-clipped triangles (rad_mesh's cell layer is triangles
+ *             and quads).  Where the union is not that clean (holes,
+ *             pieces apart, T-junctions inside, another area) or would
+ *             not make fewer cells, the grid cell keeps its pieces, each a
+ *             quad or a fan of triangles.  Only polygons that differ in
+ *             nothing but their outline are joined (one object and
+ *             material, as in every region, the same ρ of their own, no
+ *             base-colour texture whose coordinates each maps its own
+ *             way), so a joined cell's polygon, the lowest of its pieces',
+ *             stands for any of them;
  *   feet    - where another surface stands on the region inside its
  *             outline (a block on a floor: a polygon from in front of the
  *             plane that reaches it), the light on the region changes
@@ -902,15 +918,12 @@ static int emit(rwork *w, const gcell *gc, const uint32_t *ci, uint32_t *up, uin
 
 /* ------------------------------------------------------- joining pieces */
 
-/* The pieces of one grid cell (or part) are joined into as few cells as
- * their union allows (see the top of the file): the directed edges that
- * two pieces run both ways cancel, the rest must chain into one simple
- * loop of the pieces' area; a loop corner on a grid line between two
- * stretches of it is dropped where the grid cell on the line's other side
- * drops it too (and no kept piece uses it), so neighbours stay conforming;
- * the loop is then one quad, a fan of quads about its first corner when
- * it is convex, else ear clipped into triangles.  Anything else keeps the
- * grid cell's pieces as they are. */
+/* The pieces of one grid cell (or part) joined into as few cells as their
+ * union allows ("cells" at the top of the file).  The corner votes keep the
+ * region conforming: a corner is dropped only when the two loops it lies
+ * in, one either side of its grid line, may both drop it and no cell that
+ * stays uses it; a group whose joined cells then fail goes back to its
+ * pieces, and where it had dropped corners the votes are taken anew. */
 
 typedef struct join {
     rwork *w;
