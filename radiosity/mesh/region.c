@@ -989,7 +989,7 @@ static int loop_simple(const join *j, const uint32_t *lp, size_t m)
 }
 
 /* Loops longer than this keep their pieces (the checks are quadratic). */
-#define JOIN_MAX_LOOP 512
+#define JOIN_MAX_LOOP 256
 
 /* The union of group gc[k0..k1)'s cells as one loop lp[0..*m), counter-
  * clockwise: 0 when clean, 1 when not (keep the pieces), -1 no memory. */
