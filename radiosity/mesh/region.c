@@ -929,6 +929,7 @@ typedef struct join {
     rwork *w;
     const uint32_t *urep;
     uint8_t *vote, *keep; /* per unique corner: loops that may drop it, uses that keep it */
+    int nodrop;           /* drop no corner (the votes did not settle) */
     uint64_t *e;          /* edge scratch */
     size_t ce;
     rad_patch *cell;      /* the joined layer, grid cell by grid cell */
@@ -988,8 +989,46 @@ static int loop_simple(const join *j, const uint32_t *lp, size_t m)
     return 1;
 }
 
-/* Loops longer than this keep their pieces (the checks are quadratic). */
-#define JOIN_MAX_LOOP 256
+/* Loop q[0..m)'s shape: 2 strictly convex, 1 convex but for straight
+ * corners, 0 with a reflex corner or one where it turns back (a slit). */
+static int loop_shape(const join *j, const uint32_t *q, size_t m)
+{
+    const double tiny = 1e-12 * j->w->sx * j->w->sy;
+    int shape = 2;
+    for (size_t k = 0; k < m; k++) {
+        const pt2 a = upt(j, q[(k + m - 1) % m]), b = upt(j, q[k]), c = upt(j, q[(k + 1) % m]);
+        const double t = tri2(a, b, c);
+        const double d = (b.c[0] - a.c[0]) * (c.c[0] - b.c[0]) + (b.c[1] - a.c[1]) * (c.c[1] - b.c[1]);
+        if (t < -tiny || (t <= tiny && d <= 0.0))
+            return 0;
+        shape = t <= tiny ? 1 : shape;
+    }
+    return shape;
+}
+
+/* The loop's turning, summed over its corners: 2π for a convex one that
+ * winds once (so it is simple). */
+static double loop_turning(const join *j, const uint32_t *q, size_t m)
+{
+    double sum = 0.0;
+    for (size_t k = 0; k < m; k++) {
+        const pt2 a = upt(j, q[(k + m - 1) % m]), b = upt(j, q[k]), c = upt(j, q[(k + 1) % m]);
+        const double ux = b.c[0] - a.c[0], uy = b.c[1] - a.c[1];
+        const double vx = c.c[0] - b.c[0], vy = c.c[1] - b.c[1];
+        sum += atan2(ux * vy - uy * vx, ux * vx + uy * vy);
+    }
+    return sum;
+}
+
+/* Loops longer than JOIN_MAX_LOOP keep their pieces (a fan's centre cell
+ * has a corner per spoke crossing its sides, dropped later); one with a
+ * reflex corner is checked pair by pair (quadratic) only up to
+ * JOIN_MAX_SIMPLE corners, and ear clipped (cubic at worst) only up to
+ * JOIN_MAX_EARS; one convex but for straight corners is ear clipped
+ * (quadratic) up to JOIN_MAX_SIMPLE. */
+#define JOIN_MAX_LOOP 65536
+#define JOIN_MAX_SIMPLE 4096
+#define JOIN_MAX_EARS 256
 
 /* The union of group gc[k0..k1)'s cells as one loop lp[0..*m), counter-
  * clockwise: 0 when clean, 1 when not (keep the pieces), -1 no memory. */
@@ -1048,7 +1087,11 @@ static int group_loop(join *j, const gcell *gc, size_t k0, size_t k1, uint32_t *
         got += tri2(upt(j, lp[0]), upt(j, lp[k]), upt(j, lp[k + 1]));
     if (!(area > 0.0) || fabs(got - area) > 1e-9 * area)
         return 1;
-    return loop_simple(j, lp, *m) ? 0 : 1;
+    /* convex (straight corners allowed) and winding once, or checked pair
+     * by pair */
+    if (loop_shape(j, lp, *m) != 0)
+        return fabs(loop_turning(j, lp, *m) - 2.0 * M_PI) < 1e-6 ? 0 : 1;
+    return *m <= JOIN_MAX_SIMPLE && loop_simple(j, lp, *m) ? 0 : 1;
 }
 
 /* Is p a point of a grid line between two stretches of it (a, p, b in
@@ -1089,20 +1132,29 @@ static int ear_empty(const join *j, const uint32_t *q, size_t m, size_t a, size_
     return 1;
 }
 
+/* The cells cut_loop makes of loop q[0..m), or 0 where it would not try. */
+static size_t loop_cells(const join *j, const uint32_t *q, size_t m)
+{
+    const int shape = m >= 3 ? loop_shape(j, q, m) : -1;
+    if (shape == 2)
+        return (m - 1) / 2;
+    return (shape == 1 && m <= JOIN_MAX_SIMPLE) || (shape == 0 && m <= JOIN_MAX_EARS) ? m - 2 : 0;
+}
+
 /* Simple loop q[0..m) (counter-clockwise; q is used up) into cells of
  * grid cell g: one quad or triangle, a fan of quads (and a triangle) when
  * convex, else ear clipped triangles.  0, 1 when it cannot, -1 no memory. */
 static int cut_loop(join *j, const rad_patch *tmpl, uint64_t g, uint32_t *q, size_t m)
 {
     const double tiny = 1e-12 * j->w->sx * j->w->sy;
-    int convex = 1;
-    for (size_t k = 0; k < m && convex; k++)
-        convex = tri2(upt(j, q[(k + m - 1) % m]), upt(j, q[k]), upt(j, q[(k + 1) % m])) > tiny;
+    const int shape = loop_shape(j, q, m), convex = shape == 2;
     for (size_t k = 1; convex && k + 1 < m; k += 2) {
         const uint32_t v[4] = {q[0], q[k], q[k + 1], k + 2 < m ? q[k + 2] : RAD_NONE};
         if (join_put(j, tmpl, g, v, k + 2 < m ? 4 : 3) != 0)
             return -1;
     }
+    if (m > (shape == 0 ? JOIN_MAX_EARS : JOIN_MAX_SIMPLE) && !convex)
+        return 1;
     for (size_t i = 0, tries = 0; !convex && m > 3; tries++) {
         const size_t a = (i + m - 1) % m, c = (i + 1) % m;
         if (tries > m)
@@ -1134,7 +1186,8 @@ static void count_uses(join *j, const gcell *gc, const size_t *gb, const size_t 
         const size_t m = lb[g + 1] - lb[g];
         for (size_t k = 0; joined[g] && k < m; k++) {
             const uint32_t *l = lv + lb[g];
-            if (on_line_between(upt(j, l[(k + m - 1) % m]), upt(j, l[k]), upt(j, l[(k + 1) % m]), eps))
+            if (!j->nodrop &&
+                on_line_between(upt(j, l[(k + m - 1) % m]), upt(j, l[k]), upt(j, l[(k + 1) % m]), eps))
                 j->vote[l[k]] += j->vote[l[k]] < 255;
             else
                 j->keep[l[k]] = 1;
@@ -1143,6 +1196,40 @@ static void count_uses(join *j, const gcell *gc, const size_t *gb, const size_t 
             const rad_patch *cl = &j->w->cell[gc[k].c];
             for (int a = 0; a < rad_patch_corners(cl); a++)
                 j->keep[cl->v[a]] = 1;
+        }
+    }
+}
+
+/* Loop l[0..m) less the corners both sides drop, into q; how many left. */
+static size_t reduce_loop(const join *j, const uint32_t *l, size_t m, uint32_t *q)
+{
+    size_t mq = 0;
+    for (size_t k = 0; k < m; k++)
+        if (j->vote[l[k]] != 2 || j->keep[l[k]])
+            q[mq++] = l[k];
+    return mq;
+}
+
+/* Votes taken anew at most this often before no corner is dropped. */
+#define JOIN_ROUNDS 64
+
+/* Groups whose loop, less the corners both sides drop, would not make
+ * fewer cells than their pieces go back to their pieces, until none does
+ * (one that had dropped corners changes its neighbours' votes). */
+static void settle(join *j, const gcell *gc, const size_t *gb, const size_t *lb,
+                   const uint32_t *lv, uint8_t *joined, size_t ng, uint32_t nu, uint32_t *q)
+{
+    for (int changed = 1, round = 0; changed; round++) {
+        changed = 0;
+        j->nodrop |= round >= JOIN_ROUNDS;
+        count_uses(j, gc, gb, lb, lv, joined, ng, nu);
+        for (size_t g = 0; g < ng; g++) {
+            const size_t m = lb[g + 1] - lb[g], mq = joined[g] ? reduce_loop(j, lv + lb[g], m, q) : 0;
+            const size_t n = joined[g] ? loop_cells(j, q, mq) : 0;
+            if (joined[g] && (n == 0 || n >= gb[g + 1] - gb[g])) {
+                joined[g] = 0;
+                changed |= mq < m;
+            }
         }
     }
 }
@@ -1166,9 +1253,7 @@ static int put_group(join *j, const gcell *gc, size_t k0, size_t k1, const uint3
     }
     if (!joined)
         return 0;
-    for (size_t k = 0; k < m; k++)
-        if (j->vote[l[k]] != 2 || j->keep[l[k]])
-            q[mq++] = l[k];
+    mq = reduce_loop(j, l, m, q);
     *dropped = mq < m;
     int rc = mq >= 3 ? cut_loop(j, &tmpl, gc[k0].g, q, mq) : 1;
     for (size_t c = n0; rc == 0 && c < j->n; c++)
@@ -1206,9 +1291,12 @@ static int join_pieces(rwork *w, const uint32_t *urep, uint32_t nu, gcell *gc)
     }
     if (rc == 0)
         lb[ng] = nl;
-    for (int again = rc == 0; again;) { /* a failed group with dropped corners: anew */
+    if (rc == 0)
+        settle(&j, gc, gb, lb, lv, joined, ng, nu, q);
+    for (int again = rc == 0, round = 0; again; round++) { /* a failed group with dropped corners */
         again = 0;
         j.n = 0;
+        j.nodrop |= round >= JOIN_ROUNDS;
         count_uses(&j, gc, gb, lb, lv, joined, ng, nu);
         for (size_t g = 0; rc == 0 && g < ng; g++) {
             int dropped = 0, r = put_group(&j, gc, gb[g], gb[g + 1], lv + lb[g], lb[g + 1] - lb[g],
