@@ -46,6 +46,7 @@ int mesh_weld(const rad_scene *s, double eps, uint32_t *id, uint32_t *first, uin
  * MESH_PART_GRID × the patch size whose normals lie within 30°
  * (docs/surfaces.md). */
 #define MESH_PART_SMALL 0.1
+#define MESH_PART_FIT 1.0
 #define MESH_PART_GRID 2.0
 
 typedef struct mesh_parts {
