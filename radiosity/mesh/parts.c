@@ -3,11 +3,24 @@
  * A part is a connected set of polygons of one object: polygons that share
  * a welded point (weld.c).  A baluster, a screw or a fillet is a part much
  * smaller than a patch; meshed on its own, each of its faces would be a
- * patch with a hemi-cube row and a row of N² memory of its own.  A part is
- * small when its bounding box's diagonal is under MESH_PART_SMALL × the
- * patch size and each of its polygons would be one cell (so it has at most
- * four corners, does not transmit and has no subdivision of its own), and
- * no other polygon shares a point with it.
+ * patch with a hemi-cube row and a row of N² memory of its own (a baluster
+ * several: its long narrow faces are cut for shape).  A part is small when
+ * each of its polygons would be one cell (so it has at most four corners,
+ * does not transmit and has no subdivision of its own), no other polygon
+ * shares a point with it, and it is small in one of two ways:
+ *   - its bounding box's diagonal is under MESH_PART_SMALL (0.1) × the
+ *     patch size (a screw), or
+ *   - it is thin: measured along its own principal axes (the eigenvectors
+ *     of its surface's area-weighted covariance, so the rule does not
+ *     depend on how the part is turned), its box's diagonal is at most
+ *     MESH_PART_FIT (1) × the patch size, so that it fits within a patch,
+ *     and the box's second-largest extent is under MESH_PART_SMALL × the
+ *     size: under 0.1 × the size across, up to a patch long (a baluster, a
+ *     rail, a cable).
+ * The first is a case of the second, kept apart only against rounding.
+ * Longer than a patch, a thin part is meshed as before: its light changes
+ * along it as a patch's would, and one shared row taken at one point of
+ * it would miss that.
  *
  * The polygons of the small parts of one object and material whose parts'
  * centres lie in one cube of a grid over the scene's bounds, of side
