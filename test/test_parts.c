@@ -456,7 +456,7 @@ static uint32_t object_patches(const rad_mesh *m, uint32_t o)
 
 /* The rule's frame (mesh only, at the same patch size 0.5): ten sticks
  * 2 cm × 2 cm × 0.3 m along (1, 2, 3) / √14, their centres in one grid
- * cube, are thin parts (their axis-aligned boxes are 0.09 × 0.17 × 0.25 m:
+ * cube, are thin parts (their axis-aligned boxes are 0.10 × 0.18 × 0.26 m:
  * it is their principal axes that find them thin): one shared patch per
  * side, 6 (measured 6).  Ten upright sticks 6 cm across (over 0.1 × the
  * size) and ten 2 cm × 2 cm × 0.8 m (longer than a patch, each side in two

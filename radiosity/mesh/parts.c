@@ -219,10 +219,12 @@ static void part_shapes(const rad_scene *s, uint32_t *up, const uint8_t *small,
     const uint32_t np = s->polygon_count;
     memset(sh, 0, (size_t)np * sizeof *sh);
     for (uint32_t i = 0; i < np; i++) {
-        const uint32_t r = small[i] ? mesh_uf_find(up, i) : i;
+        if (!small[i])
+            continue;
+        const uint32_t r = mesh_uf_find(up, i);
         const rad_polygon *pg = &s->polygons[i];
         const rad_vec3 *p = s->points + pg->first_point, o = rad_scale(rad_add(lo[r], hi[r]), 0.5);
-        for (uint32_t k = 0; small[i] && k + 2 < pg->point_count; k++)
+        for (uint32_t k = 0; k + 2 < pg->point_count; k++)
             add_triangle(&sh[r], o, p, k,
                          0.5 * rad_dot(rad_cross(rad_sub(p[k + 1], p[0]), rad_sub(p[k + 2], p[0])),
                                        pg->normal));
@@ -231,10 +233,12 @@ static void part_shapes(const rad_scene *s, uint32_t *up, const uint8_t *small,
         if (small[i] && mesh_uf_find(up, i) == i)
             principal_axes(&sh[i]);
     for (uint32_t i = 0; i < np; i++) {
-        const uint32_t r = small[i] ? mesh_uf_find(up, i) : i;
+        if (!small[i])
+            continue;
+        const uint32_t r = mesh_uf_find(up, i);
         const rad_polygon *pg = &s->polygons[i];
         const rad_vec3 o = rad_scale(rad_add(lo[r], hi[r]), 0.5);
-        for (uint32_t k = 0; small[i] && k < pg->point_count; k++)
+        for (uint32_t k = 0; k < pg->point_count; k++)
             for (int j = 0; j < 3; j++) {
                 const double t = rad_dot(rad_sub(s->points[pg->first_point + k], o), sh[r].axis[j]);
                 sh[r].lo[j] = fmin(sh[r].lo[j], t);
