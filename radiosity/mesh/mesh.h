@@ -22,7 +22,8 @@
  * are meshed as one planar region on a grid of the patch size (region.c);
  * narrow regions of a curved surface are meshed across their facets
  * (smooth.c).  Small parts (a connected set of polygons of one object
- * under 0.1 × the patch size across: parts.c) are taken out first: the
+ * under 0.1 × the patch size every way, or that thin across and at most a
+ * patch long, a baluster: parts.c) are taken out first: the
  * faces of the small parts of one object and material in one cube of a
  * grid of 2 × the patch size, normals within 30°, are the cells of one
  * shared patch, each cell on vertices of its own; each part shows its own

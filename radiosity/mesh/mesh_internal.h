@@ -40,12 +40,16 @@ uint32_t mesh_uf_find(uint32_t *up, uint32_t x);
 int mesh_weld(const rad_scene *s, double eps, uint32_t *id, uint32_t *first, uint32_t *count);
 
 /* Small parts (parts.c): a part (polygons of one object sharing welded
- * points) whose bounding box's diagonal is under this × the patch size,
+ * points) whose bounding box's diagonal is under MESH_PART_SMALL × the
+ * patch size, or, along its principal axes, whose box's diagonal is at
+ * most MESH_PART_FIT × the size and second-largest extent under
+ * MESH_PART_SMALL × the size (thin: a baluster),
  * each polygon one cell, touching no other polygon, shares a patch with
  * the small parts of its object and material in its cube of a grid of
  * MESH_PART_GRID × the patch size whose normals lie within 30°
  * (docs/surfaces.md). */
 #define MESH_PART_SMALL 0.1
+#define MESH_PART_FIT 1.0
 #define MESH_PART_GRID 2.0
 
 typedef struct mesh_parts {
