@@ -356,9 +356,6 @@ static void plan_free(plan *pl)
     mesh_parts_free(&pl->pt);
 }
 
-/* Weld points within 1e-6 of the scene's diagonal. */
-#define MESH_WELD 1e-6
-
 static int distinct_points(const plan *pl, const rad_polygon *pg)
 {
     for (uint32_t a = 0; a < pg->point_count; a++)

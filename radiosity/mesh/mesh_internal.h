@@ -34,6 +34,10 @@ void mesh_clusters_free(mesh_clusters *c);
 /* The root of x in the union-find forest up (cluster.c), halving paths. */
 uint32_t mesh_uf_find(uint32_t *up, uint32_t x);
 
+/* Points within this share of the scene's diagonal are one (mesh.c's
+ * weld; region.c's T-junctions). */
+#define MESH_WELD 1e-6
+
 /* Weld (weld.c): id[k] for each of the scene's points, equal for points
  * within eps of the first point of that id (first[id]); *count ids.  Both
  * arrays hold point_count entries.  0, or -1 out of memory. */
