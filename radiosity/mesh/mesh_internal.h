@@ -38,6 +38,14 @@ uint32_t mesh_uf_find(uint32_t *up, uint32_t x);
  * weld; region.c's T-junctions). */
 #define MESH_WELD 1e-6
 
+/* The 30° of RAD_MESH_SURFACE_COS for facets of one curved surface
+ * (region.c, smooth.c), widened by 1e-3 in the cosine (0.11°): facets
+ * exactly 30° apart (a 12-sided cylinder's, every other one of 24) are
+ * then one surface whatever the rounding of their normals, which an
+ * export's slivers on float coordinates move by up to 1e-4 rad (7.5e-5
+ * measured on bench_atrium's split hall). */
+#define MESH_FACET_COS (RAD_MESH_SURFACE_COS - 1e-3)
+
 /* Weld (weld.c): id[k] for each of the scene's points, equal for points
  * within eps of the first point of that id (first[id]); *count ids.  Both
  * arrays hold point_count entries.  0, or -1 out of memory. */

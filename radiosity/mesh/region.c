@@ -1097,7 +1097,7 @@ static int curved_surfaces(rwork *w, const uint32_t *first, const uint32_t *mem,
                 }
                 const rad_polygon *ol = &s->polygons[mem[first[o]]];
                 if (o != r && ol->object == lead->object && ol->material == lead->material &&
-                    rad_dot(ol->normal, lead->normal) >= RAD_MESH_SURFACE_COS) {
+                    rad_dot(ol->normal, lead->normal) >= MESH_FACET_COS) {
                     uint32_t a = mesh_uf_find(surf, o), b = mesh_uf_find(surf, r);
                     surf[a > b ? a : b] = a > b ? b : a;
                 }
