@@ -7,7 +7,9 @@
  * caps meshes to about area / size² patches across its facets (smooth.c)
  * and keeps a furnace's B = E / (1 - ρ); a floor, a column and a leg
  * make as many patches with every triangle re-cut in four as an exporter
- * does (tools/scene_gltf.c's gs_split4, bench_atrium's split hall).
+ * does (tools/scene_gltf.c's gs_split4, bench_atrium's split hall); a
+ * mesh past max_patches is refused without cutting the regions after the
+ * one that passed it.
  * Scenes are written by the test (the disks by tools/disks.c).
  * Cost: about 5 s (release) on the 2-core machine under a load of 10. */
 #include "../radiosity/mesh/mesh_internal.h"
@@ -579,6 +581,70 @@ TEST(split_in_four)
     CHECK(system(cmd) == 0);
 }
 
+/* A floor of two triangles 10 × 10 with `fences` thin walls 5 cm high
+ * standing across it: every grid cell of the floor is a foot, cut in four,
+ * so the floor makes about 2.8 × its area / size² (the estimate before
+ * cutting lets it through). */
+static rad_scene *fenced_floor(int fences)
+{
+    text t = {0};
+    tx_add(&t, "bands 1\nmaterial white reflectance 0.5\nmaterial lamp reflectance 0 emission 10\n"
+               "group floor\n polygon a white 0 0 0  0 0 10  10 0 10 end\n"
+               " polygon b white 0 0 0  10 0 10  10 0 0 end\nend\n"
+               "polygon lamp lamp 4 3 4  6 3 4  6 3 6  4 3 6 end\n");
+    for (int k = 0; k < fences; k++) {
+        double z = 0.05 + 9.9 * (k + 0.5) / fences;
+        tx_add(&t, "polygon f%d white 0.1 0 %.6f  9.9 0 %.6f  9.9 0.05 %.6f  0.1 0.05 %.6f end\n", k,
+               z, z, z, z);
+    }
+    rad_scene *s = NULL;
+    rad_error err = {0};
+    rad_load_options lo = {0};
+    CHECK_MSG(rad_scene_parse_polyfile(t.s, strlen(t.s), "fences.rad", &lo, &s, &err) == RAD_OK,
+              "%s", err.message);
+    free(t.s);
+    return s;
+}
+
+/* Past max_patches the mesher stops cutting: the regions after the one
+ * that passed the limit are not cut (the count is then more than the
+ * limit, not exact) and the build is refused with the usual message; at
+ * the exact count the same scene is built. */
+TEST(refused_past_the_limit)
+{
+    rad_scene *s = fenced_floor(35);
+    if (!s)
+        return;
+    rad_mesh_options all = {.patch_size = 0.169, .max_patches = 1000000};
+    const uint64_t n = rad_mesh_count(s, &all);
+    rad_mesh_options cap = {.patch_size = 0.169, .max_patches = 5000};
+    const uint64_t stopped = rad_mesh_count(s, &cap);
+    printf("  fenced floor: %llu patches; counting stops at %llu past a limit of 5000\n",
+           (unsigned long long)n, (unsigned long long)stopped);
+    /* measured: 12,074 patches, counting stopped at the floor's 9,900 (its
+     * area / size² = 3,501: the estimate before cutting let it through);
+     * main counted all 12,074 */
+    CHECK(n > 5000 && stopped > 5000 && stopped < n);
+    rad_mesh *m = NULL;
+    rad_error err = {0};
+    CHECK(rad_mesh_build(s, &cap, &m, &err) == RAD_ERR_LIMIT && m == NULL);
+    const char *adv = strstr(err.message, "exceed the limit of 5000; use --patch-size ");
+    CHECK_MSG(strstr(err.message, "fences.rad: mesh: ") == err.message && adv, "%s", err.message);
+    rad_mesh_options fit = cap;
+    fit.patch_size = adv ? strtod(adv + strlen("exceed the limit of 5000; use --patch-size "), NULL)
+                         : 0.0;
+    CHECK(fit.patch_size > cap.patch_size && rad_mesh_count(s, &fit) <= 5000);
+    /* under the limit (or at it) nothing is refused; one below, it is */
+    cap.max_patches = (uint32_t)n;
+    CHECK_MSG(rad_mesh_build(s, &cap, &m, &err) == RAD_OK && m && m->patch_count == n, "%s",
+              err.message);
+    rad_mesh_destroy(m);
+    m = NULL;
+    cap.max_patches = (uint32_t)n - 1;
+    CHECK(rad_mesh_build(s, &cap, &m, &err) == RAD_ERR_LIMIT && m == NULL);
+    rad_scene_destroy(s);
+}
+
 /* A patch size far too small is refused at once, not tried (the regions
  * are counted by area before they are cut), and the size it advises fits. */
 TEST(far_too_small_size)
@@ -610,6 +676,7 @@ TEST(far_too_small_size)
 int main(void)
 {
     RUN(far_too_small_size);
+    RUN(refused_past_the_limit);
     RUN(curved_furnace);
     RUN(bent_patch_rows);
     RUN(faceted_cylinder);

@@ -111,7 +111,9 @@ typedef struct mesh_regions {
  * size `size` (pos/first/npos from mesh_weld), stopping with
  * out->overflow set once the patches (estimated from the area before a
  * region is cut) pass 1.5 × max_patches or the cells 16 × max_patches +
- * 10^6: a patch size far too small must be refused, not tried.  *out zeroed first; free
+ * 10^6, or the regions cut so far made more than max_patches (out->estimate
+ * then their count): a patch size far too small must be refused, not
+ * tried, and a mesh past the limit is not cut further.  *out zeroed first; free
  * with mesh_regions_free.  RAD_OK (out->overflow set when too large),
  * RAD_ERR_NOMEM, RAD_ERR_INVALID (a cell without area). */
 int mesh_regions_build(const rad_scene *s, const uint32_t *pos, const uint32_t *first,

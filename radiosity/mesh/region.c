@@ -1180,6 +1180,12 @@ static int take_regions(rwork *w, const uint8_t *mode, uint32_t nreg, mesh_regio
             keep[r] = MESH_REGION_ESTIMATED;
             continue;
         }
+        if (rc == 0 && !out->estimate_only && out->patches > out->patch_limit) {
+            /* past the limit already: the mesh is refused, whatever the
+             * other regions, clusters and polygons add (never fewer) */
+            out->estimate = out->patches;
+            rc = -3;
+        }
         if (rc != 0)
             break;
         keep[r] = out->count;
