@@ -111,6 +111,11 @@ static size_t table_size(size_t n)
  * land in two regions' frames, differ by about that; numbered apart they
  * make inner edges look like outline. */
 #define HC_DRAW_MERGE 1e-7
+/* A T-junction's vertex lies on the edge it splits within this share of
+ * the cells' diagonal (the mesher's weld, mesh_internal.h's MESH_WELD):
+ * an export's float midpoints far from the origin are a few ulps off the
+ * line, more than a share of a small patch's size allows. */
+#define HC_DRAW_TJUNCTION 1e-6
 
 typedef struct vgrid {
     double eps;
@@ -330,6 +335,7 @@ static int split_edges(dg *d)
     etab t;
     uint32_t *bfirst = NULL, *bfrom = NULL, X[64];
     size_t cap = (size_t)e->ncell * 4 + 1, n = 0;
+    const double tj = HC_DRAW_TJUNCTION * corner_diagonal(e);
     int rc = etab_init(&t, cap);
     d->cef = malloc(((size_t)e->ncell + 1) * sizeof *d->cef);
     d->cea = malloc(cap * sizeof *d->cea), d->ceb = malloc(cap * sizeof *d->ceb);
@@ -351,7 +357,7 @@ static int split_edges(dg *d)
             for (int k = 0; k < m && !rc; k++) {
                 uint32_t nx = t.val[etab_find(&t, b[k], a[k])] != RAD_NONE ? 0
                               : t_chain(d, &t, bfirst, bfrom, a[k], b[k],
-                                        1e-4 * patch_tol(d, j), X, 64);
+                                        fmax(1e-4 * patch_tol(d, j), tj), X, 64);
                 if (n + nx + 1 > cap && grow_edges(d, &cap, n + nx + 1) != 0) {
                     rc = -1;
                     break;

@@ -5,12 +5,17 @@
  * one polygon, as welded, unwelded and T-junctioned triangles makes as
  * many patches and the same light; a cylinder of narrow facets with fanned
  * caps meshes to about area / size² patches across its facets (smooth.c)
- * and keeps a furnace's B = E / (1 - ρ).  Scenes are written by the test
- * (the disks by tools/disks.c).
+ * and keeps a furnace's B = E / (1 - ρ); a floor, a column and a leg
+ * make as many patches with every triangle re-cut in four as an exporter
+ * does (tools/scene_gltf.c's gs_split4, bench_atrium's split hall); a
+ * mesh past max_patches is refused without cutting the regions after the
+ * one that passed it.
+ * Scenes are written by the test (the disks by tools/disks.c).
  * Cost: about 5 s (release) on the 2-core machine under a load of 10. */
 #include "../radiosity/mesh/mesh_internal.h"
 #include "../radiosity/pipeline/pipeline.h"
 #include "../tools/disks.h"
+#include "../tools/scene_gltf.h"
 #include "test.h"
 #include "util.h"
 
@@ -581,6 +586,187 @@ TEST(bent_patch_rows)
     rad_scene_destroy(s);
 }
 
+/* ------------------------------------------------- an export split in four */
+
+/* The rectangle p0 + s·U + t·V (s, t in [0, 1]) as nu × nv cells of two
+ * triangles facing `facing`, inner points moved by up to a fifth of a cell
+ * within the plane when jit is set (a remesher's output, as tools/hall.c). */
+static void split_rect(gs_scene *h, obj *o, v3 p0, v3 U, v3 V, uint32_t nu, uint32_t nv, int jit,
+                       v3 facing)
+{
+    const uint32_t base = o->nv;
+    for (uint32_t j = 0; j <= nv; j++)
+        for (uint32_t i = 0; i <= nu; i++) {
+            double s = (double)i / nu, t = (double)j / nv;
+            if (jit && i > 0 && i < nu && j > 0 && j < nv) {
+                s += 0.2 * gs_jitter(h) / nu;
+                t += 0.2 * gs_jitter(h) / nv;
+            }
+            gs_vert(o, add(p0, add(scl(U, s), scl(V, t))));
+        }
+    for (uint32_t j = 0; j < nv; j++)
+        for (uint32_t i = 0; i < nu; i++) {
+            uint32_t a = base + j * (nu + 1) + i, b = a + 1, c = b + nu + 1, d = a + nu + 1;
+            gs_tri(o, a, b, c, facing);
+            gs_tri(o, a, c, d, facing);
+        }
+}
+
+/* A floor 4 × 3 m far from the origin (float coordinates a few ulps off
+ * the lines they were cut on), a column of 24 narrow facets standing on it
+ * and a leg 0.06 × 0.42 × 0.3 m of small faces (tools/hall.c's kinds). */
+static int split_scene(gs_scene *h, double fine)
+{
+    (void)fine;
+    obj *o = gs_new_obj(h, "floor", 0);
+    if (!o)
+        return -1;
+    split_rect(h, o, mk(20, 0, 10), mk(4, 0, 0), mk(0, 0, 3), 17, 13, 1, mk(0, 1, 0));
+    if (!(o = gs_new_obj(h, "column", 0)))
+        return -1;
+    const uint32_t sides = 24, rings = 16, base = o->nv;
+    for (uint32_t j = 0; j <= rings; j++)
+        for (uint32_t i = 0; i < sides; i++) {
+            double a = 2 * M_PI * i / sides;
+            gs_vert(o, mk(22.5 + 0.3 * cos(a), 3.0 * j / rings, 11.5 + 0.3 * sin(a)));
+        }
+    for (uint32_t j = 0; j < rings; j++)
+        for (uint32_t i = 0; i < sides; i++) {
+            uint32_t a = base + j * sides + i, b = base + j * sides + (i + 1) % sides;
+            v3 out = mk(cos(2 * M_PI * (i + 0.5) / sides), 0, sin(2 * M_PI * (i + 0.5) / sides));
+            gs_tri(o, a, b, b + sides, out);
+            gs_tri(o, a, b + sides, a + sides, out);
+        }
+    if (!(o = gs_new_obj(h, "leg", 0)))
+        return -1;
+    const v3 lo = mk(21, 0, 10.5), X = mk(0.06, 0, 0), Y = mk(0, 0.42, 0), Z = mk(0, 0, 0.3);
+    split_rect(h, o, add(lo, Y), X, Z, 1, 2, 0, mk(0, 1, 0));
+    split_rect(h, o, lo, X, Y, 1, 3, 0, mk(0, 0, -1));
+    split_rect(h, o, add(lo, Z), X, Y, 1, 3, 0, mk(0, 0, 1));
+    split_rect(h, o, lo, Z, Y, 2, 3, 0, mk(-1, 0, 0));
+    split_rect(h, o, add(lo, X), Z, Y, 2, 3, 0, mk(1, 0, 0));
+    return gs_failed(h) ? -1 : 0;
+}
+
+static int split_scene_in_four(gs_scene *h, double fine)
+{
+    if (split_scene(h, fine) != 0)
+        return -1;
+    for (uint32_t k = 0; k < h->n; k++)
+        gs_split4(&h->o[k]);
+    return gs_failed(h) ? -1 : 0;
+}
+
+/* The scene, and each of its triangles re-cut in four as tools/hall.c's
+ * split hall is (gs_split4: fans onto an edge cut in four, midpoint splits,
+ * unwelded midpoint splits), mesh to as many patches: the T-junctions and
+ * the float points a few ulps off the edges they split neither turn a
+ * region's grid nor part a small face's clusters. */
+TEST(split_in_four)
+{
+    static const gs_material white[1] = {{"white", {0.5, 0.5, 0.5}}};
+    char dir[] = "/tmp/test_regions.XXXXXX";
+    CHECK(mkdtemp(dir) != NULL);
+    uint64_t n[2][4] = {{0}};
+    for (int k = 0; k < 2; k++) {
+        gs_scene h = {.seed = 7, .materials = white, .material_count = 1,
+                      .sun = mk(0.3, -1.0, 0.2), .generator = "test_regions"};
+        char path[64];
+        CHECK(gs_make(&h, k ? split_scene_in_four : split_scene, 1.0, dir, k ? "four" : "one") == 0);
+        gs_free(&h);
+        snprintf(path, sizeof path, "%s/%s.gltf", dir, k ? "four" : "one");
+        rad_scene *s = NULL;
+        rad_error err = {0};
+        CHECK_MSG(rad_scene_load(path, NULL, &s, &err) == RAD_OK, "%s", err.message);
+        rad_mesh_options opt = {.patch_size = 0.5};
+        rad_mesh *m = NULL;
+        CHECK_MSG(s && rad_mesh_build(s, &opt, &m, &err) == RAD_OK, "%s", err.message);
+        for (uint32_t i = 0; m && i < m->patch_count; i++)
+            n[k][m->patches[i].object < 3 ? m->patches[i].object : 3]++;
+        n[k][3] = m ? m->patch_count : 0;
+        printf("  %s: %u polygons, %llu patches (floor %llu, column %llu, leg %llu)\n",
+               k ? "split in four" : "original", s ? s->polygon_count : 0,
+               (unsigned long long)n[k][3], (unsigned long long)n[k][0],
+               (unsigned long long)n[k][1], (unsigned long long)n[k][2]);
+        rad_mesh_destroy(m);
+        rad_scene_destroy(s);
+    }
+    /* measured: 127 patches both ways (floor 66, column 48, leg 13); on
+     * main before issue 36's fourth session 315 split in four (floor 72,
+     * column 224: grids turned by inner edges taken for outline; leg 19:
+     * clusters parted at T-junctions) */
+    CHECK_MSG(n[0][3] > 0 && fabs((double)n[1][3] / (double)n[0][3] - 1.0) <= 0.05,
+              "%llu patches split in four against %llu", (unsigned long long)n[1][3],
+              (unsigned long long)n[0][3]);
+    char cmd[128];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    CHECK(system(cmd) == 0);
+}
+
+/* A floor of two triangles 10 × 10 with `fences` thin walls 5 cm high
+ * standing across it: every grid cell of the floor is a foot, cut in four,
+ * so the floor makes about 2.8 × its area / size² (the estimate before
+ * cutting lets it through). */
+static rad_scene *fenced_floor(int fences)
+{
+    text t = {0};
+    tx_add(&t, "bands 1\nmaterial white reflectance 0.5\nmaterial lamp reflectance 0 emission 10\n"
+               "group floor\n polygon a white 0 0 0  0 0 10  10 0 10 end\n"
+               " polygon b white 0 0 0  10 0 10  10 0 0 end\nend\n"
+               "polygon lamp lamp 4 3 4  6 3 4  6 3 6  4 3 6 end\n");
+    for (int k = 0; k < fences; k++) {
+        double z = 0.05 + 9.9 * (k + 0.5) / fences;
+        tx_add(&t, "polygon f%d white 0.1 0 %.6f  9.9 0 %.6f  9.9 0.05 %.6f  0.1 0.05 %.6f end\n", k,
+               z, z, z, z);
+    }
+    rad_scene *s = NULL;
+    rad_error err = {0};
+    rad_load_options lo = {0};
+    CHECK_MSG(rad_scene_parse_polyfile(t.s, strlen(t.s), "fences.rad", &lo, &s, &err) == RAD_OK,
+              "%s", err.message);
+    free(t.s);
+    return s;
+}
+
+/* Past max_patches the mesher stops cutting: the regions after the one
+ * that passed the limit are not cut (the count is then more than the
+ * limit, not exact) and the build is refused with the usual message; at
+ * the exact count the same scene is built. */
+TEST(refused_past_the_limit)
+{
+    rad_scene *s = fenced_floor(35);
+    if (!s)
+        return;
+    rad_mesh_options all = {.patch_size = 0.169, .max_patches = 1000000};
+    const uint64_t n = rad_mesh_count(s, &all);
+    rad_mesh_options cap = {.patch_size = 0.169, .max_patches = 5000};
+    const uint64_t stopped = rad_mesh_count(s, &cap);
+    printf("  fenced floor: %llu patches; counting stops at %llu past a limit of 5000\n",
+           (unsigned long long)n, (unsigned long long)stopped);
+    /* measured: 12,074 patches, counting stopped at the floor's 9,900 (its
+     * area / size² = 3,501: the estimate before cutting let it through);
+     * main counted all 12,074 */
+    CHECK(n > 5000 && stopped > 5000 && stopped < n);
+    rad_mesh *m = NULL;
+    rad_error err = {0};
+    CHECK(rad_mesh_build(s, &cap, &m, &err) == RAD_ERR_LIMIT && m == NULL);
+    const char *adv = strstr(err.message, "exceed the limit of 5000; use --patch-size ");
+    CHECK_MSG(strstr(err.message, "fences.rad: mesh: ") == err.message && adv, "%s", err.message);
+    rad_mesh_options fit = cap;
+    fit.patch_size = adv ? strtod(adv + strlen("exceed the limit of 5000; use --patch-size "), NULL)
+                         : 0.0;
+    CHECK(fit.patch_size > cap.patch_size && rad_mesh_count(s, &fit) <= 5000);
+    /* under the limit (or at it) nothing is refused; one below, it is */
+    cap.max_patches = (uint32_t)n;
+    CHECK_MSG(rad_mesh_build(s, &cap, &m, &err) == RAD_OK && m && m->patch_count == n, "%s",
+              err.message);
+    rad_mesh_destroy(m);
+    m = NULL;
+    cap.max_patches = (uint32_t)n - 1;
+    CHECK(rad_mesh_build(s, &cap, &m, &err) == RAD_ERR_LIMIT && m == NULL);
+    rad_scene_destroy(s);
+}
+
 /* A patch size far too small is refused at once, not tried (the regions
  * are counted by area before they are cut), and the size it advises fits. */
 TEST(far_too_small_size)
@@ -612,6 +798,7 @@ TEST(far_too_small_size)
 int main(void)
 {
     RUN(far_too_small_size);
+    RUN(refused_past_the_limit);
     RUN(curved_furnace);
     RUN(bent_patch_rows);
     RUN(faceted_cylinder);
@@ -619,5 +806,6 @@ int main(void)
     RUN(joined_cells_conform);
     RUN(disk_pair_polygons);
     RUN(disk_pair_fans);
+    RUN(split_in_four);
     return test_finish("test_regions");
 }

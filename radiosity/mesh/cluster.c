@@ -136,6 +136,7 @@ typedef struct work {
     uint32_t ncl;
     double size;
     rad_vec3 lo;
+    double weld;       /* points this close are one (MESH_WELD of the diagonal) */
 } work;
 
 static int compatible(const rad_scene *s, uint32_t p, uint32_t q)
@@ -154,6 +155,74 @@ static int same_key(const void *ctx, uint32_t id)
 {
     const key_ctx *c = ctx;
     return c->keys[id] == c->key;
+}
+
+/* Point `end` (0 its start, 1 its end) of edge e. */
+static rad_vec3 edge_point(const rad_scene *s, const edge *e, int end)
+{
+    const rad_polygon *pg = &s->polygons[e->polygon];
+    return s->points[pg->first_point + (e->side + (uint32_t)end) % pg->point_count];
+}
+
+/* The first of E[0..ne) (sorted by key) whose key's high half is id. */
+static size_t first_from(const edge *E, size_t ne, uint64_t id)
+{
+    size_t lo = 0, hi = ne;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (E[mid].key >> 32 < id)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
+/* For an edge a -> b that no compatible polygon runs back: the lowest
+ * compatible polygon whose edge runs back over part of it from one of its
+ * ends (b -> y or x -> a, the other end on the line within the weld
+ * distance): a T-junction, an exporter's split triangle against its
+ * neighbour's whole edge.  from: E keyed by start, to: keyed by end. */
+static uint32_t t_neighbour(const work *w, const edge *from, const edge *to, size_t ne,
+                            const edge *e)
+{
+    const rad_vec3 pa = edge_point(w->s, e, 0), ab = rad_sub(edge_point(w->s, e, 1), pa);
+    const double l2 = rad_dot(ab, ab);
+    const uint64_t a = e->key >> 32, b = e->key & 0xffffffffu;
+    uint32_t best = RAD_NONE;
+    for (int side = 0; side < 2 && l2 > 0.0; side++) {
+        const edge *E = side ? to : from; /* b -> y, then x -> a */
+        const uint64_t id = side ? a : b;
+        for (size_t q = first_from(E, ne, id); q < ne && E[q].key >> 32 == id; q++) {
+            rad_vec3 ap = rad_sub(edge_point(w->s, &E[q], side ? 0 : 1), pa);
+            double u = rad_dot(ap, ab) / l2;
+            rad_vec3 off = rad_sub(ap, rad_scale(ab, u));
+            if ((side ? u > 0.0 : u < 1.0) && rad_dot(off, off) <= w->weld * w->weld &&
+                E[q].polygon < best && compatible(w->s, e->polygon, E[q].polygon))
+                best = E[q].polygon;
+        }
+    }
+    return best;
+}
+
+/* The T-junction neighbours (t_neighbour) across edges still without one. */
+static int t_neighbours(work *w, const edge *E, size_t ne)
+{
+    edge *to = malloc((ne + 1) * sizeof *to);
+    if (!to)
+        return -1;
+    for (size_t e = 0; e < ne; e++) {
+        to[e] = E[e];
+        to[e].key = E[e].key << 32 | E[e].key >> 32;
+    }
+    qsort(to, ne, sizeof *to, edge_cmp);
+    for (size_t e = 0; e < ne; e++) {
+        uint32_t *nb = &w->nb[4 * (size_t)E[e].polygon + E[e].side];
+        if (*nb == RAD_NONE && (*nb = t_neighbour(w, E, to, ne, &E[e])) != RAD_NONE)
+            join(w->surf, E[e].polygon, *nb);
+    }
+    free(to);
+    return 0;
 }
 
 /* nb: each eligible polygon's neighbour across each edge (the lowest
@@ -204,8 +273,9 @@ static int neighbours(work *w)
                 break;
             }
     }
+    int rc = t_neighbours(w, E, ne);
     free(E);
-    return 0;
+    return rc;
 }
 
 static rad_vec3 mean_point(const rad_scene *s, uint32_t i)
@@ -477,6 +547,7 @@ int mesh_cluster(const rad_scene *s, const uint8_t *eligible, const uint32_t *po
         rc = 0;
         goto done;
     }
+    w.weld = MESH_WELD * rad_length(rad_sub(hi, w.lo));
     if (neighbours(&w) != 0)
         goto done;
     surf_size = calloc((size_t)w.np + 1, sizeof *surf_size);

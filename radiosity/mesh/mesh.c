@@ -356,9 +356,6 @@ static void plan_free(plan *pl)
     mesh_parts_free(&pl->pt);
 }
 
-/* Weld points within 1e-6 of the scene's diagonal. */
-#define MESH_WELD 1e-6
-
 static int distinct_points(const plan *pl, const rad_polygon *pg)
 {
     for (uint32_t a = 0; a < pg->point_count; a++)
@@ -510,6 +507,8 @@ double rad_mesh_size_for(const rad_scene *scene, const rad_mesh_options *opt, ui
     double size = rad_mesh_patch_size(scene, &o);
     if (!(size > 0.0) || limit == 0)
         return size;
+    /* counting stops past the limit (mesh_regions_build) */
+    o.max_patches = limit < UINT32_MAX ? (uint32_t)limit : UINT32_MAX;
     /* Planar regions counted by their area first (cutting them at a size
      * far too small would cost what the limit guards against), then the
      * mesher's exact count; N falls about as 1/size²: start there, then grow

@@ -91,7 +91,9 @@ int rad_mesh_link_twins(rad_mesh *m, const rad_scene *scene, rad_error *err);
 /* Number of patches rad_mesh_build would make, without allocating them;
  * UINT64_MAX if it overflows (or memory for the grouping runs out).  Past
  * 1.5 × max_patches, planar regions are not cut and the count is their
- * estimate (area / grid cell): more than the limit, not exact. */
+ * estimate (area / grid cell); once the regions cut make more than
+ * max_patches, the rest are not cut and the count is theirs so far: in
+ * both cases more than the limit, not exact. */
 uint64_t rad_mesh_count(const rad_scene *scene, const rad_mesh_options *opt);
 
 /* A patch size (scene units) at which rad_mesh_build makes at most `limit`

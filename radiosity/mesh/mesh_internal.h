@@ -34,6 +34,18 @@ void mesh_clusters_free(mesh_clusters *c);
 /* The root of x in the union-find forest up (cluster.c), halving paths. */
 uint32_t mesh_uf_find(uint32_t *up, uint32_t x);
 
+/* Points within this share of the scene's diagonal are one (mesh.c's
+ * weld; region.c's T-junctions). */
+#define MESH_WELD 1e-6
+
+/* The 30° of RAD_MESH_SURFACE_COS for facets of one curved surface
+ * (region.c, smooth.c), widened by 1e-3 in the cosine (0.11°): facets
+ * exactly 30° apart (a 12-sided cylinder's, every other one of 24) are
+ * then one surface whatever the rounding of their normals, which an
+ * export's slivers on float coordinates move by up to 1e-4 rad (7.5e-5
+ * measured on bench_atrium's split hall). */
+#define MESH_FACET_COS (RAD_MESH_SURFACE_COS - 1e-3)
+
 /* Weld (weld.c): id[k] for each of the scene's points, equal for points
  * within eps of the first point of that id (first[id]); *count ids.  Both
  * arrays hold point_count entries.  0, or -1 out of memory. */
@@ -103,7 +115,9 @@ typedef struct mesh_regions {
  * size `size` (pos/first/npos from mesh_weld), stopping with
  * out->overflow set once the patches (estimated from the area before a
  * region is cut) pass 1.5 × max_patches or the cells 16 × max_patches +
- * 10^6: a patch size far too small must be refused, not tried.  *out zeroed first; free
+ * 10^6, or the regions cut so far made more than max_patches (out->estimate
+ * then their count): a patch size far too small must be refused, not
+ * tried, and a mesh past the limit is not cut further.  *out zeroed first; free
  * with mesh_regions_free.  RAD_OK (out->overflow set when too large),
  * RAD_ERR_NOMEM, RAD_ERR_INVALID (a cell without area). */
 int mesh_regions_build(const rad_scene *s, const uint32_t *pos, const uint32_t *first,

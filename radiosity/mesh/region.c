@@ -110,8 +110,11 @@ typedef struct rwork {
     size_t cekey;
     uint64_t climit; /* cells this region may still make */
     size_t nekey;    /* frame(): the members' edges in ekey, then the same
-                      * keyed by end (t_junction) */
+                      * keyed by end (t_chain) */
+    uint64_t *okey;  /* frame(): the outline's edges (outline()) */
+    size_t nokey, cokey;
     double tol;      /* in the plane: within this of it */
+    double weld;     /* points this close are one (mesh_weld's distance) */
     pt2 *oe;         /* the outline's edges in the plane, two ends each */
     size_t noe, coe;
     double *pbox;    /* per scene polygon its box: lo x y z, hi x y z (feet()) */
@@ -215,36 +218,90 @@ static int u64_cmp(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
-/* 1 when member edge ekey[e] has a T-junction: another member's edge x ->
- * a ends at its start a from a point x strictly inside it (an exporter's
- * midpoint split leaves a triangle's edge against two of its neighbour's).
- * Such an edge is inner, not outline, though no member runs it back.
- * back: the members' edges keyed end << 32 | start, sorted. */
-static int t_junction(const rwork *w, const uint64_t *back, size_t ne, size_t e)
+/* Whether the members run edge a -> b (w->ekey, sorted). */
+static int has_edge(const rwork *w, uint32_t a, uint32_t b)
 {
-    const uint32_t a = (uint32_t)(w->ekey[e] >> 32), b = (uint32_t)w->ekey[e];
+    const uint64_t key = (uint64_t)a << 32 | b;
+    return bsearch(&key, w->ekey, w->nekey, sizeof *w->ekey, u64_cmp) != NULL;
+}
+
+/* The points strictly inside member edge a -> b (within the weld distance
+ * of the segment) through which other members' edges run back from b to a
+ * (x1 -> a, x2 -> x1, ..., b -> xk): a T-junction, an exporter's split
+ * triangle against its neighbour's whole edge.  Into X[0..max); their
+ * count, 0 when there is no such chain.  back: the members' edges keyed
+ * end << 32 | start, sorted. */
+static uint32_t t_chain(const rwork *w, const uint64_t *back, uint32_t a, uint32_t b, uint32_t *X,
+                        uint32_t max)
+{
     const rad_vec3 pa = w->s->points[w->first[a]], ab = rad_sub(w->s->points[w->first[b]], pa);
-    const double l2 = rad_dot(ab, ab);
-    size_t lo = 0, hi = ne;
-    while (lo < hi) { /* the first edge ending at a */
-        size_t mid = lo + (hi - lo) / 2;
-        if (back[mid] >> 32 < a)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    for (; lo < ne && back[lo] >> 32 == a && l2 > 0.0; lo++) {
-        rad_vec3 ap = rad_sub(w->s->points[w->first[(uint32_t)back[lo]]], pa);
-        double u = rad_dot(ap, ab) / l2;
-        rad_vec3 off = rad_sub(ap, rad_scale(ab, u));
-        if (u > 1e-9 && u < 1.0 - 1e-9 && rad_dot(off, off) <= 1e-12 * l2)
-            return 1;
+    const double l2 = rad_dot(ab, ab), tol2 = w->weld * w->weld;
+    uint32_t cur = a, k = 0;
+    double at = 0.0;
+    while (k < max && l2 > 0.0) {
+        if (k > 0 && has_edge(w, b, cur))
+            return k;
+        size_t lo = 0, hi = w->nekey;
+        while (lo < hi) { /* the first edge ending at cur */
+            size_t mid = lo + (hi - lo) / 2;
+            if (back[mid] >> 32 < cur)
+                lo = mid + 1;
+            else
+                hi = mid;
+        }
+        uint32_t next = RAD_NONE;
+        double best = 1.0;
+        for (; lo < w->nekey && back[lo] >> 32 == cur; lo++) {
+            const uint32_t x = (uint32_t)back[lo];
+            rad_vec3 ap = rad_sub(w->s->points[w->first[x]], pa);
+            double u = rad_dot(ap, ab) / l2;
+            rad_vec3 off = rad_sub(ap, rad_scale(ab, u));
+            if (u > at && u < best && rad_dot(off, off) <= tol2)
+                best = u, next = x;
+        }
+        if (next == RAD_NONE)
+            return 0;
+        X[k++] = next, cur = next, at = best;
     }
     return 0;
 }
 
+/* The region's outline into w->okey (start << 32 | end, weld ids): the
+ * members' edges, each cut at the T-junctions along it (t_chain), that no
+ * member runs the other way.  A triangle's whole edge against its
+ * neighbour's two halves, and each half against the whole, are inner. */
+static int outline(rwork *w)
+{
+    const size_t ne = w->nekey;
+    const uint64_t *back = w->ekey + ne;
+    uint32_t X[64];
+    size_t n = 0;
+    for (size_t e = 0; e < ne; e++) {
+        const uint32_t a = (uint32_t)(w->ekey[e] >> 32), b = (uint32_t)w->ekey[e];
+        uint32_t k = has_edge(w, b, a) ? 0 : t_chain(w, back, a, b, X, 64);
+        if (GROW(w->okey, w->cokey, n + k + 1) != 0)
+            return -1;
+        uint32_t from = a;
+        for (uint32_t q = 0; q < k; q++)
+            w->okey[n++] = (uint64_t)from << 32 | X[q], from = X[q];
+        w->okey[n++] = (uint64_t)from << 32 | b;
+    }
+    if (GROW(w->okey, w->cokey, 2 * n + 1) != 0)
+        return -1;
+    qsort(w->okey, n, sizeof *w->okey, u64_cmp);
+    size_t kept = 0;
+    for (size_t e = 0; e < n; e++) { /* the outline after the pieces, then moved down */
+        const uint64_t rev = w->okey[e] << 32 | w->okey[e] >> 32;
+        if (!bsearch(&rev, w->okey, n, sizeof *w->okey, u64_cmp))
+            w->okey[n + kept++] = w->okey[e];
+    }
+    memmove(w->okey, w->okey + n, kept * sizeof *w->okey);
+    w->nokey = kept;
+    return 0;
+}
+
 /* Frame: normal of the lead polygon, u along the region's longest outline
- * edge (an edge no other member runs the other way, nor is a T-junction's). */
+ * edge (outline()). */
 static int frame(rwork *w, const uint32_t *mem, uint32_t nm)
 {
     const rad_scene *s = w->s;
@@ -265,18 +322,17 @@ static int frame(rwork *w, const uint32_t *mem, uint32_t nm)
     }
     qsort(w->ekey, ne, sizeof *w->ekey, u64_cmp);
     w->nekey = ne;
-    double best = -1.0;
-    rad_vec3 dir = rad_v3(0, 0, 0);
     uint64_t *back = w->ekey + ne; /* the edges keyed by end, then start */
     for (size_t e = 0; e < ne; e++)
         back[e] = w->ekey[e] << 32 | w->ekey[e] >> 32;
     qsort(back, ne, sizeof *back, u64_cmp);
-    for (size_t e = 0; e < ne; e++) {
-        uint64_t rev = w->ekey[e] << 32 | w->ekey[e] >> 32;
-        if (bsearch(&rev, w->ekey, ne, sizeof *w->ekey, u64_cmp) || t_junction(w, back, ne, e))
-            continue;
-        rad_vec3 a = s->points[w->first[w->ekey[e] >> 32]];
-        rad_vec3 b = s->points[w->first[w->ekey[e] & 0xffffffffu]];
+    if (outline(w) != 0)
+        return -1;
+    double best = -1.0;
+    rad_vec3 dir = rad_v3(0, 0, 0);
+    for (size_t e = 0; e < w->nokey; e++) {
+        rad_vec3 a = s->points[w->first[w->okey[e] >> 32]];
+        rad_vec3 b = s->points[w->first[w->okey[e] & 0xffffffffu]];
         rad_vec3 d = rad_sub(b, a);
         d = rad_sub(d, rad_scale(w->N, rad_dot(d, w->N)));
         if (rad_length(d) > best) {
@@ -668,15 +724,11 @@ static int feet(rwork *w, const uint32_t *mem, uint32_t nm)
     if (polygon_boxes(w) != 0)
         return -1;
     region_box(w, box);
-    for (size_t e = 0; e < w->nekey; e++) {
-        uint64_t rev = w->ekey[e] << 32 | w->ekey[e] >> 32;
-        if (bsearch(&rev, w->ekey, w->nekey, sizeof *w->ekey, u64_cmp) ||
-            t_junction(w, w->ekey + w->nekey, w->nekey, e))
-            continue;
-        if (GROW(w->oe, w->coe, 2 * w->noe + 2) != 0)
-            return -1;
-        w->oe[2 * w->noe] = to2d(w, w->s->points[w->first[w->ekey[e] >> 32]]);
-        w->oe[2 * w->noe++ + 1] = to2d(w, w->s->points[w->first[w->ekey[e] & 0xffffffffu]]);
+    if (GROW(w->oe, w->coe, 2 * w->nokey + 2) != 0)
+        return -1;
+    for (size_t e = 0; e < w->nokey; e++) {
+        w->oe[2 * w->noe] = to2d(w, w->s->points[w->first[w->okey[e] >> 32]]);
+        w->oe[2 * w->noe++ + 1] = to2d(w, w->s->points[w->first[w->okey[e] & 0xffffffffu]]);
     }
     for (uint32_t q = 0; q < w->s->polygon_count; q++) {
         const double *pb = w->pbox + 6 * (size_t)q;
@@ -1469,7 +1521,7 @@ static int curved_surfaces(rwork *w, const uint32_t *first, const uint32_t *mem,
                 }
                 const rad_polygon *ol = &s->polygons[mem[first[o]]];
                 if (o != r && ol->object == lead->object && ol->material == lead->material &&
-                    rad_dot(ol->normal, lead->normal) >= RAD_MESH_SURFACE_COS) {
+                    rad_dot(ol->normal, lead->normal) >= MESH_FACET_COS) {
                     uint32_t a = mesh_uf_find(surf, o), b = mesh_uf_find(surf, r);
                     surf[a > b ? a : b] = a > b ? b : a;
                 }
@@ -1552,6 +1604,12 @@ static int take_regions(rwork *w, const uint8_t *mode, uint32_t nreg, mesh_regio
             keep[r] = MESH_REGION_ESTIMATED;
             continue;
         }
+        if (rc == 0 && !out->estimate_only && out->patches > out->patch_limit) {
+            /* past the limit already: the mesh is refused, whatever the
+             * other regions, clusters and polygons add (never fewer) */
+            out->estimate = out->patches;
+            rc = -3;
+        }
         if (rc != 0)
             break;
         keep[r] = out->count;
@@ -1591,12 +1649,13 @@ int mesh_regions_build(const rad_scene *s, const uint32_t *pos, const uint32_t *
         return RAD_OK; /* no size to mesh by: every polygon on its own */
     const double tol = REGION_PLANE_TOL * rad_length(rad_sub(hi, lo));
     uint32_t nreg = 0;
-    rwork w = {.s = s, .pos = pos, .first = first, .npos = npos, .size = size, .tol = tol};
+    rwork w = {.s = s, .pos = pos, .first = first, .npos = npos, .size = size, .tol = tol,
+               .weld = MESH_WELD * rad_length(rad_sub(hi, lo))};
     int rc = find_regions(s, pos, first, npos, mode, tol, out->of, &nreg);
     if (rc == 0)
         rc = take_regions(&w, mode, nreg, out);
     free(w.raw), free(w.cell), free(w.gi), free(w.tmp[0]), free(w.tmp[1]), free(w.tmp[2]);
-    free(w.ekey), free(w.oe), free(w.foot), free(w.pbox);
+    free(w.ekey), free(w.okey), free(w.oe), free(w.foot), free(w.pbox);
     if (rc == 0)
         return RAD_OK;
     double estimate = out->estimate;

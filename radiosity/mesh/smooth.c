@@ -24,8 +24,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* 30°, as the clusters' (mesh.h) */
-#define SMOOTH_COS RAD_MESH_SURFACE_COS
+/* 30°, as the clusters' (mesh.h), facets exactly 30° apart included
+ * (mesh_internal.h) */
+#define SMOOTH_COS MESH_FACET_COS
 #define SMOOTH_SLIVER 0.25
 #define SMOOTH_LONGEST 2.0
 
