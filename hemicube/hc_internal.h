@@ -162,6 +162,7 @@ struct hc_engine {
      * layer); patch j's cells are [cfirst[j], cfirst[j + 1]), ncell in all. */
     uint32_t ncell;
     uint32_t *cfirst;  /* n + 1 */
+    uint8_t *shared;   /* n: 1 for a shared patch of small parts (rad_mesh_shared_parts) */
     double *corner;    /* ncell × 4 × 3: cell corners - origin (a triangle repeats corner 0) */
     uint8_t *ncorner;  /* ncell: 3 or 4 */
     rad_vec3 *center;  /* n: patch centre - origin */

@@ -90,6 +90,7 @@ void hc_destroy(hc_engine *e)
     free(e->center);
     free(e->ncorner);
     free(e->cfirst);
+    free(e->shared);
     free(e->bsphere);
     free(e->poly_area);
     free(e->poly_patches);
@@ -309,6 +310,7 @@ static int engine_alloc(const rad_mesh *mesh, const hc_options *o, long cpus, hc
     e->ncell = mesh->cell_first ? mesh->cell_count : n;
     size_t nc = e->ncell ? e->ncell : 1;
     e->cfirst = malloc(((size_t)n + 1) * sizeof *e->cfirst);
+    e->shared = malloc((size_t)n + 1);
     e->corner = malloc(nc * 12 * sizeof *e->corner);
     e->center = malloc((n ? n : 1) * sizeof *e->center);
     e->ncorner = malloc(nc);
@@ -335,7 +337,8 @@ static int engine_alloc(const rad_mesh *mesh, const hc_options *o, long cpus, hc
     }
     e->any_exact |= n > 1; /* small polygons get exact entries (rows.c) */
     e->opt.exact = e->exact;
-    if (!e->dff || !e->cfirst || !e->corner || !e->center || !e->ncorner || !e->bsphere ||
+    if (!e->dff || !e->cfirst || !e->shared || rad_mesh_shared_parts(mesh, e->shared) != RAD_OK ||
+        !e->corner || !e->center || !e->ncorner || !e->bsphere ||
         !e->radius || !e->poly_area || !e->poly_center || !e->poly_patches ||
         !e->rx_col || !e->rx_val || !e->w || (o->exact && n && !e->exact)) {
         hc_destroy(e);

@@ -81,9 +81,12 @@
 
 /* Most cells a patch may have on either side of an exact entry, which
  * costs a polygon pair per cell pair: far above a region's, a cluster's or
- * a curved patch's few dozen; a shared patch of small parts (hundreds of
- * cells spread over its grid cube, mesh/parts.c) keeps its pixels. */
-#define HC_EXACT_MAX_CELLS 64u
+ * a curved patch's few dozen.  A shared patch of small parts (mesh/parts.c,
+ * e->shared) keeps its pixels whatever its cells: its row is one point's
+ * for parts spread over a grid cube, so an exact average buys nothing, and
+ * its cells have no outline to sum (each part's faces are apart): on the
+ * atrium its balusters' exact entries were 60 % of the form-factor time. */
+#define HC_EXACT_MAX_CELLS 16u
 /* Where the hemi-cube is weak (hc_options.weak, docs/limits.md), by
  * HC_WEAK_OFF, _ON, _HIGH, _SURFACE: a far polygon narrower on the cube than
  * weak_thin pixels is thin (a pixel count's error goes as its boundary
@@ -757,7 +760,8 @@ static uint32_t cull(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 c, ra
                 nsmall += last_small ? e->poly_patches[q] : 0;
             }
             const int costly = e->cfirst[i + 1] - e->cfirst[i] > HC_EXACT_MAX_CELLS ||
-                               e->cfirst[j + 1] - e->cfirst[j] > HC_EXACT_MAX_CELLS;
+                               e->cfirst[j + 1] - e->cfirst[j] > HC_EXACT_MAX_CELLS ||
+                               e->shared[i] || e->shared[j];
             is_near = costly ? 0 : is_near;
             const int small = last_small && !is_near && !marked && !costly;
             if (is_near || marked || small) {

@@ -1,5 +1,6 @@
 /* rad.c - the shared vocabulary's code: error values, the debug assertion,
- * and two small system queries (memory, clock).  The sparse matrix is in
+ * which patches of a mesh are shared patches of small parts, and two small
+ * system queries (memory, clock).  The sparse matrix is in
  * matrix.c, atomic output files in output.c.
  */
 #include "rad.h"
@@ -118,4 +119,34 @@ double rad_seconds(void)
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* ------------------------------------------------------ shared parts */
+
+int rad_mesh_shared_parts(const rad_mesh *m, uint8_t *shared)
+{
+    for (uint32_t i = 0; i < m->patch_count; i++)
+        shared[i] = 0;
+    if (!m->cell_first)
+        return RAD_OK;
+    /* seen_by[v]: the last patch one of whose cells has vertex v; a vertex
+     * met twice within one patch joins two of its cells. */
+    uint32_t *seen_by = malloc(((size_t)m->vertex_count + 1) * sizeof *seen_by);
+    if (!seen_by)
+        return RAD_ERR_NOMEM;
+    for (uint32_t v = 0; v < m->vertex_count; v++)
+        seen_by[v] = RAD_NONE;
+    for (uint32_t i = 0; i < m->patch_count; i++) {
+        const rad_patch *c;
+        const uint32_t n = rad_patch_cells(m, i, &c);
+        int apart = n > 1;
+        for (uint32_t a = 0; a < n; a++)
+            for (int k = 0; k < rad_patch_corners(&c[a]); k++) {
+                apart &= seen_by[c[a].v[k]] != i;
+                seen_by[c[a].v[k]] = i;
+            }
+        shared[i] = (uint8_t)apart;
+    }
+    free(seen_by);
+    return RAD_OK;
 }

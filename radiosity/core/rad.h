@@ -198,6 +198,13 @@ static inline uint32_t rad_patch_cells(const rad_mesh *m, uint32_t i, const rad_
     return m->cell_first[i + 1] - m->cell_first[i];
 }
 
+/* Marks the shared patches of small parts (mesh/parts.c): patches of two or
+ * more cells of which no two share a vertex, since each part's faces keep
+ * vertices of their own, where the cells of a region, cluster or curved
+ * patch are joined through theirs.  shared: patch_count bytes (the
+ * caller's), each set to 1 or 0.  RAD_OK, or RAD_ERR_NOMEM. */
+int rad_mesh_shared_parts(const rad_mesh *m, uint8_t *shared);
+
 /* ------------------------------------------------------- form-factor matrix */
 
 /* The form-factor matrix F, stored by rows with the null entries compressed

@@ -1202,22 +1202,6 @@ static int level_zero(builder *b, const rad_refine_options *opt, double *min_edg
     return rc;
 }
 
-/* Is patch i a shared patch of small parts (mesh/parts.c): several cells
- * of which no two share a vertex?  (A cluster's, a region's and a curved
- * surface's cells share the vertices of their seams.) */
-static int parts_patch(const rad_mesh *m, uint32_t i, uint32_t *seen_by)
-{
-    const rad_patch *c;
-    const uint32_t n = rad_patch_cells(m, i, &c);
-    int apart = n > 1;
-    for (uint32_t a = 0; a < n; a++)
-        for (int k = 0; k < rad_patch_corners(&c[a]); k++) {
-            apart &= seen_by[c[a].v[k]] != i;
-            seen_by[c[a].v[k]] = i;
-        }
-    return apart;
-}
-
 /* The cells of a shared patch of small parts are the parts' own faces: each
  * level-0 element of one is split at once, and its children (settled: not
  * probed further) get rows as any element does - their own direct light
@@ -1230,17 +1214,10 @@ static int split_parts(builder *b, hc_engine *hc, int uniform, rad_error *err)
     const rad_mesh *pm = b->s->mesh;
     const uint32_t ne = b->ne;
     uint8_t *shared = malloc((size_t)pm->patch_count + 1);
-    uint32_t *seen_by = malloc(((size_t)pm->vertex_count + 1) * sizeof *seen_by);
-    if (!shared || !seen_by) {
+    if (!shared || rad_mesh_shared_parts(pm, shared) != RAD_OK) {
         free(shared);
-        free(seen_by);
         return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
     }
-    for (uint32_t v = 0; v < pm->vertex_count; v++)
-        seen_by[v] = RAD_NONE;
-    for (uint32_t i = 0; i < pm->patch_count; i++)
-        shared[i] = pm->cell_first && parts_patch(pm, i, seen_by);
-    free(seen_by);
     int rc = RAD_OK;
     for (uint32_t e = 0; e < ne && rc == RAD_OK; e++) {
         if (!shared[b->E[e].patch] || !may_split(b, &b->E[e], NULL))
