@@ -80,12 +80,17 @@
 #define HC_SMALL_MAX 1024u
 
 /* Most cells a patch may have on either side of an exact entry, which
- * costs a polygon pair per cell pair: far above a region's, a cluster's or
- * a curved patch's few dozen.  A shared patch of small parts (mesh/parts.c,
- * e->shared) keeps its pixels whatever its cells: its row is one point's
- * for parts spread over a grid cube, so an exact average buys nothing, and
- * its cells have no outline to sum (each part's faces are apart): on the
- * atrium its balusters' exact entries were 60 % of the form-factor time. */
+ * costs a polygon pair per cell pair (7 points per cell of i, an atan2 per
+ * outline edge of j at each).  A planar region's patch has a few cells
+ * (its pieces are joined, mesh/region.c); a curved patch of narrow facets
+ * (mesh/smooth.c: the atrium's columns, 40 cells a patch, and vaults, 21)
+ * has dozens, and at 64 the atrium's exact entries were 62 % of its
+ * form-factor CPU (perf: atan2, contour_edge, rad_point_polygon_factor);
+ * at 16 its form factors take 49 s instead of 117 s (report/atrium.md
+ * §7h), such patches keep their pixel counts.  A shared patch of small
+ * parts (mesh/parts.c, e->shared) keeps its pixels whatever its cells:
+ * its row is one point's for parts spread over a grid cube, so an exact
+ * average buys nothing. */
 #define HC_EXACT_MAX_CELLS 16u
 /* Where the hemi-cube is weak (hc_options.weak, docs/limits.md), by
  * HC_WEAK_OFF, _ON, _HIGH, _SURFACE: a far polygon narrower on the cube than
