@@ -266,10 +266,8 @@ static uint32_t t_chain(const dg *d, const etab *t, const uint32_t *bfirst, cons
         uint32_t next = RAD_NONE;
         double best = 1.0;
         for (uint32_t q = bfirst[cur]; q < bfirst[cur + 1]; q++) {
-            rad_vec3 ap = rad_sub(vpos(d, bfrom[q]), pa);
-            double u = rad_dot(ap, ab) / l2;
-            rad_vec3 off = rad_sub(ap, rad_scale(ab, u));
-            if (u > at && u < best && rad_dot(off, off) <= tol * tol)
+            double d2, u = rad_line_foot(rad_sub(vpos(d, bfrom[q]), pa), ab, l2, &d2);
+            if (u > at && u < best && d2 <= tol * tol)
                 best = u, next = bfrom[q];
         }
         if (next == RAD_NONE)

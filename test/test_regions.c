@@ -650,11 +650,7 @@ static int split_scene(gs_scene *h, double fine)
 
 static int split_scene_in_four(gs_scene *h, double fine)
 {
-    if (split_scene(h, fine) != 0)
-        return -1;
-    for (uint32_t k = 0; k < h->n; k++)
-        gs_split4(&h->o[k]);
-    return gs_failed(h) ? -1 : 0;
+    return split_scene(h, fine) != 0 ? -1 : gs_split4_all(h);
 }
 
 /* The scene, and each of its triangles re-cut in four as tools/hall.c's

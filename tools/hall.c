@@ -316,11 +316,7 @@ static int build(gs_scene *h, double fine)
 /* build, then every object's triangles split in four (hall_write_split) */
 static int build_split(gs_scene *h, double fine)
 {
-    if (build(h, fine) != 0)
-        return -1;
-    for (uint32_t k = 0; k < h->n; k++)
-        gs_split4(&h->o[k]);
-    return gs_failed(h) ? -1 : 0;
+    return build(h, fine) != 0 ? -1 : gs_split4_all(h);
 }
 
 static int write_with(int (*make)(gs_scene *, double), const char *dir, const char *name,

@@ -134,6 +134,13 @@ void gs_split4(obj *o)
     free(old);
 }
 
+int gs_split4_all(gs_scene *h)
+{
+    for (uint32_t k = 0; k < h->n; k++)
+        gs_split4(&h->o[k]);
+    return gs_failed(h) ? -1 : 0;
+}
+
 int gs_write(const gs_scene *h, const char *dir, const char *name)
 {
     char path[4096];

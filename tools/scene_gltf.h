@@ -71,6 +71,8 @@ void gs_tri(obj *o, uint32_t a, uint32_t b, uint32_t c, v3 facing);
  * small triangle on its own copies of its points (unwelded).  The points
  * on an edge are the same floats whichever triangle makes them. */
 void gs_split4(obj *o);
+/* Every object of h split so (gs_split4): 0, or -1 when h has failed. */
+int gs_split4_all(gs_scene *h);
 /* Writes DIR/NAME.gltf and DIR/NAME.bin; 0, or -1 with a message on stderr. */
 int gs_write(const gs_scene *h, const char *dir, const char *name);
 /* Builds h with build(h, fine) (fine <= 0: 1) and writes DIR/NAME.gltf

@@ -116,6 +116,16 @@ static inline rad_vec3 rad_lerp(rad_vec3 a, rad_vec3 b, double t)
     return rad_v3(a.x + (b.x - a.x) * t, a.y + (b.y - a.y) * t, a.z + (b.z - a.z) * t);
 }
 static inline int rad_finite3(rad_vec3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
+/* Point ap (relative to a line's start) on the line along ab, l2 = |ab|²:
+ * its parameter u (ab·u is its foot), and into *d2 its squared distance
+ * from the line.  The mesher's and the drawing's T-junction tests. */
+static inline double rad_line_foot(rad_vec3 ap, rad_vec3 ab, double l2, double *d2)
+{
+    const double u = rad_dot(ap, ab) / l2;
+    const rad_vec3 off = rad_sub(ap, rad_scale(ab, u));
+    *d2 = rad_dot(off, off);
+    return u;
+}
 
 /* ------------------------------------------------------------------- bands */
 

@@ -194,10 +194,8 @@ static uint32_t t_neighbour(const work *w, const edge *from, const edge *to, siz
         const edge *E = side ? to : from; /* b -> y, then x -> a */
         const uint64_t id = side ? a : b;
         for (size_t q = first_from(E, ne, id); q < ne && E[q].key >> 32 == id; q++) {
-            rad_vec3 ap = rad_sub(edge_point(w->s, &E[q], side ? 0 : 1), pa);
-            double u = rad_dot(ap, ab) / l2;
-            rad_vec3 off = rad_sub(ap, rad_scale(ab, u));
-            if ((side ? u > 0.0 : u < 1.0) && rad_dot(off, off) <= w->weld * w->weld &&
+            double d2, u = rad_line_foot(rad_sub(edge_point(w->s, &E[q], side ? 0 : 1), pa), ab, l2, &d2);
+            if ((side ? u > 0.0 : u < 1.0) && d2 <= w->weld * w->weld &&
                 E[q].polygon < best && compatible(w->s, e->polygon, E[q].polygon))
                 best = E[q].polygon;
         }

@@ -218,6 +218,20 @@ static int u64_cmp(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
+/* The first of K[0..n) (sorted) whose high half is id, else n. */
+static size_t first_from(const uint64_t *K, size_t n, uint64_t id)
+{
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (K[mid] >> 32 < id)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
 /* Whether the members run edge a -> b (w->ekey, sorted). */
 static int has_edge(const rwork *w, uint32_t a, uint32_t b)
 {
@@ -241,22 +255,12 @@ static uint32_t t_chain(const rwork *w, const uint64_t *back, uint32_t a, uint32
     while (k < max && l2 > 0.0) {
         if (k > 0 && has_edge(w, b, cur))
             return k;
-        size_t lo = 0, hi = w->nekey;
-        while (lo < hi) { /* the first edge ending at cur */
-            size_t mid = lo + (hi - lo) / 2;
-            if (back[mid] >> 32 < cur)
-                lo = mid + 1;
-            else
-                hi = mid;
-        }
         uint32_t next = RAD_NONE;
         double best = 1.0;
-        for (; lo < w->nekey && back[lo] >> 32 == cur; lo++) {
-            const uint32_t x = (uint32_t)back[lo];
-            rad_vec3 ap = rad_sub(w->s->points[w->first[x]], pa);
-            double u = rad_dot(ap, ab) / l2;
-            rad_vec3 off = rad_sub(ap, rad_scale(ab, u));
-            if (u > at && u < best && rad_dot(off, off) <= tol2)
+        for (size_t q = first_from(back, w->nekey, cur); q < w->nekey && back[q] >> 32 == cur; q++) {
+            const uint32_t x = (uint32_t)back[q];
+            double d2, u = rad_line_foot(rad_sub(w->s->points[w->first[x]], pa), ab, l2, &d2);
+            if (u > at && u < best && d2 <= tol2)
                 best = u, next = x;
         }
         if (next == RAD_NONE)
@@ -982,6 +986,7 @@ typedef struct join {
     const uint32_t *urep;
     uint8_t *vote, *keep; /* per unique corner: loops that may drop it, uses that keep it */
     int nodrop;           /* drop no corner (the votes did not settle) */
+    int textured;         /* the region's material has a base-colour texture */
     uint64_t *e;          /* edge scratch */
     size_t ce;
     rad_patch *cell;      /* the joined layer, grid cell by grid cell */
@@ -1000,20 +1005,28 @@ static double cell_area2d(const join *j, const rad_patch *cl)
     return tri2(a, b, c) + (cl->v[3] != RAD_NONE ? tri2(a, c, upt(j, cl->v[3])) : 0.0);
 }
 
+/* 1 when material m has a base-colour texture mapped by its polygons'
+ * own coordinates. */
+static int textured(const rad_scene *s, uint32_t m)
+{
+    for (uint32_t t = 0; s->point_uv && t < s->texture_count; t++)
+        if (s->textures[t].material == m)
+            return 1;
+    return 0;
+}
+
 /* 1 when cells of polygons a and b of one region may be one cell: nothing
  * but the region's plane is theirs (ρ of their own alike, no texture whose
  * coordinates each polygon maps its own way). */
-static int same_look(const rad_scene *s, uint32_t a, uint32_t b)
+static int same_look(const join *j, uint32_t a, uint32_t b)
 {
+    const rad_scene *s = j->w->s;
     if (a == b)
         return 1;
     if (s->polygon_rho &&
         memcmp(rad_polygon_rho(s, a), rad_polygon_rho(s, b), s->band_count * sizeof(double)) != 0)
         return 0;
-    for (uint32_t t = 0; s->point_uv && t < s->texture_count; t++)
-        if (s->textures[t].material == s->polygons[a].material)
-            return 0;
-    return 1;
+    return !j->textured;
 }
 
 /* Do segments ab and cd meet (touching counts)? */
@@ -1094,7 +1107,7 @@ static int group_loop(join *j, const gcell *gc, size_t k0, size_t k1, uint32_t *
     for (size_t k = k0; k < k1; k++) {
         const rad_patch *cl = &w->cell[gc[k].c];
         const int nc = rad_patch_corners(cl);
-        if (!same_look(w->s, w->cell[gc[k0].c].polygon, cl->polygon))
+        if (!same_look(j, w->cell[gc[k0].c].polygon, cl->polygon))
             return 1;
         for (int a = 0; a < nc; a++)
             j->e[n++] = (uint64_t)cl->v[a] << 32 | cl->v[(a + 1) % nc];
@@ -1118,17 +1131,10 @@ static int group_loop(join *j, const gcell *gc, size_t k0, size_t k1, uint32_t *
     *m = 0;
     do { /* chain from the first edge: each corner starts one edge */
         const uint64_t to = K[cur] & 0xffffffffu;
-        size_t lo = 0, hi = r;
         if (*m == r)
             return 1; /* a corner two edges lead to: not one loop */
         lp[(*m)++] = (uint32_t)(K[cur] >> 32);
-        while (lo < hi) {
-            size_t mid = lo + (hi - lo) / 2;
-            if (K[mid] >> 32 < to)
-                lo = mid + 1;
-            else
-                hi = mid;
-        }
+        const size_t lo = first_from(K, r, to);
         if (lo == r || K[lo] >> 32 != to)
             return 1; /* an edge that leads nowhere */
         cur = lo;
@@ -1321,7 +1327,8 @@ static int put_group(join *j, const gcell *gc, size_t k0, size_t k1, const uint3
  * replaced, in grid order, gc renumbered onto them.  0, or -1 no memory. */
 static int join_pieces(rwork *w, const uint32_t *urep, uint32_t nu, gcell *gc)
 {
-    join j = {.w = w, .urep = urep};
+    join j = {.w = w, .urep = urep,
+              .textured = w->ncell ? textured(w->s, w->cell[0].material) : 0};
     size_t ng = 0, nl = 0;
     for (size_t k = 0; k < w->ncell; k++)
         ng += k == 0 || gc[k].g != gc[k - 1].g;
