@@ -154,6 +154,9 @@ struct hc_engine {
     uint32_t lp_threads; /* llvmpipe threads per worker (0: none) */
     hc_options opt;
     double *dff;      /* normalised ΔF_q, 3R² (atlas order) */
+    uint32_t R_near;  /* a near view's resolution (hc_receiver.reach): R / 2 where R / 2 is
+                       * a multiple of 2 and at least 16, else R */
+    double *dff_near; /* ΔF_q at R_near */
     /* Geometry relative to the bounding-box centre, in double, prepared before
      * the fork so every worker shares it copy-on-write. */
     rad_vec3 origin;
@@ -249,6 +252,7 @@ void hc_pool_drop(hc_engine *e, uint32_t k);
 typedef struct hc_point_req {
     uint32_t index, patch;
     double at[3];
+    double reach;  /* hc_receiver.reach: 0, or a near view's */
 } hc_point_req;
 
 /* One part of a light request.  pos is relative to the scene origin. */
@@ -507,6 +511,7 @@ typedef struct hc_sample {
     uint32_t ncell;
     double area;
     int point;
+    double reach;  /* > 0: draw only the patches within reach (hc_receiver) */
 } hc_sample;
 /* Computes the hemi-cube row of patch i from sample s into w->col/w->val
  * (F_sj: its cells' part of the row); returns the entry count, or -1 with
@@ -517,8 +522,10 @@ long hc_row_sample(const hc_engine *e, hc_work *w, uint32_t i, const hc_sample *
  * i's centre to a point of i: an element's row F_ej (hc_compute_points),
  * about the normal of the cell of i that holds it.  Without `at`, the row
  * of a patch whose cells bend (row_samples.c): the area-weighted mean of
- * hc_row_cubes(i) samples' rows, one for a planar patch. */
-long hc_row(const hc_engine *e, hc_work *w, uint32_t i, const rad_vec3 *at, char *msg);
+ * hc_row_cubes(i) samples' rows, one for a planar patch.  reach (points
+ * only): hc_receiver.reach. */
+long hc_row(const hc_engine *e, hc_work *w, uint32_t i, const rad_vec3 *at, double reach,
+            char *msg);
 
 /* --------------------------------------------------------- light_views.c */
 

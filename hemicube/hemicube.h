@@ -130,7 +130,22 @@ int hc_compute_rows(hc_engine *e, const uint32_t *rows, uint32_t count, rad_matr
 typedef struct hc_receiver {
     rad_vec3 center;
     uint32_t patch;
+    /* 0: every patch is drawn.  > 0: a near view: only the patches j whose
+     * centre lies within `reach` of center (hc_within_reach) are drawn, and
+     * what lies beyond them is left uncovered: the row holds the near
+     * entries only, and 1 − Σ_j F_ej is the share of the hemisphere the
+     * near patches leave open.  For a caller that takes the far field from
+     * elsewhere (elements/refine.c: the patch's own row). */
+    double reach;
 } hc_receiver;
+
+/* Is patch j within a near view's reach of point c (hc_receiver.reach)?
+ * The same test the engine draws by, up to rounding at the boundary. */
+static inline int hc_within_reach(const rad_mesh *m, uint32_t j, rad_vec3 c, double reach)
+{
+    const rad_vec3 d = rad_sub(m->patches[j].center, c);
+    return rad_dot(d, d) <= reach * reach;
+}
 
 /* Receives one row: receiver k's count entries (j strictly increasing).
  * Returns RAD_OK or an error code (filling err), which stops the call. */

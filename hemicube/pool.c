@@ -86,6 +86,7 @@ void hc_destroy(hc_engine *e)
     stop_workers(e);
     free(e->w);
     free(e->dff);
+    free(e->dff_near);
     free(e->corner);
     free(e->center);
     free(e->ncorner);
@@ -307,6 +308,8 @@ static int engine_alloc(const rad_mesh *mesh, const hc_options *o, long cpus, hc
     e->opt = *o;
     size_t npix = (size_t)3 * e->R * e->R;
     e->dff = malloc(npix * sizeof *e->dff);
+    e->R_near = e->R % 4 == 0 && e->R >= 32 ? e->R / 2 : e->R;
+    e->dff_near = malloc((size_t)3 * e->R_near * e->R_near * sizeof *e->dff_near);
     e->ncell = mesh->cell_first ? mesh->cell_count : n;
     size_t nc = e->ncell ? e->ncell : 1;
     e->cfirst = malloc(((size_t)n + 1) * sizeof *e->cfirst);
@@ -337,7 +340,7 @@ static int engine_alloc(const rad_mesh *mesh, const hc_options *o, long cpus, hc
     }
     e->any_exact |= n > 1; /* small polygons get exact entries (rows.c) */
     e->opt.exact = e->exact;
-    if (!e->dff || !e->cfirst || !e->shared || rad_mesh_shared_parts(mesh, e->shared) != RAD_OK ||
+    if (!e->dff || !e->dff_near || !e->cfirst || !e->shared || rad_mesh_shared_parts(mesh, e->shared) != RAD_OK ||
         !e->corner || !e->center || !e->ncorner || !e->bsphere ||
         !e->radius || !e->poly_area || !e->poly_center || !e->poly_patches ||
         !e->rx_col || !e->rx_val || !e->w || (o->exact && n && !e->exact)) {
@@ -537,6 +540,7 @@ int hc_create(const rad_mesh *mesh, const hc_options *opt, hc_engine **out, rad_
     if (rc != RAD_OK)
         return rc;
     hc_delta_form_factors(e->R, e->dff);
+    hc_delta_form_factors(e->R_near, e->dff_near);
     prepare_geometry(e, lo, hi);
     block_spheres(e);
     rc = cluster_outlines(e, err);
@@ -611,7 +615,7 @@ static int send_chunk(hc_engine *e, uint32_t k, const hc_job *job, uint32_t firs
         for (uint32_t q = 0; q < count; q++) {
             const hc_receiver *r = &job->recv[first + q];
             rad_vec3 at = rad_sub(r->center, e->origin);
-            pts[q] = (hc_point_req){first + q, r->patch, {at.x, at.y, at.z}};
+            pts[q] = (hc_point_req){first + q, r->patch, {at.x, at.y, at.z}, r->reach};
         }
         rc = hc_wire_send_points(e->w[k].fd, pts, count);
     } else {

@@ -191,7 +191,7 @@ static int vis_rounds(hc_engine *e, hc_light_req *q, const hc_receiver *points,
             for (uint32_t i = 0; i < m; i++) {
                 const hc_receiver *pt = &points[order[wnext[k] + i]];
                 rad_vec3 at = rad_sub(pt->center, e->origin);
-                buf[i] = (hc_point_req){order[wnext[k] + i], pt->patch, {at.x, at.y, at.z}};
+                buf[i] = (hc_point_req){order[wnext[k] + i], pt->patch, {at.x, at.y, at.z}, 0.0};
             }
             q->part = f;
             if (hc_wire_send_vis(e->w[k].fd, q, buf, m) != 0) {

@@ -150,7 +150,8 @@ static long take_mean(const hc_engine *e, hc_work *wk)
     return cnt;
 }
 
-long hc_row(const hc_engine *e, hc_work *wk, uint32_t i, const rad_vec3 *at, char *msg)
+long hc_row(const hc_engine *e, hc_work *wk, uint32_t i, const rad_vec3 *at, double reach,
+            char *msg)
 {
     const rad_patch *pi = &e->mesh->patches[i];
     hc_sample s = {.c = e->center[i], .n = pi->normal, .area = pi->area};
@@ -162,6 +163,7 @@ long hc_row(const hc_engine *e, hc_work *wk, uint32_t i, const rad_vec3 *at, cha
         s.c = *at;
         s.n = ns == 1 ? pi->normal : normal_at(e, i, *at);
         s.point = 1;
+        s.reach = reach;
         return hc_row_sample(e, wk, i, &s, msg);
     }
     if (ns == 1)

@@ -690,17 +690,26 @@ static uint32_t cull(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 c, ra
     uint32_t last_poly = UINT32_MAX;
     int last_small = 0;
     uint32_t last[5] = {0, 0, 0, 0, 0};
+    /* A near view (hc_receiver.reach) draws only the patches whose centre
+     * lies within reach. */
+    const double reach = wk->smp ? wk->smp->reach : 0.0;
     for (uint32_t j = 0; j < n; j++) {
         if (j % HC_BLOCK == 0) {
             const double *sp = e->bsphere + 4 * (size_t)(j / HC_BLOCK);
             double hb = (sp[0] - c.x) * nn.x + (sp[1] - c.y) * nn.y + (sp[2] - c.z) * nn.z;
-            if (hb + sp[3] <= tol) {
+            const rad_vec3 db = rad_v3(sp[0] - c.x, sp[1] - c.y, sp[2] - c.z);
+            if (hb + sp[3] <= tol || (reach > 0.0 && rad_length(db) > reach + sp[3])) {
                 j += HC_BLOCK - 1;
                 continue;
             }
         }
         if (j == i)
             continue;
+        if (reach > 0.0) {
+            const rad_vec3 d = rad_sub(e->center[j], c);
+            if (rad_dot(d, d) > reach * reach)
+                continue;
+        }
         /* Ranges of a = p·u, b = p·v, h = p·n over the corners of j's
          * cells (triangles repeat corner 0).  max(h - a) <= max h - min a
          * etc. bound each plane from above: cheap, and conservative (a
@@ -742,7 +751,7 @@ static uint32_t cull(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 c, ra
             faces |= 1u << f;
             hc_push_range(wk, wk->first[f], wk->count[f], &nr[f], &last[f], j);
         }
-        if (e->any_exact) {
+        if (e->any_exact && !(reach > 0.0)) {
             int is_near = 0, close = 0;
             if (near_ok) {
                 rad_vec3 d = rad_sub(e->center[j], c);
@@ -867,10 +876,11 @@ static int renormalise(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 c, 
 }
 
 /* A point receiver's exact entries are the point-to-polygon factor only
- * (no near area averages over i). */
+ * (no near area averages over i).  A near view (s->reach) has none, and is
+ * drawn at R_near: what it draws is near, so large on the cube. */
 long hc_row_sample(const hc_engine *e, hc_work *wk, uint32_t i, const hc_sample *s, char *msg)
 {
-    const uint32_t n = e->n, R = e->R;
+    const uint32_t n = e->n, R = s->reach > 0.0 ? e->R_near : e->R;
     const rad_patch *pi = &e->mesh->patches[i];
     rad_vec3 nn = s->n, u, v;
     hc_basis(nn, &u, &v);
@@ -900,7 +910,7 @@ long hc_row_sample(const hc_engine *e, hc_work *wk, uint32_t i, const hc_sample 
      * pixel order so the result never depends on scheduling. */
     const size_t npix = (size_t)3 * R * R;
     const uint32_t *px = wk->pixels;
-    const double *dff = e->dff;
+    const double *dff = s->reach > 0.0 ? e->dff_near : e->dff;
     double *acc = wk->acc;
     for (size_t q = 0; q < npix; q++) {
         uint32_t id = px[q];

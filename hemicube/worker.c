@@ -107,7 +107,7 @@ static void serve_rows(const hc_engine *e, hc_work *wk, int fd, const hc_request
             raise(SIGKILL);
         const hc_point_req *pt = &rq->pts[k];
         rad_vec3 at = points ? rad_v3(pt->at[0], pt->at[1], pt->at[2]) : rad_v3(0, 0, 0);
-        long cnt = hc_row(e, wk, i, points ? &at : NULL, msg);
+        long cnt = hc_row(e, wk, i, points ? &at : NULL, points ? pt->reach : 0.0, msg);
         if (cnt < 0) {
             hc_wire_reply_fail(fd, &wk->out, msg);
             _exit(1);

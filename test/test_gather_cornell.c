@@ -74,16 +74,81 @@ TEST(gather_no_worse_than_vertex_render)
     for (int k = 0; k < ref.count; k++)
         printf("  %-32s vertex %+.2f %%  gather %+.2f %%  eps 0.2 %+.2f %%\n", ref.name[k],
                100 * v.err[k], 100 * g.err[k], 100 * g2.err[k]);
-    /* Measured: vertex 0.95 % (tall block front) / 0.41 %; gather 0.69 %
-     * (short block front, where the uncached gather is 0.60 %: the B it
-     * reads) / 0.28 %. */
-    CHECK_MSG(g.worst <= v.worst && g.rms <= v.rms, "gather %.4f / %.4f, vertex %.4f / %.4f",
-              g.worst, g.rms, v.worst, v.rms);
+    /* No worse than the vertex render, within three times the reference's
+     * own standard error (about 0.05 % a region, bench/data): both are now
+     * near that floor.  Measured (2026-12-08): vertex 0.33 % (tall block
+     * side) / 0.18 %, gather 0.36 % (short block front) / 0.15 %.  With
+     * whole contact hemi-cubes, this machine gave vertex 0.30 % / 0.17 %,
+     * gather 0.35 % / 0.15 %: the gather 0.05 % above, where the machine
+     * of 2026-12-07 had it below. */
+    const double noise = 3 * 0.0005;
+    CHECK_MSG(g.worst <= v.worst + noise && g.rms <= v.rms + noise,
+              "gather %.4f / %.4f, vertex %.4f / %.4f", g.worst, g.rms, v.worst, v.rms);
     /* The vertex render's figures, so that neither bound drifts with it. */
     CHECK_MSG(g.worst < 0.0095 && g.rms < 0.0041, "gather %.4f / %.4f", g.worst, g.rms);
     /* Measured 0.66 % / 0.34 % (6.37 % / 1.91 % before R_i was bounded by
      * the gradient). */
     CHECK_MSG(g2.worst < 0.0095 && g2.rms < 0.0041, "eps 0.2: %.4f / %.4f", g2.worst, g2.rms);
+}
+
+/* The vertex render's score of a solution. */
+static int vertex_score(const rad_solution *s, cref_score *sc)
+{
+    rad_error err = {0};
+    rn_camera cam;
+    rn_image *img = NULL;
+    if (rad_camera_from_scene(s->scene, NULL, ref.side, ref.side, &cam, &err) ||
+        rad_render_solution(s, &cam, &img, &err)) {
+        fprintf(stderr, "  render: %s\n", err.message);
+        return -1;
+    }
+    cref_score_image(&ref, img, sc);
+    rn_image_destroy(img);
+    return 0;
+}
+
+/* Contact elements by near views (the default: the patches within 4 × the
+ * patch's size drawn, the rest from the patch's row) against whole
+ * hemi-cubes (--whole-contacts): each region's error against the
+ * reference moves by at most NEAR_REGION_TOL, and the near views' worst
+ * region stays within NEAR_WORST_TOL of the whole hemi-cubes' worst.
+ * Measured (2026-12-08): 1,454 near views of 1,802 element hemi-cubes;
+ * largest move 0.21 % (short block front, +0.32 % against +0.11 %), worst
+ * 0.33 % against 0.30 %, RMS 0.18 % against 0.17 %. */
+#define NEAR_REGION_TOL 0.005
+#define NEAR_WORST_TOL 0.001
+TEST(near_views_agree_with_whole_hemicubes)
+{
+    rad_solve_options opt = {.whole_contacts = 1};
+    rad_error err = {0};
+    rad_solution *whole = NULL;
+    CHECK(rad_solve_scene_file("models/cornell.gltf", &opt, &whole, &err) == RAD_OK);
+    if (!whole)
+        return;
+    CHECK(solution->elements && whole->elements);
+    if (!solution->elements || !whole->elements) {
+        rad_solution_destroy(whole);
+        return;
+    }
+    printf("  near views %llu of %llu element hemi-cubes; whole: %llu of %llu\n",
+           (unsigned long long)solution->elements->near_views,
+           (unsigned long long)solution->elements->rows_computed,
+           (unsigned long long)whole->elements->near_views,
+           (unsigned long long)whole->elements->rows_computed);
+    CHECK(solution->elements->near_views > 0 && whole->elements->near_views == 0);
+    cref_score n, w;
+    CHECK(vertex_score(solution, &n) == 0 && vertex_score(whole, &w) == 0);
+    double most = 0.0;
+    for (int k = 0; k < ref.count; k++) {
+        printf("  %-32s near views %+.2f %%  whole %+.2f %%\n", ref.name[k], 100 * n.err[k],
+               100 * w.err[k]);
+        most = fmax(most, fabs(n.err[k] - w.err[k]));
+    }
+    printf("  worst %.2f %% / %.2f %%, RMS %.2f %% / %.2f %%, largest move %.2f %%\n",
+           100 * n.worst, 100 * w.worst, 100 * n.rms, 100 * w.rms, 100 * most);
+    CHECK_MSG(most <= NEAR_REGION_TOL, "a region moved by %.4f", most);
+    CHECK_MSG(n.worst <= w.worst + NEAR_WORST_TOL, "worst %.4f against %.4f", n.worst, w.worst);
+    rad_solution_destroy(whole);
 }
 
 int main(void)
@@ -101,6 +166,7 @@ int main(void)
         return 1;
     }
     RUN(gather_no_worse_than_vertex_render);
+    RUN(near_views_agree_with_whole_hemicubes);
     rad_solution_destroy(solution);
     cref_free(&ref);
     return test_finish("test_gather_cornell");

@@ -187,6 +187,10 @@ int cli_solve_option(int argc, char **argv, int *i, rad_solve_options *opt)
         opt->element_hemicubes = 1;
         return 1;
     }
+    if (!strcmp(a, "--whole-contacts")) {
+        opt->whole_contacts = 1;
+        return 1;
+    }
     if (!strcmp(a, "--accuracy")) {
         if (!v || (strcmp(v, "default") && strcmp(v, "high") && strcmp(v, "pixels")))
         {

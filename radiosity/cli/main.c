@@ -60,6 +60,8 @@ static const char usage[] =
     "                               reflecting patch's B, weighted by area (default "
     CLI_STR(RAD_DEFAULT_REFINE_THRESHOLD) "; 0: no elements)\n"
     "      --element-hemicubes      every element's row from a hemi-cube of its own (slow)\n"
+    "      --whole-contacts         elements where surfaces meet: a whole hemi-cube each,\n"
+    "                               not a near view and the patch's far field (slower)\n"
     "      --min-element-size S     smallest element edge (default: 1/8 of its patch)\n"
     "      --element-levels L       uniform elements: split every patch L times\n"
     "      --preview-every K|Ts     progressive: write a preview image every K shots or\n"

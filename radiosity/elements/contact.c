@@ -198,6 +198,50 @@ int el_cell_touches(const rad_scene *sc, const rad_vec3 *V, const uint32_t *v, i
     return t0 <= t1;
 }
 
+int el_segment_crosses(const rad_scene *sc, uint32_t q, rad_vec3 a, rad_vec3 b, double tol)
+{
+    const rad_polygon *pg = &sc->polygons[q];
+    const rad_vec3 *Q = sc->points + pg->first_point, n = pg->normal;
+    const uint32_t nq = pg->point_count;
+    const double da = rad_dot(rad_sub(a, Q[0]), n), db = rad_dot(rad_sub(b, Q[0]), n);
+    if (!((da > tol && db < -tol) || (da < -tol && db > tol)))
+        return 0;
+    const rad_vec3 x = rad_add(a, rad_scale(rad_sub(b, a), da / (da - db)));
+    /* inside a convex polygon: x on one side of every edge, whichever way
+     * the corners run */
+    int pos = 0, neg = 0;
+    for (uint32_t k = 0; k < nq; k++) {
+        const rad_vec3 e = rad_sub(Q[(k + 1) % nq], Q[k]);
+        const double len = rad_length(e);
+        if (!(len > 0.0))
+            continue;
+        const double side = rad_dot(rad_cross(e, rad_sub(x, Q[k])), n) / len;
+        pos |= side > tol;
+        neg |= side < -tol;
+    }
+    return !(pos && neg);
+}
+
+int el_contact_rows(const rad_solution *s, const el_contacts *c, el_rows *out, rad_error *err)
+{
+    const uint32_t np = s->mesh->patch_count;
+    memset(out, 0, sizeof *out);
+    out->start = calloc((size_t)np + 1, sizeof *out->start);
+    if (!out->start)
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for the contact rows");
+    for (uint32_t p = 0; p < np; p++)
+        out->start[p + 1] = out->start[p] + (c->start[p + 1] > c->start[p] && s->F
+                                                 ? rad_matrix_row(s->F, p).count : 0);
+    out->col = malloc((out->start[np] + 1) * sizeof *out->col);
+    out->val = malloc((out->start[np] + 1) * sizeof *out->val);
+    if (!out->col || !out->val)
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory for the contact rows");
+    for (uint32_t p = 0; p < np; p++)
+        if (out->start[p + 1] > out->start[p])
+            rad_matrix_get_row(s->F, p, out->col + out->start[p], out->val + out->start[p]);
+    return RAD_OK;
+}
+
 void el_contacts_free(el_contacts *c)
 {
     if (!c)

@@ -146,6 +146,18 @@ void el_contacts_free(el_contacts *c); /* NULL or zeroed: nothing */
 int el_cell_touches(const rad_scene *sc, const rad_vec3 *V, const uint32_t *v, int corners,
                     rad_vec3 n, uint32_t polygon, uint32_t q, double tol);
 
+/* Does the segment a-b pass through convex polygon q (its inside or its
+ * outline, within tol)?  A contact element whose segment to its patch's
+ * centre crosses a polygon that meets the patch lies on the other side of
+ * it (beside a block whose foot covers the patch's centre, across a wall
+ * the patch runs under): the patch's view is not its own. */
+int el_segment_crosses(const rad_scene *sc, uint32_t q, rad_vec3 a, rad_vec3 b, double tol);
+
+/* The far field of contact patches (refine.c's near views): a copy of the
+ * rows F_pj of every patch some polygon meets (empty for the others),
+ * taken before the pipeline may release F's entries. */
+int el_contact_rows(const rad_solution *s, const el_contacts *c, el_rows *out, rad_error *err);
+
 /* ---------------------------------------------------------- draw (draw.c) */
 
 /* The crack-free mesh of the cells of m (see rad_elements_render_mesh). */

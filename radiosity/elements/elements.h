@@ -123,6 +123,11 @@ typedef struct rad_refine_options {
      * 0 = interpolated elements wherever nothing rests on the surface
      * (solution.h). */
     int element_hemicubes;
+    /* 1 = an element where another surface meets its patch gets a whole
+     * hemi-cube (the method before issue 36: a reference); 0 = a near view
+     * of what lies within twice its patch's size, the rest from the
+     * patch's own row (refine.c's near_reach). */
+    int whole_contacts;
     /* Called once, when refinement has read all it needs of F's entries
      * (the patches' indirect irradiance, the light through sheets) and
      * before the first element row: from then on it reads only which rows

@@ -94,7 +94,29 @@ typedef struct builder {
     uint32_t direct_R;
     el_rows drow;
     const uint32_t *drow_of;
+    /* Near views (see near_reach): the contact patches' rows F_pj, for the
+     * batch being stored its receivers (by k) and the items whose patch
+     * cannot stand for their far field (computed again whole), and a
+     * scratch row. */
+    el_rows far;
+    const hc_receiver *recv;
+    const uint32_t *far_node; /* per receiver: the element whose row is its far field, or RAD_NONE: the patch's */
+    uint32_t *redo, nredo, base; /* redo: items base + k */
+    uint32_t *mcol;
+    float *mval;
+    uint64_t near_views, near_redone;
 } builder;
+
+/* A contact element's near view reaches this many times its patch's size
+ * √A_p: what lies nearer is drawn from the element, the rest taken from
+ * the patch's row (near_far). */
+#define EL_NEAR_REACH 4.0
+/* A near view whose patch sees less than this share of the open part the
+ * element sees is computed again whole (near_far). */
+#define EL_FAR_SHARE 0.5
+/* Whole items of one patch kept as far fields for the batch's others
+ * (batch_add). */
+#define EL_BATCH_REPS 4
 
 /* The cell of the patch mesh an element lies in. */
 static const rad_patch *cell_of(const builder *b, const enode *n)
@@ -313,15 +335,14 @@ static void finish_row(builder *b, uint32_t e, uint32_t count, const hc_receiver
                   b->val + n->start, count, b->B + (size_t)e * b->bands);
 }
 
-/* A hemi-cube row arrives: receiver k of the batch, element which[k].
- * With direct sources, the row's entries for them are replaced by the
+/* A whole row (a hemi-cube's, or a near view's made whole) for receiver
+ * k of the batch, element which[k].  With direct sources, the row's entries for them are replaced by the
  * direct rows' (strata and item buffers, as an interpolated neighbour
  * gets them: no seam between the two kinds), and should that lift the
  * row's sum above 1 the other entries are scaled down to make it 1. */
-static int store_row(void *user, uint32_t k, uint32_t count, const uint32_t *col, const float *val,
-                     rad_error *err)
+static int store_whole(builder *b, uint32_t k, uint32_t count, const uint32_t *col,
+                       const float *val, rad_error *err)
 {
-    builder *b = user;
     const uint32_t e = b->which[k];
     const el_rows *d = b->cheap ? &b->drow : NULL;
     const uint64_t d0 = d ? d->start[b->drow_of[k]] : 0, d1 = d ? d->start[b->drow_of[k] + 1] : 0;
@@ -375,6 +396,82 @@ static int store_row(void *user, uint32_t k, uint32_t count, const uint32_t *col
     }
     finish_row(b, e, m, NULL);
     return RAD_OK;
+}
+
+/* A near view's row (near_reach) made whole with the far field of a row
+ * seen from nearby, p's: the element's parent's, or its patch's.  Every j
+ * beyond the reach gets
+ *   F_ej = s · F_pj,   s = (1 − Σ_near F_ej) / (1 − Σ_{j within reach} F_pj),
+ * the share of the hemisphere the near patches leave open at e, handed out
+ * as p sees what lies beyond them (its open sky included).  Near a contact
+ * the near patches are what changes over less than a patch: the other
+ * surface, a block's foot; what lies farther is seen from e much as from
+ * p.  Into b->mcol/mval; returns the entry count, or -1 when p sees less
+ * than EL_FAR_SHARE of the open share e sees (p's centre under a block
+ * that e is beside): then e needs a whole hemi-cube. */
+static long near_far(builder *b, uint32_t k, uint32_t count, const uint32_t *col,
+                     const float *val)
+{
+    const rad_mesh *m = b->s->mesh;
+    const hc_receiver *r = &b->recv[k];
+    const uint32_t *fcol = b->far.col;
+    const float *fval = b->far.val;
+    uint64_t f0 = b->far.start[r->patch], f1 = b->far.start[r->patch + 1];
+    if (b->far_node[k] != RAD_NONE) {
+        const enode *pa = &b->E[b->far_node[k]];
+        fcol = b->col;
+        fval = b->val;
+        f0 = pa->start;
+        f1 = pa->start + pa->cnt;
+    }
+    double near = 0.0, within = 0.0;
+    for (uint32_t q = 0; q < count; q++)
+        near += val[q];
+    for (uint64_t t = f0; t < f1; t++)
+        if (hc_within_reach(m, fcol[t], r->center, r->reach))
+            within += fval[t];
+    const double open = fmax(0.0, 1.0 - near), far = 1.0 - within;
+    if (open > 0.0 && !(far >= EL_FAR_SHARE * open))
+        return -1;
+    const double scale = open > 0.0 ? open / far : 0.0;
+    long w = 0;
+    uint32_t q = 0;
+    for (uint64_t t = f0; t < f1; t++) {
+        const uint32_t j = fcol[t];
+        const float f = (float)(scale * fval[t]);
+        if (!(f > 0.0f) || hc_within_reach(m, j, r->center, r->reach))
+            continue;
+        for (; q < count && col[q] < j; q++) {
+            b->mcol[w] = col[q];
+            b->mval[w++] = val[q];
+        }
+        if (q < count && col[q] == j)
+            continue; /* drawn as near after all (rounding at the reach): the view's */
+        b->mcol[w] = j;
+        b->mval[w++] = f;
+    }
+    for (; q < count; q++) {
+        b->mcol[w] = col[q];
+        b->mval[w++] = val[q];
+    }
+    return w;
+}
+
+/* A hemi-cube row arrives, whole or a near view's (made whole here, or
+ * left for a whole hemi-cube in b->redo). */
+static int store_row(void *user, uint32_t k, uint32_t count, const uint32_t *col, const float *val,
+                     rad_error *err)
+{
+    builder *b = user;
+    if (b->recv && b->recv[k].reach > 0.0) {
+        const long m = near_far(b, k, count, col, val);
+        if (m < 0) {
+            b->redo[b->nredo++] = b->base + k;
+            return RAD_OK;
+        }
+        return store_whole(b, k, (uint32_t)m, b->mcol, b->mval, err);
+    }
+    return store_whole(b, k, count, col, val, err);
 }
 
 /* Is element e buried: a child that nothing meets, holding its parent's
@@ -598,6 +695,74 @@ static int element_lights(builder *b, hc_engine *hc, const hc_receiver *r, const
     return rc;
 }
 
+static int cmp_u32(const void *a, const void *b)
+{
+    const uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* Does the segment from c to x cross a polygon that meets element n's
+ * patch (el_segment_crosses)? */
+static int crosses(const builder *b, const enode *n, rad_vec3 c, rad_vec3 x)
+{
+    for (uint32_t k = b->contact.start[n->patch]; k < b->contact.start[n->patch + 1]; k++)
+        if (el_segment_crosses(b->s->scene, b->contact.poly[k], c, x, b->contact.tol))
+            return 1;
+    return 0;
+}
+
+/* The reach of a near view for element n at c (hc_receiver.reach), or 0
+ * for a whole hemi-cube, and in *far_node the element whose row is to be
+ * its far field (RAD_NONE: the patch's).  A contact element's hemi-cube
+ * drew the whole scene to learn what changes near it; a near view draws
+ * only the patches within EL_NEAR_REACH times the patch's size and takes
+ * the rest from a row seen from nearby (near_far), a small part of the
+ * triangles.  That row is its parent's when the parent has a hemi-cube
+ * row of its own (level 2 and finer: a quarter as far away as the patch's
+ * centre), else the patch's.  Whole instead: without such a row (no near
+ * views asked, an empty row), and where the segment from c to where that
+ * row was seen crosses a polygon that meets the patch: a vault springing
+ * from a wall, a wall standing on a floor patch, put c in another space. */
+static double near_reach(const builder *b, const enode *n, rad_vec3 c, uint32_t *far_node)
+{
+    const uint32_t p = n->patch;
+    const double reach = EL_NEAR_REACH * sqrt(b->s->mesh->patches[p].area);
+    *far_node = RAD_NONE;
+    if (!b->far.start)
+        return 0.0;
+    if (n->parent != RAD_NONE) {
+        const enode *pa = &b->E[n->parent];
+        rad_vec3 pc;
+        double area;
+        if (pa->level > 0 && !pa->interp && pa->cnt > 0 &&
+            rad_cell_geometry(b->V, pa->v, cell_of(b, pa)->normal, &pc, &area) == 0 &&
+            !crosses(b, n, c, pc)) {
+            *far_node = n->parent;
+            return reach;
+        }
+    }
+    if (b->far.start[p + 1] == b->far.start[p])
+        return 0.0;
+    /* where the patch is: its centre, or on a curved patch (whose centre
+     * lies off its surface) the centre of its cell nearest to that */
+    rad_vec3 pc = b->s->mesh->patches[p].center;
+    if (b->bent[p]) {
+        const rad_patch *cells;
+        const uint32_t nc = rad_patch_cells(b->s->mesh, p, &cells);
+        double best = INFINITY;
+        rad_vec3 at = pc;
+        for (uint32_t q = 0; q < nc; q++) {
+            const rad_vec3 d = rad_sub(cells[q].center, pc);
+            if (rad_dot(d, d) < best) {
+                best = rad_dot(d, d);
+                at = cells[q].center;
+            }
+        }
+        pc = at;
+    }
+    return crosses(b, n, c, pc) ? 0.0 : reach;
+}
+
 /* Does another surface meet element n (el_contact_patches)? */
 static int touched(const builder *b, const enode *n)
 {
@@ -608,6 +773,147 @@ static int touched(const builder *b, const enode *n)
                             b->contact.poly[k], b->contact.tol))
             return 1;
     return 0;
+}
+
+/* The hemi-cube items of a batch: element w[t] (receiver k[t] of the
+ * batch's direct rows) at r[t], its near view's far field f[t]
+ * (near_reach); late[t]: a near view whose far field is the whole
+ * hemi-cube of a sibling in the same batch (batch_add), computed after it. */
+typedef struct batch {
+    uint32_t *w, *k, *f;
+    hc_receiver *r;
+    uint8_t *late;
+    uint32_t m;
+    uint32_t patch, reps, rep[EL_BATCH_REPS]; /* the last whole items of one patch */
+} batch;
+
+static int batch_make(batch *h, uint32_t count)
+{
+    const size_t n = (size_t)count + 1;
+    h->w = malloc(n * sizeof *h->w);
+    h->k = malloc(n * sizeof *h->k);
+    h->f = malloc(n * sizeof *h->f);
+    h->r = malloc(n * sizeof *h->r);
+    h->late = malloc(n);
+    h->patch = RAD_NONE;
+    h->reps = 0;
+    return h->w && h->k && h->f && h->r && h->late ? 0 : -1;
+}
+
+static void batch_free(batch *h)
+{
+    free(h->w);
+    free(h->k);
+    free(h->f);
+    free(h->r);
+    free(h->late);
+}
+
+/* Adds element e (receiver k at *r) to the batch.  An element that needs
+ * a whole hemi-cube (near_reach 0: it lies across a polygon that meets
+ * its patch from where the patch's row was seen) takes instead a near
+ * view whose far field is the row of one of the last EL_BATCH_REPS whole
+ * items of its patch, the first with no polygon that meets the patch
+ * between them: the elements of a wall patch below a vault's springing
+ * cost one whole hemi-cube, not one each. */
+static void batch_add(builder *b, batch *h, uint32_t e, uint32_t k, const hc_receiver *r)
+{
+    const enode *n = &b->E[e];
+    const uint32_t t = h->m++;
+    h->w[t] = e;
+    h->k[t] = k;
+    h->r[t] = *r;
+    h->f[t] = RAD_NONE;
+    h->late[t] = 0;
+    h->r[t].reach = b->cheap ? near_reach(b, n, r->center, &h->f[t]) : 0.0;
+    if (h->r[t].reach > 0.0 || !b->far.start)
+        return;
+    if (h->patch != n->patch) {
+        h->patch = n->patch;
+        h->reps = 0;
+    }
+    for (uint32_t q = 0; q < h->reps; q++)
+        if (!crosses(b, n, r->center, h->r[h->rep[q]].center)) {
+            h->f[t] = h->w[h->rep[q]];
+            h->r[t].reach = EL_NEAR_REACH * sqrt(b->s->mesh->patches[n->patch].area);
+            h->late[t] = 1;
+            return;
+        }
+    if (h->reps == EL_BATCH_REPS)
+        memmove(h->rep, h->rep + 1, (EL_BATCH_REPS - 1) * sizeof *h->rep);
+    h->rep[h->reps < EL_BATCH_REPS ? h->reps++ : EL_BATCH_REPS - 1] = t;
+}
+
+/* Hemi-cube rows of the batch's items [base, base + count) (store_row). */
+static int batch_run(builder *b, hc_engine *hc, batch *h, uint32_t base, uint32_t count,
+                     rad_error *err)
+{
+    if (!count)
+        return RAD_OK;
+    b->which = h->w + base;
+    b->drow_of = h->k + base;
+    b->recv = h->r + base;
+    b->far_node = h->f + base;
+    b->base = base;
+    for (uint32_t t = base; t < base + count; t++)
+        b->near_views += h->r[t].reach > 0.0;
+    b->rows_computed += count;
+    return hc_compute_points(hc, h->r + base, count, store_row, b, err);
+}
+
+/* Rows of the batch's items: the others, then the late ones (their
+ * sibling's rows stored by then: one that saw nothing leaves its late
+ * siblings whole), then again whole those whose far field could not stand
+ * for their own (near_far: b->redo). */
+static int batch_rows(builder *b, hc_engine *hc, batch *h, rad_error *err)
+{
+    const uint32_t m = h->m;
+    /* the late items last, each kind in its order */
+    batch tmp = {0};
+    if (batch_make(&tmp, m) != 0)
+        return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    for (uint8_t late = 0; late < 2; late++)
+        for (uint32_t t = 0; t < m; t++)
+            if (h->late[t] == late) {
+                tmp.w[tmp.m] = h->w[t];
+                tmp.k[tmp.m] = h->k[t];
+                tmp.f[tmp.m] = h->f[t];
+                tmp.r[tmp.m++] = h->r[t];
+            }
+    uint32_t early = 0;
+    for (uint32_t t = 0; t < m; t++)
+        early += !h->late[t];
+    batch_free(h);
+    *h = tmp;
+    b->nredo = 0;
+    b->redo = malloc(((size_t)m + 1) * sizeof *b->redo);
+    int rc = b->redo ? batch_run(b, hc, h, 0, early, err)
+                     : rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    for (uint32_t t = early; t < m; t++)
+        if (b->E[h->f[t]].cnt == 0) {
+            h->r[t].reach = 0.0;
+            h->f[t] = RAD_NONE;
+        }
+    if (rc == RAD_OK)
+        rc = batch_run(b, hc, h, early, m - early, err);
+    /* in place, in increasing order: the first nredo items become those */
+    const uint32_t again = b->nredo;
+    qsort(b->redo, again, sizeof *b->redo, cmp_u32);
+    for (uint32_t t = 0; t < again; t++) {
+        const uint32_t k = b->redo[t];
+        h->w[t] = h->w[k];
+        h->k[t] = h->k[k];
+        h->r[t] = h->r[k];
+        h->r[t].reach = 0.0;
+    }
+    b->near_redone += again;
+    if (rc == RAD_OK)
+        rc = batch_run(b, hc, h, 0, again, err);
+    b->recv = NULL;
+    b->far_node = NULL;
+    free(b->redo);
+    b->redo = NULL;
+    return rc;
 }
 
 /* Rows and radiosities of the elements which[0..count). */
@@ -633,6 +939,7 @@ static int compute_rows_of(builder *b, hc_engine *hc, const uint32_t *which, uin
             return rad_fail(err, RAD_ERR_INVALID, "elements: element %u has no area", which[k]);
         }
         r[k].patch = n->patch;
+        r[k].reach = 0.0;
     }
     /* The lights' and the sources' direct light first: rows gather B_e as
      * they are stored. */
@@ -643,10 +950,8 @@ static int compute_rows_of(builder *b, hc_engine *hc, const uint32_t *which, uin
     free(nr);
     /* Interpolated elements are done; the others (all of them when not
      * cheap, else those on contact patches) get their hemi-cubes. */
-    uint32_t *hw = malloc(((size_t)count + 1) * sizeof *hw), *hk = malloc(((size_t)count + 1) * sizeof *hk);
-    hc_receiver *hr = malloc(((size_t)count + 1) * sizeof *hr);
-    uint32_t m = 0;
-    if (rc == RAD_OK && (!hw || !hk || !hr))
+    batch h = {0};
+    if (rc == RAD_OK && batch_make(&h, count) != 0)
         rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
     for (uint32_t k = 0; k < count && rc == RAD_OK; k++) {
         if (b->cheap && !touched(b, &b->E[which[k]])) {
@@ -656,19 +961,12 @@ static int compute_rows_of(builder *b, hc_engine *hc, const uint32_t *which, uin
                 rc = store_direct(b, which[k], k, &r[k], err);
             continue;
         }
-        hw[m] = which[k];
-        hk[m] = k;
-        hr[m++] = r[k];
+        batch_add(b, &h, which[k], k, &r[k]);
     }
-    b->which = hw;
-    b->drow_of = hk;
     if (rc == RAD_OK)
-        rc = hc_compute_points(hc, hr, m, store_row, b, err);
-    b->rows_computed += m;
+        rc = batch_rows(b, hc, &h, err);
+    batch_free(&h);
     el_rows_free(&b->drow);
-    free(hw);
-    free(hk);
-    free(hr);
     free(r);
     return rc;
 }
@@ -735,6 +1033,33 @@ static int may_split(const builder *b, const enode *n, const double *min_edge)
         reflects |= b->s->rho[(size_t)n->patch * b->bands + c] > 0.0;
     return reflects && (!min_edge || bent_cell(b, n) ||
                         0.5 * longest_edge(b, n) >= min_edge[n->patch] * (1.0 - 1e-9));
+}
+
+/* What rad_element_store_complete fills in (each element's cell: its
+ * polygon and normal; its centre and area), for a borrowed set made at
+ * every round of refinement: the builder knows each element's cell, where
+ * the store finds it again as the patch's cell nearest to the element (a
+ * search over the cells of a curved patch, for every leaf, every round:
+ * a third of the refinement's time in the main process on the atrium).
+ * Not checked (rad_element_store_check): the check finds an element's
+ * cell again by that search, which may pick a neighbour of the cell an
+ * element on a seam of a curved patch lies in; the set refinement ends
+ * with is made by rad_element_store_complete and checked. */
+static int borrowed_cells(const builder *b, rad_elements *el, const uint32_t *of, rad_error *err)
+{
+    rad_mesh *m = el->mesh;
+    for (uint32_t k = 0; k < m->patch_count; k++) {
+        const enode *n = &b->E[of[k]];
+        const rad_patch *home = cell_of(b, n), *pp = &b->s->mesh->patches[n->patch];
+        rad_patch *c = &m->patches[k];
+        c->polygon = home->polygon;
+        c->object = pp->object;
+        c->material = pp->material;
+        c->normal = home->normal;
+        if (rad_cell_geometry(m->vertices, c->v, c->normal, &c->center, &c->area) != 0)
+            return rad_fail(err, RAD_ERR_INVALID, "elements: element %u has no area", of[k]);
+    }
+    return RAD_OK;
 }
 
 /* Frees a rad_elements of leaves_to_elements (below) made with `borrow`:
@@ -844,7 +1169,8 @@ static int leaves_to_elements(const builder *b, int borrow, rad_elements **out,
             el->interp[k] = n->interp;
     }
     free(remap);
-    int rc = rad_element_store_complete(el, b->s, "elements", err);
+    int rc = borrow ? borrowed_cells(b, el, of, err)
+                    : rad_element_store_complete(el, b->s, "elements", err);
     if (rc != RAD_OK) {
         drop_elements(el, borrow);
         free(of);
@@ -1156,6 +1482,13 @@ static int prepare_interpolation(builder *b, const rad_refine_options *opt, rad_
     free(Hi);
     if (b->cheap && rc == RAD_OK)
         rc = el_contact_patches(s, &b->contact, err);
+    if (b->cheap && rc == RAD_OK && !opt->whole_contacts) {
+        rc = el_contact_rows(s, &b->contact, &b->far, err);
+        b->mcol = malloc((2 * (size_t)np + 1) * sizeof *b->mcol);
+        b->mval = malloc((2 * (size_t)np + 1) * sizeof *b->mval);
+        if (rc == RAD_OK && (!b->mcol || !b->mval))
+            rc = rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    }
     return rc;
 }
 
@@ -1298,6 +1631,7 @@ int rad_elements_refine(rad_solution *s, hc_engine *hc, const rad_refine_options
             el->threshold = opt.threshold > 0.0 ? opt.threshold : 0.0;
             el->min_size = opt.min_element_size;
             el->rows_computed = b.rows_computed;
+            el->near_views = b.near_views;
             s->elements = el;
             s->lights_computed += b.lights_rendered;
         }
@@ -1306,6 +1640,9 @@ done:
     el_sources_free(&b.src);
     el_interp_free(&b.ip);
     el_contacts_free(&b.contact);
+    el_rows_free(&b.far);
+    free(b.mcol);
+    free(b.mval);
     free(min_edge);
     free(Tr);
     free(b.h);

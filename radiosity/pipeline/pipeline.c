@@ -895,6 +895,7 @@ static int refine(run *c, rad_error *err)
                                    .lights = lights,
                                    .light_resolution = rad_light_resolution(opt),
                                    .element_hemicubes = opt->element_hemicubes,
+                                   .whole_contacts = opt->whole_contacts,
                                    .entries_read = release_rows,
                                    .entries_read_user = c};
     int rc = refines(opt) ? start_hemicube(c, err) : RAD_OK;

@@ -114,6 +114,8 @@ typedef struct rad_solve_options {
                               * whatever the threshold (uniform elements: references) */
     int element_hemicubes;   /* 1 = every adaptive element's row from a hemi-cube of its own
                               * (rad_refine_options: the slow reference) */
+    int whole_contacts;      /* 1 = contact elements get whole hemi-cubes, not near views
+                              * (rad_refine_options.whole_contacts: a reference) */
     /* rad_solve_scene only, may be NULL: the solve's output file in progress
      * (rad_journal in solfile.h).  Rows it already holds for this mesh and
      * these options are reused, every new row is appended to it as soon as

@@ -138,6 +138,8 @@ typedef struct rad_elements {
     double threshold;      /* the refinement threshold used (0: uniform levels) */
     double min_size;       /* smallest element edge allowed, scene units */
     uint64_t rows_computed; /* element hemi-cubes rendered in the run that made them */
+    uint64_t near_views;    /* of those, near views (elements.h's whole_contacts); not
+                             * stored in the file: 0 when read from one */
 } rad_elements;
 
 

@@ -8,8 +8,10 @@ set -u
 . "$(dirname "$0")/lib.bash"
 
 # The Cornell box at 0.08 (about 300 rows, then about 500 element
-# hemi-cubes) on one worker lasts a second or more: several 0.1 s lines.
-RADIOSITY_PROGRESS_SECONDS=0.1 "$BIN" solve models/cornell.rad -o "$dir/c.sol" --patch-size 0.08 \
+# hemi-cubes, most of them near views) on one worker: the rows take about
+# 0.3 s, each job of element hemi-cubes 0.05-0.1 s, so lines every 0.01 s
+# (measured 2026-12-08: 14-15 row lines, 11-13 element lines).
+RADIOSITY_PROGRESS_SECONDS=0.01 "$BIN" solve models/cornell.rad -o "$dir/c.sol" --patch-size 0.08 \
     --processes 1 > "$dir/out" 2> "$dir/log"
 st=$?
 row='^radiosity: form factors: [0-9]+/[0-9]+ rows \([0-9]+%\), [0-9.]+ rows/s, [0-9hms]+ elapsed, ETA [0-9hms]+$'
