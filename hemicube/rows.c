@@ -693,6 +693,7 @@ static uint32_t cull(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 c, ra
     /* A near view (hc_receiver.reach) draws only the patches whose centre
      * lies within reach. */
     const double reach = wk->smp ? wk->smp->reach : 0.0;
+    const rad_vec3 at = rad_add(c, e->origin); /* as the caller placed it */
     for (uint32_t j = 0; j < n; j++) {
         if (j % HC_BLOCK == 0) {
             const double *sp = e->bsphere + 4 * (size_t)(j / HC_BLOCK);
@@ -705,11 +706,8 @@ static uint32_t cull(const hc_engine *e, hc_work *wk, uint32_t i, rad_vec3 c, ra
         }
         if (j == i)
             continue;
-        if (reach > 0.0) {
-            const rad_vec3 d = rad_sub(e->center[j], c);
-            if (rad_dot(d, d) > reach * reach)
-                continue;
-        }
+        if (reach > 0.0 && !hc_within_reach(e->mesh, j, at, reach))
+            continue;
         /* Ranges of a = p·u, b = p·v, h = p·n over the corners of j's
          * cells (triangles repeat corner 0).  max(h - a) <= max h - min a
          * etc. bound each plane from above: cheap, and conservative (a

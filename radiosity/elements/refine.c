@@ -101,7 +101,8 @@ typedef struct builder {
     el_rows far;
     const hc_receiver *recv;
     const uint32_t *far_node; /* per receiver: the element whose row is its far field, or RAD_NONE: the patch's */
-    uint32_t *redo, nredo, base; /* redo: items base + k */
+    uint8_t *redo;     /* per item of the batch (base + k): 1 to compute again whole */
+    uint32_t base;
     uint32_t *mcol;
     float *mval;
     uint64_t near_views, near_redone;
@@ -466,7 +467,7 @@ static int store_row(void *user, uint32_t k, uint32_t count, const uint32_t *col
     if (b->recv && b->recv[k].reach > 0.0) {
         const long m = near_far(b, k, count, col, val);
         if (m < 0) {
-            b->redo[b->nredo++] = b->base + k;
+            b->redo[b->base + k] = 1;
             return RAD_OK;
         }
         return store_whole(b, k, (uint32_t)m, b->mcol, b->mval, err);
@@ -695,12 +696,6 @@ static int element_lights(builder *b, hc_engine *hc, const hc_receiver *r, const
     return rc;
 }
 
-static int cmp_u32(const void *a, const void *b)
-{
-    const uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
-    return (x > y) - (x < y);
-}
-
 /* Does the segment from c to x cross a polygon that meets element n's
  * patch (el_segment_crosses)? */
 static int crosses(const builder *b, const enode *n, rad_vec3 c, rad_vec3 x)
@@ -872,7 +867,8 @@ static int batch_rows(builder *b, hc_engine *hc, batch *h, rad_error *err)
     batch tmp = {0};
     if (batch_make(&tmp, m) != 0)
         return rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
-    for (uint8_t late = 0; late < 2; late++)
+    uint32_t early = 0;
+    for (uint8_t late = 0; late < 2; late++) {
         for (uint32_t t = 0; t < m; t++)
             if (h->late[t] == late) {
                 tmp.w[tmp.m] = h->w[t];
@@ -880,15 +876,15 @@ static int batch_rows(builder *b, hc_engine *hc, batch *h, rad_error *err)
                 tmp.f[tmp.m] = h->f[t];
                 tmp.r[tmp.m++] = h->r[t];
             }
-    uint32_t early = 0;
-    for (uint32_t t = 0; t < m; t++)
-        early += !h->late[t];
+        if (!late)
+            early = tmp.m;
+    }
     batch_free(h);
     *h = tmp;
-    b->nredo = 0;
-    b->redo = malloc(((size_t)m + 1) * sizeof *b->redo);
-    int rc = b->redo ? batch_run(b, hc, h, 0, early, err)
-                     : rad_fail(err, RAD_ERR_NOMEM, "elements: out of memory");
+    /* the late flags, no longer needed, mark the items to redo */
+    memset(h->late, 0, m);
+    b->redo = h->late;
+    int rc = batch_run(b, hc, h, 0, early, err);
     for (uint32_t t = early; t < m; t++)
         if (b->E[h->f[t]].cnt == 0) {
             h->r[t].reach = 0.0;
@@ -896,22 +892,20 @@ static int batch_rows(builder *b, hc_engine *hc, batch *h, rad_error *err)
         }
     if (rc == RAD_OK)
         rc = batch_run(b, hc, h, early, m - early, err);
-    /* in place, in increasing order: the first nredo items become those */
-    const uint32_t again = b->nredo;
-    qsort(b->redo, again, sizeof *b->redo, cmp_u32);
-    for (uint32_t t = 0; t < again; t++) {
-        const uint32_t k = b->redo[t];
-        h->w[t] = h->w[k];
-        h->k[t] = h->k[k];
-        h->r[t] = h->r[k];
-        h->r[t].reach = 0.0;
-    }
+    /* in place, in order: the first `again` items become those */
+    uint32_t again = 0;
+    for (uint32_t k = 0; k < m; k++)
+        if (b->redo[k]) {
+            h->w[again] = h->w[k];
+            h->k[again] = h->k[k];
+            h->r[again] = h->r[k];
+            h->r[again++].reach = 0.0;
+        }
     b->near_redone += again;
     if (rc == RAD_OK)
         rc = batch_run(b, hc, h, 0, again, err);
     b->recv = NULL;
     b->far_node = NULL;
-    free(b->redo);
     b->redo = NULL;
     return rc;
 }
@@ -1047,16 +1041,9 @@ static int may_split(const builder *b, const enode *n, const double *min_edge)
  * with is made by rad_element_store_complete and checked. */
 static int borrowed_cells(const builder *b, rad_elements *el, const uint32_t *of, rad_error *err)
 {
-    rad_mesh *m = el->mesh;
-    for (uint32_t k = 0; k < m->patch_count; k++) {
+    for (uint32_t k = 0; k < el->mesh->patch_count; k++) {
         const enode *n = &b->E[of[k]];
-        const rad_patch *home = cell_of(b, n), *pp = &b->s->mesh->patches[n->patch];
-        rad_patch *c = &m->patches[k];
-        c->polygon = home->polygon;
-        c->object = pp->object;
-        c->material = pp->material;
-        c->normal = home->normal;
-        if (rad_cell_geometry(m->vertices, c->v, c->normal, &c->center, &c->area) != 0)
+        if (rad_element_place(el, k, cell_of(b, n), &b->s->mesh->patches[n->patch]) != 0)
             return rad_fail(err, RAD_ERR_INVALID, "elements: element %u has no area", of[k]);
     }
     return RAD_OK;

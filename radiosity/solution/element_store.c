@@ -104,17 +104,21 @@ int rad_element_store_complete(rad_elements *el, const rad_solution *s, const ch
             if (c->v[k] >= m->vertex_count)
                 return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: vertex %u out of range", name,
                                 e, c->v[k]);
-        /* The polygon and normal of the cell it lies in (its patch's
-         * unless the patch is a cluster). */
-        const rad_patch *pp = &pm->patches[p], *home = element_cell(pm, p, m, c);
-        c->polygon = home->polygon;
-        c->object = pp->object;
-        c->material = pp->material;
-        c->normal = home->normal;
-        if (rad_cell_geometry(m->vertices, c->v, c->normal, &c->center, &c->area) != 0)
+        if (rad_element_place(el, e, element_cell(pm, p, m, c), &pm->patches[p]) != 0)
             return rad_fail(err, RAD_ERR_CORRUPT, "%s: element %u: area is not positive", name, e);
     }
     return rad_element_store_check(el, s, name, err);
+}
+
+int rad_element_place(rad_elements *el, uint32_t e, const rad_patch *cell, const rad_patch *patch)
+{
+    rad_patch *c = &el->mesh->patches[e];
+    c->polygon = cell->polygon;
+    c->object = patch->object;
+    c->material = patch->material;
+    c->normal = cell->normal;
+    return rad_cell_geometry(el->mesh->vertices, c->v, c->normal, &c->center, &c->area) != 0 ? -1
+                                                                                            : 0;
 }
 
 int rad_element_store_check(const rad_elements *el, const rad_solution *s, const char *name,

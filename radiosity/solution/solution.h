@@ -319,6 +319,12 @@ rad_elements *rad_element_store_alloc(uint32_t vertex_count, uint32_t count, uin
                                       uint64_t entries);
 void rad_element_store_destroy(rad_elements *el); /* NULL does nothing */
 
+/* Fills element e's cell in el->mesh from `cell`, the cell of its patch
+ * it lies in (a cluster's cell, or the patch itself: its polygon and
+ * normal), and `patch` (object, material); centre and area from its
+ * corners.  0, or -1 when the area is not positive. */
+int rad_element_place(rad_elements *el, uint32_t e, const rad_patch *cell, const rad_patch *patch);
+
 /* Completes the cells of el->mesh from their corners and el->patch (the
  * patch's polygon, object, material and normal; centre and area from the
  * corners) and checks every invariant above against s's mesh (B included).
